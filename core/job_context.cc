@@ -1,0 +1,94 @@
+#include "core/stage.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+
+namespace scanprep {
+
+JobContext::JobContext(PointCloud& cloud, const ParamOverrides& overrides,
+                       const CancelToken& cancel, ProgressFn progress)
+    : cloud_(cloud), overrides_(overrides), cancel_(cancel), progress_(std::move(progress)) {}
+
+std::optional<double> JobContext::Overridden(std::string_view name) const {
+  auto it = overrides_.find(name);
+  double value = 0;
+  // Validated before the job started (ValidateOverrides), so the parse succeeds.
+  if (it == overrides_.end() || !absl::SimpleAtod(it->second, &value)) return std::nullopt;
+  return value;
+}
+
+double JobContext::Number(std::string_view name, double derived) {
+  const double value = Overridden(name).value_or(derived);
+  current().parameters[std::string(name)] = value;
+  return value;
+}
+
+std::string JobContext::Choice(std::string_view name, std::string_view fallback) {
+  auto it = overrides_.find(name);
+  return std::string(it != overrides_.end() ? std::string_view(it->second) : fallback);
+}
+
+void JobContext::Record(std::string_view name, double value) {
+  current().parameters[std::string(name)] = value;
+}
+
+void JobContext::Warn(std::string message) { report_.warnings.push_back(std::move(message)); }
+
+void JobContext::Progress(double fraction) const {
+  if (progress_) progress_(report_.stages[current_stage_].name, fraction);
+}
+
+absl::StatusOr<const Neighbourhoods*> JobContext::neighbourhoods() {
+  if (!neighbourhoods_) {
+    const StageInfo* info = FindStage("neighbourhoods");
+    if (absl::Status s = RunStage(*info); !s.ok()) return s;
+  }
+  return neighbourhoods_.get();
+}
+
+bool JobContext::HasRun(std::string_view stage) const {
+  return std::find(completed_.begin(), completed_.end(), stage) != completed_.end();
+}
+
+absl::Status JobContext::Require(std::string_view stage) {
+  if (HasRun(stage)) return absl::OkStatus();
+  const StageInfo* info = FindStage(stage);
+  if (info == nullptr) return absl::InternalError(absl::StrCat("no stage named ", std::string(stage)));
+  return RunStage(*info);
+}
+
+absl::Status JobContext::RunStage(const StageInfo& info) {
+  if (absl::Status s = cancel_.Check(); !s.ok()) return s;
+  // A stage pulled in by Require() while another runs is listed before it, as it ran first in
+  // effect, and the caller's time excludes it.
+  const bool nested = running_;
+  const size_t slot = nested ? current_stage_ : report_.stages.size();
+  report_.stages.insert(report_.stages.begin() + slot, StageReport{.name = info.name});
+  current_stage_ = slot;
+  report_.stages[slot].points_in = cloud_.CountKept();
+  Progress(0.0);
+
+  running_ = true;
+  const auto start = std::chrono::steady_clock::now();
+  absl::Status status = info.make()->Run(*this);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  running_ = nested;
+
+  // Stages nested in this one moved it down the list by one slot each.
+  StageReport& done = report_.stages[current_stage_];
+  done.seconds += seconds;
+  done.points_out = cloud_.CountKept();
+  if (nested) report_.stages[current_stage_ + 1].seconds -= seconds;
+  if (status.ok()) {
+    Progress(1.0);
+    if (info.name != "neighbourhoods") completed_.push_back(info.name);
+  }
+  if (nested) ++current_stage_;
+  return status;
+}
+
+}  // namespace scanprep

@@ -1,0 +1,65 @@
+// Neighbourhoods computed once per job and shared by every stage (paper §2.1, algorithms.md
+// §1-§4): the kd-tree, the k-nearest-neighbour graph, the global radius and density, and the
+// minimum radius from the scanline spacing.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "core/cancel.h"
+#include "core/kdtree.h"
+#include "core/point_cloud.h"
+
+namespace scanprep {
+
+struct NeighbourhoodOptions {
+  uint32_t k = 20;          // graph degree, also k_g for the global radius
+  double min_radius = 0.0;  // r_min of Eq. (2); 0 = no lower bound
+};
+
+class Neighbourhoods {
+ public:
+  // Builds the tree and the k-NN graph over all points of `cloud` (removed ones included: the
+  // graph is built once, stages skip removed neighbours). The cloud must outlive this object and
+  // its coordinates must not move while it is in use.
+  static absl::StatusOr<std::unique_ptr<Neighbourhoods>> Build(const PointCloud& cloud,
+                                                               const NeighbourhoodOptions& options,
+                                                               const CancelToken& cancel);
+
+  const KdTree& tree() const { return *tree_; }
+  uint32_t k() const { return k_; }
+  // The k nearest other points of i, nearest first, and their distances (not squared).
+  std::span<const uint32_t> knn(size_t i) const { return {&index_[i * k_], k_}; }
+  std::span<const float> knn_dist(size_t i) const { return {&dist_[i * k_], k_}; }
+  // d_k(i): distance to the k-th nearest other point.
+  float dk(size_t i) const { return k_ ? dist_[i * k_ + k_ - 1] : 0.f; }
+
+  // r_g: median d_k over a seeded 1 % sample (at least min(n, 500) points).
+  double global_radius() const { return global_radius_; }
+  // ρ_g = k / (π r_g²), points per mm² assuming a locally planar surface.
+  double density() const { return density_; }
+  double min_radius() const { return min_radius_; }
+  // r_p = max(r_min, d_k(p)): the adaptive radius used by normals and smoothing.
+  float adaptive_radius(size_t i) const { return std::max(static_cast<float>(min_radius_), dk(i)); }
+
+  // Unremoved points within `radius` of point i (i itself included), as (index, squared
+  // distance). Answers from the k-NN list when the radius fits inside it, else asks the tree.
+  void Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out) const;
+
+ private:
+  Neighbourhoods() = default;
+  std::unique_ptr<KdTree> tree_;
+  uint32_t k_ = 0;
+  std::vector<uint32_t> index_;
+  std::vector<float> dist_;
+  double global_radius_ = 0, density_ = 0, min_radius_ = 0;
+};
+
+// Eq. (2): r_min = √3·Δs + ε_u (the circumsphere of a cube of edge 2Δs, which reaches both
+// neighbouring scanlines, plus a margin for measurement uncertainty).
+double MinRadiusFromScanlineSpacing(double scanline_spacing, double epsilon_u);
+
+}  // namespace scanprep

@@ -1,0 +1,54 @@
+// The "neighbourhoods" stage: builds the shared kd-tree and k-NN graph and reports the derived
+// global radius, density and minimum radius. Other stages pull it in through
+// JobContext::neighbourhoods(); listing it explicitly only makes its timing visible.
+#include "core/neighbourhoods_stage.h"
+
+#include <algorithm>
+
+namespace scanprep {
+namespace {
+
+class NeighbourhoodsStage : public Stage {
+ public:
+  absl::Status Run(JobContext& ctx) override {
+    const PointCloud& cloud = ctx.cloud();
+    double spacing = 0, uncertainty = 0;
+    for (const ScanMeta& scan : cloud.scans) {
+      spacing = std::max(spacing, cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0);
+      uncertainty = std::max(uncertainty, scan.uncertainty);
+    }
+    NeighbourhoodOptions options;
+    options.k = static_cast<uint32_t>(std::clamp(ctx.Number("neighbourhoods.k", 20), 3.0, 64.0));
+    const double epsilon_u = ctx.Number("neighbourhoods.epsilon_u_mm", uncertainty);
+    // Flexible scanners have no fixed spacing: r_min = ε_u and r_p = max(r_min, d_k) grows the
+    // ball until it holds k points (algorithms.md §4).
+    options.min_radius =
+        ctx.Number("neighbourhoods.min_radius_mm", MinRadiusFromScanlineSpacing(spacing, epsilon_u));
+    auto nb = Neighbourhoods::Build(cloud, options, ctx.cancel());
+    if (!nb.ok()) return nb.status();
+    ctx.Record("neighbourhoods.global_radius_mm", (*nb)->global_radius());
+    ctx.Record("neighbourhoods.density_per_mm2", (*nb)->density());
+    ctx.SetNeighbourhoods(*std::move(nb));
+    return absl::OkStatus();
+  }
+};
+
+}  // namespace
+
+StageInfo NeighbourhoodsStageInfo() {
+  return {
+      .name = "neighbourhoods",
+      .summary = "kd-tree and k-NN graph shared by all stages; global radius r_g and density",
+      .params =
+          {
+              {"neighbourhoods.k", "neighbours per point in the shared graph (k_g)", "20", {}},
+              {"neighbourhoods.epsilon_u_mm", "ε_u of Eq. (2), uncertainty margin",
+               "largest scan uncertainty", {}},
+              {"neighbourhoods.min_radius_mm", "r_min of Eq. (2): √3·Δs + ε_u",
+               "from scanline spacing; ε_u for flexible scanners", {}},
+          },
+      .make = [] { return std::make_unique<NeighbourhoodsStage>(); },
+  };
+}
+
+}  // namespace scanprep

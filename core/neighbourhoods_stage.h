@@ -1,0 +1,5 @@
+#pragma once
+#include "core/stage.h"
+namespace scanprep {
+StageInfo NeighbourhoodsStageInfo();
+}

@@ -1,0 +1,109 @@
+// The paper's global rule: a point whose nearest-neighbour distance d_1 exceeds μ + 2σ of all
+// d_1 is an outlier. Statistics are taken per scan because sensors differ in density.
+#include "core/outliers.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "core/parallel.h"
+
+namespace scanprep {
+namespace {
+
+struct ScanStats {
+  double sum = 0, sum_sq = 0;
+  size_t count = 0;
+  std::vector<float> values;  // for the median floor
+};
+
+class OutliersStage : public Stage {
+ public:
+  absl::Status Run(JobContext& ctx) override {
+    auto nb_or = ctx.neighbourhoods();
+    if (!nb_or.ok()) return nb_or.status();
+    const Neighbourhoods& nb = **nb_or;
+    PointCloud& cloud = ctx.cloud();
+    const size_t n = cloud.size();
+    if (nb.k() == 0) return absl::OkStatus();
+
+    const uint32_t k_o = static_cast<uint32_t>(
+        std::clamp(ctx.Number("outliers.k", 1), 1.0, static_cast<double>(nb.k())));
+    const double multiplier = ctx.Number("outliers.multiplier", 2.0);
+    const double floor_factor = ctx.Number("outliers.median_floor", 1.5);
+
+    // d_1 (or the mean over k_o neighbours, PCL-style SOR, when k_o > 1).
+    std::vector<float> d(n);
+    absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i) {
+        const auto dist = nb.knn_dist(i);
+        float sum = 0;
+        for (uint32_t j = 0; j < k_o; ++j) sum += dist[j];
+        d[i] = sum / static_cast<float>(k_o);
+      }
+    });
+    if (!status.ok()) return status;
+
+    std::vector<ScanStats> stats(std::max<size_t>(cloud.scans.size(), 1));
+    for (size_t i = 0; i < n; ++i) {
+      // Exact duplicates (d = 0) would drag μ and σ down and flag ordinary points.
+      if (cloud.removed(i) || d[i] <= 0) continue;
+      ScanStats& s = stats[cloud.scan[i]];
+      s.sum += d[i];
+      s.sum_sq += double(d[i]) * d[i];
+      ++s.count;
+      s.values.push_back(d[i]);
+    }
+    std::vector<double> threshold(stats.size(), 0.0);
+    const std::optional<double> forced = ctx.Overridden("outliers.threshold_mm");
+    for (size_t s = 0; s < stats.size(); ++s) {
+      ScanStats& st = stats[s];
+      if (st.count == 0) {
+        threshold[s] = std::numeric_limits<double>::infinity();
+        continue;
+      }
+      const double mean = st.sum / st.count;
+      const double sigma = std::sqrt(std::max(0.0, st.sum_sq / st.count - mean * mean));
+      auto mid = st.values.begin() + st.values.size() / 2;
+      std::nth_element(st.values.begin(), mid, st.values.end());
+      // A regular scan grid has σ ≈ 0; the median floor keeps its slightly wider gaps.
+      threshold[s] = std::max(mean + multiplier * sigma, floor_factor * *mid);
+      const std::string suffix = stats.size() > 1 ? absl::StrCat(".scan", s) : "";
+      ctx.Record(absl::StrCat("outliers.mean_d_mm", suffix), mean);
+      ctx.Record(absl::StrCat("outliers.sigma_d_mm", suffix), sigma);
+      threshold[s] = forced.value_or(threshold[s]);
+      ctx.Record(absl::StrCat("outliers.threshold_mm", suffix), threshold[s]);
+    }
+
+    size_t removed = 0;
+    for (size_t i = 0; i < n; ++i) {
+      if (!cloud.removed(i) && d[i] > threshold[cloud.scan[i]]) {
+        cloud.flags[i] |= kRemovedOutlier;
+        ++removed;
+      }
+    }
+    ctx.Record("outliers.removed", static_cast<double>(removed));
+    return absl::OkStatus();
+  }
+};
+
+}  // namespace
+
+StageInfo OutliersStageInfo() {
+  return {
+      .name = "outliers",
+      .summary = "statistical outlier removal: d_1 > max(μ + 2σ, 1.5·median) per scan",
+      .params =
+          {
+              {"outliers.k", "neighbours averaged into d (1 = the paper's d_1)", "1", {}},
+              {"outliers.multiplier", "σ multiplier of the threshold μ + m·σ", "2", {}},
+              {"outliers.median_floor", "the threshold is at least this times median(d)", "1.5",
+               {}},
+              {"outliers.threshold_mm", "distance above which a point is an outlier",
+               "max(μ + m·σ, floor·median) per scan", {}},
+          },
+      .make = [] { return std::make_unique<OutliersStage>(); },
+  };
+}
+
+}  // namespace scanprep

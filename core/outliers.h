@@ -1,0 +1,6 @@
+#pragma once
+#include "core/stage.h"
+namespace scanprep {
+// Statistical outlier removal (paper §2.3, algorithms.md §5).
+StageInfo OutliersStageInfo();
+}

@@ -1,0 +1,73 @@
+#include "core/pipeline.h"
+
+#include <algorithm>
+#include <chrono>
+#include <set>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+
+namespace scanprep {
+
+std::vector<std::string> DefaultStages() {
+  // The first stage exists today; correction, smoothing and simplification join as they land.
+  return {"outliers"};
+}
+
+absl::Status ValidateOptions(const PipelineOptions& options) {
+  std::set<std::string> seen;
+  for (const std::string& name : options.stages) {
+    if (FindStage(name) == nullptr) {
+      std::vector<std::string> known;
+      for (const StageInfo& s : StageRegistry()) known.push_back(s.name);
+      return absl::InvalidArgumentError(absl::StrCat("options.stages: unknown stage '", name,
+                                                     "' (known: ", absl::StrJoin(known, ", "),
+                                                     ")"));
+    }
+    if (!seen.insert(name).second) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("options.stages: stage '", name, "' is listed twice"));
+    }
+  }
+  for (const auto& [name, seconds] : options.stage_budget_seconds) {
+    if (FindStage(name) == nullptr) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("budget.stage_seconds: unknown stage '", name, "'"));
+    }
+    if (!(seconds >= 0)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("budget.stage_seconds['", name, "']: must be >= 0"));
+    }
+  }
+  if (!(options.budget_seconds >= 0)) {
+    return absl::InvalidArgumentError("budget.total_seconds: must be >= 0");
+  }
+  return ValidateOverrides(options.params, AllParamSpecs());
+}
+
+absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOptions& options,
+                                           const CancelToken& cancel, ProgressFn progress) {
+  if (absl::Status s = ValidateOptions(options); !s.ok()) return s;
+  if (cloud.flags.size() != cloud.size()) cloud.FinishLoading();
+  JobContext ctx(cloud, options.params, cancel, std::move(progress));
+  const auto start = std::chrono::steady_clock::now();
+  const std::vector<std::string> stages = options.stages.empty() ? DefaultStages() : options.stages;
+  for (const std::string& name : stages) {
+    if (ctx.HasRun(name)) continue;  // already pulled in by an earlier stage's Require()
+    if (absl::Status s = ctx.RunStage(*FindStage(name)); !s.ok()) return s;
+  }
+  PipelineReport report = std::move(ctx.report());
+  report.total_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (StageReport& stage : report.stages) {
+    auto it = options.stage_budget_seconds.find(stage.name);
+    if (it == options.stage_budget_seconds.end() || it->second <= 0) continue;
+    stage.budget_seconds = it->second;
+    stage.budget_met = stage.seconds <= it->second;
+  }
+  report.budget_seconds = options.budget_seconds;
+  report.budget_met = options.budget_seconds <= 0 || report.total_seconds <= options.budget_seconds;
+  return report;
+}
+
+}  // namespace scanprep

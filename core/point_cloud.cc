@@ -1,0 +1,17 @@
+#include "core/point_cloud.h"
+
+#include <algorithm>
+
+namespace scanprep {
+
+size_t PointCloud::CountKept() const {
+  return static_cast<size_t>(
+      std::count_if(flags.begin(), flags.end(), [](uint8_t f) { return (f & kRemovedMask) == 0; }));
+}
+
+void PointCloud::FinishLoading() {
+  if (scan.empty()) scan.assign(size(), 0);
+  flags.assign(size(), 0);
+}
+
+}  // namespace scanprep

@@ -1,0 +1,75 @@
+// Structure-of-arrays point cloud: the one data type every stage reads and writes.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace scanprep {
+
+// Per-point flag bits. A removed point stays in the arrays (removal is by label, paper §3.3)
+// until the output stage decides whether to return it.
+enum PointFlag : uint8_t {
+  kRemovedOutlier = 1u << 0,
+  kRemovedMerge = 1u << 1,
+  kRemovedSimplify = 1u << 2,
+  kSmoothed = 1u << 3,       // the smoothing stage moved the point
+  kNormalInvalid = 1u << 4,  // fewer than 3 neighbours or a collinear neighbourhood
+  kEdge = 1u << 5,           // normalised curvature at or above the edge threshold
+};
+constexpr uint8_t kRemovedMask = kRemovedOutlier | kRemovedMerge | kRemovedSimplify;
+
+enum class ScannerKind { kLine, kFlexible };
+
+// What the scanner knows about one scan, already in the common frame and in millimetres.
+struct ScanMeta {
+  std::string id;
+  std::optional<Eigen::Vector3d> camera_position;
+  // Sweeping line scanners have no single camera centre: the unit direction from the surface
+  // toward the camera, constant over the scan.
+  std::optional<Eigen::Vector3d> view_direction;
+  std::optional<Eigen::Vector3d> projector_position;
+  std::optional<Eigen::Vector3d> projector_direction;
+  double scanline_spacing = 0.0;  // Δs; 0 when the sensor has no fixed spacing
+  double uncertainty = 0.1;       // u
+  double point_spacing = 0.0;     // nominal spacing along a scanline; 0 = derive from data
+};
+
+struct PointCloud {
+  // Coordinates in millimetres in the common frame.
+  std::vector<float> x, y, z;
+  // Index into `scans`; all zero for a single scan.
+  std::vector<uint32_t> scan;
+  // Scanline index within the scan; empty when the scanner has no scanlines. Points of one
+  // scanline appear in the arrays in their order along the line.
+  std::vector<uint32_t> scanline;
+  // Optional scanner-delivered quality in [0,1] (1 = trustworthy); empty when absent.
+  std::vector<float> quality;
+  // Optional intensity, carried through untouched; empty when absent.
+  std::vector<float> intensity;
+  // Unit normals; empty until a stage estimates them.
+  std::vector<float> nx, ny, nz;
+  std::vector<uint8_t> flags;
+
+  std::vector<ScanMeta> scans;
+  ScannerKind kind = ScannerKind::kLine;
+
+  size_t size() const { return x.size(); }
+  bool has_scanlines() const { return !scanline.empty(); }
+  bool has_normals() const { return !nx.empty(); }
+  bool removed(size_t i) const { return (flags[i] & kRemovedMask) != 0; }
+  size_t CountKept() const;
+
+  Eigen::Vector3f point(size_t i) const { return {x[i], y[i], z[i]}; }
+  Eigen::Vector3f normal(size_t i) const { return {nx[i], ny[i], nz[i]}; }
+
+  // Sizes `flags` to the point count (zeros) and `scan` to all-zero when a loader left it
+  // empty; call once after loading.
+  void FinishLoading();
+};
+
+}  // namespace scanprep

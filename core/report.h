@@ -1,0 +1,30 @@
+// What a pipeline run tells its caller: per-stage counts, wall time, the parameters it used.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace scanprep {
+
+struct StageReport {
+  std::string name;
+  uint64_t points_in = 0;   // unremoved points when the stage started
+  uint64_t points_out = 0;  // unremoved points when it ended
+  double seconds = 0;
+  // Every parameter the stage used, derived or overridden, by its full name (lengths in mm).
+  std::map<std::string, double> parameters;
+  double budget_seconds = 0;  // 0 = no budget
+  bool budget_met = true;
+};
+
+struct PipelineReport {
+  std::vector<StageReport> stages;
+  double total_seconds = 0;
+  double budget_seconds = 0;
+  bool budget_met = true;
+  std::vector<std::string> warnings;
+};
+
+}  // namespace scanprep

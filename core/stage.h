@@ -1,0 +1,104 @@
+// The stage interface and the per-job context every stage works in.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "core/cancel.h"
+#include "core/neighbourhoods.h"
+#include "core/params.h"
+#include "core/point_cloud.h"
+#include "core/report.h"
+
+namespace scanprep {
+
+// Called with the running stage's name and its progress in [0,1]; may be called from any thread.
+using ProgressFn = std::function<void(std::string_view stage, double fraction)>;
+
+class JobContext;
+
+class Stage {
+ public:
+  virtual ~Stage() = default;
+  virtual absl::Status Run(JobContext& ctx) = 0;
+};
+
+struct StageInfo {
+  std::string name;
+  std::string summary;
+  std::vector<ParamSpec> params;
+  std::function<std::unique_ptr<Stage>()> make;
+};
+
+// Every stage the service offers, in the paper's execution order.
+const std::vector<StageInfo>& StageRegistry();
+const StageInfo* FindStage(std::string_view name);
+// All parameter specs of all stages (plus the shared neighbourhood ones).
+std::vector<ParamSpec> AllParamSpecs();
+
+// Per-point measures shared between stages (§8, §9), filled by the "measures" stage.
+struct PointMeasures {
+  std::vector<float> quality;    // q̂ in [0,1], 1 = frontal view
+  std::vector<float> curvature;  // κ̂ in [0,1], 1 = significant edge
+  std::vector<float> surface_variation;  // σ = λ0/(λ0+λ1+λ2), from the normals stage
+};
+
+class JobContext {
+ public:
+  JobContext(PointCloud& cloud, const ParamOverrides& overrides, const CancelToken& cancel,
+             ProgressFn progress);
+
+  PointCloud& cloud() { return cloud_; }
+  const CancelToken& cancel() const { return cancel_; }
+  PointMeasures& measures() { return measures_; }
+
+  // The value to use for a numeric parameter: the request's override if there is one, else
+  // `derived`. Either way it is recorded in the running stage's report.
+  double Number(std::string_view name, double derived);
+  // The request's override of a numeric parameter, if any, without recording it; for parameters
+  // that are derived per scan and recorded under per-scan names.
+  std::optional<double> Overridden(std::string_view name) const;
+  // Like Number() for a choice parameter.
+  std::string Choice(std::string_view name, std::string_view fallback);
+  // Records a derived value that cannot be overridden (e.g. a count or a measured statistic).
+  void Record(std::string_view name, double value);
+  void Warn(std::string message);
+  void Progress(double fraction) const;
+
+  // Shared neighbourhoods, built on first use and reused by every later stage.
+  absl::StatusOr<const Neighbourhoods*> neighbourhoods();
+  // A stage that moves points calls this so the next user rebuilds the tree on the new positions.
+  void InvalidateNeighbourhoods() { neighbourhoods_.reset(); }
+  // Used by the "neighbourhoods" stage only.
+  void SetNeighbourhoods(std::unique_ptr<Neighbourhoods> nb) { neighbourhoods_ = std::move(nb); }
+
+  // Runs the named stage unless it already ran in this job; how stages get the normals or
+  // measures they depend on without the caller listing them.
+  absl::Status Require(std::string_view stage);
+  bool HasRun(std::string_view stage) const;
+
+  // Runs one stage with timing, counts and its own report entry.
+  absl::Status RunStage(const StageInfo& info);
+  PipelineReport& report() { return report_; }
+
+ private:
+  StageReport& current() { return report_.stages[current_stage_]; }
+
+  PointCloud& cloud_;
+  const ParamOverrides& overrides_;
+  const CancelToken& cancel_;
+  ProgressFn progress_;
+  PointMeasures measures_;
+  std::unique_ptr<Neighbourhoods> neighbourhoods_;
+  std::vector<std::string> completed_;
+  PipelineReport report_;
+  size_t current_stage_ = 0;
+  bool running_ = false;  // a stage is running, so a RunStage() now is nested in it
+};
+
+}  // namespace scanprep

@@ -1,0 +1,33 @@
+// The list of stages the service offers, in the paper's execution order (algorithms.md).
+#include <algorithm>
+
+#include "core/neighbourhoods_stage.h"
+#include "core/outliers.h"
+#include "core/stage.h"
+
+namespace scanprep {
+
+const std::vector<StageInfo>& StageRegistry() {
+  static const std::vector<StageInfo> registry = {
+      NeighbourhoodsStageInfo(),
+      OutliersStageInfo(),
+  };
+  return registry;
+}
+
+const StageInfo* FindStage(std::string_view name) {
+  const auto& registry = StageRegistry();
+  auto it = std::find_if(registry.begin(), registry.end(),
+                         [&](const StageInfo& s) { return s.name == name; });
+  return it == registry.end() ? nullptr : &*it;
+}
+
+std::vector<ParamSpec> AllParamSpecs() {
+  std::vector<ParamSpec> specs;
+  for (const StageInfo& stage : StageRegistry()) {
+    specs.insert(specs.end(), stage.params.begin(), stage.params.end());
+  }
+  return specs;
+}
+
+}  // namespace scanprep
