@@ -1,0 +1,32 @@
+#include "server/metrics/http_exporter.h"
+
+#include <httplib.h>
+
+#include "absl/strings/str_cat.h"
+
+namespace scanprep::metrics {
+
+absl::StatusOr<std::unique_ptr<HttpExporter>> HttpExporter::Start(const std::string& host,
+                                                                  int port,
+                                                                  const Registry& registry) {
+  std::unique_ptr<HttpExporter> exporter(new HttpExporter());
+  exporter->server_ = std::make_unique<httplib::Server>();
+  exporter->server_->Get("/metrics", [&registry](const httplib::Request&, httplib::Response& res) {
+    res.set_content(registry.Serialize(), "text/plain; version=0.0.4; charset=utf-8");
+  });
+  const int bound = port == 0 ? exporter->server_->bind_to_any_port(host)
+                              : (exporter->server_->bind_to_port(host, port) ? port : -1);
+  if (bound < 0) {
+    return absl::UnavailableError(absl::StrCat("metrics: cannot listen on ", host, ":", port));
+  }
+  exporter->port_ = bound;
+  exporter->thread_ = std::thread([server = exporter->server_.get()] { server->listen_after_bind(); });
+  return exporter;
+}
+
+HttpExporter::~HttpExporter() {
+  server_->stop();
+  if (thread_.joinable()) thread_.join();
+}
+
+}  // namespace scanprep::metrics
