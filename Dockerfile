@@ -1,0 +1,32 @@
+# Multi-stage build on Debian 12: the build stage has the -dev packages, the runtime stage only
+# the shared libraries the binaries load (deploy/check-runtime-libs.sh keeps the list honest).
+FROM debian:bookworm AS build
+RUN apt-get update \
+ && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \
+      cmake ninja-build g++ pkg-config libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev \
+      libabsl-dev libeigen3-dev libnanoflann-dev libtbb-dev libcpp-httplib-dev \
+ && rm -rf /var/lib/apt/lists/*
+WORKDIR /src
+COPY CMakeLists.txt ./
+COPY proto proto
+COPY core core
+COPY server server
+COPY client client
+RUN cmake -S . -B /build -G Ninja -DCMAKE_BUILD_TYPE=Release \
+      -DSCANPREP_BUILD_TESTS=OFF -DSCANPREP_BUILD_BENCHMARKS=OFF \
+ && ninja -C /build scanprep-server scanprep
+
+FROM debian:bookworm AS runtime
+# RUNTIME_PACKAGES (read by deploy/check-runtime-libs.sh)
+RUN apt-get update \
+ && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \
+      libgrpc++1.51 libgrpc29 libprotobuf32 libabsl20220623 libtbb12 libcpp-httplib0.11 \
+ && rm -rf /var/lib/apt/lists/* \
+ && useradd --system --uid 10001 --no-create-home scanprep
+COPY --from=build /build/server/scanprep-server /build/client/scanprep /usr/local/bin/
+# Proves the runtime stage is complete: the binaries load and run.
+RUN scanprep-server --version && scanprep --help >/dev/null
+USER 10001
+EXPOSE 50051 9464
+ENTRYPOINT ["scanprep-server"]
+CMD ["--listen=0.0.0.0:50051", "--metrics_listen=0.0.0.0:9464"]
