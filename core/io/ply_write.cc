@@ -1,0 +1,110 @@
+// Binary little-endian PLY writer, packing the structure-of-arrays cloud in fixed-size chunks.
+#include <algorithm>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "core/io/byte_order.h"
+#include "core/io/ply.h"
+
+namespace scanprep::io {
+namespace {
+
+// An optional per-point array must be empty or hold one entry per point.
+template <class T>
+absl::Status CheckSize(const std::vector<T>& values, const char* field, size_t n, bool optional) {
+  if (values.size() == n || (optional && values.empty())) return absl::OkStatus();
+  return absl::InvalidArgumentError(
+      absl::StrCat("cannot write PLY: cloud.", field, " has ", values.size(), " entries for ", n, " points"));
+}
+
+absl::Status CheckCloud(const PointCloud& cloud) {
+  const size_t n = cloud.size();
+  for (absl::Status s : {CheckSize(cloud.y, "y", n, false), CheckSize(cloud.z, "z", n, false),
+                         CheckSize(cloud.nx, "nx", n, true), CheckSize(cloud.ny, "ny", n, !cloud.has_normals()),
+                         CheckSize(cloud.nz, "nz", n, !cloud.has_normals()), CheckSize(cloud.flags, "flags", n, true),
+                         CheckSize(cloud.scan, "scan", n, true), CheckSize(cloud.scanline, "scanline", n, true),
+                         CheckSize(cloud.quality, "quality", n, true),
+                         CheckSize(cloud.intensity, "intensity", n, true)}) {
+    if (!s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+class RecordPacker {
+ public:
+  explicit RecordPacker(std::vector<char>& buffer) : buffer_(buffer) {}
+  template <class T>
+  void Put(T value) {
+    if constexpr (kHostIsBigEndian) value = ByteSwapped(value);
+    const size_t at = buffer_.size();
+    buffer_.resize(at + sizeof(T));
+    std::memcpy(buffer_.data() + at, &value, sizeof(T));
+  }
+
+ private:
+  std::vector<char>& buffer_;
+};
+
+}  // namespace
+
+absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const PlyWriteOptions& options) {
+  if (absl::Status s = CheckCloud(cloud); !s.ok()) return s;
+  const size_t n = cloud.size();
+  auto written = [&](size_t i) { return options.include_removed || cloud.flags.empty() || !cloud.removed(i); };
+  size_t count = 0;
+  for (size_t i = 0; i < n; ++i) count += written(i);
+
+  std::string header = absl::StrCat("ply\nformat binary_little_endian 1.0\ncomment written by scanprep\n",
+                                    "element vertex ", count, "\n",
+                                    "property float x\nproperty float y\nproperty float z\n");
+  if (cloud.has_normals()) absl::StrAppend(&header, "property float nx\nproperty float ny\nproperty float nz\n");
+  absl::StrAppend(&header, "property uchar flags\nproperty uint scan\n");
+  if (cloud.has_scanlines()) absl::StrAppend(&header, "property uint scanline\n");
+  if (!cloud.quality.empty()) absl::StrAppend(&header, "property float quality\n");
+  if (!cloud.intensity.empty()) absl::StrAppend(&header, "property float intensity\n");
+  absl::StrAppend(&header, "end_header\n");
+  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+
+  constexpr size_t kChunkPoints = 1 << 16;
+  std::vector<char> buffer;
+  buffer.reserve(kChunkPoints * 40);  // the widest record is 38 bytes
+  RecordPacker pack(buffer);
+  for (size_t begin = 0; begin < n && out; begin += kChunkPoints) {
+    buffer.clear();
+    for (size_t i = begin; i < std::min(n, begin + kChunkPoints); ++i) {
+      if (!written(i)) continue;
+      pack.Put(cloud.x[i]);
+      pack.Put(cloud.y[i]);
+      pack.Put(cloud.z[i]);
+      if (cloud.has_normals()) {
+        pack.Put(cloud.nx[i]);
+        pack.Put(cloud.ny[i]);
+        pack.Put(cloud.nz[i]);
+      }
+      pack.Put(cloud.flags.empty() ? uint8_t{0} : cloud.flags[i]);
+      pack.Put(cloud.scan.empty() ? uint32_t{0} : cloud.scan[i]);
+      if (cloud.has_scanlines()) pack.Put(cloud.scanline[i]);
+      if (!cloud.quality.empty()) pack.Put(cloud.quality[i]);
+      if (!cloud.intensity.empty()) pack.Put(cloud.intensity[i]);
+    }
+    out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+  }
+  if (!out) return absl::UnavailableError("cannot write PLY: output stream failed");
+  return absl::OkStatus();
+}
+
+absl::Status WritePly(const std::filesystem::path& path, const PointCloud& cloud, const PlyWriteOptions& options) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) return absl::UnavailableError(absl::StrCat(path.string(), ": cannot open for writing"));
+  if (absl::Status s = WritePly(out, cloud, options); !s.ok()) {
+    return absl::Status(s.code(), absl::StrCat(path.string(), ": ", s.message()));
+  }
+  out.close();
+  if (!out) return absl::UnavailableError(absl::StrCat(path.string(), ": write failed"));
+  return absl::OkStatus();
+}
+
+}  // namespace scanprep::io

@@ -1,0 +1,22 @@
+// Plain-text point lists (.xyz, .asc, .txt, .pts).
+#pragma once
+
+#include <filesystem>
+#include <istream>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "core/point_cloud.h"
+
+namespace scanprep::io {
+
+// One point per line: x y z separated by blanks or commas; further columns are ignored. '#'
+// starts a comment; blank lines are skipped. A first line holding a single integer is taken as a
+// point count (Leica PTS) and checked. When profile_gap > 0 the file order is taken as the scan
+// order and a jump longer than profile_gap between consecutive points starts a new scanline;
+// otherwise the cloud has no scanlines. Coordinates stay in the file's units. One scan, id = file
+// stem; FinishLoading() has been called.
+absl::StatusOr<PointCloud> ReadXyz(const std::filesystem::path& path, double profile_gap = 0.0);
+absl::StatusOr<PointCloud> ReadXyz(std::istream& in, const std::string& name_for_errors, double profile_gap = 0.0);
+
+}  // namespace scanprep::io
