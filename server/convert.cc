@@ -1,0 +1,192 @@
+#include "server/convert.h"
+
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+
+namespace scanprep::server {
+namespace {
+
+Eigen::Vector3d FromProto(const v1::Vec3& v) { return {v.x(), v.y(), v.z()}; }
+
+bool Finite(const Eigen::Vector3d& v) { return v.allFinite(); }
+
+absl::Status BadField(std::string_view field, std::string_view name, std::string_view problem) {
+  return absl::InvalidArgumentError(
+      absl::StrCat(std::string(field), ".", std::string(name), ": ", std::string(problem)));
+}
+
+// A non-negative finite length in job units, converted to mm.
+absl::StatusOr<double> Length(double value, double mm_per_unit, std::string_view field,
+                              std::string_view name) {
+  if (!std::isfinite(value) || value < 0) {
+    return BadField(field, name, absl::StrCat("must be a finite length >= 0, got ", value));
+  }
+  return value * mm_per_unit;
+}
+
+absl::StatusOr<Eigen::Vector3d> Position(const v1::Vec3& v, const ScanFrame& frame,
+                                         std::string_view field, std::string_view name) {
+  const Eigen::Vector3d p = FromProto(v);
+  if (!Finite(p)) return BadField(field, name, "must be finite");
+  return frame.Point(p);
+}
+
+absl::StatusOr<Eigen::Vector3d> Direction(const v1::Vec3& v, const ScanFrame& frame,
+                                          std::string_view field, std::string_view name) {
+  const Eigen::Vector3d d = FromProto(v);
+  if (!Finite(d) || d.norm() == 0) return BadField(field, name, "must be a finite non-zero vector");
+  return frame.Direction(d.normalized());
+}
+
+}  // namespace
+
+absl::StatusOr<double> MillimetresPerUnit(v1::LengthUnit unit) {
+  switch (unit) {
+    case v1::MILLIMETRE: return 1.0;
+    case v1::METRE: return 1000.0;
+    case v1::MICROMETRE: return 0.001;
+    case v1::INCH: return 25.4;
+    default:
+      return absl::InvalidArgumentError(
+          "header.unit: the length unit must be stated (MILLIMETRE, METRE, MICROMETRE or INCH)");
+  }
+}
+
+absl::StatusOr<ScanFrame> FrameFromProto(const v1::ScanHeader& scan, double mm_per_unit,
+                                         std::string_view field) {
+  ScanFrame frame;
+  frame.mm_per_unit = mm_per_unit;
+  if (!scan.has_to_common()) return frame;
+  const v1::RigidTransform& t = scan.to_common();
+  if (t.has_rotation()) {
+    const v1::Quaternion& q = t.rotation();
+    Eigen::Quaterniond rotation(q.w(), q.x(), q.y(), q.z());
+    const double norm = rotation.norm();
+    if (!std::isfinite(norm) || std::abs(norm - 1.0) > 1e-3) {
+      return BadField(field, "to_common.rotation",
+                      absl::StrCat("must be a unit quaternion, its norm is ", norm));
+    }
+    frame.rotation = rotation.normalized().toRotationMatrix();
+  }
+  if (t.has_translation()) {
+    const Eigen::Vector3d translation = FromProto(t.translation());
+    if (!Finite(translation)) return BadField(field, "to_common.translation", "must be finite");
+    frame.translation_mm = translation * mm_per_unit;
+  }
+  return frame;
+}
+
+absl::StatusOr<ScanMeta> ScanMetaFromProto(const v1::ScanHeader& scan, const ScanFrame& frame,
+                                           std::string_view field) {
+  ScanMeta meta;
+  meta.id = scan.scan_id();
+  if (scan.has_camera_position()) {
+    auto p = Position(scan.camera_position(), frame, field, "camera_position");
+    if (!p.ok()) return p.status();
+    meta.camera_position = *p;
+  }
+  if (scan.has_projector_position()) {
+    auto p = Position(scan.projector_position(), frame, field, "projector_position");
+    if (!p.ok()) return p.status();
+    meta.projector_position = *p;
+  }
+  if (scan.has_view_direction()) {
+    auto d = Direction(scan.view_direction(), frame, field, "view_direction");
+    if (!d.ok()) return d.status();
+    meta.view_direction = *d;
+  }
+  if (scan.has_projector_direction()) {
+    auto d = Direction(scan.projector_direction(), frame, field, "projector_direction");
+    if (!d.ok()) return d.status();
+    meta.projector_direction = *d;
+  }
+  auto spacing = Length(scan.scanline_spacing(), frame.mm_per_unit, field, "scanline_spacing");
+  auto uncertainty = Length(scan.uncertainty(), frame.mm_per_unit, field, "uncertainty");
+  auto point_spacing = Length(scan.point_spacing(), frame.mm_per_unit, field, "point_spacing");
+  for (const auto* s : {&spacing, &uncertainty, &point_spacing}) {
+    if (!s->ok()) return s->status();
+  }
+  meta.scanline_spacing = *spacing;
+  if (*uncertainty > 0) meta.uncertainty = *uncertainty;
+  meta.point_spacing = *point_spacing;
+  return meta;
+}
+
+ScannerKind KindFromHeader(const v1::JobHeader& header) {
+  switch (header.scanner_kind()) {
+    case v1::LINE: return ScannerKind::kLine;
+    case v1::FLEXIBLE: return ScannerKind::kFlexible;
+    default:
+      for (const v1::ScanHeader& scan : header.scans()) {
+        if (scan.scanline_spacing() > 0) return ScannerKind::kLine;
+      }
+      return ScannerKind::kFlexible;
+  }
+}
+
+PipelineOptions OptionsFromHeader(const v1::JobHeader& header, double default_budget_seconds) {
+  PipelineOptions options;
+  options.stages.assign(header.options().stages().begin(), header.options().stages().end());
+  for (const auto& [name, value] : header.options().params()) options.params[name] = value;
+  options.budget_seconds = header.budget().total_seconds() != 0 ? header.budget().total_seconds()
+                                                                  : default_budget_seconds;
+  for (const auto& [name, seconds] : header.budget().stage_seconds()) {
+    options.stage_budget_seconds[name] = seconds;
+  }
+  return options;
+}
+
+void ReportToProto(const PipelineReport& report, v1::Report* out) {
+  for (const StageReport& stage : report.stages) {
+    v1::StageReport* s = out->add_stages();
+    s->set_name(stage.name);
+    s->set_points_in(stage.points_in);
+    s->set_points_out(stage.points_out);
+    s->set_seconds(stage.seconds);
+    for (const auto& [name, value] : stage.parameters) (*s->mutable_parameters())[name] = value;
+    s->set_budget_seconds(stage.budget_seconds);
+    s->set_budget_met(stage.budget_met);
+  }
+  out->set_processing_seconds(report.total_seconds);
+  out->set_budget_seconds(report.budget_seconds);
+  out->set_budget_met(report.budget_met);
+  for (const std::string& w : report.warnings) out->add_warnings(w);
+}
+
+void ResultChunk(const PointCloud& cloud, const std::vector<uint32_t>& indices, size_t begin,
+                 size_t end, double mm_per_unit, v1::PointChunk* out) {
+  const size_t n = end - begin;
+  const float scale = static_cast<float>(1.0 / mm_per_unit);
+  out->mutable_xyz()->Reserve(3 * n);
+  out->mutable_scan_index()->Reserve(n);
+  if (cloud.has_normals()) out->mutable_normal()->Reserve(3 * n);
+  std::string* flags = out->mutable_flags();
+  flags->reserve(n);
+  for (size_t k = begin; k < end; ++k) {
+    const uint32_t i = indices[k];
+    out->add_xyz(cloud.x[i] * scale);
+    out->add_xyz(cloud.y[i] * scale);
+    out->add_xyz(cloud.z[i] * scale);
+    out->add_scan_index(cloud.scan[i]);
+    if (cloud.has_scanlines()) out->add_scanline(cloud.scanline[i]);
+    if (!cloud.quality.empty()) out->add_quality(cloud.quality[i]);
+    if (!cloud.intensity.empty()) out->add_intensity(cloud.intensity[i]);
+    if (cloud.has_normals()) {
+      out->add_normal(cloud.nx[i]);
+      out->add_normal(cloud.ny[i]);
+      out->add_normal(cloud.nz[i]);
+    }
+    flags->push_back(static_cast<char>(cloud.flags[i]));
+  }
+}
+
+}  // namespace scanprep::server
+
+// The wire flag bits are core's bits; ResultChunk copies them unchanged.
+static_assert(int{scanprep::kRemovedOutlier} == scanprep::v1::REMOVED_OUTLIER &&
+              int{scanprep::kRemovedMerge} == scanprep::v1::REMOVED_MERGE &&
+              int{scanprep::kRemovedSimplify} == scanprep::v1::REMOVED_SIMPLIFY &&
+              int{scanprep::kSmoothed} == scanprep::v1::SMOOTHED &&
+              int{scanprep::kNormalInvalid} == scanprep::v1::NORMAL_INVALID &&
+              int{scanprep::kEdge} == scanprep::v1::EDGE);

@@ -1,0 +1,56 @@
+// Translation between the wire messages (job units, per-scan frames) and core's types
+// (millimetres, one common frame).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "absl/status/statusor.h"
+#include "core/pipeline.h"
+#include "core/point_cloud.h"
+#include "core/report.h"
+#include "scanprep/v1/scanprep.pb.h"
+
+namespace scanprep::server {
+
+namespace v1 = ::scanprep::v1;
+
+// Millimetres per job unit; INVALID_ARGUMENT for LENGTH_UNIT_UNSPECIFIED or an unknown value.
+absl::StatusOr<double> MillimetresPerUnit(v1::LengthUnit unit);
+
+// Maps a point of one scan (job units, scan frame) into the common frame in millimetres.
+struct ScanFrame {
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d translation_mm = Eigen::Vector3d::Zero();
+  double mm_per_unit = 1.0;
+
+  Eigen::Vector3d Point(const Eigen::Vector3d& p) const {
+    return rotation * (p * mm_per_unit) + translation_mm;
+  }
+  Eigen::Vector3d Direction(const Eigen::Vector3d& d) const { return rotation * d; }
+};
+
+// The scan's frame from its to_common; `field` names it in errors (e.g. "header.scans[2]").
+absl::StatusOr<ScanFrame> FrameFromProto(const v1::ScanHeader& scan, double mm_per_unit,
+                                         std::string_view field);
+
+// The scan's metadata in the common frame and in millimetres. A zero uncertainty becomes the
+// default 0.1 mm; directions are normalised.
+absl::StatusOr<ScanMeta> ScanMetaFromProto(const v1::ScanHeader& scan, const ScanFrame& frame,
+                                           std::string_view field);
+
+// LINE when stated, or when unspecified and any scan has a scanline spacing.
+ScannerKind KindFromHeader(const v1::JobHeader& header);
+
+// Stages, overrides and budgets; a zero total budget becomes `default_budget_seconds`.
+PipelineOptions OptionsFromHeader(const v1::JobHeader& header, double default_budget_seconds);
+
+void ReportToProto(const PipelineReport& report, v1::Report* out);
+
+// Writes points [begin, end) of `indices` into `out`, coordinates divided by `mm_per_unit`.
+void ResultChunk(const PointCloud& cloud, const std::vector<uint32_t>& indices, size_t begin,
+                 size_t end, double mm_per_unit, v1::PointChunk* out);
+
+}  // namespace scanprep::server

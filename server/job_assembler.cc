@@ -1,0 +1,197 @@
+#include "server/job_assembler.h"
+
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+
+namespace scanprep::server {
+namespace {
+
+// Checks that an optional per-point array is absent or has one value per point.
+absl::Status CheckLength(uint64_t chunk, std::string_view name, int size, size_t n) {
+  if (size == 0 || static_cast<size_t>(size) == n) return absl::OkStatus();
+  return absl::InvalidArgumentError(absl::StrCat("chunk ", chunk, ": ", std::string(name), " has ",
+                                                 size, " values but xyz has ", n, " points"));
+}
+
+absl::Status CheckPresence(uint64_t chunk, std::string_view name, bool expected, bool present) {
+  if (expected == present) return absl::OkStatus();
+  return absl::InvalidArgumentError(
+      absl::StrCat("chunk ", chunk, ": ", std::string(name), " is ",
+                   present ? "present" : "missing", " but earlier chunks ",
+                   expected ? "carried it" : "did not; an array must be in every chunk or none"));
+}
+
+}  // namespace
+
+absl::Status JobAssembler::Add(const v1::ProcessRequest& request) {
+  switch (request.kind_case()) {
+    case v1::ProcessRequest::kHeader: return AddHeader(request.header());
+    case v1::ProcessRequest::kPoints: return AddChunk(request.points());
+    default:
+      return absl::InvalidArgumentError(
+          has_header_ ? absl::StrCat("chunk ", chunks_, ": empty request message")
+                      : "first message must be a header (got an empty request message)");
+  }
+}
+
+absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
+  if (has_header_) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("a second header after ", chunks_, " chunks; a job has exactly one header"));
+  }
+  has_header_ = true;
+  auto mm = MillimetresPerUnit(header.unit());
+  if (!mm.ok()) return mm.status();
+  if (header.scans().empty()) {
+    return absl::InvalidArgumentError("header.scans: a job needs at least one scan");
+  }
+  job_.job_id = header.job_id();
+  job_.mm_per_unit = *mm;
+  job_.include_removed = header.options().include_removed();
+  job_.options = OptionsFromHeader(header, limits_.default_budget_seconds);
+  if (absl::Status s = ValidateOptions(job_.options); !s.ok()) return s;
+
+  for (int s = 0; s < header.scans_size(); ++s) {
+    const std::string field = absl::StrCat("header.scans[", s, "]");
+    auto frame = FrameFromProto(header.scans(s), *mm, field);
+    if (!frame.ok()) return frame.status();
+    auto meta = ScanMetaFromProto(header.scans(s), *frame, field);
+    if (!meta.ok()) return meta.status();
+    if (meta->id.empty()) meta->id = absl::StrCat("scan", s);
+    frames_.push_back(*frame);
+    job_.cloud.scans.push_back(std::move(*meta));
+  }
+  job_.cloud.kind = KindFromHeader(header);
+
+  total_points_ = header.total_points();
+  if (total_points_ > limits_.max_points_per_job) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat("header.total_points = ", total_points_, " exceeds the server's limit of ",
+                     limits_.max_points_per_job, " points per job (max_points_per_job)"));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status JobAssembler::CheckChunk(const v1::PointChunk& chunk, size_t n) const {
+  const uint64_t id = chunks_;
+  if (absl::Status s = CheckLength(id, "scan_index", chunk.scan_index_size(), n); !s.ok()) return s;
+  if (absl::Status s = CheckLength(id, "scanline", chunk.scanline_size(), n); !s.ok()) return s;
+  if (absl::Status s = CheckLength(id, "quality", chunk.quality_size(), n); !s.ok()) return s;
+  if (absl::Status s = CheckLength(id, "intensity", chunk.intensity_size(), n); !s.ok()) return s;
+  if (chunk.normal_size() > 0 || !chunk.flags().empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("chunk ", id, ": normal and flags are result-only fields"));
+  }
+  const size_t scans = job_.cloud.scans.size();
+  if (n > 0 && chunk.scan_index_size() == 0 && scans > 1) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "chunk ", id, ": scan_index is required because the header declares ", scans, " scans"));
+  }
+  for (int i = 0; i < chunk.scan_index_size(); ++i) {
+    if (chunk.scan_index(i) >= scans) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("chunk ", id, ": scan_index[", i, "] = ", chunk.scan_index(i),
+                       " is not a scan declared in the header (", scans, " scans)"));
+    }
+  }
+  for (int i = 0; i < chunk.quality_size(); ++i) {
+    if (!(chunk.quality(i) >= 0.f && chunk.quality(i) <= 1.f)) {
+      return absl::InvalidArgumentError(absl::StrCat("chunk ", id, ": quality[", i, "] = ",
+                                                     chunk.quality(i), " is outside [0, 1]"));
+    }
+  }
+  if (n > 0 && layout_known_) {
+    if (auto s = CheckPresence(id, "scanline", has_scanline_, chunk.scanline_size() > 0); !s.ok())
+      return s;
+    if (auto s = CheckPresence(id, "quality", has_quality_, chunk.quality_size() > 0); !s.ok())
+      return s;
+    if (auto s = CheckPresence(id, "intensity", has_intensity_, chunk.intensity_size() > 0);
+        !s.ok())
+      return s;
+  }
+  return absl::OkStatus();
+}
+
+absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
+  if (!has_header_) {
+    return absl::InvalidArgumentError("first message must be a header (got points)");
+  }
+  if (chunk.xyz_size() % 3 != 0) {
+    return absl::InvalidArgumentError(absl::StrCat("chunk ", chunks_, ": xyz has ",
+                                                   chunk.xyz_size(),
+                                                   " floats, not a multiple of 3"));
+  }
+  const size_t n = chunk.xyz_size() / 3;
+  if (n > limits_.max_chunk_points) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat("chunk ", chunks_, ": ", n, " points exceed the limit of ",
+                     limits_.max_chunk_points, " points per chunk (max_chunk_points)"));
+  }
+  if (job_.points_received + n > limits_.max_points_per_job) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "chunk ", chunks_, ": the job exceeds the server's limit of ", limits_.max_points_per_job,
+        " points per job (max_points_per_job); ", job_.points_received + n, " points so far"));
+  }
+  if (total_points_ > 0 && job_.points_received + n > total_points_) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("chunk ", chunks_, ": more points than header.total_points = ", total_points_));
+  }
+  if (absl::Status s = CheckChunk(chunk, n); !s.ok()) return s;
+  ++chunks_;
+  if (n == 0) return absl::OkStatus();
+  if (!layout_known_) {
+    layout_known_ = true;
+    has_scanline_ = chunk.scanline_size() > 0;
+    has_quality_ = chunk.quality_size() > 0;
+    has_intensity_ = chunk.intensity_size() > 0;
+  }
+
+  PointCloud& cloud = job_.cloud;
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d p(chunk.xyz(3 * i), chunk.xyz(3 * i + 1), chunk.xyz(3 * i + 2));
+    if (!p.allFinite()) {
+      ++job_.points_invalid;
+      continue;
+    }
+    const uint32_t scan = chunk.scan_index_size() > 0 ? chunk.scan_index(i) : 0;
+    const Eigen::Vector3d q = frames_[scan].Point(p);
+    cloud.x.push_back(static_cast<float>(q.x()));
+    cloud.y.push_back(static_cast<float>(q.y()));
+    cloud.z.push_back(static_cast<float>(q.z()));
+    cloud.scan.push_back(scan);
+    if (has_scanline_) cloud.scanline.push_back(chunk.scanline(i));
+    if (has_quality_) cloud.quality.push_back(chunk.quality(i));
+    if (has_intensity_) cloud.intensity.push_back(chunk.intensity(i));
+  }
+  job_.points_received += n;
+  return absl::OkStatus();
+}
+
+absl::StatusOr<AssembledJob> JobAssembler::Finish() {
+  if (!has_header_) {
+    return absl::InvalidArgumentError("first message must be a header (the stream was empty)");
+  }
+  if (total_points_ > 0 && job_.points_received != total_points_) {
+    return absl::InvalidArgumentError(absl::StrCat("header.total_points = ", total_points_, " but ",
+                                                   job_.points_received,
+                                                   " points were received"));
+  }
+  if (job_.points_received == 0) {
+    return absl::InvalidArgumentError("the job has no points: send PointChunks after the header");
+  }
+  if (job_.points_invalid == job_.points_received) {
+    return absl::InvalidArgumentError(absl::StrCat("the job has no valid points: all ",
+                                                   job_.points_received,
+                                                   " have NaN or infinite coordinates"));
+  }
+  if (job_.points_invalid > 0) {
+    job_.warnings.push_back(absl::StrCat(job_.points_invalid, " of ", job_.points_received,
+                                         " points had NaN or infinite coordinates and were "
+                                         "excluded"));
+  }
+  job_.cloud.FinishLoading();
+  return std::move(job_);
+}
+
+}  // namespace scanprep::server

@@ -1,0 +1,66 @@
+// Validates a Process request stream message by message and assembles it into one job: the
+// cloud in millimetres in the common frame plus the pipeline options. Pure logic, no gRPC, so it
+// can be unit-tested and fuzzed.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "core/pipeline.h"
+#include "core/point_cloud.h"
+#include "scanprep/v1/scanprep.pb.h"
+#include "server/convert.h"
+
+namespace scanprep::server {
+
+struct JobLimits {
+  uint64_t max_points_per_job = 20'000'000;
+  uint64_t max_chunk_points = 65'536;
+  double default_budget_seconds = 0;
+};
+
+struct AssembledJob {
+  std::string job_id;
+  PointCloud cloud;  // valid points only, mm, common frame
+  PipelineOptions options;
+  bool include_removed = false;
+  double mm_per_unit = 1.0;
+  uint64_t points_received = 0;
+  uint64_t points_invalid = 0;
+  std::vector<std::string> warnings;
+};
+
+class JobAssembler {
+ public:
+  explicit JobAssembler(JobLimits limits) : limits_(limits) {}
+
+  // Takes the next request message; any error ends the call with that status.
+  absl::Status Add(const v1::ProcessRequest& request);
+  // After the client half-closed: the job, or an error if it is incomplete or empty.
+  absl::StatusOr<AssembledJob> Finish();
+
+  bool has_header() const { return has_header_; }
+  uint64_t points_received() const { return job_.points_received; }
+  // The client's announced total (0 = not announced).
+  uint64_t total_points() const { return total_points_; }
+
+ private:
+  absl::Status AddHeader(const v1::JobHeader& header);
+  absl::Status AddChunk(const v1::PointChunk& chunk);
+  absl::Status CheckChunk(const v1::PointChunk& chunk, size_t n) const;
+
+  JobLimits limits_;
+  AssembledJob job_;
+  std::vector<ScanFrame> frames_;
+  bool has_header_ = false;
+  uint64_t total_points_ = 0;
+  uint64_t chunks_ = 0;
+  // Which optional arrays the first non-empty chunk carried; later chunks must agree.
+  bool layout_known_ = false;
+  bool has_scanline_ = false, has_quality_ = false, has_intensity_ = false;
+};
+
+}  // namespace scanprep::server

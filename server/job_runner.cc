@@ -1,0 +1,70 @@
+#include "server/job_runner.h"
+
+#include <algorithm>
+#include <new>
+#include <thread>
+
+#include "absl/strings/str_cat.h"
+
+namespace scanprep::server {
+
+bool RunningJob::WaitFor(std::chrono::milliseconds timeout) {
+  std::unique_lock lock(mu_);
+  return done_cv_.wait_for(lock, timeout, [&] { return result_.has_value(); });
+}
+
+std::vector<StageProgress> RunningJob::DrainProgress() {
+  std::lock_guard lock(mu_);
+  return std::exchange(progress_, {});
+}
+
+void RunningJob::OnProgress(std::string_view stage, double fraction) {
+  std::lock_guard lock(mu_);
+  if (!progress_.empty() && progress_.back().stage == stage) {
+    progress_.back().fraction = fraction;
+  } else {
+    progress_.push_back({std::string(stage), fraction});
+  }
+}
+
+void RunningJob::Run() {
+  absl::StatusOr<PipelineReport> result;
+  try {
+    result = RunPipeline(cloud_, options_, cancel_,
+                         [this](std::string_view stage, double f) { OnProgress(stage, f); });
+  } catch (const std::bad_alloc&) {
+    result = absl::ResourceExhaustedError("the server ran out of memory processing this job");
+  } catch (const std::exception& e) {
+    result = absl::InternalError(absl::StrCat("processing failed: ", e.what()));
+  }
+  std::lock_guard lock(mu_);
+  result_ = std::move(result);
+  done_cv_.notify_all();
+}
+
+JobRunner::JobRunner(int threads, int max_concurrent_jobs)
+    : threads_(threads > 0 ? threads
+                           : std::max(1, static_cast<int>(std::thread::hardware_concurrency()))),
+      max_concurrent_jobs_(max_concurrent_jobs),
+      // No slot reserved for an external thread: every job is enqueued, none is executed.
+      arena_(threads_, 0) {}
+
+absl::StatusOr<JobRunner::Slot> JobRunner::Acquire() {
+  int active = active_.load();
+  do {
+    if (active >= max_concurrent_jobs_) {
+      return absl::ResourceExhaustedError(
+          absl::StrCat("the server is running its limit of ", max_concurrent_jobs_,
+                       " concurrent jobs (max_concurrent_jobs); retry later"));
+    }
+  } while (!active_.compare_exchange_weak(active, active + 1));
+  return Slot(&active_);
+}
+
+std::shared_ptr<RunningJob> JobRunner::Start(PointCloud cloud, PipelineOptions options) {
+  auto job = std::make_shared<RunningJob>(std::move(cloud), std::move(options));
+  arena_.enqueue([job] { job->Run(); });
+  return job;
+}
+
+}  // namespace scanprep::server

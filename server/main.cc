@@ -1,0 +1,65 @@
+// scanprep-server: the gRPC service. Stops gracefully on SIGINT/SIGTERM.
+#include <csignal>
+#include <iostream>
+#include <thread>
+
+#include <pthread.h>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
+#include "absl/flags/usage_config.h"
+#include "absl/time/time.h"
+#include "server/scanprep_server.h"
+
+ABSL_FLAG(std::string, listen, "0.0.0.0:50051", "HOST:PORT to listen on (port 0 = any free port)");
+ABSL_FLAG(uint64_t, max_points_per_job, 20'000'000,
+          "largest job in points; larger jobs end with RESOURCE_EXHAUSTED");
+ABSL_FLAG(int, max_concurrent_jobs, 4,
+          "calls processed at once; further calls end at once with RESOURCE_EXHAUSTED");
+ABSL_FLAG(int, threads, 0, "threads of the shared processing arena (0 = hardware concurrency)");
+ABSL_FLAG(double, default_budget_seconds, 0,
+          "time budget for jobs that state none (0 = no budget); reported, never enforced");
+ABSL_FLAG(absl::Duration, grace_period, absl::Seconds(10),
+          "on SIGINT/SIGTERM, how long in-flight calls may run before they are cancelled");
+
+int main(int argc, char** argv) {
+  absl::FlagsUsageConfig usage;
+  usage.version_string = [] { return std::string("scanprep-server " SCANPREP_VERSION "\n"); };
+  absl::SetFlagsUsageConfig(usage);
+  absl::SetProgramUsageMessage("scanprep-server [--listen HOST:PORT] [flags]");
+  absl::ParseCommandLine(argc, argv);
+
+  // Block the stop signals in every thread (gRPC's and TBB's threads inherit this mask) and take
+  // them synchronously on one thread, where calling into gRPC is safe.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
+  scanprep::server::ServerOptions options;
+  options.listen = absl::GetFlag(FLAGS_listen);
+  options.limits.max_points_per_job = absl::GetFlag(FLAGS_max_points_per_job);
+  options.limits.default_budget_seconds = absl::GetFlag(FLAGS_default_budget_seconds);
+  options.max_concurrent_jobs = absl::GetFlag(FLAGS_max_concurrent_jobs);
+  options.threads = absl::GetFlag(FLAGS_threads);
+  auto server = scanprep::server::ScanPrepServer::Start(options);
+  if (!server.ok()) {
+    std::cerr << "scanprep-server: " << server.status().message() << "\n";
+    return 1;
+  }
+  // The actual port, for callers that asked for port 0.
+  std::cout << "scanprep-server " SCANPREP_VERSION " listening on port " << (*server)->port()
+            << std::endl;
+
+  std::thread stopper([&] {
+    int signal = 0;
+    sigwait(&stop_signals, &signal);
+    std::cout << "scanprep-server: signal " << signal << ", shutting down" << std::endl;
+    (*server)->Shutdown(absl::GetFlag(FLAGS_grace_period));
+  });
+  (*server)->Wait();
+  stopper.join();
+  return 0;
+}

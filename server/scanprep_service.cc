@@ -1,0 +1,142 @@
+#include "server/scanprep_service.h"
+
+#include <chrono>
+#include <new>
+
+#include "absl/strings/str_cat.h"
+#include "core/stage.h"
+
+namespace scanprep::server {
+namespace {
+
+// How often the waiting RPC thread looks at cancellation and forwards progress.
+constexpr std::chrono::milliseconds kPollInterval(25);
+
+grpc::Status ToGrpc(const absl::Status& s) {
+  return grpc::Status(static_cast<grpc::StatusCode>(s.code()), std::string(s.message()));
+}
+
+const grpc::Status kClientGone(grpc::StatusCode::CANCELLED, "the call was cancelled by the client");
+
+bool WriteProgress(grpc::ServerReaderWriter<v1::ProcessResponse, v1::ProcessRequest>* stream,
+                   v1::Progress::Phase phase, std::string_view stage, double fraction,
+                   uint64_t points) {
+  v1::ProcessResponse response;
+  v1::Progress* p = response.mutable_progress();
+  p->set_phase(phase);
+  p->set_stage(std::string(stage));
+  p->set_fraction(fraction);
+  p->set_points(points);
+  return stream->Write(response);
+}
+
+}  // namespace
+
+grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stream) {
+  auto slot = runner_.Acquire();
+  if (!slot.ok()) return ToGrpc(slot.status());
+  try {
+    return ProcessJob(context, stream);
+  } catch (const std::bad_alloc&) {
+    return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                        "the server ran out of memory holding this job");
+  }
+}
+
+grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* stream) {
+  // Upload: validate each message as it arrives; the first error ends the call without reading
+  // the rest.
+  JobAssembler assembler(limits_);
+  v1::ProcessRequest request;
+  while (stream->Read(&request)) {
+    if (absl::Status s = assembler.Add(request); !s.ok()) return ToGrpc(s);
+    if (!request.has_points()) continue;
+    const uint64_t total = assembler.total_points();
+    const uint64_t received = assembler.points_received();
+    const double fraction = total > 0 ? static_cast<double>(received) / total : 0.0;
+    if (!WriteProgress(stream, v1::Progress::UPLOAD, "", fraction, received)) return kClientGone;
+  }
+  if (context->IsCancelled()) return kClientGone;
+  auto job = assembler.Finish();
+  if (!job.ok()) return ToGrpc(job.status());
+
+  // Processing on the shared arena; this thread only relays progress and cancellation.
+  std::shared_ptr<RunningJob> running =
+      runner_.Start(std::move(job->cloud), std::move(job->options));
+  bool client_gone = false;
+  for (bool done = false; !done;) {
+    done = running->WaitFor(kPollInterval);
+    if (!client_gone && context->IsCancelled()) {
+      client_gone = true;
+      running->Cancel();
+    }
+    for (const StageProgress& p : running->DrainProgress()) {
+      if (client_gone) break;
+      if (!WriteProgress(stream, v1::Progress::PROCESSING, p.stage, p.fraction, 0)) {
+        client_gone = true;
+        running->Cancel();
+      }
+    }
+  }
+  if (client_gone) return kClientGone;
+  const absl::StatusOr<PipelineReport>& result = running->result();
+  if (!result.ok()) return ToGrpc(result.status());
+
+  // Download: the kept points (all of them with include_removed), then the report.
+  const PointCloud& cloud = running->cloud();
+  std::vector<uint32_t> indices;
+  indices.reserve(cloud.size());
+  for (uint32_t i = 0; i < cloud.size(); ++i) {
+    if (job->include_removed || !cloud.removed(i)) indices.push_back(i);
+  }
+  for (size_t begin = 0; begin < indices.size(); begin += kRecommendedChunkPoints) {
+    const size_t end = std::min(indices.size(), begin + kRecommendedChunkPoints);
+    v1::ProcessResponse response;
+    ResultChunk(cloud, indices, begin, end, job->mm_per_unit, response.mutable_points());
+    if (!stream->Write(response) ||
+        !WriteProgress(stream, v1::Progress::DOWNLOAD, "",
+                       static_cast<double>(end) / indices.size(), end)) {
+      return kClientGone;
+    }
+  }
+  v1::ProcessResponse response;
+  v1::Report* report = response.mutable_report();
+  report->set_job_id(job->job_id);
+  report->set_points_received(job->points_received);
+  report->set_points_invalid(job->points_invalid);
+  report->set_points_processed(job->points_received - job->points_invalid);
+  report->set_points_returned(indices.size());
+  for (const std::string& w : job->warnings) report->add_warnings(w);
+  ReportToProto(*result, report);
+  if (!stream->Write(response)) return kClientGone;
+  return grpc::Status::OK;
+}
+
+grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoRequest*,
+                                      v1::Info* info) {
+  info->set_version(SCANPREP_VERSION);
+  v1::Limits* limits = info->mutable_limits();
+  limits->set_max_points_per_job(limits_.max_points_per_job);
+  limits->set_max_chunk_points(limits_.max_chunk_points);
+  limits->set_max_concurrent_jobs(runner_.max_concurrent_jobs());
+  limits->set_recommended_chunk_points(kRecommendedChunkPoints);
+  const std::vector<std::string> defaults = DefaultStages();
+  for (const StageInfo& stage : StageRegistry()) {
+    v1::StageInfo* s = info->add_stages();
+    s->set_name(stage.name);
+    s->set_summary(stage.summary);
+    s->set_default_enabled(std::find(defaults.begin(), defaults.end(), stage.name) !=
+                           defaults.end());
+  }
+  for (const ParamSpec& spec : AllParamSpecs()) {
+    v1::ParameterInfo* p = info->add_parameters();
+    p->set_name(spec.name);
+    p->set_description(spec.description);
+    p->set_default_value(spec.default_text);
+    for (const std::string& c : spec.choices) p->add_choices(c);
+  }
+  info->set_default_budget_seconds(limits_.default_budget_seconds);
+  return grpc::Status::OK;
+}
+
+}  // namespace scanprep::server
