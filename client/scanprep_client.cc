@@ -1,0 +1,170 @@
+#include "client/scanprep_client.h"
+
+#include <thread>
+
+#include "absl/strings/str_cat.h"
+
+namespace scanprep::client {
+namespace {
+
+void SetDeadline(grpc::ClientContext& context, const std::optional<absl::Duration>& timeout) {
+  if (timeout) context.set_deadline(absl::ToChronoTime(absl::Now() + *timeout));
+}
+
+// A present optional array must have one value per point.
+bool Fits(int size, size_t n) { return size == 0 || static_cast<size_t>(size) == n; }
+
+template <class T, class Repeated>
+void Append(const Repeated& from, std::vector<T>& to) {
+  to.insert(to.end(), from.begin(), from.end());
+}
+
+}  // namespace
+
+void CallCanceller::Cancel() {
+  std::lock_guard lock(mu_);
+  cancelled_ = true;
+  if (context_ != nullptr) context_->TryCancel();
+}
+
+bool CallCanceller::Attach(grpc::ClientContext* context) {
+  std::lock_guard lock(mu_);
+  context_ = context;
+  return !cancelled_;
+}
+
+void CallCanceller::Detach() {
+  std::lock_guard lock(mu_);
+  context_ = nullptr;
+}
+
+absl::Status FromGrpc(const grpc::Status& status) {
+  return absl::Status(static_cast<absl::StatusCode>(status.error_code()), status.error_message());
+}
+
+ScanPrepClient::ScanPrepClient(std::shared_ptr<grpc::Channel> channel)
+    : stub_(v1::ScanPrep::NewStub(std::move(channel))) {}
+
+ScanPrepClient ScanPrepClient::Connect(const std::string& target) {
+  return ScanPrepClient(grpc::CreateChannel(target, grpc::InsecureChannelCredentials()));
+}
+
+absl::StatusOr<v1::Info> ScanPrepClient::GetInfo(std::optional<absl::Duration> timeout) {
+  grpc::ClientContext context;
+  SetDeadline(context, timeout);
+  v1::Info info;
+  grpc::Status status = stub_->GetInfo(&context, v1::GetInfoRequest(), &info);
+  if (!status.ok()) return FromGrpc(status);
+  return info;
+}
+
+void RequestChunk(const PointCloud& points, size_t begin, size_t end, bool with_scan_index,
+                  v1::PointChunk* out) {
+  const size_t n = end - begin;
+  out->mutable_xyz()->Reserve(3 * n);
+  for (size_t i = begin; i < end; ++i) {
+    out->add_xyz(points.x[i]);
+    out->add_xyz(points.y[i]);
+    out->add_xyz(points.z[i]);
+  }
+  auto copy = [&](const auto& from, auto* to) {
+    if (!from.empty()) to->Add(from.begin() + begin, from.begin() + end);
+  };
+  if (with_scan_index) copy(points.scan, out->mutable_scan_index());
+  copy(points.scanline, out->mutable_scanline());
+  copy(points.quality, out->mutable_quality());
+  copy(points.intensity, out->mutable_intensity());
+}
+
+absl::Status AppendResultChunk(const v1::PointChunk& chunk, PointCloud& cloud) {
+  const size_t n = chunk.xyz_size() / 3;
+  if (chunk.xyz_size() % 3 != 0 || !Fits(chunk.scan_index_size(), n) ||
+      !Fits(chunk.scanline_size(), n) || !Fits(chunk.quality_size(), n) ||
+      !Fits(chunk.intensity_size(), n) || !Fits(chunk.normal_size(), 3 * n) ||
+      chunk.flags().size() != n) {
+    return absl::DataLossError("the server sent a result chunk whose arrays disagree in length");
+  }
+  for (size_t i = 0; i < n; ++i) {
+    cloud.x.push_back(chunk.xyz(3 * i));
+    cloud.y.push_back(chunk.xyz(3 * i + 1));
+    cloud.z.push_back(chunk.xyz(3 * i + 2));
+    if (chunk.normal_size() > 0) {
+      cloud.nx.push_back(chunk.normal(3 * i));
+      cloud.ny.push_back(chunk.normal(3 * i + 1));
+      cloud.nz.push_back(chunk.normal(3 * i + 2));
+    }
+  }
+  if (chunk.scan_index_size() > 0) {
+    Append(chunk.scan_index(), cloud.scan);
+  } else {
+    cloud.scan.resize(cloud.scan.size() + n, 0);
+  }
+  Append(chunk.scanline(), cloud.scanline);
+  Append(chunk.quality(), cloud.quality);
+  Append(chunk.intensity(), cloud.intensity);
+  cloud.flags.insert(cloud.flags.end(), chunk.flags().begin(), chunk.flags().end());
+  return absl::OkStatus();
+}
+
+absl::StatusOr<ProcessResult> ScanPrepClient::Process(v1::JobHeader header,
+                                                      const PointCloud& points,
+                                                      const CallOptions& options) {
+  if (header.total_points() == 0) header.set_total_points(points.size());
+  const size_t chunk_points = std::max<size_t>(1, options.chunk_points);
+  const bool with_scan_index = header.scans_size() > 1;
+
+  grpc::ClientContext context;
+  SetDeadline(context, options.timeout);
+  if (options.canceller != nullptr && !options.canceller->Attach(&context)) {
+    return absl::CancelledError("the call was cancelled before it started");
+  }
+  std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> stream =
+      stub_->Process(&context);
+
+  // Responses are read on their own thread so progress flows while this thread uploads.
+  ProcessResult result;
+  for (const v1::ScanHeader& scan : header.scans()) result.cloud.scans.push_back({.id = scan.scan_id()});
+  bool has_report = false;
+  absl::Status read_error;
+  std::thread reader([&] {
+    v1::ProcessResponse response;
+    while (stream->Read(&response)) {
+      switch (response.kind_case()) {
+        case v1::ProcessResponse::kProgress:
+          if (options.progress) options.progress(response.progress());
+          break;
+        case v1::ProcessResponse::kPoints:
+          if (read_error.ok()) read_error = AppendResultChunk(response.points(), result.cloud);
+          break;
+        case v1::ProcessResponse::kReport:
+          result.report = std::move(*response.mutable_report());
+          has_report = true;
+          break;
+        default:
+          break;
+      }
+    }
+  });
+
+  v1::ProcessRequest request;
+  *request.mutable_header() = std::move(header);
+  // A failed write means the server already ended the call; Finish() tells why.
+  bool writing = stream->Write(request);
+  for (size_t begin = 0; writing && begin < points.size(); begin += chunk_points) {
+    request.Clear();
+    RequestChunk(points, begin, std::min(points.size(), begin + chunk_points), with_scan_index,
+                 request.mutable_points());
+    writing = stream->Write(request);
+  }
+  if (writing) stream->WritesDone();
+  reader.join();
+  grpc::Status status = stream->Finish();
+  if (options.canceller != nullptr) options.canceller->Detach();
+
+  if (!status.ok()) return FromGrpc(status);
+  if (!read_error.ok()) return read_error;
+  if (!has_report) return absl::DataLossError("the server ended the call without a report");
+  return result;
+}
+
+}  // namespace scanprep::client
