@@ -1,7 +1,8 @@
 #include "core/io/read_file.h"
 
 #include <fstream>
-#include <iterator>
+#include <sstream>
+#include <utility>
 #include <system_error>
 
 #include "absl/strings/str_cat.h"
@@ -19,13 +20,20 @@ absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path) 
   }
   std::ifstream in(path, std::ios::binary);
   if (!in) return absl::UnavailableError(absl::StrCat(path.string(), ": cannot open for reading"));
-  return ReadStreamToString(in, path.string());
+  const uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec) return absl::UnavailableError(absl::StrCat(path.string(), ": cannot get the file size: ", ec.message()));
+  std::string data(static_cast<size_t>(size), '\0');
+  in.read(data.data(), static_cast<std::streamsize>(data.size()));
+  if (in.bad()) return absl::UnavailableError(absl::StrCat(path.string(), ": read error"));
+  data.resize(static_cast<size_t>(in.gcount()));  // the file may have shrunk since file_size()
+  return data;
 }
 
 absl::StatusOr<std::string> ReadStreamToString(std::istream& in, const std::string& name_for_errors) {
-  std::string data(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>{});
-  if (in.bad()) return absl::UnavailableError(absl::StrCat(name_for_errors, ": read error"));
-  return data;
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad() || buffer.bad()) return absl::UnavailableError(absl::StrCat(name_for_errors, ": read error"));
+  return std::move(buffer).str();
 }
 
 }  // namespace scanprep::io
