@@ -1,0 +1,57 @@
+// `scanprep info`: what the server offers (GetInfo), readably.
+#include <iostream>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+#include "client/commands.h"
+#include "client/scanprep_client.h"
+
+namespace scanprep::client {
+namespace {
+
+int RunInfo(const ParsedArgs& args) {
+  const std::string server = args.Get("server", "localhost:50051");
+  auto info = ScanPrepClient::Connect(server).GetInfo(absl::Seconds(10));
+  if (!info.ok()) {
+    return Fail("info", absl::StrCat(server, ": ", absl::StatusCodeToString(info.status().code()),
+                                     ": ", info.status().message()));
+  }
+  const v1::Limits& limits = info->limits();
+  std::cout << "scanprep server " << info->version() << " at " << server << "\n"
+            << absl::StrFormat(
+                   "limits: %d points per job, %d points per chunk (recommended %d), "
+                   "%d concurrent jobs\n",
+                   limits.max_points_per_job(), limits.max_chunk_points(),
+                   limits.recommended_chunk_points(), limits.max_concurrent_jobs())
+            << "default budget: "
+            << (info->default_budget_seconds() > 0
+                    ? absl::StrCat(info->default_budget_seconds(), " s")
+                    : std::string("none"))
+            << "\n\nstages (* = in the default pipeline):\n";
+  for (const v1::StageInfo& stage : info->stages()) {
+    std::cout << absl::StrFormat("  %s %-16s %s\n", stage.default_enabled() ? "*" : " ",
+                                 stage.name(), stage.summary());
+  }
+  std::cout << "\nparameters (override with --param name=value):\n";
+  for (const v1::ParameterInfo& p : info->parameters()) {
+    std::cout << "  " << p.name() << "  [default: " << p.default_value() << "]";
+    if (!p.choices().empty()) std::cout << "  {" << absl::StrJoin(p.choices(), ", ") << "}";
+    std::cout << "\n      " << p.description() << "\n";
+  }
+  return 0;
+}
+
+}  // namespace
+
+Command InfoCommand() {
+  return Command{
+      .name = "info",
+      .synopsis = "info [--server HOST:PORT]",
+      .summary = "show the server's version, limits, stages and parameters",
+      .flags = {{"server", FlagSpec::kValue, "HOST:PORT of the service (default localhost:50051)"}},
+      .run = RunInfo,
+  };
+}
+
+}  // namespace scanprep::client

@@ -1,0 +1,192 @@
+#include "client/job_builder.h"
+
+#include <filesystem>
+#include <map>
+
+#include <google/protobuf/util/json_util.h>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "core/io/conf.h"
+#include "core/io/read_file.h"
+#include "core/io/scan_file.h"
+
+namespace scanprep::client {
+namespace {
+
+namespace fs = std::filesystem;
+namespace v1 = ::scanprep::v1;
+
+absl::StatusOr<double> ParseLength(const ParsedArgs& args, const std::string& flag) {
+  double value = 0;
+  if (!absl::SimpleAtod(args.Get(flag), &value) || !(value >= 0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--", flag, ": '", args.Get(flag), "' is not a length >= 0"));
+  }
+  return value;
+}
+
+// Copies an optional per-point array of one file; `keep` is false when some file lacks it.
+template <class T>
+void AppendOptional(bool keep, const std::vector<T>& from, std::vector<T>& to) {
+  if (keep) to.insert(to.end(), from.begin(), from.end());
+}
+
+absl::Status ApplyConf(const std::string& conf_path, const std::vector<std::string>& files,
+                       v1::JobHeader& header) {
+  auto entries = io::ReadConf(conf_path);
+  if (!entries.ok()) return entries.status();
+  for (size_t s = 0; s < files.size(); ++s) {
+    const std::string name = fs::path(files[s]).filename().string();
+    auto entry = std::find_if(entries->begin(), entries->end(),
+                              [&](const io::ConfEntry& e) { return e.file == name; });
+    if (entry == entries->end()) {
+      return absl::NotFoundError(absl::StrCat(conf_path, " has no pose for ", name));
+    }
+    v1::RigidTransform* t = header.mutable_scans(s)->mutable_to_common();
+    const Eigen::Quaterniond& q = entry->pose.rotation;
+    t->mutable_rotation()->set_x(q.x());
+    t->mutable_rotation()->set_y(q.y());
+    t->mutable_rotation()->set_z(q.z());
+    t->mutable_rotation()->set_w(q.w());
+    t->mutable_translation()->set_x(entry->pose.translation.x());
+    t->mutable_translation()->set_y(entry->pose.translation.y());
+    t->mutable_translation()->set_z(entry->pose.translation.z());
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ApplyOptionFlags(const ParsedArgs& args, v1::JobHeader& header) {
+  if (args.Has("unit")) {
+    auto unit = ParseUnit(args.Get("unit"));
+    if (!unit.ok()) return unit.status();
+    header.set_unit(*unit);
+  } else if (header.unit() == v1::LENGTH_UNIT_UNSPECIFIED) {
+    header.set_unit(v1::MILLIMETRE);
+  }
+  v1::PipelineOptions* options = header.mutable_options();
+  if (args.Has("stages")) {
+    options->clear_stages();
+    for (absl::string_view s : absl::StrSplit(args.Get("stages"), ',', absl::SkipEmpty())) {
+      options->add_stages(std::string(s));
+    }
+  }
+  for (const std::string& param : args.All("param")) {
+    const size_t eq = param.find('=');
+    if (eq == std::string::npos || eq == 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--param '", param, "': expected name=value"));
+    }
+    (*options->mutable_params())[param.substr(0, eq)] = param.substr(eq + 1);
+  }
+  if (args.Bool("include_removed")) options->set_include_removed(true);
+  for (const char* flag : {"scanline_spacing", "uncertainty"}) {
+    if (!args.Has(flag)) continue;
+    auto value = ParseLength(args, flag);
+    if (!value.ok()) return value.status();
+    for (v1::ScanHeader& scan : *header.mutable_scans()) {
+      if (std::string(flag) == "uncertainty") {
+        scan.set_uncertainty(*value);
+      } else {
+        scan.set_scanline_spacing(*value);
+      }
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<v1::LengthUnit> ParseUnit(const std::string& text) {
+  static const std::map<std::string, v1::LengthUnit> kUnits = {
+      {"mm", v1::MILLIMETRE}, {"m", v1::METRE},   {"um", v1::MICROMETRE}, {"in", v1::INCH},
+      {"MILLIMETRE", v1::MILLIMETRE}, {"METRE", v1::METRE}, {"MICROMETRE", v1::MICROMETRE},
+      {"INCH", v1::INCH}};
+  auto it = kUnits.find(text);
+  if (it == kUnits.end()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("unknown unit '", text, "' (use m, mm, um or in)"));
+  }
+  return it->second;
+}
+
+absl::StatusOr<v1::JobHeader> ReadJobFile(const std::string& path) {
+  auto text = io::ReadFileToString(path);
+  if (!text.ok()) return text.status();
+  v1::JobHeader header;
+  google::protobuf::util::JsonParseOptions options;
+  options.ignore_unknown_fields = false;
+  auto status = google::protobuf::util::JsonStringToMessage(*text, &header, options);
+  if (!status.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": not a JobHeader in JSON: ", std::string(status.message())));
+  }
+  return header;
+}
+
+absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
+  const std::vector<std::string>& files = args.positional;
+  if (files.empty()) return absl::InvalidArgumentError("no scan files given");
+  Job job;
+  if (args.Has("job")) {
+    auto header = ReadJobFile(args.Get("job"));
+    if (!header.ok()) return header.status();
+    job.header = std::move(*header);
+  }
+
+  // One scan per file, in command-line order; a job-file scan with the file's stem as its
+  // scan_id supplies that scan's metadata.
+  std::vector<v1::ScanHeader> from_job(job.header.scans().begin(), job.header.scans().end());
+  job.header.clear_scans();
+  std::vector<PointCloud> clouds;
+  for (const std::string& file : files) {
+    auto cloud = io::ReadScanFile(file);
+    if (!cloud.ok()) return cloud.status();
+    const std::string stem = fs::path(file).stem().string();
+    auto match = std::find_if(from_job.begin(), from_job.end(),
+                              [&](const v1::ScanHeader& s) { return s.scan_id() == stem; });
+    v1::ScanHeader* scan = job.header.add_scans();
+    if (match != from_job.end()) {
+      *scan = *match;
+      from_job.erase(match);
+    }
+    scan->set_scan_id(stem);
+    clouds.push_back(std::move(*cloud));
+  }
+  if (!from_job.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat("the job file describes scan '",
+                                                   from_job.front().scan_id(),
+                                                   "' but no scan file has that stem"));
+  }
+  if (args.Has("conf")) {
+    if (absl::Status s = ApplyConf(args.Get("conf"), files, job.header); !s.ok()) return s;
+  }
+  if (absl::Status s = ApplyOptionFlags(args, job.header); !s.ok()) return s;
+
+  // The service wants an optional array in every chunk or none, so keep one only when every
+  // file has it.
+  bool scanlines = true, quality = true, intensity = true;
+  for (const PointCloud& c : clouds) {
+    scanlines &= c.has_scanlines();
+    quality &= !c.quality.empty();
+    intensity &= !c.intensity.empty();
+  }
+  for (size_t s = 0; s < clouds.size(); ++s) {
+    const PointCloud& c = clouds[s];
+    if (c.has_scanlines() && !scanlines) {
+      job.notes.push_back(absl::StrCat(files[s], ": scanlines dropped (not every file has them)"));
+    }
+    PointCloud& all = job.points;
+    all.x.insert(all.x.end(), c.x.begin(), c.x.end());
+    all.y.insert(all.y.end(), c.y.begin(), c.y.end());
+    all.z.insert(all.z.end(), c.z.begin(), c.z.end());
+    all.scan.resize(all.x.size(), static_cast<uint32_t>(s));
+    AppendOptional(scanlines, c.scanline, all.scanline);
+    AppendOptional(quality, c.quality, all.quality);
+    AppendOptional(intensity, c.intensity, all.intensity);
+  }
+  return job;
+}
+
+}  // namespace scanprep::client

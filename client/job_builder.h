@@ -1,0 +1,31 @@
+// Turns the `process` command line into a job: the JobHeader (job file, then flags on top) and
+// the points of every scan file, each file one scan in its own frame and file units.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "client/cli_args.h"
+#include "core/point_cloud.h"
+#include "scanprep/v1/scanprep.pb.h"
+
+namespace scanprep::client {
+
+struct Job {
+  scanprep::v1::JobHeader header;
+  PointCloud points;  // points.scan indexes header.scans
+  std::vector<std::string> notes;  // things the user should know (dropped optional arrays)
+};
+
+// "m", "mm", "um", "in" (or the enum names METRE, ...).
+absl::StatusOr<scanprep::v1::LengthUnit> ParseUnit(const std::string& text);
+
+// The JSON form of JobHeader (protobuf's JSON mapping; unknown fields are errors).
+absl::StatusOr<scanprep::v1::JobHeader> ReadJobFile(const std::string& path);
+
+// Flags used: --job, --conf, --unit, --stages, --param, --include_removed, --scanline_spacing,
+// --uncertainty; positional arguments are the scan files.
+absl::StatusOr<Job> BuildJob(const ParsedArgs& args);
+
+}  // namespace scanprep::client

@@ -1,0 +1,55 @@
+// `scanprep`: command-line client of the scanprep service.
+#include <iostream>
+
+#include "client/commands.h"
+
+namespace scanprep::client {
+
+int Fail(const std::string& command, const std::string& message) {
+  std::cerr << "scanprep " << command << ": " << message << "\n";
+  return 1;
+}
+
+namespace {
+
+std::vector<Command> Commands() { return {ProcessCommand(), InfoCommand()}; }
+
+void PrintUsage(std::ostream& out) {
+  out << "usage: scanprep COMMAND [args]\n\ncommands:\n";
+  for (const Command& c : Commands()) {
+    out << "  scanprep " << c.synopsis << "\n      " << c.summary << "\n" << FlagHelp(c.flags);
+  }
+}
+
+}  // namespace
+}  // namespace scanprep::client
+
+int main(int argc, char** argv) {
+  using namespace scanprep::client;
+  if (argc < 2) {
+    PrintUsage(std::cerr);
+    return 2;
+  }
+  const std::string name = argv[1];
+  if (name == "help" || name == "--help" || name == "-h") {
+    PrintUsage(std::cout);
+    return 0;
+  }
+  if (name == "--version") {
+    std::cout << "scanprep " SCANPREP_VERSION "\n";
+    return 0;
+  }
+  for (const Command& command : Commands()) {
+    if (command.name != name) continue;
+    auto args = ParseArgs(std::vector<std::string>(argv + 2, argv + argc), command.flags);
+    if (!args.ok()) {
+      std::cerr << "scanprep " << name << ": " << args.status().message() << "\nusage: scanprep "
+                << command.synopsis << "\n" << FlagHelp(command.flags);
+      return 2;
+    }
+    return command.run(*args);
+  }
+  std::cerr << "scanprep: unknown command '" << name << "'\n";
+  PrintUsage(std::cerr);
+  return 2;
+}

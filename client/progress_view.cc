@@ -1,0 +1,72 @@
+#include "client/progress_view.h"
+
+#include <map>
+
+#include "absl/strings/match.h"
+#include "absl/strings/str_format.h"
+
+namespace scanprep::client {
+
+namespace v1 = ::scanprep::v1;
+
+void ProgressView::Update(const v1::Progress& p) {
+  if (!live_) return;
+  std::string line;
+  switch (p.phase()) {
+    case v1::Progress::UPLOAD:
+      line = absl::StrFormat("upload     %3.0f%%  %d points", 100 * p.fraction(), p.points());
+      break;
+    case v1::Progress::PROCESSING:
+      line = absl::StrFormat("processing %3.0f%%  %s", 100 * p.fraction(), p.stage());
+      break;
+    case v1::Progress::DOWNLOAD:
+      line = absl::StrFormat("download   %3.0f%%  %d points", 100 * p.fraction(), p.points());
+      break;
+    default:
+      return;
+  }
+  std::lock_guard lock(mu_);
+  out_ << "\r\033[K" << line << std::flush;
+  drawn_ = true;
+}
+
+void ProgressView::Done() {
+  std::lock_guard lock(mu_);
+  if (drawn_) out_ << "\r\033[K" << std::flush;
+  drawn_ = false;
+}
+
+void PrintSummary(std::ostream& out, const v1::Report& report) {
+  out << absl::StrFormat("%-16s %10s %10s %9s  %s\n", "stage", "in", "out", "seconds",
+                         "parameters");
+  for (const v1::StageReport& stage : report.stages()) {
+    // Sorted for a stable display; per-scan values ("<name>.scanN") only counted.
+    std::map<std::string, double> params(stage.parameters().begin(), stage.parameters().end());
+    std::string shown;
+    int per_scan = 0;
+    for (const auto& [name, value] : params) {
+      if (absl::StrContains(name, ".scan")) {
+        ++per_scan;
+        continue;
+      }
+      absl::StrAppendFormat(&shown, "%s%s=%.4g", shown.empty() ? "" : " ", name, value);
+    }
+    if (per_scan > 0) absl::StrAppendFormat(&shown, " (+%d per-scan values)", per_scan);
+    std::string seconds = absl::StrFormat("%.3f", stage.seconds());
+    if (stage.budget_seconds() > 0 && !stage.budget_met()) seconds += "!";
+    out << absl::StrFormat("%-16s %10d %10d %9s  %s\n", stage.name(), stage.points_in(),
+                           stage.points_out(), seconds, shown);
+  }
+  out << absl::StrFormat("points: %d received, %d invalid (NaN/Inf), %d processed, %d returned\n",
+                         report.points_received(), report.points_invalid(),
+                         report.points_processed(), report.points_returned());
+  if (report.budget_seconds() > 0) {
+    out << absl::StrFormat("time: %.3f s of a %.3f s budget (%s)\n", report.processing_seconds(),
+                           report.budget_seconds(), report.budget_met() ? "met" : "MISSED");
+  } else {
+    out << absl::StrFormat("time: %.3f s (no budget)\n", report.processing_seconds());
+  }
+  for (const std::string& w : report.warnings()) out << "warning: " << w << "\n";
+}
+
+}  // namespace scanprep::client

@@ -1,0 +1,32 @@
+// What the CLI shows the user: a one-line live progress display on a terminal and the
+// end-of-job summary table.
+#pragma once
+
+#include <mutex>
+#include <ostream>
+
+#include "scanprep/v1/scanprep.pb.h"
+
+namespace scanprep::client {
+
+class ProgressView {
+ public:
+  // Draws on `out` only when `live` (stderr is a terminal).
+  ProgressView(std::ostream& out, bool live) : out_(out), live_(live) {}
+  // Thread-safe; called from the call's reader thread.
+  void Update(const scanprep::v1::Progress& progress);
+  // Clears the progress line.
+  void Done();
+
+ private:
+  std::mutex mu_;
+  std::ostream& out_;
+  bool live_;
+  bool drawn_ = false;
+};
+
+// Per stage: points in and out, seconds and the stage's parameters (per-scan values are
+// summarised by count); then point totals, invalid points, budget and warnings.
+void PrintSummary(std::ostream& out, const scanprep::v1::Report& report);
+
+}  // namespace scanprep::client
