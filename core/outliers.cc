@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "core/outliers_loop.h"
 #include "core/parallel.h"
 
 namespace scanprep {
@@ -26,6 +27,7 @@ class OutliersStage : public Stage {
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
     if (nb.k() == 0) return absl::OkStatus();
+    if (ctx.Choice("outliers.method", "nn") == "loop") return RemoveLoopOutliers(ctx, nb);
 
     const uint32_t k_o = static_cast<uint32_t>(
         std::clamp(ctx.Number("outliers.k", 1), 1.0, static_cast<double>(nb.k())));
@@ -95,12 +97,19 @@ StageInfo OutliersStageInfo() {
       .summary = "statistical outlier removal: d_1 > max(μ + 2σ, 1.5·median) per scan",
       .params =
           {
+              {"outliers.method", "nn: the paper's global d_1 rule; loop: Local Outlier "
+               "Probabilities for strongly varying density", "nn", {"nn", "loop"}},
               {"outliers.k", "neighbours averaged into d (1 = the paper's d_1)", "1", {}},
               {"outliers.multiplier", "σ multiplier of the threshold μ + m·σ", "2", {}},
               {"outliers.median_floor", "the threshold is at least this times median(d)", "1.5",
                {}},
               {"outliers.threshold_mm", "distance above which a point is an outlier",
                "max(μ + m·σ, floor·median) per scan", {}},
+              {"outliers.loop_k", "LoOP neighbourhood size", "20", {}},
+              {"outliers.loop_lambda", "LoOP λ (standard deviations of the probabilistic "
+               "distance)", "3", {}},
+              {"outliers.loop_threshold", "LoOP probability above which a point is an outlier",
+               "0.8", {}},
           },
       .make = [] { return std::make_unique<OutliersStage>(); },
   };

@@ -1,8 +1,13 @@
 // The list of stages the service offers, in the paper's execution order (algorithms.md).
 #include <algorithm>
 
+#include "core/correction.h"
+#include "core/measures.h"
 #include "core/neighbourhoods_stage.h"
+#include "core/normals.h"
 #include "core/outliers.h"
+#include "core/simplification.h"
+#include "core/smoothing.h"
 #include "core/stage.h"
 
 namespace scanprep {
@@ -11,6 +16,11 @@ const std::vector<StageInfo>& StageRegistry() {
   static const std::vector<StageInfo> registry = {
       NeighbourhoodsStageInfo(),
       OutliersStageInfo(),
+      NormalsStageInfo(),
+      MeasuresStageInfo(),
+      CorrectionStageInfo(),
+      SmoothingStageInfo(),
+      SimplificationStageInfo(),
   };
   return registry;
 }

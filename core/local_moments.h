@@ -1,0 +1,42 @@
+// Weighted second moments of a small point set and their eigen-decomposition (algorithms.md §6,
+// Eq. 4): the one PCA used by normal estimation, the Mitra radius and the scanline frame.
+#pragma once
+
+#include <cstddef>
+
+#include <Eigen/Core>
+
+namespace scanprep {
+
+struct LocalFrame {
+  Eigen::Vector3d eigenvalues = Eigen::Vector3d::Zero();  // λ0 <= λ1 <= λ2
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();     // column c belongs to eigenvalue c
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();     // weighted mean, relative coordinates
+  bool valid = false;  // >= 3 points and not collinear (λ1 >= 1e-12·λ2)
+
+  Eigen::Vector3d normal() const { return axes.col(0); }
+  // σ = λ0 / (λ0 + λ1 + λ2), Pauly's surface variation (Eq. 12).
+  double surface_variation() const;
+};
+
+// Accumulates w·d and w·d·dᵀ in double for offsets d taken relative to a reference point, so
+// large absolute coordinates do not cancel.
+class MomentAccumulator {
+ public:
+  void Add(const Eigen::Vector3d& d, double w) {
+    weight_ += w;
+    first_ += w * d;
+    second_ += w * d * d.transpose();
+    ++count_;
+  }
+  size_t count() const { return count_; }
+  LocalFrame Solve() const;
+
+ private:
+  double weight_ = 0;
+  Eigen::Vector3d first_ = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d second_ = Eigen::Matrix3d::Zero();
+  size_t count_ = 0;
+};
+
+}  // namespace scanprep

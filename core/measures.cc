@@ -1,0 +1,201 @@
+// q̂ = 1 − max(α, β)/(π/2) from the normals and the sensor geometry (or the scanner's own
+// quality), κ̂ = min(κ/s, 1) from the scanline curvature, with surface variation as the fallback
+// where a scanline window does not exist (no scanlines, segment ends, short lines).
+#include "core/measures.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <numbers>
+#include <optional>
+
+#include "absl/strings/str_cat.h"
+#include "core/parallel.h"
+#include "core/scanline_curvature.h"
+
+namespace scanprep {
+namespace {
+
+std::string ScanSuffix(const PointCloud& cloud, size_t s) {
+  return cloud.scans.size() > 1 ? absl::StrCat(".scan", s) : "";
+}
+
+std::optional<Eigen::Vector3d> TowardCamera(const ScanMeta& scan, const Eigen::Vector3d& p) {
+  if (scan.camera_position) return *scan.camera_position - p;
+  if (scan.view_direction) return *scan.view_direction;
+  return std::nullopt;
+}
+
+std::optional<Eigen::Vector3d> TowardProjector(const ScanMeta& scan, const Eigen::Vector3d& p) {
+  if (scan.projector_position) return *scan.projector_position - p;
+  if (scan.projector_direction) return *scan.projector_direction;
+  return std::nullopt;
+}
+
+// Angle in [0, π/2] between the unoriented normal and a direction.
+double ViewAngle(const Eigen::Vector3d& n, const Eigen::Vector3d& toward) {
+  const double norm = toward.norm();
+  if (!(norm > 0)) return 0;
+  return std::acos(std::clamp(std::abs(n.dot(toward)) / norm, 0.0, 1.0));
+}
+
+// The smallest window that keeps flat-surface noise below half the edge scale at 99 %: the
+// least-squares x² coefficient over a window of half-width h, with points Δp apart and noise σ,
+// has variance 45·σ²·Δp/(8h⁵); asking 2·2.6·std(a2) <= s/(2·√2) (√2 for the Gaussian weights)
+// gives h⁵ >= 1215·σ²·Δp/s².
+double NoiseWindow(double sigma, double spacing, double scale) {
+  return std::pow(1215.0 * sigma * sigma * spacing / (scale * scale), 0.2);
+}
+
+class MeasuresStage : public Stage {
+ public:
+  absl::Status Run(JobContext& ctx) override {
+    if (absl::Status s = ctx.Require("normals"); !s.ok()) return s;
+    if (absl::Status s = Quality(ctx); !s.ok()) return s;
+    return Curvature(ctx);
+  }
+
+ private:
+  static absl::Status Quality(JobContext& ctx) {
+    const PointCloud& cloud = ctx.cloud();
+    const size_t n = cloud.size();
+    std::vector<float>& quality = ctx.measures().quality;
+    quality.assign(n, 1.f);
+    if (cloud.quality.size() == n) {
+      ctx.Record("measures.quality_from_scanner", 1);
+      return ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+        for (size_t i = begin; i < end; ++i) {
+          quality[i] = std::isfinite(cloud.quality[i]) ? std::clamp(cloud.quality[i], 0.f, 1.f) : 0.f;
+        }
+      });
+    }
+    ctx.Record("measures.quality_from_scanner", 0);
+    for (size_t s = 0; s < cloud.scans.size(); ++s) {
+      const ScanMeta& scan = cloud.scans[s];
+      if (!TowardCamera(scan, Eigen::Vector3d::Zero()) &&
+          !TowardProjector(scan, Eigen::Vector3d::Zero())) {
+        ctx.Warn(absl::StrCat("measures: scan '", scan.id, "' has neither sensor poses nor a "
+                              "per-point quality; its viewing quality is set to 1"));
+      }
+    }
+    // Points without a valid normal have no viewing angle; they keep the neutral 1.
+    return ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i) {
+        if (cloud.removed(i) || (cloud.flags[i] & kNormalInvalid)) continue;
+        const ScanMeta& scan = cloud.scans[cloud.scan[i]];
+        const Eigen::Vector3d p = cloud.point(i).cast<double>();
+        const Eigen::Vector3d normal = cloud.normal(i).cast<double>();
+        const auto camera = TowardCamera(scan, p);
+        const auto projector = TowardProjector(scan, p);
+        if (!camera && !projector) continue;
+        const double alpha = camera ? ViewAngle(normal, *camera) : 0.0;
+        const double beta = projector ? ViewAngle(normal, *projector) : alpha;
+        const double q = std::max(alpha, beta);
+        quality[i] = static_cast<float>(1.0 - q / (std::numbers::pi / 2));  // Eq. (7)
+      }
+    });
+  }
+
+  static absl::Status Curvature(JobContext& ctx) {
+    PointCloud& cloud = ctx.cloud();
+    const size_t n = cloud.size();
+    const double scale = ctx.Number("measures.curvature_scale_per_mm", 0.2);
+    const double variation_scale = ctx.Number("measures.variation_scale", 0.02);
+    const double threshold = ctx.Number("measures.edge_threshold", 0.5);
+    if (!(scale > 0)) return absl::InvalidArgumentError("measures.curvature_scale_per_mm: must be > 0");
+    if (!(variation_scale > 0)) return absl::InvalidArgumentError("measures.variation_scale: must be > 0");
+
+    const std::vector<double> spacing = ScanPointSpacing(ctx);
+    std::vector<double> window(cloud.scans.size(), 0.0);
+    const std::optional<double> forced = ctx.Overridden("measures.window_mm");
+    if (forced && !(*forced > 0)) return absl::InvalidArgumentError("measures.window_mm: must be > 0");
+    for (size_t s = 0; s < cloud.scans.size(); ++s) {
+      const double u = cloud.scans[s].uncertainty;
+      window[s] = forced.value_or(
+          std::max({3 * spacing[s], 2 * u, NoiseWindow(u, spacing[s], scale)}));
+      ctx.Record(absl::StrCat("measures.point_spacing_mm", ScanSuffix(cloud, s)), spacing[s]);
+      ctx.Record(absl::StrCat("measures.window_mm", ScanSuffix(cloud, s)), window[s]);
+    }
+
+    std::vector<float> kappa;
+    const bool lines = cloud.kind == ScannerKind::kLine && cloud.has_scanlines();
+    if (lines) {
+      if (absl::Status s = ScanlineCurvature(cloud, window, ctx.cancel(), kappa); !s.ok()) return s;
+    }
+    std::vector<float>& curvature = ctx.measures().curvature;
+    curvature.assign(n, 0.f);
+    const std::vector<float>& variation = ctx.measures().surface_variation;
+    std::atomic<size_t> edges{0}, fallback{0};
+    absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+      size_t local_edges = 0, local_fallback = 0;
+      for (size_t i = begin; i < end; ++i) {
+        cloud.flags[i] &= static_cast<uint8_t>(~kEdge);
+        if (cloud.removed(i)) continue;
+        double value;
+        if (lines && std::isfinite(kappa[i])) {
+          value = kappa[i] / scale;
+        } else {
+          value = variation[i] / variation_scale;  // Eq. (12) fallback
+          ++local_fallback;
+        }
+        curvature[i] = static_cast<float>(std::min(value, 1.0));  // Eq. (7)
+        if (curvature[i] >= threshold) {
+          cloud.flags[i] |= kEdge;
+          ++local_edges;
+        }
+      }
+      edges += local_edges;
+      fallback += local_fallback;
+    });
+    if (!status.ok()) return status;
+    ctx.Record("measures.edges", static_cast<double>(edges));
+    ctx.Record("measures.curvature_from_variation", static_cast<double>(fallback));
+    return absl::OkStatus();
+  }
+};
+
+}  // namespace
+
+std::vector<double> ScanPointSpacing(JobContext& ctx) {
+  const PointCloud& cloud = ctx.cloud();
+  std::vector<double> spacing = MedianScanlineSpacing(cloud);
+  std::vector<std::vector<float>> nearest(cloud.scans.size());
+  auto nb = ctx.neighbourhoods();
+  for (size_t s = 0; s < spacing.size(); ++s) {
+    if (spacing[s] == 0) spacing[s] = cloud.scans[s].point_spacing;
+  }
+  if (!nb.ok() || (*nb)->k() == 0) return spacing;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (!cloud.removed(i) && spacing[cloud.scan[i]] == 0) {
+      nearest[cloud.scan[i]].push_back((*nb)->knn_dist(i)[0]);
+    }
+  }
+  for (size_t s = 0; s < spacing.size(); ++s) {
+    std::vector<float>& d = nearest[s];
+    if (d.empty()) continue;
+    std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+    spacing[s] = d[d.size() / 2];
+  }
+  return spacing;
+}
+
+StageInfo MeasuresStageInfo() {
+  return {
+      .name = "measures",
+      .summary = "viewing quality q̂ and normalised curvature κ̂ per point (Eq. 7); edge flags",
+      .params =
+          {
+              {"measures.curvature_scale_per_mm", "s: scanline curvature of a significant edge",
+               "0.2", {}},
+              {"measures.variation_scale", "s_σ: surface variation of a significant edge "
+               "(fallback without scanlines)", "0.02", {}},
+              {"measures.edge_threshold", "κ̂ at or above which a point is flagged as an edge",
+               "0.5", {}},
+              {"measures.window_mm", "half-width h of the scanline curvature window",
+               "max(3Δp, 2u, (1215·u²·Δp/s²)^(1/5)) per scan", {}},
+          },
+      .make = [] { return std::make_unique<MeasuresStage>(); },
+  };
+}
+
+}  // namespace scanprep

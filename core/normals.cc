@@ -1,0 +1,167 @@
+// Per point: the ball N_{r_p}(p), r_p = max(r_min, d_k) (or the Mitra radius), Gaussian weights
+// with h = r_p/2 relative to p, the central-moment tensor in double and its smallest eigenvector.
+// In overlaps only the point's own scan contributes, so a second, misregistered layer from
+// another sensor does not tilt the normal that its viewing quality is later judged by.
+#include "core/normals.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "core/local_moments.h"
+#include "core/mitra_radius.h"
+#include "core/normal_orientation.h"
+#include "core/parallel.h"
+
+namespace scanprep {
+namespace {
+
+struct Scratch {
+  RadiusMatches matches;
+  RadiusMatches mitra;
+};
+
+class NormalsStage : public Stage {
+ public:
+  absl::Status Run(JobContext& ctx) override {
+    auto nb_or = ctx.neighbourhoods();
+    if (!nb_or.ok()) return nb_or.status();
+    const Neighbourhoods& nb = **nb_or;
+    PointCloud& cloud = ctx.cloud();
+    const size_t n = cloud.size();
+    const std::string mode = ctx.Choice("normals.radius_mode", "adaptive");
+    const double weight_scale = ctx.Number("normals.gaussian_h_factor", 0.5);
+    if (!(weight_scale > 0)) {
+      return absl::InvalidArgumentError("normals.gaussian_h_factor: must be > 0");
+    }
+    const double orientation_k = ctx.Number("normals.orientation_k", 10);
+    if (!(orientation_k >= 1)) {
+      return absl::InvalidArgumentError("normals.orientation_k: must be >= 1");
+    }
+    const bool per_scan = cloud.scans.size() > 1;
+    MitraOptions mitra;
+    if (mode == "mitra") {
+      mitra.c1 = ctx.Number("normals.mitra_c1", 1.0);
+      mitra.c2 = ctx.Number("normals.mitra_c2", 1.0);
+      mitra.epsilon = ctx.Number("normals.mitra_epsilon", 0.05);
+      mitra.r_max = ctx.Number("normals.mitra_max_radius_mm", 5 * nb.global_radius());
+      if (!(mitra.epsilon > 0 && mitra.epsilon < 1)) {
+        return absl::InvalidArgumentError("normals.mitra_epsilon: must be in (0, 1)");
+      }
+    }
+    const std::optional<double> sigma_override = ctx.Overridden("normals.mitra_sigma_mm");
+
+    cloud.nx.assign(n, 0.f);
+    cloud.ny.assign(n, 0.f);
+    cloud.nz.assign(n, 0.f);
+    std::vector<float>& variation = ctx.measures().surface_variation;
+    variation.assign(n, 0.f);
+    std::vector<float> radius(n, 0.f);
+    std::atomic<size_t> invalid{0};
+
+    absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+      Scratch scratch;
+      size_t local_invalid = 0;
+      for (size_t i = begin; i < end; ++i) {
+        cloud.flags[i] &= static_cast<uint8_t>(~kNormalInvalid);
+        if (cloud.removed(i)) continue;
+        float r = nb.adaptive_radius(i);
+        if (mode == "mitra") {
+          const double sigma = sigma_override.value_or(cloud.scans[cloud.scan[i]].uncertainty);
+          r = MitraRadius(cloud, nb, i, sigma, mitra, scratch.mitra);
+        }
+        LocalFrame frame = Fit(cloud, nb, i, r, weight_scale, per_scan, scratch.matches);
+        // In an overlap part of the k-NN ball belongs to other scans: widen it once so that
+        // the own scan alone holds about k points, as r_p = d_k would on that scan alone.
+        const size_t own = scratch.matches.size();
+        if (per_scan && own < nb.k() + 1) {
+          r *= std::sqrt(static_cast<float>(nb.k() + 1) / std::max<size_t>(own, 1));
+          frame = Fit(cloud, nb, i, r, weight_scale, per_scan, scratch.matches);
+        }
+        radius[i] = r;
+        if (!frame.valid) {
+          cloud.flags[i] |= kNormalInvalid;
+          ++local_invalid;
+          continue;
+        }
+        const Eigen::Vector3d normal = frame.normal();
+        cloud.nx[i] = static_cast<float>(normal.x());
+        cloud.ny[i] = static_cast<float>(normal.y());
+        cloud.nz[i] = static_cast<float>(normal.z());
+        variation[i] = static_cast<float>(frame.surface_variation());
+      }
+      invalid += local_invalid;
+    });
+    if (!status.ok()) return status;
+
+    OrientationCounts counts;
+    status = OrientNormals(cloud, nb, static_cast<uint32_t>(orientation_k), ctx.cancel(), counts);
+    if (!status.ok()) return status;
+
+    std::vector<float> kept;
+    for (size_t i = 0; i < n; ++i) {
+      if (!cloud.removed(i)) kept.push_back(radius[i]);
+    }
+    if (!kept.empty()) {
+      std::nth_element(kept.begin(), kept.begin() + kept.size() / 2, kept.end());
+      ctx.Record("normals.median_radius_mm", kept[kept.size() / 2]);
+    }
+    ctx.Record("normals.invalid", static_cast<double>(invalid));
+    ctx.Record("normals.oriented_toward_sensor", static_cast<double>(counts.toward_sensor));
+    ctx.Record("normals.oriented_by_tree", static_cast<double>(counts.propagated));
+    ctx.Record("normals.tree_bridges", static_cast<double>(counts.bridges));
+    if (counts.propagated > 0) {
+      ctx.Warn(absl::StrCat("normals: ", counts.propagated,
+                            " normals oriented by spanning-tree propagation (no sensor pose); "
+                            "their sign is consistent but may be globally inverted"));
+    }
+    return absl::OkStatus();
+  }
+
+ private:
+  // Eq. (4): weights exp(−‖p_j − p‖²/(2h²)), h = factor·r, moments relative to p.
+  static LocalFrame Fit(const PointCloud& cloud, const Neighbourhoods& nb, size_t i, float r,
+                        double h_factor, bool per_scan, RadiusMatches& matches) {
+    nb.Within(cloud, i, r, matches);
+    if (per_scan) {
+      std::erase_if(matches, [&](const auto& m) { return cloud.scan[m.first] != cloud.scan[i]; });
+    }
+    const double h = h_factor * r;
+    const double inv_two_h2 = h > 0 ? 1.0 / (2 * h * h) : 0.0;
+    const Eigen::Vector3d p = cloud.point(i).cast<double>();
+    MomentAccumulator moments;
+    for (const auto& [j, d2] : matches) {
+      moments.Add(cloud.point(j).cast<double>() - p, std::exp(-d2 * inv_two_h2));
+    }
+    return moments.Solve();
+  }
+};
+
+}  // namespace
+
+StageInfo NormalsStageInfo() {
+  return {
+      .name = "normals",
+      .summary = "Gaussian-weighted PCA normals (Eq. 4), oriented toward the sensor (Eq. 3) or "
+                 "along a minimum spanning tree (Eq. 5)",
+      .params =
+          {
+              {"normals.radius_mode", "PCA ball radius: adaptive r_p = max(r_min, d_k), or the "
+               "Mitra et al. radius of Eq. (1)", "adaptive", {"adaptive", "mitra"}},
+              {"normals.gaussian_h_factor", "Gaussian width h as a fraction of the ball radius",
+               "0.5", {}},
+              {"normals.orientation_k", "neighbours per point in the orientation graph (Eq. 5)",
+               "10", {}},
+              {"normals.mitra_c1", "c1 of Eq. (1)", "1", {}},
+              {"normals.mitra_c2", "c2 of Eq. (1)", "1", {}},
+              {"normals.mitra_epsilon", "ε of Eq. (1): the normal bound fails with this "
+               "probability", "0.05", {}},
+              {"normals.mitra_sigma_mm", "noise σ_n of Eq. (1)", "the scan's uncertainty u", {}},
+              {"normals.mitra_max_radius_mm", "upper clamp of the Mitra radius", "5·r_g", {}},
+          },
+      .make = [] { return std::make_unique<NormalsStage>(); },
+  };
+}
+
+}  // namespace scanprep

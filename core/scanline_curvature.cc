@@ -1,0 +1,129 @@
+#include "core/scanline_curvature.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Cholesky>
+
+#include "core/local_moments.h"
+#include "core/parallel.h"
+
+namespace scanprep {
+namespace {
+
+// [begin, end) index ranges of consecutive points sharing (scan, scanline).
+std::vector<std::pair<size_t, size_t>> ScanlineRuns(const PointCloud& cloud) {
+  std::vector<std::pair<size_t, size_t>> runs;
+  if (!cloud.has_scanlines()) return runs;
+  size_t start = 0;
+  for (size_t i = 1; i <= cloud.size(); ++i) {
+    if (i == cloud.size() || cloud.scanline[i] != cloud.scanline[start] ||
+        cloud.scan[i] != cloud.scan[start]) {
+      runs.emplace_back(start, i);
+      start = i;
+    }
+  }
+  return runs;
+}
+
+double Distance(const PointCloud& cloud, size_t a, size_t b) {
+  return (cloud.point(a) - cloud.point(b)).cast<double>().norm();
+}
+
+struct LineScratch {
+  std::vector<uint32_t> idx;
+  std::vector<double> arc, gaps;
+  std::vector<uint32_t> segment;
+};
+
+// The weighted quadratic y = a0 + a1·x + a2·x² in the window's own PCA frame.
+float WindowCurvature(const PointCloud& cloud, const LineScratch& s, size_t centre, size_t lo,
+                      size_t hi, double h) {
+  const Eigen::Vector3d p = cloud.point(s.idx[centre]).cast<double>();
+  MomentAccumulator moments;
+  for (size_t t = lo; t <= hi; ++t) moments.Add(cloud.point(s.idx[t]).cast<double>() - p, 1.0);
+  const LocalFrame frame = moments.Solve();
+  if (!(frame.eigenvalues[2] > 0)) return std::numeric_limits<float>::quiet_NaN();
+  const Eigen::Vector3d tangent = frame.axes.col(2), across = frame.axes.col(1);
+  const double inv_two_var = 1.0 / (2 * (h / 2) * (h / 2));
+  Eigen::Matrix3d normal_eq = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  for (size_t t = lo; t <= hi; ++t) {
+    const Eigen::Vector3d d = cloud.point(s.idx[t]).cast<double>() - p;
+    const double x = d.dot(tangent), y = d.dot(across), w = std::exp(-x * x * inv_two_var);
+    const Eigen::Vector3d row(1.0, x, x * x);
+    normal_eq += w * row * row.transpose();
+    rhs += w * y * row;
+  }
+  const Eigen::Vector3d a = normal_eq.ldlt().solve(rhs);
+  const double kappa = std::abs(2 * a[2]) / std::pow(1 + a[1] * a[1], 1.5);
+  return std::isfinite(kappa) ? static_cast<float>(kappa) : std::numeric_limits<float>::quiet_NaN();
+}
+
+void LineCurvature(const PointCloud& cloud, size_t begin, size_t end, double h, LineScratch& s,
+                   std::vector<float>& kappa) {
+  s.idx.clear();
+  for (size_t i = begin; i < end; ++i) {
+    if (!cloud.removed(i)) s.idx.push_back(static_cast<uint32_t>(i));
+  }
+  const size_t m = s.idx.size();
+  if (m < 5) return;
+  s.gaps.resize(m - 1);
+  for (size_t t = 0; t + 1 < m; ++t) s.gaps[t] = Distance(cloud, s.idx[t], s.idx[t + 1]);
+  s.arc.assign(s.gaps.begin(), s.gaps.end());
+  std::nth_element(s.arc.begin(), s.arc.begin() + s.arc.size() / 2, s.arc.end());
+  const double max_gap = 3 * s.arc[s.arc.size() / 2];
+  s.arc.resize(m);
+  s.segment.resize(m);
+  s.arc[0] = 0;
+  s.segment[0] = 0;
+  for (size_t t = 1; t < m; ++t) {
+    s.arc[t] = s.arc[t - 1] + s.gaps[t - 1];
+    s.segment[t] = s.segment[t - 1] + (s.gaps[t - 1] > max_gap ? 1 : 0);
+  }
+  size_t lo = 0, hi = 0;
+  for (size_t t = 0; t < m; ++t) {
+    while (s.segment[lo] != s.segment[t] || s.arc[t] - s.arc[lo] > h) ++lo;
+    if (hi < t) hi = t;
+    while (hi + 1 < m && s.segment[hi + 1] == s.segment[t] && s.arc[hi + 1] - s.arc[t] <= h) ++hi;
+    if (t - lo < 2 || hi - t < 2) continue;  // a segment end: the caller falls back
+    kappa[s.idx[t]] = WindowCurvature(cloud, s, t, lo, hi, h);
+  }
+}
+
+}  // namespace
+
+std::vector<double> MedianScanlineSpacing(const PointCloud& cloud) {
+  std::vector<std::vector<float>> gaps(cloud.scans.size());
+  for (const auto& [begin, end] : ScanlineRuns(cloud)) {
+    size_t previous = end;
+    for (size_t i = begin; i < end; ++i) {
+      if (cloud.removed(i)) continue;
+      if (previous != end) gaps[cloud.scan[i]].push_back(static_cast<float>(Distance(cloud, previous, i)));
+      previous = i;
+    }
+  }
+  std::vector<double> spacing(cloud.scans.size(), 0.0);
+  for (size_t s = 0; s < gaps.size(); ++s) {
+    if (gaps[s].empty()) continue;
+    std::nth_element(gaps[s].begin(), gaps[s].begin() + gaps[s].size() / 2, gaps[s].end());
+    spacing[s] = gaps[s][gaps[s].size() / 2];
+  }
+  return spacing;
+}
+
+absl::Status ScanlineCurvature(const PointCloud& cloud, const std::vector<double>& window,
+                               const CancelToken& cancel, std::vector<float>& kappa) {
+  kappa.assign(cloud.size(), std::numeric_limits<float>::quiet_NaN());
+  const std::vector<std::pair<size_t, size_t>> runs = ScanlineRuns(cloud);
+  return ParallelFor(runs.size(), cancel, [&](size_t begin, size_t end) {
+    LineScratch scratch;
+    for (size_t r = begin; r < end; ++r) {
+      const auto [first, last] = runs[r];
+      LineCurvature(cloud, first, last, window[cloud.scan[first]], scratch, kappa);
+    }
+  }, 8);
+}
+
+}  // namespace scanprep

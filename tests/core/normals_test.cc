@@ -1,0 +1,157 @@
+// Normals against the simulator's ground truth: accuracy on flat and curved regions, orientation
+// toward the sensor (Eq. 3) and consistent spanning-tree orientation without poses (Eq. 5).
+#include <cstdio>
+
+#include <gtest/gtest.h>
+
+#include "core/pipeline.h"
+#include "tests/support/scan_simulator.h"
+#include "tests/support/sim_checks.h"
+
+namespace scanprep::testing {
+namespace {
+
+struct NormalCheck {
+  double median_deg = 0, p95_deg = 0;
+  size_t checked = 0, invalid = 0, away_from_sensor = 0;
+};
+
+// Angles to the true normal for points passing `use`, and how many face away from their scan's
+// camera.
+template <typename Use>
+NormalCheck Check(const SimulatedCloud& sim, Use use) {
+  const PointCloud& cloud = sim.cloud;
+  NormalCheck c;
+  std::vector<double> angles;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (!use(i)) continue;
+    if (cloud.flags[i] & kNormalInvalid) {
+      ++c.invalid;
+      continue;
+    }
+    angles.push_back(AxisAngleDeg(cloud, i, sim.true_normal[i]));
+    const auto& cam = cloud.scans[cloud.scan[i]].camera_position;
+    if (cam && cloud.normal(i).cast<double>().dot(*cam - cloud.point(i).cast<double>()) <= 0) {
+      ++c.away_from_sensor;
+    }
+  }
+  c.checked = angles.size();
+  c.median_deg = Quantile(angles, 0.5);
+  c.p95_deg = Quantile(angles, 0.95);
+  return c;
+}
+
+absl::StatusOr<PipelineReport> RunNormals(PointCloud& cloud, ParamOverrides params = {}) {
+  CancelToken cancel;
+  return RunPipeline(cloud, {.stages = {"normals"}, .params = std::move(params)}, cancel);
+}
+
+TEST(Normals, PlaneWithinTwoDegreesAndFacingTheSensor) {
+  SimulatedCloud sim = Simulate(Part::kPlane, FrontalSensor(Part::kPlane), 11);
+  auto report = RunNormals(sim.cloud);
+  ASSERT_TRUE(report.ok()) << report.status();
+  const NormalCheck c = Check(sim, [](size_t) { return true; });
+  std::printf("plane: %zu normals, median %.3f°, p95 %.3f°, invalid %zu, away %zu\n", c.checked,
+              c.median_deg, c.p95_deg, c.invalid, c.away_from_sensor);
+  EXPECT_LT(c.median_deg, 2.0);
+  EXPECT_EQ(c.away_from_sensor, 0u);
+  EXPECT_EQ(c.invalid, 0u);
+  ASSERT_EQ(sim.cloud.nx.size(), sim.cloud.size());
+  EXPECT_EQ(report->stages.back().parameters.at("normals.oriented_toward_sensor"),
+            static_cast<double>(sim.cloud.size()));
+  // Surface variation of a noisy plane stays far below the 90° crease value (≈ 0.09).
+  EXPECT_EQ(report->stages.back().name, "normals");
+}
+
+TEST(Normals, BoxFacesAwayFromEdges) {
+  SimulatedCloud sim = Simulate(Part::kBoxWithBore, FrontalSensor(Part::kBoxWithBore), 12);
+  ASSERT_TRUE(RunNormals(sim.cloud).ok());
+  const NormalCheck faces = Check(sim, [&](size_t i) { return sim.edge_distance[i] > 1.0f; });
+  const NormalCheck all = Check(sim, [](size_t) { return true; });
+  std::printf("box faces (>1 mm from edges): %zu normals, median %.3f°, p95 %.3f°; all points: "
+              "median %.3f°, p95 %.3f°, away %zu\n",
+              faces.checked, faces.median_deg, faces.p95_deg, all.median_deg, all.p95_deg,
+              all.away_from_sensor);
+  EXPECT_LT(faces.median_deg, 2.0);
+  EXPECT_LT(faces.p95_deg, 5.0);
+  EXPECT_EQ(all.away_from_sensor, 0u);
+}
+
+TEST(Normals, CylinderNormalsFollowTheCurvedSurface) {
+  SimulatedCloud sim = Simulate(Part::kCylinder, FrontalSensor(Part::kCylinder), 13);
+  ASSERT_TRUE(RunNormals(sim.cloud).ok());
+  const NormalCheck c = Check(sim, [](size_t) { return true; });
+  std::printf("cylinder R=10: %zu normals, median %.3f°, p95 %.3f°, away %zu\n", c.checked,
+              c.median_deg, c.p95_deg, c.away_from_sensor);
+  EXPECT_LT(c.median_deg, 2.0);
+  EXPECT_EQ(c.away_from_sensor, 0u);
+}
+
+TEST(Normals, MitraRadiusModeIsAccurateToo) {
+  SimulatedCloud sim = Simulate(Part::kCylinder, FrontalSensor(Part::kCylinder), 14);
+  auto report = RunNormals(sim.cloud, {{"normals.radius_mode", "mitra"}});
+  ASSERT_TRUE(report.ok()) << report.status();
+  const NormalCheck c = Check(sim, [](size_t) { return true; });
+  const double r = report->stages.back().parameters.at("normals.median_radius_mm");
+  std::printf("cylinder, Mitra radius: median r %.3f mm, median %.3f°, p95 %.3f°\n", r,
+              c.median_deg, c.p95_deg);
+  EXPECT_LT(c.median_deg, 2.0);
+  // Eq. (1) with σ = u = 0.03, ρ ≈ 50/mm², κ = 0.1: r ≈ 0.6 mm, clamped to [r_min, 5 r_g].
+  EXPECT_GT(r, 0.4);
+  EXPECT_LT(r, 2.5);
+}
+
+TEST(Normals, OverlappingScansUseTheirOwnPoints) {
+  SimulatedCloud sim = Simulate(Part::kPlane, TwoOverlappingSensors(Part::kPlane), 15);
+  ASSERT_TRUE(RunNormals(sim.cloud).ok());
+  for (uint32_t s = 0; s < 2; ++s) {
+    const NormalCheck c = Check(sim, [&](size_t i) { return sim.cloud.scan[i] == s; });
+    std::printf("overlap, scan %u: %zu normals, median %.3f°, away %zu\n", s, c.checked,
+                c.median_deg, c.away_from_sensor);
+    // The oblique scan has 2× the noise at 45°, ≈2.8× the frontal σ along its rays.
+    EXPECT_LT(c.median_deg, s == 0 ? 2.0 : 2.5);
+    EXPECT_EQ(c.away_from_sensor, 0u);
+  }
+}
+
+TEST(Normals, SpanningTreeOrientsAClosedSphereConsistently) {
+  SimulatedCloud sim = Simulate(Part::kSphere, SurroundingSensors(Part::kSphere), 16);
+  for (ScanMeta& scan : sim.cloud.scans) {
+    scan.camera_position.reset();
+    scan.projector_direction.reset();
+  }
+  auto report = RunNormals(sim.cloud);
+  ASSERT_TRUE(report.ok()) << report.status();
+  size_t outward = 0, valid = 0;
+  for (size_t i = 0; i < sim.cloud.size(); ++i) {
+    if (sim.cloud.flags[i] & kNormalInvalid) continue;
+    ++valid;
+    outward += sim.cloud.normal(i).dot(sim.true_normal[i]) > 0;
+  }
+  const double agree = static_cast<double>(std::max(outward, valid - outward)) / valid;
+  std::printf("closed sphere, 6 scans, no poses: %zu normals, %.4f agree with the majority "
+              "(%zu outward), bridges %.0f\n",
+              valid, agree, outward, report->stages.back().parameters.at("normals.tree_bridges"));
+  EXPECT_GE(agree, 0.995);
+  // The seed (highest point) is oriented n_z >= 0, which is outward on a sphere.
+  EXPECT_GT(outward, valid / 2);
+  EXPECT_EQ(report->stages.back().parameters.at("normals.oriented_by_tree"),
+            static_cast<double>(valid));
+  EXPECT_FALSE(report->warnings.empty());
+}
+
+TEST(Normals, CollinearAndTinyNeighbourhoodsAreInvalid) {
+  PointCloud cloud;
+  cloud.scans.push_back(ScanMeta{.id = "line", .camera_position = Eigen::Vector3d(0, 0, 100)});
+  for (int i = 0; i < 50; ++i) {
+    cloud.x.push_back(i * 0.1f);
+    cloud.y.push_back(0);
+    cloud.z.push_back(0);
+  }
+  cloud.FinishLoading();
+  ASSERT_TRUE(RunNormals(cloud).ok());
+  for (size_t i = 0; i < cloud.size(); ++i) EXPECT_TRUE(cloud.flags[i] & kNormalInvalid);
+}
+
+}  // namespace
+}  // namespace scanprep::testing
