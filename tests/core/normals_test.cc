@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include "core/io/ply.h"
 #include "core/pipeline.h"
+#include "tests/support/test_data.h"
 #include "tests/support/scan_simulator.h"
 #include "tests/support/sim_checks.h"
 
@@ -151,6 +153,31 @@ TEST(Normals, CollinearAndTinyNeighbourhoodsAreInvalid) {
   cloud.FinishLoading();
   ASSERT_TRUE(RunNormals(cloud).ok());
   for (size_t i = 0; i < cloud.size(); ++i) EXPECT_TRUE(cloud.flags[i] & kNormalInvalid);
+}
+
+// A real Cyberware range scan has no pose in its file. In each scan's own frame the scanner sits
+// on +z (the range grid is a height field over x, y; the bunny's front faces +z in bun000), so
+// every visible surface faces +z. Orientation here comes from the spanning tree alone.
+TEST(Normals, StanfordBunnyScanFacesTheScanner) {
+  SCANPREP_REQUIRE_SHARED_DATA(dir);
+  auto cloud = io::ReadPly(dir / "stanford_bunny_range_scans" / "bun000.ply");
+  ASSERT_TRUE(cloud.ok()) << cloud.status();
+  for (float* v : {cloud->x.data(), cloud->y.data(), cloud->z.data()}) {
+    for (size_t i = 0; i < cloud->size(); ++i) v[i] *= 1000.f;  // metres → mm
+  }
+  auto report = RunNormals(*cloud);
+  ASSERT_TRUE(report.ok()) << report.status();
+  size_t valid = 0, facing = 0;
+  for (size_t i = 0; i < cloud->size(); ++i) {
+    if (cloud->flags[i] & kNormalInvalid) continue;
+    ++valid;
+    facing += cloud->nz[i] > 0;
+  }
+  std::printf("bun000: %zu points, %zu valid normals, %.4f face +z, median radius %.3f mm\n",
+              cloud->size(), valid, double(facing) / valid,
+              report->stages.back().parameters.at("normals.median_radius_mm"));
+  EXPECT_GE(facing, 0.95 * valid);
+  EXPECT_GE(valid, 0.99 * cloud->size());
 }
 
 }  // namespace

@@ -1,0 +1,147 @@
+// Viewing quality and curvature against the simulator's ground truth.
+#include <cstdio>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "core/pipeline.h"
+#include "tests/support/scan_simulator.h"
+#include "tests/support/sim_checks.h"
+
+namespace scanprep::testing {
+namespace {
+
+absl::StatusOr<PipelineReport> RunMeasures(PointCloud& cloud, PointMeasures* out) {
+  CancelToken cancel;
+  // The measures live in the job context; the pipeline copies nothing out, so re-derive them by
+  // running the stage through a context the test owns.
+  ParamOverrides none;
+  JobContext ctx(cloud, none, cancel, {});
+  if (absl::Status s = ctx.Require("measures"); !s.ok()) return s;
+  *out = ctx.measures();
+  return std::move(ctx.report());
+}
+
+double Angle(const Eigen::Vector3d& n, const Eigen::Vector3d& toward) {
+  return std::acos(std::min(1.0, std::abs(n.dot(toward.normalized()))));
+}
+
+TEST(Measures, QualityFollowsTheViewingAngleOnATiltedPlane) {
+  double previous = 2;
+  for (double tilt_deg : {0.0, 20.0, 40.0, 55.0}) {
+    auto sensors = FrontalSensor(Part::kPlane);
+    const double t = tilt_deg * std::numbers::pi / 180;
+    // Tilt the whole sensor about x, away from the camera side: q = 25° + tilt.
+    const Eigen::AngleAxisd rot(-t, Eigen::Vector3d::UnitX());
+    sensors[0].laser_position = rot * sensors[0].laser_position;
+    sensors[0].camera_position = rot * sensors[0].camera_position;
+    SimulatedCloud sim = Simulate(Part::kPlane, sensors, 21);
+    PointMeasures m;
+    ASSERT_TRUE(RunMeasures(sim.cloud, &m).ok());
+    std::vector<double> error, values;
+    const ScanMeta& scan = sim.cloud.scans[0];
+    for (size_t i = 0; i < sim.cloud.size(); ++i) {
+      const Eigen::Vector3d p = sim.truth[i].cast<double>(), n = sim.true_normal[i].cast<double>();
+      const double q = std::max(Angle(n, *scan.camera_position - p),
+                                Angle(n, *scan.projector_direction));
+      error.push_back(std::abs(m.quality[i] - (1 - q / (std::numbers::pi / 2))));
+      values.push_back(m.quality[i]);
+    }
+    const double median = Quantile(values, 0.5);
+    std::printf("tilt %4.1f°: median q̂ %.4f, |q̂ − (1 − q/(π/2))| median %.5f, p99 %.5f\n",
+                tilt_deg, median, Quantile(error, 0.5), Quantile(error, 0.99));
+    // A 2° normal error moves q̂ by at most 2/90 = 0.022.
+    EXPECT_LT(Quantile(error, 0.5), 0.01);
+    EXPECT_LT(Quantile(error, 0.99), 0.03);
+    EXPECT_LT(median, previous);
+    previous = median;
+  }
+}
+
+TEST(Measures, WithoutPosesQualityIsOneAndWarns) {
+  SimulatedCloud sim = Simulate(Part::kPlane, FrontalSensor(Part::kPlane), 22);
+  sim.cloud.scans[0].camera_position.reset();
+  sim.cloud.scans[0].projector_direction.reset();
+  PointMeasures m;
+  auto report = RunMeasures(sim.cloud, &m);
+  ASSERT_TRUE(report.ok());
+  for (float q : m.quality) ASSERT_EQ(q, 1.f);
+  EXPECT_FALSE(report->warnings.empty());
+
+  sim.cloud.quality.assign(sim.cloud.size(), 0.25f);
+  sim.cloud.quality[0] = 7.f;
+  ASSERT_TRUE(RunMeasures(sim.cloud, &m).ok());
+  EXPECT_EQ(m.quality[0], 1.f);
+  EXPECT_EQ(m.quality[1], 0.25f);
+}
+
+TEST(Measures, PlaneIsFlatAndSpacingIsMeasured) {
+  SimulatedCloud sim = Simulate(Part::kPlane, FrontalSensor(Part::kPlane), 23);
+  PointMeasures m;
+  auto report = RunMeasures(sim.cloud, &m);
+  ASSERT_TRUE(report.ok());
+  std::vector<double> k(m.curvature.begin(), m.curvature.end());
+  const auto& params = report->stages.back().parameters;
+  std::printf("plane: κ̂ p50 %.4f p99 %.4f, Δp %.4f mm, window %.3f mm, fallback %.0f\n",
+              Quantile(k, 0.5), Quantile(k, 0.99), params.at("measures.point_spacing_mm"),
+              params.at("measures.window_mm"), params.at("measures.curvature_from_variation"));
+  EXPECT_LT(Quantile(k, 0.99), 0.5);
+  EXPECT_NEAR(params.at("measures.point_spacing_mm"), 0.1, 0.005);
+}
+
+TEST(Measures, SharpBoxEdgesReachTheEdgeThreshold) {
+  SimulatedCloud sim = Simulate(Part::kBoxWithBore, FrontalSensor(Part::kBoxWithBore), 24);
+  PointMeasures m;
+  ASSERT_TRUE(RunMeasures(sim.cloud, &m).ok());
+  const double ds = sim.cloud.scans[0].scanline_spacing;
+  using G = PartGeometry;
+  // Straight edges whose two faces are both visible: top/+x, top/+y and the vertical +x/+y one.
+  size_t edge_points = 0, edge_hits = 0, rim_points = 0, rim_hits = 0, far = 0, far_hits = 0;
+  for (size_t i = 0; i < sim.cloud.size(); ++i) {
+    const Eigen::Vector3f t = sim.truth[i];
+    const bool hit = m.curvature[i] >= 0.5f && (sim.cloud.flags[i] & kEdge);
+    if (sim.edge_distance[i] > 2.0f) {
+      ++far;
+      far_hits += hit;
+      continue;
+    }
+    if (sim.edge_distance[i] > ds) continue;
+    const bool near_x = std::abs(t.x() - G::box_half_x) < ds, near_y = std::abs(t.y() - G::box_half_y) < ds,
+               near_top = std::abs(t.z() - G::box_height) < ds;
+    if ((near_top && (near_x || near_y)) || (near_x && near_y)) {
+      ++edge_points;
+      edge_hits += hit;
+    } else if (std::abs(t.head<2>().norm() - G::bore_radius) < ds) {
+      ++rim_points;
+      rim_hits += hit;
+    }
+  }
+  std::printf("box: %zu/%zu points within Δs of visible straight edges have κ̂ >= 0.5; bore rim "
+              "%zu/%zu; faces > 2 mm from edges %zu/%zu\n",
+              edge_hits, edge_points, rim_hits, rim_points, far_hits, far);
+  ASSERT_GT(edge_points, 100u);
+  EXPECT_GE(edge_hits, 0.9 * edge_points);
+  EXPECT_LE(far_hits, 0.02 * far);
+}
+
+TEST(Measures, ScanlineCurvatureOfACylinderIsOneOverR) {
+  SimulatedCloud sim = Simulate(Part::kCylinder, FrontalSensor(Part::kCylinder), 25);
+  PointMeasures m;
+  auto report = RunMeasures(sim.cloud, &m);
+  ASSERT_TRUE(report.ok());
+  const double s = report->stages.back().parameters.at("measures.curvature_scale_per_mm");
+  std::vector<double> kappa;
+  for (size_t i = 0; i < sim.cloud.size(); ++i) {
+    // Lines run across the axis; stay away from the silhouettes where the line ends.
+    if (std::abs(sim.true_normal[i].x()) < 0.5f) kappa.push_back(m.curvature[i] * s);
+  }
+  const double median = Quantile(kappa, 0.5);
+  std::printf("cylinder R=%.0f: %zu points, scanline κ median %.4f (1/R = %.4f), p10 %.4f, p90 "
+              "%.4f\n",
+              PartGeometry::cylinder_radius, kappa.size(), median, 1 / PartGeometry::cylinder_radius,
+              Quantile(kappa, 0.1), Quantile(kappa, 0.9));
+  EXPECT_NEAR(median, 1 / PartGeometry::cylinder_radius, 0.1 / PartGeometry::cylinder_radius);
+}
+
+}  // namespace
+}  // namespace scanprep::testing
