@@ -46,6 +46,7 @@ JobRunner::JobRunner(int threads, int max_concurrent_jobs)
     : threads_(threads > 0 ? threads
                            : std::max(1, static_cast<int>(std::thread::hardware_concurrency()))),
       max_concurrent_jobs_(max_concurrent_jobs),
+      workers_(tbb::global_control::max_allowed_parallelism, threads_ + 1),
       // No slot reserved for an external thread: every job is enqueued, none is executed.
       arena_(threads_, 0) {}
 

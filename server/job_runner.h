@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include <tbb/global_control.h>
 #include <tbb/task_arena.h>
 
 #include "absl/status/statusor.h"
@@ -87,6 +88,9 @@ class JobRunner {
   int threads_;
   int max_concurrent_jobs_;
   std::atomic<int> active_{0};
+  // TBB caps its workers at hardware concurrency - 1 by default (the rest is kept for a master
+  // thread); every job here is enqueued, so the arena needs all `threads` as workers.
+  tbb::global_control workers_;
   tbb::task_arena arena_;
 };
 

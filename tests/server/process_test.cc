@@ -1,0 +1,253 @@
+// End to end through the real service in-process: a generated noisy plane with spikes, unit and
+// frame handling, GetInfo, and cancellation of a large job.
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <set>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "tests/server/service_fixtures.h"
+
+namespace scanprep::testing {
+namespace {
+
+using ::testing::HasSubstr;
+
+v1::JobHeader OutliersJob(v1::LengthUnit unit, double scanline_spacing) {
+  v1::JobHeader header = SimpleHeader(scanline_spacing);
+  header.set_unit(unit);
+  header.mutable_options()->add_stages("outliers");
+  return header;
+}
+
+PointCloud Scaled(const PointCloud& cloud, float factor) {
+  PointCloud out = cloud;
+  for (auto* axis : {&out.x, &out.y, &out.z}) {
+    for (float& v : *axis) v *= factor;
+  }
+  return out;
+}
+
+TEST(Process, NoisyPlaneLosesItsSpikesAndKeepsThePlane) {
+  InProcessServer server;
+  const GeneratedScan scan = NoisyPlaneWithSpikes(200, 0.5f);  // 40,000 + ~400 spikes
+  const size_t spikes = std::count(scan.spike.begin(), scan.spike.end(), true);
+  ASSERT_GT(spikes, 300u);
+
+  v1::JobHeader header = OutliersJob(v1::MILLIMETRE, 0.5);
+  header.mutable_options()->set_include_removed(true);
+  std::set<v1::Progress::Phase> phases;
+  std::set<std::string> stages_seen;
+  std::mutex mu;
+  client::CallOptions call;
+  call.progress = [&](const v1::Progress& p) {
+    std::lock_guard lock(mu);
+    phases.insert(p.phase());
+    if (p.phase() == v1::Progress::PROCESSING) stages_seen.insert(p.stage());
+  };
+  auto result = server.Client().Process(header, scan.cloud, call);
+  ASSERT_TRUE(result.ok()) << result.status();
+
+  // include_removed: every point comes back, in order, with its flags.
+  const PointCloud& out = result->cloud;
+  ASSERT_EQ(out.size(), scan.cloud.size());
+  size_t true_pos = 0, false_pos = 0;
+  for (size_t i = 0; i < out.size(); ++i) {
+    ASSERT_EQ(out.x[i], scan.cloud.x[i]);
+    if (out.flags[i] & v1::REMOVED_OUTLIER) (scan.spike[i] ? true_pos : false_pos)++;
+  }
+  EXPECT_GE(true_pos, 0.95 * spikes);
+  EXPECT_LE(false_pos, 40u);  // 0.1 % of the plane
+
+  const v1::Report& report = result->report;
+  EXPECT_EQ(report.job_id(), "test");
+  EXPECT_EQ(report.points_received(), scan.cloud.size());
+  EXPECT_EQ(report.points_invalid(), 0u);
+  EXPECT_EQ(report.points_processed(), scan.cloud.size());
+  EXPECT_EQ(report.points_returned(), scan.cloud.size());
+  ASSERT_EQ(report.stages_size(), 2);
+  EXPECT_EQ(report.stages(0).name(), "neighbourhoods");
+  const v1::StageReport& outliers = report.stages(1);
+  EXPECT_EQ(outliers.name(), "outliers");
+  EXPECT_EQ(outliers.points_in(), scan.cloud.size());
+  EXPECT_EQ(outliers.points_out(), scan.cloud.size() - true_pos - false_pos);
+  // The scan declared a scanline spacing, so it is a LINE scanner: r_min = √3·Δs + u (Eq. 2)
+  // with the default uncertainty 0.1 mm.
+  EXPECT_NEAR(report.stages(0).parameters().at("neighbourhoods.min_radius_mm"),
+              std::sqrt(3.0) * 0.5 + 0.1, 1e-6);
+  EXPECT_TRUE(report.budget_met());
+
+  EXPECT_TRUE(phases.count(v1::Progress::UPLOAD));
+  EXPECT_TRUE(phases.count(v1::Progress::PROCESSING));
+  EXPECT_TRUE(phases.count(v1::Progress::DOWNLOAD));
+  EXPECT_TRUE(stages_seen.count("outliers"));
+}
+
+TEST(Process, KeptPointsOnlyComeInChunksOfAtMost32768) {
+  InProcessServer server;
+  const GeneratedScan scan = NoisyPlaneWithSpikes(300, 0.5f);  // 90,000 + spikes
+  auto stub = server.Stub();
+  std::vector<v1::ProcessRequest> requests = {HeaderRequest(OutliersJob(v1::MILLIMETRE, 0.5))};
+  for (size_t begin = 0; begin < scan.cloud.size(); begin += 30'000) {
+    v1::ProcessRequest r;
+    client::RequestChunk(scan.cloud, begin, std::min(scan.cloud.size(), begin + 30'000), false,
+                         r.mutable_points());
+    requests.push_back(r);
+  }
+  std::vector<v1::ProcessResponse> responses;
+  ASSERT_TRUE(RawCall(*stub, requests, &responses).ok());
+  size_t points = 0, chunks = 0;
+  for (const v1::ProcessResponse& r : responses) {
+    if (!r.has_points()) continue;
+    ++chunks;
+    EXPECT_LE(r.points().xyz_size() / 3, 32'768);
+    EXPECT_EQ(r.points().flags().find_first_not_of('\0'), std::string::npos);  // all kept
+    points += r.points().xyz_size() / 3;
+  }
+  ASSERT_TRUE(responses.back().has_report());
+  EXPECT_EQ(points, responses.back().report().points_returned());
+  EXPECT_EQ(chunks, (points + 32'767) / 32'768);
+  EXPECT_LT(points, scan.cloud.size());
+}
+
+TEST(Process, MetresAndAPoseGiveTheSameJobAsMillimetres) {
+  InProcessServer server;
+  const GeneratedScan scan = NoisyPlaneWithSpikes(120, 0.5f);
+
+  v1::JobHeader mm_header = OutliersJob(v1::MILLIMETRE, 0.5);
+  mm_header.mutable_options()->set_include_removed(true);
+  auto mm = server.Client().Process(mm_header, scan.cloud);
+  ASSERT_TRUE(mm.ok()) << mm.status();
+
+  // The same scan in metres, rotated 90° about z and shifted by (1, 2, 3) m into the common frame.
+  v1::JobHeader m_header = OutliersJob(v1::METRE, 0.0005);
+  m_header.mutable_options()->set_include_removed(true);
+  v1::RigidTransform* pose = m_header.mutable_scans(0)->mutable_to_common();
+  pose->mutable_rotation()->set_z(std::sqrt(0.5));
+  pose->mutable_rotation()->set_w(std::sqrt(0.5));
+  pose->mutable_translation()->set_x(1);
+  pose->mutable_translation()->set_y(2);
+  pose->mutable_translation()->set_z(3);
+  auto m = server.Client().Process(m_header, Scaled(scan.cloud, 0.001f));
+  ASSERT_TRUE(m.ok()) << m.status();
+
+  ASSERT_EQ(m->cloud.size(), scan.cloud.size());
+  for (size_t i = 0; i < scan.cloud.size(); i += 97) {
+    // R·(x, y, z) = (−y, x, z), then + t; results come back in metres.
+    EXPECT_NEAR(m->cloud.x[i], -scan.cloud.y[i] * 0.001 + 1, 1e-6);
+    EXPECT_NEAR(m->cloud.y[i], scan.cloud.x[i] * 0.001 + 2, 1e-6);
+    EXPECT_NEAR(m->cloud.z[i], scan.cloud.z[i] * 0.001 + 3, 1e-6);
+  }
+  // Parameters are reported in mm either way, so both jobs derive the same ones.
+  const auto& mm_params = mm->report.stages(0).parameters();
+  const auto& m_params = m->report.stages(0).parameters();
+  EXPECT_NEAR(m_params.at("neighbourhoods.global_radius_mm"),
+              mm_params.at("neighbourhoods.global_radius_mm"), 1e-3);
+  EXPECT_NEAR(m_params.at("neighbourhoods.min_radius_mm"),
+              mm_params.at("neighbourhoods.min_radius_mm"), 1e-6);
+  EXPECT_EQ(m->report.points_returned(), mm->report.points_returned());
+  EXPECT_NEAR(static_cast<double>(m->report.stages(1).points_out()),
+              static_cast<double>(mm->report.stages(1).points_out()), 2.0);
+}
+
+TEST(Process, InvalidCoordinatesAreExcludedCountedAndWarned) {
+  InProcessServer server;
+  GeneratedScan scan = NoisyPlaneWithSpikes(60, 0.5f);
+  const size_t n = scan.cloud.size();
+  for (size_t i : {5u, 77u, 1000u}) scan.cloud.x[i] = std::numeric_limits<float>::quiet_NaN();
+  scan.cloud.z[2000] = std::numeric_limits<float>::infinity();
+  auto result = server.Client().Process(OutliersJob(v1::MILLIMETRE, 0.5), scan.cloud);
+  ASSERT_TRUE(result.ok()) << result.status();
+  EXPECT_EQ(result->report.points_received(), n);
+  EXPECT_EQ(result->report.points_invalid(), 4u);
+  EXPECT_EQ(result->report.points_processed(), n - 4);
+  EXPECT_EQ(result->report.stages(0).points_in(), n - 4);
+  EXPECT_THAT(result->report.warnings(),
+              ::testing::Contains(HasSubstr("4 of " + std::to_string(n) + " points had NaN")));
+}
+
+TEST(Process, GetInfoListsStagesParametersAndLimits) {
+  server::ServerOptions options;
+  options.limits.max_points_per_job = 123'456;
+  options.limits.default_budget_seconds = 30;
+  options.max_concurrent_jobs = 3;
+  InProcessServer server(options);
+  auto info = server.Client().GetInfo(absl::Seconds(10));
+  ASSERT_TRUE(info.ok()) << info.status();
+  EXPECT_EQ(info->version(), SCANPREP_VERSION);
+  EXPECT_EQ(info->limits().max_points_per_job(), 123'456u);
+  EXPECT_EQ(info->limits().max_chunk_points(), 65'536u);
+  EXPECT_EQ(info->limits().max_concurrent_jobs(), 3u);
+  EXPECT_EQ(info->limits().recommended_chunk_points(), 32'768u);
+  EXPECT_EQ(info->default_budget_seconds(), 30);
+  ASSERT_EQ(static_cast<size_t>(info->stages_size()), StageRegistry().size());
+  const std::vector<std::string> defaults = DefaultStages();
+  for (const v1::StageInfo& stage : info->stages()) {
+    EXPECT_FALSE(stage.summary().empty()) << stage.name();
+    EXPECT_EQ(stage.default_enabled(),
+              std::find(defaults.begin(), defaults.end(), stage.name()) != defaults.end());
+  }
+  EXPECT_EQ(static_cast<size_t>(info->parameters_size()), AllParamSpecs().size());
+  bool multiplier = false;
+  for (const v1::ParameterInfo& p : info->parameters()) {
+    if (p.name() == "outliers.multiplier") multiplier = p.default_value() == "2";
+  }
+  EXPECT_TRUE(multiplier);
+}
+
+TEST(Process, DefaultBudgetAppliesWhenTheJobStatesNone) {
+  server::ServerOptions options;
+  options.limits.default_budget_seconds = 600;
+  InProcessServer server(options);
+  v1::JobHeader header = OutliersJob(v1::MILLIMETRE, 0.5);
+  (*header.mutable_budget()->mutable_stage_seconds())["outliers"] = 300;
+  auto result = server.Client().Process(header, NoisyPlaneWithSpikes(50, 0.5f).cloud);
+  ASSERT_TRUE(result.ok()) << result.status();
+  EXPECT_EQ(result->report.budget_seconds(), 600);
+  EXPECT_TRUE(result->report.budget_met());
+  EXPECT_EQ(result->report.stages(1).budget_seconds(), 300);
+}
+
+TEST(Process, CancelDuringProcessingEndsTheCallAndTheServerServesTheNext) {
+  InProcessServer server;
+  // 2.25 M points: the neighbourhood graph takes seconds, so processing is still running when
+  // the cancel arrives.
+  const GeneratedScan big = NoisyPlaneWithSpikes(1500, 0.5f);
+  client::CallCanceller canceller;
+  std::atomic<bool> cancelled{false};
+  client::CallOptions call;
+  call.canceller = &canceller;
+  call.progress = [&](const v1::Progress& p) {
+    if (p.phase() == v1::Progress::PROCESSING && !cancelled.exchange(true)) canceller.Cancel();
+  };
+  const auto start = std::chrono::steady_clock::now();
+  auto result = server.Client().Process(OutliersJob(v1::MILLIMETRE, 0.5), big.cloud, call);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_FALSE(result.ok());
+  EXPECT_EQ(result.status().code(), absl::StatusCode::kCancelled) << result.status();
+  EXPECT_TRUE(cancelled);
+  RecordProperty("cancelled_call_seconds", std::to_string(seconds));
+
+  // The job slot and the arena are free again: a job runs to completion.
+  auto next = server.Client().Process(OutliersJob(v1::MILLIMETRE, 0.5),
+                                      NoisyPlaneWithSpikes(50, 0.5f).cloud);
+  EXPECT_TRUE(next.ok()) << next.status();
+}
+
+TEST(Process, DeadlineEndsALongJob) {
+  InProcessServer server;
+  const GeneratedScan big = NoisyPlaneWithSpikes(1000, 0.5f);
+  client::CallOptions call;
+  call.timeout = absl::Milliseconds(300);
+  auto result = server.Client().Process(OutliersJob(v1::MILLIMETRE, 0.5), big.cloud, call);
+  EXPECT_EQ(result.status().code(), absl::StatusCode::kDeadlineExceeded) << result.status();
+  auto next = server.Client().Process(OutliersJob(v1::MILLIMETRE, 0.5),
+                                      NoisyPlaneWithSpikes(50, 0.5f).cloud);
+  EXPECT_TRUE(next.ok()) << next.status();
+}
+
+}  // namespace
+}  // namespace scanprep::testing

@@ -1,0 +1,126 @@
+// Shared by the service tests: the real service started in-process on an ephemeral loopback
+// port, a raw-stream call for protocol tests, and a generated scan (noisy plane with spikes).
+#pragma once
+
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include "absl/strings/str_cat.h"
+#include "client/scanprep_client.h"
+#include "core/point_cloud.h"
+#include "server/scanprep_server.h"
+
+namespace scanprep::testing {
+
+namespace v1 = ::scanprep::v1;
+
+class InProcessServer {
+ public:
+  explicit InProcessServer(server::ServerOptions options = {}) {
+    options.listen = "127.0.0.1:0";
+    if (options.threads == 0) options.threads = 2;
+    auto started = server::ScanPrepServer::Start(options);
+    EXPECT_TRUE(started.ok()) << started.status();
+    server_ = std::move(*started);
+    target_ = absl::StrCat("127.0.0.1:", server_->port());
+  }
+  const std::string& target() const { return target_; }
+  client::ScanPrepClient Client() const { return client::ScanPrepClient::Connect(target_); }
+  std::unique_ptr<v1::ScanPrep::Stub> Stub() const {
+    return v1::ScanPrep::NewStub(grpc::CreateChannel(target_, grpc::InsecureChannelCredentials()));
+  }
+
+ private:
+  std::unique_ptr<server::ScanPrepServer> server_;
+  std::string target_;
+};
+
+// Writes `requests` (stopping when the server ended the call), half-closes, reads every
+// response and returns the call's status.
+inline grpc::Status RawCall(v1::ScanPrep::Stub& stub, const std::vector<v1::ProcessRequest>& requests,
+                            std::vector<v1::ProcessResponse>* responses = nullptr) {
+  grpc::ClientContext context;
+  auto stream = stub.Process(&context);
+  bool open = true;
+  for (const v1::ProcessRequest& r : requests) {
+    if (!(open = stream->Write(r))) break;
+  }
+  if (open) stream->WritesDone();
+  v1::ProcessResponse response;
+  while (stream->Read(&response)) {
+    if (responses != nullptr) responses->push_back(response);
+  }
+  return stream->Finish();
+}
+
+inline v1::ProcessRequest HeaderRequest(const v1::JobHeader& header) {
+  v1::ProcessRequest r;
+  *r.mutable_header() = header;
+  return r;
+}
+
+inline v1::ProcessRequest ChunkRequest(const v1::PointChunk& chunk) {
+  v1::ProcessRequest r;
+  *r.mutable_points() = chunk;
+  return r;
+}
+
+// A one-scan header in millimetres.
+inline v1::JobHeader SimpleHeader(double scanline_spacing = 0.5) {
+  v1::JobHeader header;
+  header.set_job_id("test");
+  header.set_unit(v1::MILLIMETRE);
+  v1::ScanHeader* scan = header.add_scans();
+  scan->set_scan_id("plane");
+  scan->set_scanline_spacing(scanline_spacing);
+  return header;
+}
+
+// A chunk of `n` points on a line, spaced 0.5 mm.
+inline v1::PointChunk LineChunk(size_t n) {
+  v1::PointChunk chunk;
+  for (size_t i = 0; i < n; ++i) {
+    chunk.add_xyz(0.5f * i);
+    chunk.add_xyz(0.f);
+    chunk.add_xyz(0.f);
+  }
+  return chunk;
+}
+
+struct GeneratedScan {
+  PointCloud cloud;         // one scan, millimetres, scanlines = grid rows
+  std::vector<bool> spike;  // ground truth per point
+};
+
+// side×side grid at `spacing` mm with Gaussian noise (σ = spacing/20) in z; after about 1 % of
+// the grid points a spike 5–20 spacings above it, in the same scanline so line order holds.
+inline GeneratedScan NoisyPlaneWithSpikes(int side, float spacing, uint32_t seed = 11) {
+  GeneratedScan g;
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> noise(0.f, spacing / 20);
+  std::uniform_real_distribution<float> height(5 * spacing, 20 * spacing), unit(0.f, 1.f);
+  PointCloud& c = g.cloud;
+  auto add = [&](float x, float y, float z, uint32_t row, bool spike) {
+    c.x.push_back(x);
+    c.y.push_back(y);
+    c.z.push_back(z);
+    c.scanline.push_back(row);
+    g.spike.push_back(spike);
+  };
+  for (int row = 0; row < side; ++row) {
+    for (int col = 0; col < side; ++col) {
+      add(col * spacing, row * spacing, noise(rng), row, false);
+      if (unit(rng) < 0.01f) add(col * spacing, row * spacing, height(rng), row, true);
+    }
+  }
+  c.scans.push_back(ScanMeta{.id = "plane"});
+  c.FinishLoading();
+  return g;
+}
+
+}  // namespace scanprep::testing
