@@ -1,0 +1,174 @@
+// Where scans overlap, the worse-viewed layer goes: inside N_{r_c}(p) every point whose viewing
+// quality q̂ lies below the neighbourhood mean q̄ is removed. r_c = ‖(Δs, u, Δp)‖ (Eq. 11) is the
+// smallest ball that reliably reaches the other layer: Δs alone is too large, u alone too small.
+//
+// Gather form (default): each point decides from its own neighbourhood and the pre-stage labels,
+// so the result is parallel and independent of visiting order. Guard: only where N holds points of
+// ≥ 2 scans, and never a point of the scan that owns the best point of N, so regions seen by one
+// scan are not thinned. Scatter form (the paper's literal reading): centres in descending q̂
+// remove their below-mean neighbours immediately.
+#include "core/correction.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "absl/strings/str_cat.h"
+#include "core/parallel.h"
+#include "core/measures.h"
+
+namespace scanprep {
+namespace {
+
+// What N_{r_c}(p) says: its mean quality, the scan of its best point, whether it spans scans.
+struct Verdict {
+  float mean_quality = 0;
+  uint32_t best_scan = 0;
+  bool overlap = false;
+};
+
+Verdict Judge(const PointCloud& cloud, const std::vector<float>& quality,
+              const RadiusMatches& matches) {
+  Verdict v;
+  double sum = 0;
+  uint32_t best = matches.front().first;
+  for (const auto& [j, d2] : matches) {
+    sum += quality[j];
+    if (quality[j] > quality[best] || (quality[j] == quality[best] && j < best)) best = j;
+    v.overlap |= cloud.scan[j] != cloud.scan[matches.front().first];
+  }
+  v.mean_quality = static_cast<float>(sum / static_cast<double>(matches.size()));
+  v.best_scan = cloud.scan[best];
+  return v;
+}
+
+bool ShouldGo(const PointCloud& cloud, const std::vector<float>& quality, const Verdict& v,
+              uint32_t j) {
+  return v.overlap && cloud.scan[j] != v.best_scan && quality[j] < v.mean_quality;
+}
+
+class CorrectionStage : public Stage {
+ public:
+  absl::Status Run(JobContext& ctx) override {
+    if (absl::Status s = ctx.Require("measures"); !s.ok()) return s;
+    PointCloud& cloud = ctx.cloud();
+    const std::vector<float>& quality = ctx.measures().quality;
+    if (quality.size() != cloud.size()) {
+      return absl::InternalError("correction: the measures stage left no viewing quality");
+    }
+    auto nb_or = ctx.neighbourhoods();
+    if (!nb_or.ok()) return nb_or.status();
+    const Neighbourhoods& nb = **nb_or;
+
+    absl::StatusOr<std::vector<float>> radius = Radii(ctx);
+    if (!radius.ok()) return radius.status();
+    const std::string mode = ctx.Choice("correction.mode", "gather");
+    absl::StatusOr<size_t> removed =
+        mode == "scatter" ? Scatter(ctx, nb, quality, *radius) : Gather(ctx, nb, quality, *radius);
+    if (!removed.ok()) return removed.status();
+    ctx.Record("correction.removed", static_cast<double>(*removed));
+    return absl::OkStatus();
+  }
+
+ private:
+  // r_c per scan, scaled; recorded per scan when there are several.
+  static absl::StatusOr<std::vector<float>> Radii(JobContext& ctx) {
+    const PointCloud& cloud = ctx.cloud();
+    const double scale = ctx.Number("correction.radius_scale", 1.0);
+    if (!(scale > 0)) return absl::InvalidArgumentError("correction.radius_scale: must be > 0");
+    const std::optional<double> forced = ctx.Overridden("correction.radius_mm");
+    if (forced && !(*forced > 0)) {
+      return absl::InvalidArgumentError("correction.radius_mm: must be > 0");
+    }
+    const std::vector<double> spacing = ScanPointSpacing(ctx);
+    std::vector<float> radius;
+    for (size_t s = 0; s < cloud.scans.size(); ++s) {
+      const ScanMeta& scan = cloud.scans[s];
+      const double ds = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
+      const double r_c = std::sqrt(ds * ds + scan.uncertainty * scan.uncertainty +
+                                   spacing[s] * spacing[s]);  // Eq. (11)
+      radius.push_back(static_cast<float>(forced.value_or(scale * r_c)));
+      const std::string suffix = cloud.scans.size() > 1 ? absl::StrCat(".scan", s) : "";
+      ctx.Record(absl::StrCat("correction.radius_mm", suffix), radius.back());
+    }
+    return radius;
+  }
+
+  static absl::StatusOr<size_t> Gather(JobContext& ctx, const Neighbourhoods& nb,
+                                       const std::vector<float>& quality,
+                                       const std::vector<float>& radius) {
+    PointCloud& cloud = ctx.cloud();
+    std::vector<uint8_t> go(cloud.size(), 0);
+    absl::Status status = ParallelFor(cloud.size(), ctx.cancel(), [&](size_t begin, size_t end) {
+      RadiusMatches matches;
+      for (size_t i = begin; i < end; ++i) {
+        if (cloud.removed(i)) continue;
+        nb.Within(cloud, i, radius[cloud.scan[i]], matches);
+        if (matches.size() < 2) continue;  // alone: nothing overlaps
+        go[i] = ShouldGo(cloud, quality, Judge(cloud, quality, matches), uint32_t(i));
+      }
+    });
+    if (!status.ok()) return status;
+    size_t removed = 0;
+    for (size_t i = 0; i < cloud.size(); ++i) {
+      if (!go[i]) continue;
+      cloud.flags[i] |= kRemovedMerge;
+      ++removed;
+    }
+    return removed;
+  }
+
+  static absl::StatusOr<size_t> Scatter(JobContext& ctx, const Neighbourhoods& nb,
+                                        const std::vector<float>& quality,
+                                        const std::vector<float>& radius) {
+    PointCloud& cloud = ctx.cloud();
+    std::vector<uint32_t> order(cloud.size());
+    std::iota(order.begin(), order.end(), 0u);
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+      return quality[a] != quality[b] ? quality[a] > quality[b] : a < b;
+    });
+    RadiusMatches matches;
+    size_t removed = 0;
+    for (size_t visited = 0; visited < order.size(); ++visited) {
+      const uint32_t i = order[visited];
+      if (cloud.removed(i)) continue;
+      if ((visited & 0xffff) == 0) {
+        if (absl::Status s = ctx.cancel().Check(); !s.ok()) return s;
+        ctx.Progress(double(visited) / order.size());
+      }
+      nb.Within(cloud, i, radius[cloud.scan[i]], matches);
+      if (matches.size() < 2) continue;
+      const Verdict v = Judge(cloud, quality, matches);
+      for (const auto& [j, d2] : matches) {
+        if (!ShouldGo(cloud, quality, v, j)) continue;
+        cloud.flags[j] |= kRemovedMerge;
+        ++removed;
+      }
+    }
+    return removed;
+  }
+};
+
+}  // namespace
+
+StageInfo CorrectionStageInfo() {
+  return {
+      .name = "correction",
+      .summary = "merge overlapping scans: in N_{r_c}(p) spanning ≥ 2 scans, remove points of "
+                 "other scans than the best point's whose quality is below the mean (Eq. 11)",
+      .params =
+          {
+              {"correction.mode",
+               "gather: each point decides from its own neighbourhood (parallel, order-free); "
+               "scatter: centres in descending quality remove neighbours at once (paper)",
+               "gather", {"gather", "scatter"}},
+              {"correction.radius_scale",
+               "factor on r_c, for registration residuals larger than r_c", "1", {}},
+              {"correction.radius_mm", "r_c of Eq. (11) for every scan",
+               "radius_scale·√(Δs² + u² + Δp²) per scan", {}},
+          },
+      .make = [] { return std::make_unique<CorrectionStage>(); },
+  };
+}
+
+}  // namespace scanprep

@@ -1,0 +1,241 @@
+// Each centre p keeps m(p) = ⌊κ̂_p·n(p) + 0.5⌋ of the n(p) other points within the target spacing
+// r_s (Eq. 13) and removes the rest, lowest quality first; p itself stays. Flat parts (κ̂ ≈ 0) thin
+// to a Poisson-disk set of spacing r_s, edges (κ̂ ≈ 1) keep their full density. Edge centres go
+// first so planar neighbourhoods cannot strip an edge; within each set better-viewed centres go
+// first. Removal is a label; the kd-tree is not rebuilt (removed points are skipped by queries).
+//
+// The visit order makes the result order-dependent. "tiled" runs it in parallel: space is cut into
+// cells of edge 2·r_s in 8 colour classes; two cells of one colour are ≥ 2·r_s apart, so their
+// centres touch disjoint points and can run at once. Deterministic, but not identical to the
+// sequential result.
+#include "core/simplification.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "absl/strings/str_cat.h"
+#include "core/parallel.h"
+#include "core/measures.h"
+
+namespace scanprep {
+namespace {
+
+struct Plan {
+  float spacing = 0;      // r_s
+  float edge_threshold;   // τ_E; +inf in uniform mode (no edge set)
+  bool adaptive = true;   // false: m(p) = 0 everywhere
+  float curvature_floor = 0;  // κ̂ at or below this counts as flat in Eq. (13)
+};
+
+class Thinner {
+ public:
+  Thinner(PointCloud& cloud, const Neighbourhoods& nb, const PointMeasures& m, const Plan& plan)
+      : cloud_(cloud), nb_(nb), m_(m), plan_(plan), locked_(cloud.size(), 0) {}
+
+  bool InEdgeSet(uint32_t i) const { return m_.curvature[i] >= plan_.edge_threshold; }
+
+  // κ̂ of Eq. (13), rescaled so that the flat-noise band [0, floor] keeps nothing.
+  float KeptShare(uint32_t i) const {
+    const float f = plan_.curvature_floor;
+    return std::max(0.f, m_.curvature[i] - f) / (1.f - f);
+  }
+
+  // Processes centre i (algorithms.md §12 step 3); `matches` and `candidates` are reused buffers.
+  void Visit(uint32_t i, RadiusMatches& matches, std::vector<uint32_t>& candidates) {
+    if (cloud_.removed(i)) return;
+    nb_.Within(cloud_, i, plan_.spacing, matches);
+    candidates.clear();
+    size_t n = 0, locked = 0;
+    for (const auto& [j, d2] : matches) {
+      if (j == i) continue;
+      ++n;
+      if (locked_[j]) {
+        ++locked;
+      } else {
+        candidates.push_back(j);
+      }
+    }
+    const size_t keep =
+        plan_.adaptive ? static_cast<size_t>(std::floor(KeptShare(i) * float(n) + 0.5f)) : 0;
+    const size_t remove = n - std::min(n, std::max(keep, locked));
+    if (remove > 0) {
+      const auto worse = [&](uint32_t a, uint32_t b) {  // low quality removed first
+        return m_.quality[a] != m_.quality[b] ? m_.quality[a] < m_.quality[b] : a < b;
+      };
+      std::partial_sort(candidates.begin(), candidates.begin() + remove, candidates.end(), worse);
+      for (size_t c = 0; c < remove; ++c) cloud_.flags[candidates[c]] |= kRemovedSimplify;
+    }
+    locked_[i] = 1;
+  }
+
+ private:
+  PointCloud& cloud_;
+  const Neighbourhoods& nb_;
+  const PointMeasures& m_;
+  const Plan& plan_;
+  std::vector<uint8_t> locked_;
+};
+
+// Centres in visiting order: edge set first, then descending q̂, then index.
+std::vector<uint32_t> VisitOrder(const PointCloud& cloud, const PointMeasures& m,
+                                 const Thinner& thinner) {
+  std::vector<uint32_t> order;
+  order.reserve(cloud.size());
+  for (uint32_t i = 0; i < cloud.size(); ++i) {
+    if (!cloud.removed(i)) order.push_back(i);
+  }
+  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+    const bool ea = thinner.InEdgeSet(a), eb = thinner.InEdgeSet(b);
+    if (ea != eb) return ea;
+    if (m.quality[a] != m.quality[b]) return m.quality[a] > m.quality[b];
+    return a < b;
+  });
+  return order;
+}
+
+absl::Status RunSequential(JobContext& ctx, Thinner& thinner, const std::vector<uint32_t>& order) {
+  RadiusMatches matches;
+  std::vector<uint32_t> candidates;
+  for (size_t v = 0; v < order.size(); ++v) {
+    if ((v & 0xffff) == 0) {
+      if (absl::Status s = ctx.cancel().Check(); !s.ok()) return s;
+      ctx.Progress(double(v) / order.size());
+    }
+    thinner.Visit(order[v], matches, candidates);
+  }
+  return absl::OkStatus();
+}
+
+// The 8-colour tiling: (phase, colour, cell) groups run phase by phase, colour by colour, the
+// cells of one colour in parallel, each cell's centres in the sequential order.
+absl::Status RunTiled(JobContext& ctx, Thinner& thinner, std::vector<uint32_t> order,
+                      float cell_edge) {
+  const PointCloud& cloud = ctx.cloud();
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+  for (uint32_t i : order) lo = lo.cwiseMin(cloud.point(i));
+  // 21 bits per axis; a cloud too large for that gets larger cells (still ≥ 2·r_s).
+  Eigen::Vector3f hi = lo;
+  for (uint32_t i : order) hi = hi.cwiseMax(cloud.point(i));
+  cell_edge = std::max(cell_edge, (hi - lo).maxCoeff() / float(1 << 20));
+  std::vector<uint64_t> key(cloud.size());
+  for (uint32_t i : order) {
+    const Eigen::Vector3f c = ((cloud.point(i) - lo) / cell_edge).array().floor();
+    const uint64_t cx = uint64_t(c.x()), cy = uint64_t(c.y()), cz = uint64_t(c.z());
+    const uint64_t colour = (cx & 1) | (cy & 1) << 1 | (cz & 1) << 2;
+    const uint64_t phase = thinner.InEdgeSet(i) ? 0 : 1;
+    key[i] = phase << 63 | colour << 60 | cx << 40 | cy << 20 | cz;  // cx,cy,cz < 2^20 here
+  }
+  // Stable: within a cell the sequential order survives.
+  std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return key[a] < key[b]; });
+  std::vector<size_t> cell_start;  // start of each cell's run, plus the end
+  for (size_t v = 0; v < order.size(); ++v) {
+    if (v == 0 || key[order[v]] != key[order[v - 1]]) cell_start.push_back(v);
+  }
+  cell_start.push_back(order.size());
+  const size_t cells = cell_start.size() - 1;
+  for (size_t first = 0; first < cells;) {
+    const uint64_t group = key[order[cell_start[first]]] >> 60;  // phase and colour
+    size_t last = first;
+    while (last < cells && key[order[cell_start[last]]] >> 60 == group) ++last;
+    absl::Status status = ParallelFor(
+        last - first, ctx.cancel(),
+        [&](size_t begin, size_t end) {
+          RadiusMatches matches;
+          std::vector<uint32_t> candidates;
+          for (size_t c = first + begin; c < first + end; ++c) {
+            for (size_t v = cell_start[c]; v < cell_start[c + 1]; ++v) {
+              thinner.Visit(order[v], matches, candidates);
+            }
+          }
+        },
+        /*grain=*/16);
+    if (!status.ok()) return status;
+    ctx.Progress(double(last) / cells);
+    first = last;
+  }
+  return absl::OkStatus();
+}
+
+// Default r_s: twice the scanner's own sampling pitch, √(Δs·Δp) per scan (the side of the square
+// each sample covers), median over scans; from the global density when there is no pitch.
+double DefaultSpacing(const PointCloud& cloud, const std::vector<double>& point_spacing,
+                      const Neighbourhoods& nb) {
+  std::vector<double> pitch;
+  for (size_t s = 0; s < cloud.scans.size(); ++s) {
+    const double ds = cloud.kind == ScannerKind::kLine ? cloud.scans[s].scanline_spacing : 0.0;
+    const double dp = point_spacing[s];
+    if (ds > 0 && dp > 0) pitch.push_back(std::sqrt(ds * dp));
+  }
+  if (pitch.empty()) return nb.density() > 0 ? 2.0 / std::sqrt(nb.density()) : 0.0;
+  std::nth_element(pitch.begin(), pitch.begin() + pitch.size() / 2, pitch.end());
+  return 2.0 * pitch[pitch.size() / 2];
+}
+
+class SimplificationStage : public Stage {
+ public:
+  absl::Status Run(JobContext& ctx) override {
+    if (absl::Status s = ctx.Require("measures"); !s.ok()) return s;
+    PointCloud& cloud = ctx.cloud();
+    const PointMeasures& m = ctx.measures();
+    if (m.quality.size() != cloud.size() || m.curvature.size() != cloud.size()) {
+      return absl::InternalError("simplification: the measures stage left no quality/curvature");
+    }
+    auto nb = ctx.neighbourhoods();
+    if (!nb.ok()) return nb.status();
+
+    Plan plan;
+    plan.adaptive = ctx.Choice("simplification.mode", "adaptive") == "adaptive";
+    plan.spacing = static_cast<float>(ctx.Number(
+        "simplification.spacing_mm", DefaultSpacing(cloud, ScanPointSpacing(ctx), **nb)));
+    if (!(plan.spacing > 0)) {
+      return absl::InvalidArgumentError(
+          "simplification.spacing_mm: must be > 0 (no spacing could be derived from the data)");
+    }
+    plan.edge_threshold = static_cast<float>(ctx.Number("simplification.edge_threshold", 0.5));
+    plan.curvature_floor = static_cast<float>(ctx.Number("simplification.curvature_floor", 0));
+    if (!(plan.curvature_floor >= 0 && plan.curvature_floor < 1)) {
+      return absl::InvalidArgumentError("simplification.curvature_floor: must be in [0, 1)");
+    }
+    if (!plan.adaptive) plan.edge_threshold = std::numeric_limits<float>::infinity();
+    const bool tiled = ctx.Choice("simplification.order", "sequential") == "tiled";
+
+    const size_t before = cloud.CountKept();
+    Thinner thinner(cloud, **nb, m, plan);
+    std::vector<uint32_t> order = VisitOrder(cloud, m, thinner);
+    absl::Status status = tiled ? RunTiled(ctx, thinner, std::move(order), 2 * plan.spacing)
+                                : RunSequential(ctx, thinner, order);
+    if (!status.ok()) return status;
+    ctx.Record("simplification.removed", static_cast<double>(before - cloud.CountKept()));
+    return absl::OkStatus();
+  }
+};
+
+}  // namespace
+
+StageInfo SimplificationStageInfo() {
+  return {
+      .name = "simplification",
+      .summary = "thin to spacing r_s, keeping ⌊κ̂·n + 0.5⌋ neighbours per centre (Eq. 13): "
+                 "dense at edges, uniform on flat parts",
+      .params =
+          {
+              {"simplification.mode",
+               "adaptive: Eq. (13) keeps points by curvature; uniform: κ̂ ignored",
+               "adaptive", {"adaptive", "uniform"}},
+              {"simplification.spacing_mm", "target spacing r_s between kept points",
+               "2·√(Δs·Δp), median over scans; 2/√density without scanlines", {}},
+              {"simplification.edge_threshold",
+               "τ_E: centres with κ̂ ≥ τ_E form the edge set, processed first", "0.5", {}},
+              {"simplification.curvature_floor",
+               "κ̂ at or below which Eq. (13) keeps no neighbours (rescaled above): suppresses "
+               "the clusters that curvature noise on flat parts would keep", "0 (the paper)", {}},
+              {"simplification.order",
+               "sequential (the paper's order) or tiled: 8-colour cells of edge 2·r_s in "
+               "parallel", "sequential", {"sequential", "tiled"}},
+          },
+      .make = [] { return std::make_unique<SimplificationStage>(); },
+  };
+}
+
+}  // namespace scanprep

@@ -1,0 +1,130 @@
+// Merging overlapping scans (§10) on the simulator: the frontal and an oblique, noisier scan of a
+// sphere. Ground truth says, for every removed point, which scan views its true surface point
+// worse, and where the other scan does not reach at all.
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "core/kdtree.h"
+#include "core/pipeline.h"
+#include "tests/support/scan_simulator.h"
+
+namespace scanprep {
+namespace {
+
+using testing::Part;
+
+// The worse of the viewing and projection angles of scan `meta` at true point t with normal n.
+double TrueAngle(const ScanMeta& meta, const Eigen::Vector3f& t, const Eigen::Vector3f& n) {
+  const Eigen::Vector3d to_camera = (*meta.camera_position - t.cast<double>()).normalized();
+  const double alpha = std::acos(std::min(1.0, std::abs(n.cast<double>().dot(to_camera))));
+  const double beta =
+      std::acos(std::min(1.0, std::abs(n.cast<double>().dot(*meta.projector_direction))));
+  return std::max(alpha, beta);
+}
+
+// The points of one scan as their own cloud, to ask "how far is the other scan from here?".
+PointCloud ScanPoints(const PointCloud& cloud, uint32_t scan) {
+  PointCloud part;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (cloud.scan[i] != scan) continue;
+    part.x.push_back(cloud.x[i]);
+    part.y.push_back(cloud.y[i]);
+    part.z.push_back(cloud.z[i]);
+  }
+  part.FinishLoading();
+  return part;
+}
+
+struct Outcome {
+  size_t removed = 0, from_worse = 0, single_covered = 0, removed_single = 0;
+  std::array<size_t, 2> removed_per_scan{};
+};
+
+Outcome Evaluate(const testing::SimulatedCloud& sim, const PointCloud& original) {
+  const PointCloud& cloud = sim.cloud;
+  const std::array<PointCloud, 2> scans = {ScanPoints(original, 0), ScanPoints(original, 1)};
+  const KdTree tree0(scans[0]), tree1(scans[1]);
+  const std::array<const KdTree*, 2> trees = {&tree0, &tree1};
+  Outcome o;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const uint32_t own = cloud.scan[i], other = 1 - own;
+    // "Only one scan covers the surface here": the other scan's nearest point is 2 mm away.
+    const float q[3] = {original.x[i], original.y[i], original.z[i]};
+    uint32_t idx;
+    float d2;
+    trees[other]->Knn(q, 1, &idx, &d2);
+    const bool single = d2 > 4.0f;
+    o.single_covered += single;
+    if (!(cloud.flags[i] & kRemovedMerge)) continue;
+    ++o.removed;
+    ++o.removed_per_scan[own];
+    o.removed_single += single;
+    const double own_angle = TrueAngle(cloud.scans[own], sim.truth[i], sim.true_normal[i]);
+    const double other_angle = TrueAngle(cloud.scans[other], sim.truth[i], sim.true_normal[i]);
+    // The oblique scan also has twice the noise: at equal angles it is the worse one.
+    o.from_worse += own_angle > other_angle || (own == 1 && own_angle == other_angle);
+  }
+  return o;
+}
+
+void ExpectMergesOverlap(const std::string& mode) {
+  auto sim = testing::Simulate(Part::kSphere, testing::TwoOverlappingSensors(Part::kSphere), 21);
+  const PointCloud original = sim.cloud;
+  CancelToken cancel;
+  auto report = RunPipeline(
+      sim.cloud, {.stages = {"correction"}, .params = {{"correction.mode", mode}}}, cancel);
+  ASSERT_TRUE(report.ok()) << report.status();
+  const Outcome o = Evaluate(sim, original);
+  std::printf("%s: %zu of %zu removed (scan0 %zu, scan1 %zu), %.1f %% from the worse view; "
+              "%zu single-covered points, %zu of them removed\n",
+              mode.c_str(), o.removed, original.size(), o.removed_per_scan[0],
+              o.removed_per_scan[1], 100.0 * o.from_worse / std::max<size_t>(o.removed, 1),
+              o.single_covered, o.removed_single);
+  EXPECT_GT(o.removed, original.size() / 10);
+  EXPECT_GE(o.from_worse, 0.8 * o.removed);
+  EXPECT_GT(o.single_covered, 300u);
+  EXPECT_EQ(o.removed_single, 0u);
+  const StageReport& stage = report->stages.back();
+  EXPECT_EQ(stage.name, "correction");
+  EXPECT_EQ(stage.parameters.at("correction.removed"), o.removed);
+  const ScanMeta& s0 = original.scans[0];
+  EXPECT_NEAR(stage.parameters.at("correction.radius_mm.scan0"),
+              std::sqrt(s0.scanline_spacing * s0.scanline_spacing +
+                        s0.uncertainty * s0.uncertainty + s0.point_spacing * s0.point_spacing),
+              0.01);
+}
+
+TEST(Correction, GatherRemovesTheWorseLayerOnly) { ExpectMergesOverlap("gather"); }
+TEST(Correction, ScatterRemovesTheWorseLayerOnly) { ExpectMergesOverlap("scatter"); }
+
+TEST(Correction, SingleScanIsUntouched) {
+  auto sim = testing::Simulate(Part::kSphere, testing::FrontalSensor(Part::kSphere), 22);
+  CancelToken cancel;
+  auto report = RunPipeline(sim.cloud, {.stages = {"correction"}}, cancel);
+  ASSERT_TRUE(report.ok()) << report.status();
+  EXPECT_EQ(sim.cloud.CountKept(), sim.cloud.size());
+}
+
+TEST(Correction, RadiusScaleWidensTheMergeRadius) {
+  auto sim = testing::Simulate(Part::kPlane, testing::TwoOverlappingSensors(Part::kPlane), 23);
+  CancelToken cancel;
+  auto report = RunPipeline(
+      sim.cloud, {.stages = {"correction"}, .params = {{"correction.radius_scale", "2"}}}, cancel);
+  ASSERT_TRUE(report.ok()) << report.status();
+  const ScanMeta& s1 = sim.cloud.scans[1];
+  EXPECT_NEAR(report->stages.back().parameters.at("correction.radius_mm.scan1"),
+              2 * std::sqrt(s1.scanline_spacing * s1.scanline_spacing +
+                            s1.uncertainty * s1.uncertainty + s1.point_spacing * s1.point_spacing),
+              0.02);
+  EXPECT_EQ(RunPipeline(sim.cloud,
+                        {.stages = {"correction"}, .params = {{"correction.radius_scale", "-1"}}},
+                        cancel)
+                .status()
+                .code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace scanprep

@@ -1,0 +1,154 @@
+// Simplification (§12, Eq. 13) on the simulator: the spacing reached on a plane, the extra
+// density kept at the sharp edges of a box, and no holes (every true sample keeps a point near).
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "core/kdtree.h"
+#include "core/pipeline.h"
+#include "tests/support/scan_simulator.h"
+
+namespace scanprep {
+namespace {
+
+using testing::Part;
+
+PointCloud KeptPoints(const PointCloud& cloud) {
+  PointCloud kept;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (cloud.removed(i)) continue;
+    kept.x.push_back(cloud.x[i]);
+    kept.y.push_back(cloud.y[i]);
+    kept.z.push_back(cloud.z[i]);
+  }
+  kept.FinishLoading();
+  return kept;
+}
+
+// Mean distance from each selected kept point to its nearest other kept point.
+template <typename Select>
+double MeanKeptSpacing(const PointCloud& cloud, const KdTree& tree,
+                       Select select) {
+  double sum = 0;
+  size_t count = 0;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (cloud.removed(i) || !select(i)) continue;
+    const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+    uint32_t idx[2];
+    float d2[2];
+    if (tree.Knn(q, 2, idx, d2) < 2) continue;
+    sum += std::sqrt(d2[1]);
+    ++count;
+  }
+  EXPECT_GT(count, 50u);
+  return sum / std::max<size_t>(count, 1);
+}
+
+// Largest distance from a true surface sample to the nearest kept point.
+double LargestHole(const testing::SimulatedCloud& sim, const KdTree& kept_tree) {
+  double worst = 0;
+  for (const Eigen::Vector3f& t : sim.truth) {
+    uint32_t idx;
+    float d2;
+    kept_tree.Knn(t.data(), 1, &idx, &d2);
+    worst = std::max(worst, double(std::sqrt(d2)));
+  }
+  return worst;
+}
+
+absl::StatusOr<PipelineReport> Simplify(PointCloud& cloud, ParamOverrides params) {
+  CancelToken cancel;
+  return RunPipeline(cloud, {.stages = {"simplification"}, .params = std::move(params)}, cancel);
+}
+
+void ExpectPlaneSpacing(const std::string& order, const std::string& mode,
+                        const std::string& floor = "0") {
+  auto sim = testing::Simulate(Part::kPlane, testing::FrontalSensor(Part::kPlane), 31);
+  const double target = 0.5;
+  auto report = Simplify(sim.cloud, {{"simplification.spacing_mm", "0.5"},
+                                     {"simplification.order", order},
+                                     {"simplification.mode", mode},
+                                     {"simplification.curvature_floor", floor}});
+  ASSERT_TRUE(report.ok()) << report.status();
+  const PointCloud kept = KeptPoints(sim.cloud);
+  const KdTree tree(kept);
+  const double spacing = MeanKeptSpacing(sim.cloud, tree, [&](size_t i) {
+    return std::abs(sim.truth[i].x()) < 9 && std::abs(sim.truth[i].y()) < 9;
+  });
+  const double hole = LargestHole(sim, tree);
+  std::printf("%s %s plane: %zu of %zu kept, mean spacing %.3f mm (target %.3f), largest hole "
+              "%.3f mm\n", order.c_str(), mode.c_str(), kept.size(), sim.cloud.size(), spacing, target, hole);
+  EXPECT_NEAR(spacing, target, 0.1 * target);
+  EXPECT_LE(hole, 2 * target);
+  EXPECT_EQ(report->stages.back().parameters.at("simplification.removed"),
+            sim.cloud.size() - kept.size());
+}
+
+TEST(Simplification, PlaneReachesTheTargetSpacing) { ExpectPlaneSpacing("sequential", "uniform"); }
+TEST(Simplification, TiledPlaneReachesTheTargetSpacing) { ExpectPlaneSpacing("tiled", "uniform"); }
+TEST(Simplification, AdaptivePlane) { ExpectPlaneSpacing("sequential", "adaptive", "0.2"); }
+
+// Kept points per mm² around the selected kept points: kept neighbours within radius R.
+template <typename Select>
+double KeptDensity(const PointCloud& cloud, const KdTree& tree, Select select, float radius) {
+  RadiusMatches matches;
+  double sum = 0;
+  size_t count = 0;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (cloud.removed(i) || !select(i)) continue;
+    const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+    sum += tree.Radius(q, radius, matches);
+    ++count;
+  }
+  EXPECT_GT(count, 20u);
+  return sum / std::max<size_t>(count, 1) / (M_PI * radius * radius);
+}
+
+TEST(Simplification, KeepsEdgesDenseAndLeavesNoHoles) {
+  auto sim = testing::Simulate(Part::kBoxWithBore, testing::FrontalSensor(Part::kBoxWithBore), 32);
+  const double target = 0.5;
+  auto report = Simplify(sim.cloud, {{"simplification.spacing_mm", "0.5"}});
+  ASSERT_TRUE(report.ok()) << report.status();
+  const PointCloud kept = KeptPoints(sim.cloud);
+  const KdTree tree(kept);
+  const float band = 0.25f;  // kept points this close to a true sharp edge
+  const double edge = KeptDensity(
+      sim.cloud, tree, [&](size_t i) { return sim.edge_distance[i] < band; }, 2 * target);
+  const double planar = KeptDensity(
+      sim.cloud, tree, [&](size_t i) { return sim.edge_distance[i] > 3.0f; }, 2 * target);
+  const double hole = LargestHole(sim, tree);
+  std::printf("box: %zu of %zu kept; kept density near edges %.2f /mm², planar %.2f /mm² "
+              "(ratio %.2f); largest hole %.3f mm\n",
+              kept.size(), sim.cloud.size(), edge, planar, edge / planar, hole);
+  EXPECT_GE(edge, 2 * planar);
+  EXPECT_LE(hole, 2 * target);
+}
+
+TEST(Simplification, UniformModeIgnoresEdges) {
+  auto sim = testing::Simulate(Part::kBoxWithBore, testing::FrontalSensor(Part::kBoxWithBore), 33);
+  auto report = Simplify(sim.cloud, {{"simplification.spacing_mm", "0.5"},
+                                     {"simplification.mode", "uniform"}});
+  ASSERT_TRUE(report.ok()) << report.status();
+  const PointCloud kept = KeptPoints(sim.cloud);
+  const KdTree tree(kept);
+  const double edge = KeptDensity(
+      sim.cloud, tree, [&](size_t i) { return sim.edge_distance[i] < 0.25f; }, 1.0f);
+  const double planar = KeptDensity(
+      sim.cloud, tree, [&](size_t i) { return sim.edge_distance[i] > 3.0f; }, 1.0f);
+  std::printf("uniform box: kept density near edges %.2f /mm², planar %.2f /mm²\n", edge, planar);
+  EXPECT_LT(edge, 1.5 * planar);
+}
+
+TEST(Simplification, DerivesTheSpacingFromTheScanPitch) {
+  auto sim = testing::Simulate(Part::kPlane, testing::FrontalSensor(Part::kPlane), 34);
+  auto report = Simplify(sim.cloud, {});
+  ASSERT_TRUE(report.ok()) << report.status();
+  const ScanMeta& scan = sim.cloud.scans[0];
+  EXPECT_NEAR(report->stages.back().parameters.at("simplification.spacing_mm"),
+              2 * std::sqrt(scan.scanline_spacing * scan.point_spacing), 0.02);
+  EXPECT_EQ(Simplify(sim.cloud, {{"simplification.spacing_mm", "0"}}).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace scanprep
