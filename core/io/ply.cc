@@ -11,6 +11,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/io/byte_order.h"
+#include "core/io/float_narrowing.h"
 #include "core/io/ply_header.h"
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
@@ -257,10 +258,10 @@ class VertexBuilder {
       case Slot::kX: return StoreCoordinate(cloud_.x[i], value);
       case Slot::kY: return StoreCoordinate(cloud_.y[i], value);
       case Slot::kZ: return StoreCoordinate(cloud_.z[i], value);
-      case Slot::kNx: cloud_.nx[i] = static_cast<float>(value); return nullptr;
-      case Slot::kNy: cloud_.ny[i] = static_cast<float>(value); return nullptr;
-      case Slot::kNz: cloud_.nz[i] = static_cast<float>(value); return nullptr;
-      case Slot::kIntensity: cloud_.intensity[i] = static_cast<float>(value); return nullptr;
+      case Slot::kNx: cloud_.nx[i] = NarrowToFloat(value); return nullptr;
+      case Slot::kNy: cloud_.ny[i] = NarrowToFloat(value); return nullptr;
+      case Slot::kNz: cloud_.nz[i] = NarrowToFloat(value); return nullptr;
+      case Slot::kIntensity: cloud_.intensity[i] = NarrowToFloat(value); return nullptr;
       case Slot::kQuality:
         // NaN confidence means "unknown": treat it as untrustworthy.
         cloud_.quality[i] = std::isnan(value) ? 0.f : static_cast<float>(std::clamp(value, 0.0, 1.0));
@@ -320,7 +321,7 @@ class VertexBuilder {
 
  private:
   static const char* StoreCoordinate(float& target, double value) {
-    target = static_cast<float>(value);
+    target = NarrowToFloat(value);
     return std::isfinite(target) ? nullptr : "coordinate is not a finite float";
   }
 

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "core/io/float_narrowing.h"
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
 
@@ -56,20 +57,22 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
       return absl::InvalidArgumentError(absl::StrCat(name, ": line ", cursor.line_number(), ": expected x y z, found ",
                                                      fields.size(), " value(s)"));
     }
-    double xyz[3];
+    float xyz[3];
     for (int k = 0; k < 3; ++k) {
-      if (!ParseDouble(fields[k], xyz[k])) {
+      double value = 0.0;
+      if (!ParseDouble(fields[k], value)) {
         return absl::InvalidArgumentError(absl::StrCat(name, ": line ", cursor.line_number(), ": column ", k + 1,
                                                        " '", std::string(fields[k]), "' is not a number"));
       }
-      if (!std::isfinite(static_cast<float>(xyz[k]))) {
+      xyz[k] = NarrowToFloat(value);
+      if (!std::isfinite(xyz[k])) {
         return absl::InvalidArgumentError(absl::StrCat(name, ": line ", cursor.line_number(), ": column ", k + 1,
                                                        " is not a finite float"));
       }
     }
-    cloud.x.push_back(static_cast<float>(xyz[0]));
-    cloud.y.push_back(static_cast<float>(xyz[1]));
-    cloud.z.push_back(static_cast<float>(xyz[2]));
+    cloud.x.push_back(xyz[0]);
+    cloud.y.push_back(xyz[1]);
+    cloud.z.push_back(xyz[2]);
   }
   if (declared_count && *declared_count != cloud.size()) {
     return absl::InvalidArgumentError(absl::StrCat(name, ": first line declares ", *declared_count,
