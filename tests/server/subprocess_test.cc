@@ -1,0 +1,227 @@
+// The real binaries: scanprep-server as a subprocess on an ephemeral port, driven by the client
+// library and by the `scanprep` CLI; graceful shutdown on SIGTERM.
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "core/io/ply.h"
+#include "tests/server/service_fixtures.h"
+#include "tests/support/test_data.h"
+
+namespace scanprep::testing {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+// scanprep-server --listen 127.0.0.1:0, its stdout in a file from which the port is read.
+class ServerProcess {
+ public:
+  ServerProcess() {
+    log_ = fs::path(::testing::TempDir()) / ("scanprep_server_" + std::to_string(getpid()) + ".log");
+    pid_ = fork();
+    if (pid_ == 0) {
+      FILE* out = std::freopen(log_.c_str(), "w", stdout);
+      if (out == nullptr) _exit(127);
+      execl(SCANPREP_SERVER_BINARY, SCANPREP_SERVER_BINARY, "--listen=127.0.0.1:0", "--threads=2",
+            "--grace_period=5s", static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    for (int i = 0; i < 200 && port_ == 0; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(25));
+      std::ifstream in(log_);
+      std::string line;
+      if (std::getline(in, line) && line.find("listening on port ") != std::string::npos) {
+        port_ = std::stoi(line.substr(line.rfind(' ') + 1));
+      }
+    }
+  }
+  ~ServerProcess() {
+    if (pid_ > 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+    }
+  }
+  std::string target() const { return "127.0.0.1:" + std::to_string(port_); }
+  int port() const { return port_; }
+  // SIGTERM, then the exit code (-1 when it did not exit normally).
+  int Terminate() {
+    kill(pid_, SIGTERM);
+    int status = 0;
+    waitpid(pid_, &status, 0);
+    pid_ = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+
+ private:
+  fs::path log_;
+  pid_t pid_ = -1;
+  int port_ = 0;
+};
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+CommandResult RunCli(const std::string& args) {
+  CommandResult r;
+  FILE* pipe = popen((std::string(SCANPREP_CLI_BINARY) + " " + args + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return r;
+  char buffer[4096];
+  while (size_t n = fread(buffer, 1, sizeof buffer, pipe)) r.output.append(buffer, n);
+  const int status = pclose(pipe);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+TEST(ServerBinary, ServesTheClientLibrary) {
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0) << "scanprep-server did not report its port";
+  {
+    // An idle client channel is only polled every few seconds, so it would hold the server's
+    // shutdown until the grace period ends; the client goes away first, like the CLI does.
+    auto client = client::ScanPrepClient::Connect(server.target());
+    auto info = client.GetInfo(absl::Seconds(10));
+    ASSERT_TRUE(info.ok()) << info.status();
+    EXPECT_EQ(info->limits().max_points_per_job(), 20'000'000u);
+    EXPECT_EQ(info->limits().max_concurrent_jobs(), 4u);
+
+    v1::JobHeader header = SimpleHeader(0.5);
+    header.mutable_options()->add_stages("outliers");
+    const GeneratedScan scan = NoisyPlaneWithSpikes(100, 0.5f);
+    auto result = client.Process(header, scan.cloud);
+    ASSERT_TRUE(result.ok()) << result.status();
+    EXPECT_EQ(result->report.points_received(), scan.cloud.size());
+    EXPECT_EQ(result->cloud.size(), result->report.stages(1).points_out());
+    EXPECT_LT(result->cloud.size(), scan.cloud.size());
+  }
+  EXPECT_EQ(server.Terminate(), 0);
+}
+
+TEST(ServerBinary, SigtermLetsTheInFlightCallFinishThenExitsZero) {
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  auto stub = v1::ScanPrep::NewStub(
+      grpc::CreateChannel(server.target(), grpc::InsecureChannelCredentials()));
+  grpc::ClientContext context;
+  auto stream = stub->Process(&context);
+  ASSERT_TRUE(stream->Write(HeaderRequest(SimpleHeader())));
+  ASSERT_TRUE(stream->Write(ChunkRequest(LineChunk(500))));
+  v1::ProcessResponse response;
+  ASSERT_TRUE(stream->Read(&response));  // the upload is acknowledged: the call is in flight
+
+  std::thread terminate([&] { EXPECT_EQ(server.Terminate(), 0); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  stream->WritesDone();
+  bool report = false;
+  while (stream->Read(&response)) report |= response.has_report();
+  EXPECT_TRUE(stream->Finish().ok());
+  EXPECT_TRUE(report);
+  terminate.join();
+}
+
+TEST(Cli, ProcessesTwoRegisteredBunnyScans) {
+  SCANPREP_REQUIRE_SHARED_DATA(data);
+  const fs::path dir = data / "stanford_bunny_range_scans";
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  const fs::path out = fs::path(::testing::TempDir()) / "cli_bunny.ply";
+  fs::remove(out);
+  const CommandResult r =
+      RunCli((dir / "bun000.ply").string() + " " + (dir / "bun045.ply").string() + " --conf " +
+             (dir / "bun.conf").string() + " --unit m --stages outliers -o " + out.string() +
+             " --server " + server.target() + " --include_removed=false");
+  // The subcommand comes first.
+  ASSERT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("unknown command"));
+
+  const CommandResult ok = RunCli(
+      "process " + (dir / "bun000.ply").string() + " " + (dir / "bun045.ply").string() +
+      " --conf " + (dir / "bun.conf").string() + " --unit m --stages outliers -o " + out.string() +
+      " --server " + server.target());
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_THAT(ok.output, HasSubstr("points: 80353 received, 0 invalid"));
+  auto cloud = io::ReadPly(out);
+  ASSERT_TRUE(cloud.ok()) << cloud.status();
+  EXPECT_THAT(ok.output, HasSubstr("wrote " + std::to_string(cloud->size()) + " points"));
+  EXPECT_GT(cloud->size(), 0.9 * 80'353);
+  EXPECT_LT(cloud->size(), 80'353u);
+  // Registered by the server, in metres: both scans overlap in one bunny-sized box.
+  const auto [min_x, max_x] = std::minmax_element(cloud->x.begin(), cloud->x.end());
+  EXPECT_LT(*max_x - *min_x, 0.25);
+  EXPECT_GT(*max_x - *min_x, 0.1);
+  EXPECT_EQ(server.Terminate(), 0);
+}
+
+TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  const fs::path tmp = ::testing::TempDir();
+  const fs::path scan = tmp / "cli_line.xyz";
+  {
+    std::ofstream f(scan);
+    for (int i = 0; i < 50; ++i) f << i * 0.5 << " 0 0\n";
+  }
+  const std::string base = "process " + scan.string() + " -o " + (tmp / "x.ply").string() +
+                           " --server " + server.target();
+
+  CommandResult r = RunCli(base + " --stages sharpen");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.output, HasSubstr("INVALID_ARGUMENT: options.stages: unknown stage 'sharpen'"));
+
+  r = RunCli(base + " --param outliers.multiplier=two");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.output, HasSubstr("'two' is not a finite number"));
+
+  r = RunCli("process " + (tmp / "missing.ply").string() + " -o x.ply");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("missing.ply"));
+
+  r = RunCli(base + " --unit furlong");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.output, HasSubstr("unknown unit 'furlong'"));
+
+  r = RunCli(base + " --frobnicate");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.output, HasSubstr("unknown flag '--frobnicate'"));
+
+  r = RunCli("process " + scan.string() + " -o x.ply --server 127.0.0.1:1 --timeout 5s");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.output, HasSubstr("UNAVAILABLE"));
+
+  // The job file is JobHeader's JSON form; the flags override it.
+  const fs::path job = tmp / "job.json";
+  std::ofstream(job) << R"({"jobId": "j1", "unit": "MILLIMETRE", "options": {"stages": ["nope"]}})";
+  r = RunCli(base + " --job " + job.string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.output, HasSubstr("unknown stage 'nope'"));
+  r = RunCli(base + " --job " + job.string() + " --stages outliers");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("points: 50 received"));
+  std::ofstream(job) << R"({"unit": "MILLIMETRE", "colour": "red"})";
+  r = RunCli(base + " --job " + job.string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.output, HasSubstr("not a JobHeader in JSON"));
+}
+
+TEST(Cli, InfoPrintsStagesAndLimits) {
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  const CommandResult r = RunCli("info --server " + server.target());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("20000000 points per job"));
+  EXPECT_THAT(r.output, HasSubstr("outliers"));
+  EXPECT_THAT(r.output, HasSubstr("outliers.multiplier"));
+}
+
+}  // namespace
+}  // namespace scanprep::testing
