@@ -2,10 +2,10 @@
 // quality q̂ lies below the neighbourhood mean q̄ is removed. r_c = ‖(Δs, u, Δp)‖ (Eq. 11) is the
 // smallest ball that reliably reaches the other layer: Δs alone is too large, u alone too small.
 //
-// Gather form (default): each point decides from its own neighbourhood and the pre-stage labels,
-// so the result is parallel and independent of visiting order. Guard: only where N holds points of
-// ≥ 2 scans, and never a point of the scan that owns the best point of N, so regions seen by one
-// scan are not thinned. Scatter form (the paper's literal reading): centres in descending q̂
+// Gather form (default): each point decides from its own neighbourhood and the labels of the
+// previous round, so the result is parallel and independent of visiting order; rounds repeat
+// until nothing changes. Guard: only where N holds points of ≥ 2 scans, and never a point of the
+// scan that owns the best point of N, so regions seen by one scan are not thinned. Scatter form (the paper's literal reading): centres in descending q̂
 // remove their below-mean neighbours immediately.
 #include "core/correction.h"
 
@@ -63,8 +63,14 @@ class CorrectionStage : public Stage {
     absl::StatusOr<std::vector<float>> radius = Radii(ctx);
     if (!radius.ok()) return radius.status();
     const std::string mode = ctx.Choice("correction.mode", "gather");
-    absl::StatusOr<size_t> removed =
-        mode == "scatter" ? Scatter(ctx, nb, quality, *radius) : Gather(ctx, nb, quality, *radius);
+    absl::StatusOr<size_t> removed;
+    if (mode == "scatter") {
+      removed = Scatter(ctx, nb, quality, *radius);
+    } else {
+      const int rounds = static_cast<int>(ctx.Number("correction.rounds", 10));
+      if (rounds < 1) return absl::InvalidArgumentError("correction.rounds: must be >= 1");
+      removed = Gather(ctx, nb, quality, *radius, rounds);
+    }
     if (!removed.ok()) return removed.status();
     ctx.Record("correction.removed", static_cast<double>(*removed));
     return absl::OkStatus();
@@ -94,27 +100,54 @@ class CorrectionStage : public Stage {
     return radius;
   }
 
+  // Rounds of the gather rule, each from the previous round's labels, until nothing changes.
+  // One round thins every layer of a multi-scan overlap by about half; later rounds see the
+  // raised mean of what is left and strip the worse layers completely, as the scatter form does.
   static absl::StatusOr<size_t> Gather(JobContext& ctx, const Neighbourhoods& nb,
                                        const std::vector<float>& quality,
-                                       const std::vector<float>& radius) {
+                                       const std::vector<float>& radius, int max_rounds) {
     PointCloud& cloud = ctx.cloud();
-    std::vector<uint8_t> go(cloud.size(), 0);
-    absl::Status status = ParallelFor(cloud.size(), ctx.cancel(), [&](size_t begin, size_t end) {
-      RadiusMatches matches;
-      for (size_t i = begin; i < end; ++i) {
-        if (cloud.removed(i)) continue;
-        nb.Within(cloud, i, radius[cloud.scan[i]], matches);
-        if (matches.size() < 2) continue;  // alone: nothing overlaps
-        go[i] = ShouldGo(cloud, quality, Judge(cloud, quality, matches), uint32_t(i));
+    const size_t n = cloud.size();
+    std::vector<uint8_t> go(n, 0), fresh(n, 0);  // fresh: removed in the previous round
+    // Only a point whose neighbourhood lost a point can change its verdict; when r_c exceeds
+    // the k-NN list the list cannot tell, so the point is re-judged.
+    auto touched = [&](size_t i) {
+      const float r = radius[cloud.scan[i]];
+      if (r > nb.dk(i)) return true;
+      const auto idx = nb.knn(i);
+      const auto dist = nb.knn_dist(i);
+      for (uint32_t j = 0; j < nb.k() && dist[j] < r; ++j) {
+        if (fresh[idx[j]]) return true;
       }
-    });
-    if (!status.ok()) return status;
+      return false;
+    };
     size_t removed = 0;
-    for (size_t i = 0; i < cloud.size(); ++i) {
-      if (!go[i]) continue;
-      cloud.flags[i] |= kRemovedMerge;
-      ++removed;
+    int round = 0;
+    while (round < max_rounds) {
+      absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+        RadiusMatches matches;
+        for (size_t i = begin; i < end; ++i) {
+          go[i] = 0;
+          if (cloud.removed(i) || (round > 0 && !touched(i))) continue;
+          nb.Within(cloud, i, radius[cloud.scan[i]], matches);
+          if (matches.size() < 2) continue;  // alone: nothing overlaps
+          go[i] = ShouldGo(cloud, quality, Judge(cloud, quality, matches), uint32_t(i));
+        }
+      });
+      if (!status.ok()) return status;
+      ++round;
+      size_t now = 0;
+      for (size_t i = 0; i < n; ++i) {
+        fresh[i] = go[i];
+        if (!go[i]) continue;
+        cloud.flags[i] |= kRemovedMerge;
+        ++now;
+      }
+      removed += now;
+      ctx.Progress(double(round) / max_rounds);
+      if (now == 0) break;
     }
+    ctx.Record("correction.rounds_run", round);
     return removed;
   }
 
@@ -162,6 +195,9 @@ StageInfo CorrectionStageInfo() {
                "gather: each point decides from its own neighbourhood (parallel, order-free); "
                "scatter: centres in descending quality remove neighbours at once (paper)",
                "gather", {"gather", "scatter"}},
+              {"correction.rounds",
+               "most gather rounds, each from the previous round's labels (1 = a single pass); "
+               "stops early when a round removes nothing", "10", {}},
               {"correction.radius_scale",
                "factor on r_c, for registration residuals larger than r_c", "1", {}},
               {"correction.radius_mm", "r_c of Eq. (11) for every scan",

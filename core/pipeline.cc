@@ -10,8 +10,7 @@
 namespace scanprep {
 
 std::vector<std::string> DefaultStages() {
-  // The first stage exists today; correction, smoothing and simplification join as they land.
-  return {"outliers"};
+  return {"outliers", "correction", "smoothing", "simplification"};
 }
 
 absl::Status ValidateOptions(const PipelineOptions& options) {
