@@ -1,0 +1,99 @@
+// The request-to-job translation without gRPC: units, poses applied to points and scanner
+// metadata, defaults, and invalid coordinates.
+#include <cmath>
+#include <limits>
+
+#include <gtest/gtest.h>
+
+#include "server/job_assembler.h"
+
+namespace scanprep::server {
+namespace {
+
+v1::ProcessRequest Header(const v1::JobHeader& h) {
+  v1::ProcessRequest r;
+  *r.mutable_header() = h;
+  return r;
+}
+
+// Scan in inches, rotated 90° about z, shifted by (1, 0, 0) in.
+v1::JobHeader InchHeader() {
+  v1::JobHeader h;
+  h.set_unit(v1::INCH);
+  v1::ScanHeader* scan = h.add_scans();
+  v1::RigidTransform* t = scan->mutable_to_common();
+  t->mutable_rotation()->set_z(std::sqrt(0.5));
+  t->mutable_rotation()->set_w(std::sqrt(0.5));
+  t->mutable_translation()->set_x(1);
+  scan->mutable_camera_position()->set_x(2);
+  scan->mutable_view_direction()->set_x(3);  // not unit: normalised by the server
+  scan->mutable_projector_direction()->set_y(1);
+  scan->set_scanline_spacing(0.01);
+  return h;
+}
+
+TEST(JobAssembler, AppliesUnitAndPoseToPointsAndScannerMetadata) {
+  JobAssembler assembler(JobLimits{});
+  ASSERT_TRUE(assembler.Add(Header(InchHeader())).ok());
+  v1::ProcessRequest chunk;
+  for (float v : {1.f, 0.f, 0.f, 0.f, 1.f, std::numeric_limits<float>::infinity(), 0.f, 0.f, 2.f}) {
+    chunk.mutable_points()->add_xyz(v);
+  }
+  ASSERT_TRUE(assembler.Add(chunk).ok());
+  auto job = assembler.Finish();
+  ASSERT_TRUE(job.ok()) << job.status();
+
+  EXPECT_EQ(job->mm_per_unit, 25.4);
+  EXPECT_EQ(job->points_received, 3u);
+  EXPECT_EQ(job->points_invalid, 1u);
+  ASSERT_EQ(job->warnings.size(), 1u);
+  const PointCloud& c = job->cloud;
+  ASSERT_EQ(c.size(), 2u);
+  // (1,0,0) in → rotated (0,1,0) + (1,0,0) → (25.4, 25.4, 0) mm.
+  EXPECT_NEAR(c.x[0], 25.4, 1e-4);
+  EXPECT_NEAR(c.y[0], 25.4, 1e-4);
+  EXPECT_NEAR(c.z[1], 50.8, 1e-4);
+  EXPECT_EQ(c.flags.size(), 2u);
+
+  ASSERT_EQ(c.scans.size(), 1u);
+  const ScanMeta& scan = c.scans[0];
+  EXPECT_EQ(scan.id, "scan0");
+  ASSERT_TRUE(scan.camera_position.has_value());
+  EXPECT_TRUE(scan.camera_position->isApprox(Eigen::Vector3d(25.4, 50.8, 0), 1e-9));
+  ASSERT_TRUE(scan.view_direction.has_value());
+  EXPECT_TRUE(scan.view_direction->isApprox(Eigen::Vector3d(0, 1, 0), 1e-9));
+  EXPECT_TRUE(scan.projector_direction->isApprox(Eigen::Vector3d(-1, 0, 0), 1e-9));
+  EXPECT_FALSE(scan.projector_position.has_value());
+  EXPECT_NEAR(scan.scanline_spacing, 0.254, 1e-12);
+  EXPECT_EQ(scan.uncertainty, 0.1);  // 0 = the 0.1 mm default, not 0.1 in
+  EXPECT_EQ(c.kind, ScannerKind::kLine);
+}
+
+TEST(JobAssembler, ScannerKindAndBudgetDefaults) {
+  v1::JobHeader h;
+  h.set_unit(v1::MILLIMETRE);
+  h.add_scans()->set_uncertainty(0.05);
+  JobAssembler assembler(JobLimits{.default_budget_seconds = 7});
+  ASSERT_TRUE(assembler.Add(Header(h)).ok());
+  v1::ProcessRequest chunk;
+  for (int i = 0; i < 3; ++i) chunk.mutable_points()->add_xyz(1.f);
+  ASSERT_TRUE(assembler.Add(chunk).ok());
+  auto job = assembler.Finish();
+  ASSERT_TRUE(job.ok()) << job.status();
+  EXPECT_EQ(job->cloud.kind, ScannerKind::kFlexible);  // no scanline spacing anywhere
+  EXPECT_EQ(job->cloud.scans[0].uncertainty, 0.05);
+  EXPECT_EQ(job->options.budget_seconds, 7);
+  EXPECT_TRUE(job->warnings.empty());
+}
+
+TEST(JobAssembler, RejectsABadDirection) {
+  v1::JobHeader h = InchHeader();
+  h.mutable_scans(0)->mutable_view_direction()->set_x(0);
+  JobAssembler assembler(JobLimits{});
+  const absl::Status s = assembler.Add(Header(h));
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message(), "header.scans[0].view_direction: must be a finite non-zero vector");
+}
+
+}  // namespace
+}  // namespace scanprep::server
