@@ -50,8 +50,12 @@ bool ShouldGo(const PointCloud& cloud, const std::vector<float>& quality, const 
 class CorrectionStage : public Stage {
  public:
   absl::Status Run(JobContext& ctx) override {
-    if (absl::Status s = ctx.Require("measures"); !s.ok()) return s;
     PointCloud& cloud = ctx.cloud();
+    if (cloud.scans.size() < 2) {  // nothing can overlap
+      ctx.Record("correction.removed", 0);
+      return absl::OkStatus();
+    }
+    if (absl::Status s = ctx.Require("measures"); !s.ok()) return s;
     const std::vector<float>& quality = ctx.measures().quality;
     if (quality.size() != cloud.size()) {
       return absl::InternalError("correction: the measures stage left no viewing quality");

@@ -99,6 +99,28 @@ void ExpectMergesOverlap(const std::string& mode) {
 TEST(Correction, GatherRemovesTheWorseLayerOnly) { ExpectMergesOverlap("gather"); }
 TEST(Correction, ScatterRemovesTheWorseLayerOnly) { ExpectMergesOverlap("scatter"); }
 
+// The gather form decides from labels of the previous round only: visiting order, and so the
+// order of the points in the arrays, cannot change which points go.
+TEST(Correction, GatherIgnoresPointOrder) {
+  auto sim = testing::Simulate(Part::kSphere, testing::TwoOverlappingSensors(Part::kSphere), 24);
+  PointCloud reversed = sim.cloud;
+  const size_t n = reversed.size();
+  auto flip = [&](auto& v) { std::reverse(v.begin(), v.end()); };
+  flip(reversed.x), flip(reversed.y), flip(reversed.z), flip(reversed.scan),
+      flip(reversed.scanline);
+  CancelToken cancel;
+  ASSERT_TRUE(RunPipeline(sim.cloud, {.stages = {"correction"}}, cancel).ok());
+  ASSERT_TRUE(RunPipeline(reversed, {.stages = {"correction"}}, cancel).ok());
+  size_t differ = 0, removed = 0;
+  for (size_t i = 0; i < n; ++i) {
+    removed += sim.cloud.removed(i);
+    differ += sim.cloud.removed(i) != reversed.removed(n - 1 - i);
+  }
+  std::printf("reversed order: %zu of %zu removals differ\n", differ, removed);
+  EXPECT_GT(removed, n / 10);
+  EXPECT_LE(differ, removed / 1000);
+}
+
 TEST(Correction, SingleScanIsUntouched) {
   auto sim = testing::Simulate(Part::kSphere, testing::FrontalSensor(Part::kSphere), 22);
   CancelToken cancel;
