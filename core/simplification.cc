@@ -114,17 +114,17 @@ absl::Status RunTiled(JobContext& ctx, Thinner& thinner, std::vector<uint32_t> o
   const PointCloud& cloud = ctx.cloud();
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
   for (uint32_t i : order) lo = lo.cwiseMin(cloud.point(i));
-  // 21 bits per axis; a cloud too large for that gets larger cells (still ≥ 2·r_s).
+  // 20 bits per axis in the key; a cloud too wide for that gets larger cells (still ≥ 2·r_s).
   Eigen::Vector3f hi = lo;
   for (uint32_t i : order) hi = hi.cwiseMax(cloud.point(i));
-  cell_edge = std::max(cell_edge, (hi - lo).maxCoeff() / float(1 << 20));
+  cell_edge = std::max(cell_edge, (hi - lo).maxCoeff() / float((1 << 20) - 2));
   std::vector<uint64_t> key(cloud.size());
   for (uint32_t i : order) {
     const Eigen::Vector3f c = ((cloud.point(i) - lo) / cell_edge).array().floor();
     const uint64_t cx = uint64_t(c.x()), cy = uint64_t(c.y()), cz = uint64_t(c.z());
     const uint64_t colour = (cx & 1) | (cy & 1) << 1 | (cz & 1) << 2;
     const uint64_t phase = thinner.InEdgeSet(i) ? 0 : 1;
-    key[i] = phase << 63 | colour << 60 | cx << 40 | cy << 20 | cz;  // cx,cy,cz < 2^20 here
+    key[i] = phase << 63 | colour << 60 | cx << 40 | cy << 20 | cz;
   }
   // Stable: within a cell the sequential order survives.
   std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return key[a] < key[b]; });

@@ -81,6 +81,13 @@ TEST(Smoothing, KeepsSharpEdgesOfABox) {
   // The box's side faces are seen obliquely: noisier than δ allows more often than on the plane.
   EXPECT_LE(flat_after, 0.75 * flat_before);
   EXPECT_GT(report->stages.back().parameters.at("smoothing.rejected"), 0);
+
+  // Control: without the tolerance test (δ far above any move) the same weights round the edge.
+  PointCloud unguarded = original;
+  ASSERT_TRUE(Smooth(unguarded, {{"smoothing.tolerance_mm", "10"}}).ok());
+  const double edge_unguarded = RmsToSurface(Part::kBoxWithBore, unguarded, near_edge);
+  std::printf("box without tolerance test: edge RMS %.4f mm\n", edge_unguarded);
+  EXPECT_GT(edge_unguarded, 1.1 * edge_before);
 }
 
 TEST(Smoothing, ClampModeNeverMovesFartherThanTheTolerance) {
