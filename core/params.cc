@@ -10,7 +10,10 @@
 namespace scanprep {
 
 absl::Status ValidateOverrides(const ParamOverrides& overrides, const std::vector<ParamSpec>& specs) {
-  for (const auto& [name, value] : overrides) {
+  for (const auto& override : overrides) {
+    // Plain references, not a structured binding: clang < 16 cannot capture bindings in lambdas.
+    const std::string& name = override.first;
+    const std::string& value = override.second;
     auto spec = std::find_if(specs.begin(), specs.end(),
                              [&](const ParamSpec& s) { return s.name == name; });
     if (spec == specs.end()) {

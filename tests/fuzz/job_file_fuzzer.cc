@@ -1,0 +1,40 @@
+// libFuzzer target: the CLI's job-file reader (client::ReadJobFile, protobuf JSON into JobHeader
+// with unknown fields rejected), then the server's header validation (JobAssembler) on whatever
+// parsed. ReadJobFile takes a path, so each input is written to an in-memory file (memfd) and
+// read back through /proc/self/fd: the real reader runs unchanged, without touching the disk.
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "client/job_builder.h"
+#include "server/job_assembler.h"
+#include "tests/fuzz/fuzz_checks.h"
+
+namespace {
+
+const std::string& JobFilePath(int& fd) {
+  static int memfd = memfd_create("job.json", 0);
+  static const std::string path = "/proc/self/fd/" + std::to_string(memfd);
+  fd = memfd;
+  return path;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  int fd = -1;
+  const std::string& path = JobFilePath(fd);
+  scanprep::fuzz::Require(fd >= 0, "memfd_create works");
+  scanprep::fuzz::Require(ftruncate(fd, 0) == 0 && pwrite(fd, data, size, 0) == static_cast<ssize_t>(size),
+                          "the job file is written");
+  auto header = scanprep::client::ReadJobFile(path);
+  if (!header.ok()) return 0;
+  scanprep::v1::ProcessRequest request;
+  *request.mutable_header() = *std::move(header);
+  scanprep::server::JobAssembler assembler(scanprep::server::JobLimits{});
+  (void)assembler.Add(request);
+  return 0;
+}
