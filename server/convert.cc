@@ -125,12 +125,14 @@ ScannerKind KindFromHeader(const v1::JobHeader& header) {
   }
 }
 
-PipelineOptions OptionsFromHeader(const v1::JobHeader& header, double default_budget_seconds) {
+PipelineOptions OptionsFromHeader(const v1::JobHeader& header, double default_budget_seconds,
+                                  const std::map<std::string, double>& default_stage_seconds) {
   PipelineOptions options;
   options.stages.assign(header.options().stages().begin(), header.options().stages().end());
   for (const auto& [name, value] : header.options().params()) options.params[name] = value;
   options.budget_seconds = header.budget().total_seconds() != 0 ? header.budget().total_seconds()
                                                                   : default_budget_seconds;
+  options.stage_budget_seconds = default_stage_seconds;
   for (const auto& [name, seconds] : header.budget().stage_seconds()) {
     options.stage_budget_seconds[name] = seconds;
   }

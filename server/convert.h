@@ -3,6 +3,8 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
+#include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -44,8 +46,10 @@ absl::StatusOr<ScanMeta> ScanMetaFromProto(const v1::ScanHeader& scan, const Sca
 // LINE when stated, or when unspecified and any scan has a scanline spacing.
 ScannerKind KindFromHeader(const v1::JobHeader& header);
 
-// Stages, overrides and budgets; a zero total budget becomes `default_budget_seconds`.
-PipelineOptions OptionsFromHeader(const v1::JobHeader& header, double default_budget_seconds);
+// Stages, overrides and budgets. A zero total budget becomes `default_budget_seconds`; the
+// header's stage budgets replace the defaults of the stages they name (0 there = no budget).
+PipelineOptions OptionsFromHeader(const v1::JobHeader& header, double default_budget_seconds,
+                                  const std::map<std::string, double>& default_stage_seconds);
 
 void ReportToProto(const PipelineReport& report, v1::Report* out);
 

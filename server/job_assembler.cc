@@ -49,7 +49,8 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
   job_.job_id = header.job_id();
   job_.mm_per_unit = *mm;
   job_.include_removed = header.options().include_removed();
-  job_.options = OptionsFromHeader(header, limits_.default_budget_seconds);
+  job_.options = OptionsFromHeader(header, limits_.default_budget_seconds,
+                                   limits_.default_stage_budget_seconds);
   if (absl::Status s = ValidateOptions(job_.options); !s.ok()) return s;
 
   for (int s = 0; s < header.scans_size(); ++s) {

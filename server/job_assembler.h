@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,7 @@ struct JobLimits {
   uint64_t max_points_per_job = 20'000'000;
   uint64_t max_chunk_points = 65'536;
   double default_budget_seconds = 0;
+  std::map<std::string, double> default_stage_budget_seconds;
 };
 
 struct AssembledJob {

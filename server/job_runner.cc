@@ -42,25 +42,12 @@ void RunningJob::Run() {
   done_cv_.notify_all();
 }
 
-JobRunner::JobRunner(int threads, int max_concurrent_jobs)
+JobRunner::JobRunner(int threads)
     : threads_(threads > 0 ? threads
                            : std::max(1, static_cast<int>(std::thread::hardware_concurrency()))),
-      max_concurrent_jobs_(max_concurrent_jobs),
       workers_(tbb::global_control::max_allowed_parallelism, threads_ + 1),
       // No slot reserved for an external thread: every job is enqueued, none is executed.
       arena_(threads_, 0) {}
-
-absl::StatusOr<JobRunner::Slot> JobRunner::Acquire() {
-  int active = active_.load();
-  do {
-    if (active >= max_concurrent_jobs_) {
-      return absl::ResourceExhaustedError(
-          absl::StrCat("the server is running its limit of ", max_concurrent_jobs_,
-                       " concurrent jobs (max_concurrent_jobs); retry later"));
-    }
-  } while (!active_.compare_exchange_weak(active, active + 1));
-  return Slot(&active_);
-}
 
 std::shared_ptr<RunningJob> JobRunner::Start(PointCloud cloud, PipelineOptions options) {
   auto job = std::make_shared<RunningJob>(std::move(cloud), std::move(options));

@@ -1,8 +1,7 @@
-// Runs pipelines on one shared TBB arena, never on gRPC threads, and bounds how many jobs the
-// server holds at once.
+// Runs pipelines on one shared TBB arena, never on gRPC threads. How many run at once is the
+// AdmissionQueue's business.
 #pragma once
 
-#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -61,33 +60,14 @@ class RunningJob {
 class JobRunner {
  public:
   // `threads` = arena concurrency; 0 = hardware concurrency.
-  JobRunner(int threads, int max_concurrent_jobs);
+  explicit JobRunner(int threads);
 
-  // A held job slot; released on destruction.
-  class Slot {
-   public:
-    explicit Slot(std::atomic<int>* active) : active_(active) {}
-    Slot(Slot&& o) noexcept : active_(std::exchange(o.active_, nullptr)) {}
-    Slot& operator=(Slot&&) = delete;
-    ~Slot() {
-      if (active_ != nullptr) active_->fetch_sub(1);
-    }
-
-   private:
-    std::atomic<int>* active_;
-  };
-
-  // A slot for one call, or RESOURCE_EXHAUSTED naming the limit when all are taken.
-  absl::StatusOr<Slot> Acquire();
   std::shared_ptr<RunningJob> Start(PointCloud cloud, PipelineOptions options);
 
   int threads() const { return threads_; }
-  int max_concurrent_jobs() const { return max_concurrent_jobs_; }
 
  private:
   int threads_;
-  int max_concurrent_jobs_;
-  std::atomic<int> active_{0};
   // TBB caps its workers at hardware concurrency - 1 by default (the rest is kept for a master
   // thread); every job here is enqueued, so the arena needs all `threads` as workers.
   tbb::global_control workers_;

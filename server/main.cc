@@ -10,18 +10,52 @@
 #include "absl/flags/usage.h"
 #include "absl/flags/usage_config.h"
 #include "absl/time/time.h"
+#include "server/budget_config.h"
 #include "server/scanprep_server.h"
 
 ABSL_FLAG(std::string, listen, "0.0.0.0:50051", "HOST:PORT to listen on (port 0 = any free port)");
 ABSL_FLAG(uint64_t, max_points_per_job, 20'000'000,
           "largest job in points; larger jobs end with RESOURCE_EXHAUSTED");
+ABSL_FLAG(std::string, metrics_listen, "0.0.0.0:9464",
+          "HOST:PORT of the Prometheus /metrics endpoint (port 0 = any free port; empty = off)");
 ABSL_FLAG(int, max_concurrent_jobs, 4,
-          "calls processed at once; further calls end at once with RESOURCE_EXHAUSTED");
+          "jobs holding a slot (uploading, processing, downloading) at once; further calls queue");
+ABSL_FLAG(int, max_queued_jobs, 8,
+          "calls that may wait for a slot; beyond that a call ends at once with "
+          "RESOURCE_EXHAUSTED");
 ABSL_FLAG(int, threads, 0, "threads of the shared processing arena (0 = hardware concurrency)");
 ABSL_FLAG(double, default_budget_seconds, 0,
-          "time budget for jobs that state none (0 = no budget); reported, never enforced");
+          "total time budget for jobs that state none (0 = no budget); reported and counted in "
+          "scanprep_budget_overruns_total, never enforced; overrides 'total' in --budget_config");
+ABSL_FLAG(std::string, stage_budgets, "",
+          "default per-stage budgets, e.g. \"outliers=0.2,smoothing=0.5\" (seconds); override "
+          "--budget_config entries; a job's own stage budgets override these");
+ABSL_FLAG(std::string, budget_config, "",
+          "file of default budgets, one 'stage seconds' per line ('total seconds' for the whole "
+          "pipeline, '#' comments)");
 ABSL_FLAG(absl::Duration, grace_period, absl::Seconds(10),
           "on SIGINT/SIGTERM, how long in-flight calls may run before they are cancelled");
+
+namespace {
+
+// The config file first, then the flags, each overriding what came before.
+absl::StatusOr<scanprep::server::BudgetDefaults> BudgetsFromFlags() {
+  scanprep::server::BudgetDefaults budgets;
+  if (const std::string path = absl::GetFlag(FLAGS_budget_config); !path.empty()) {
+    if (absl::Status s = scanprep::server::ReadBudgetConfig(path, budgets); !s.ok()) return s;
+  }
+  if (absl::Status s =
+          scanprep::server::ParseStageBudgets(absl::GetFlag(FLAGS_stage_budgets), budgets);
+      !s.ok()) {
+    return s;
+  }
+  const double total = absl::GetFlag(FLAGS_default_budget_seconds);
+  if (!(total >= 0)) return absl::InvalidArgumentError("--default_budget_seconds must be >= 0");
+  if (total > 0) budgets.total_seconds = total;
+  return budgets;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   absl::FlagsUsageConfig usage;
@@ -38,20 +72,31 @@ int main(int argc, char** argv) {
   sigaddset(&stop_signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
+  auto budgets = BudgetsFromFlags();
+  if (!budgets.ok()) {
+    std::cerr << "scanprep-server: " << budgets.status().message() << "\n";
+    return 1;
+  }
   scanprep::server::ServerOptions options;
   options.listen = absl::GetFlag(FLAGS_listen);
+  options.metrics_listen = absl::GetFlag(FLAGS_metrics_listen);
   options.limits.max_points_per_job = absl::GetFlag(FLAGS_max_points_per_job);
-  options.limits.default_budget_seconds = absl::GetFlag(FLAGS_default_budget_seconds);
+  options.limits.default_budget_seconds = budgets->total_seconds;
+  options.limits.default_stage_budget_seconds = budgets->stage_seconds;
   options.max_concurrent_jobs = absl::GetFlag(FLAGS_max_concurrent_jobs);
+  options.max_queued_jobs = absl::GetFlag(FLAGS_max_queued_jobs);
   options.threads = absl::GetFlag(FLAGS_threads);
   auto server = scanprep::server::ScanPrepServer::Start(options);
   if (!server.ok()) {
     std::cerr << "scanprep-server: " << server.status().message() << "\n";
     return 1;
   }
-  // The actual port, for callers that asked for port 0.
+  // The actual ports, for callers that asked for port 0.
   std::cout << "scanprep-server " SCANPREP_VERSION " listening on port " << (*server)->port()
             << std::endl;
+  if ((*server)->metrics_port() != 0) {
+    std::cout << "scanprep-server: metrics on port " << (*server)->metrics_port() << std::endl;
+  }
 
   std::thread stopper([&] {
     int signal = 0;

@@ -3,21 +3,63 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 
 namespace scanprep::server {
+namespace {
+
+struct HostPort {
+  std::string host;
+  int port = 0;
+};
+
+// "host:port", "[v6]:port"; the port may be 0 (any free port).
+absl::StatusOr<HostPort> ParseHostPort(const std::string& text, const std::string& flag) {
+  const size_t colon = text.rfind(':');
+  HostPort hp;
+  if (colon == std::string::npos || colon == 0 ||
+      !absl::SimpleAtoi(text.substr(colon + 1), &hp.port) || hp.port < 0 || hp.port > 65535) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(flag, ": '", text, "' is not HOST:PORT (port 0..65535)"));
+  }
+  hp.host = text.substr(0, colon);
+  if (hp.host.size() > 2 && hp.host.front() == '[' && hp.host.back() == ']') {
+    hp.host = hp.host.substr(1, hp.host.size() - 2);
+  }
+  return hp;
+}
+
+}  // namespace
 
 ScanPrepServer::ScanPrepServer(const ServerOptions& options)
-    : runner_(options.threads, options.max_concurrent_jobs), service_(options.limits, runner_) {}
+    : metrics_(registry_),
+      admission_({.max_concurrent_jobs = options.max_concurrent_jobs,
+                  .max_queued_jobs = options.max_queued_jobs},
+                 metrics_),
+      runner_(options.threads),
+      service_(options.limits, admission_, runner_, metrics_) {
+  metrics_.SetDefaultBudget(options.limits.default_budget_seconds);
+}
 
 absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
     const ServerOptions& options) {
   if (options.max_concurrent_jobs < 1) {
     return absl::InvalidArgumentError("max_concurrent_jobs must be at least 1");
   }
+  if (options.max_queued_jobs < 0) {
+    return absl::InvalidArgumentError("max_queued_jobs must be at least 0");
+  }
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   std::unique_ptr<ScanPrepServer> server(new ScanPrepServer(options));
+  if (!options.metrics_listen.empty()) {
+    auto address = ParseHostPort(options.metrics_listen, "metrics_listen");
+    if (!address.ok()) return address.status();
+    auto exporter = metrics::HttpExporter::Start(address->host, address->port, server->registry_);
+    if (!exporter.ok()) return exporter.status();
+    server->exporter_ = std::move(*exporter);
+  }
   grpc::ServerBuilder builder;
   builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &server->port_);
   builder.RegisterService(&server->service_);
@@ -29,10 +71,15 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
   return server;
 }
 
+void ScanPrepServer::Drain() {
+  server_->GetHealthCheckService()->SetServingStatus(false);
+  admission_.Drain();
+}
+
 void ScanPrepServer::Shutdown(absl::Duration grace) {
   if (shut_down_) return;
   shut_down_ = true;
-  server_->GetHealthCheckService()->SetServingStatus(false);
+  Drain();
   server_->Shutdown(absl::ToChronoTime(absl::Now() + grace));
 }
 

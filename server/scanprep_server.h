@@ -1,5 +1,6 @@
-// The assembled server: ScanPrep service, health checking and reflection on one listening port.
-// Used by main.cc and by the tests, which start it in-process on an ephemeral port.
+// The assembled server: ScanPrep service, health checking and reflection on one listening port,
+// plus the Prometheus /metrics endpoint on another. Used by main.cc and by the tests, which
+// start it in-process on ephemeral ports.
 #pragma once
 
 #include <memory>
@@ -9,16 +10,22 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
+#include "server/admission.h"
 #include "server/job_assembler.h"
 #include "server/job_runner.h"
+#include "server/metrics/http_exporter.h"
+#include "server/metrics/registry.h"
 #include "server/scanprep_service.h"
+#include "server/service_metrics.h"
 
 namespace scanprep::server {
 
 struct ServerOptions {
   std::string listen = "0.0.0.0:50051";  // port 0 picks a free port
+  std::string metrics_listen;            // HOST:PORT of /metrics; empty = no endpoint
   JobLimits limits;
   int max_concurrent_jobs = 4;
+  int max_queued_jobs = 8;
   int threads = 0;  // arena threads; 0 = hardware concurrency
 };
 
@@ -28,16 +35,25 @@ class ScanPrepServer {
   ~ScanPrepServer();
 
   int port() const { return port_; }
-  // Reports NOT_SERVING, refuses new calls and lets in-flight calls finish; calls still running
+  // The bound /metrics port; 0 when the endpoint is off.
+  int metrics_port() const { return exporter_ != nullptr ? exporter_->port() : 0; }
+  // Reports NOT_SERVING and refuses new calls with UNAVAILABLE, also those waiting in the queue;
+  // calls holding a slot carry on.
+  void Drain();
+  // Drains, stops accepting connections and lets in-flight calls finish; calls still running
   // after `grace` are cancelled. Returns when all calls ended.
   void Shutdown(absl::Duration grace);
   void Wait() { server_->Wait(); }
 
  private:
-  ScanPrepServer(const ServerOptions& options);
+  explicit ScanPrepServer(const ServerOptions& options);
 
+  metrics::Registry registry_;
+  ServiceMetrics metrics_;
+  AdmissionQueue admission_;
   JobRunner runner_;
   ScanPrepService service_;
+  std::unique_ptr<metrics::HttpExporter> exporter_;
   std::unique_ptr<grpc::Server> server_;  // declared last: destroyed before what it serves
   int port_ = 0;
   bool shut_down_ = false;

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <new>
+#include <optional>
 
 #include "absl/strings/str_cat.h"
 #include "core/stage.h"
@@ -18,47 +19,77 @@ grpc::Status ToGrpc(const absl::Status& s) {
 
 const grpc::Status kClientGone(grpc::StatusCode::CANCELLED, "the call was cancelled by the client");
 
-bool WriteProgress(grpc::ServerReaderWriter<v1::ProcessResponse, v1::ProcessRequest>* stream,
-                   v1::Progress::Phase phase, std::string_view stage, double fraction,
-                   uint64_t points) {
+absl::Time CallDeadline(const grpc::ServerContext& context) {
+  const auto deadline = context.deadline();
+  return deadline == std::chrono::system_clock::time_point::max() ? absl::InfiniteFuture()
+                                                                  : absl::FromChrono(deadline);
+}
+
+uint64_t ChunkPoints(const v1::PointChunk& chunk) { return chunk.xyz_size() / 3; }
+
+}  // namespace
+
+grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stream) {
+  metrics_.RpcStarted("Process");
+  grpc::Status status;
+  try {
+    status = ProcessJob(context, stream);
+  } catch (const std::bad_alloc&) {
+    status = grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                          "the server ran out of memory holding this job");
+  }
+  metrics_.RpcHandled("Process", status.error_code());
+  return status;
+}
+
+bool ScanPrepService::Send(Stream* stream, const v1::ProcessResponse& response) {
+  metrics_.ResponseSent(response.ByteSizeLong(),
+                        response.has_points() ? ChunkPoints(response.points()) : 0);
+  return stream->Write(response);
+}
+
+bool ScanPrepService::SendProgress(Stream* stream, v1::Progress::Phase phase,
+                                   std::string_view stage, double fraction, uint64_t points) {
   v1::ProcessResponse response;
   v1::Progress* p = response.mutable_progress();
   p->set_phase(phase);
   p->set_stage(std::string(stage));
   p->set_fraction(fraction);
   p->set_points(points);
-  return stream->Write(response);
+  return Send(stream, response);
 }
 
-}  // namespace
-
-grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stream) {
-  auto slot = runner_.Acquire();
-  if (!slot.ok()) return ToGrpc(slot.status());
-  try {
-    return ProcessJob(context, stream);
-  } catch (const std::bad_alloc&) {
-    return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
-                        "the server ran out of memory holding this job");
-  }
+grpc::Status ScanPrepService::Refuse(const absl::Status& status) {
+  metrics_.Rejected(status.code() == absl::StatusCode::kResourceExhausted ? RejectReason::kLimit
+                                                                          : RejectReason::kInvalid);
+  return ToGrpc(status);
 }
 
 grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* stream) {
   // Upload: validate each message as it arrives; the first error ends the call without reading
-  // the rest.
+  // the rest. The call queues for a slot once its header is valid, before any points arrive.
   JobAssembler assembler(limits_);
+  std::optional<AdmissionQueue::Slot> slot;
   v1::ProcessRequest request;
   while (stream->Read(&request)) {
-    if (absl::Status s = assembler.Add(request); !s.ok()) return ToGrpc(s);
-    if (!request.has_points()) continue;
+    metrics_.RequestReceived(request.ByteSizeLong(),
+                             request.has_points() ? ChunkPoints(request.points()) : 0);
+    if (absl::Status s = assembler.Add(request); !s.ok()) return Refuse(s);
+    if (!slot.has_value()) {  // the assembler accepts only a header first
+      auto admitted =
+          admission_.Admit(CallDeadline(*context), [context] { return context->IsCancelled(); });
+      if (!admitted.ok()) return ToGrpc(admitted.status());
+      slot.emplace(std::move(*admitted));
+      continue;
+    }
     const uint64_t total = assembler.total_points();
     const uint64_t received = assembler.points_received();
     const double fraction = total > 0 ? static_cast<double>(received) / total : 0.0;
-    if (!WriteProgress(stream, v1::Progress::UPLOAD, "", fraction, received)) return kClientGone;
+    if (!SendProgress(stream, v1::Progress::UPLOAD, "", fraction, received)) return kClientGone;
   }
   if (context->IsCancelled()) return kClientGone;
   auto job = assembler.Finish();
-  if (!job.ok()) return ToGrpc(job.status());
+  if (!job.ok()) return Refuse(job.status());
 
   // Processing on the shared arena; this thread only relays progress and cancellation.
   std::shared_ptr<RunningJob> running =
@@ -72,7 +103,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     }
     for (const StageProgress& p : running->DrainProgress()) {
       if (client_gone) break;
-      if (!WriteProgress(stream, v1::Progress::PROCESSING, p.stage, p.fraction, 0)) {
+      if (!SendProgress(stream, v1::Progress::PROCESSING, p.stage, p.fraction, 0)) {
         client_gone = true;
         running->Cancel();
       }
@@ -81,6 +112,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   if (client_gone) return kClientGone;
   const absl::StatusOr<PipelineReport>& result = running->result();
   if (!result.ok()) return ToGrpc(result.status());
+  metrics_.JobProcessed(*result);
 
   // Download: the kept points (all of them with include_removed), then the report.
   const PointCloud& cloud = running->cloud();
@@ -93,9 +125,9 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     const size_t end = std::min(indices.size(), begin + kRecommendedChunkPoints);
     v1::ProcessResponse response;
     ResultChunk(cloud, indices, begin, end, job->mm_per_unit, response.mutable_points());
-    if (!stream->Write(response) ||
-        !WriteProgress(stream, v1::Progress::DOWNLOAD, "",
-                       static_cast<double>(end) / indices.size(), end)) {
+    if (!Send(stream, response) ||
+        !SendProgress(stream, v1::Progress::DOWNLOAD, "",
+                      static_cast<double>(end) / indices.size(), end)) {
       return kClientGone;
     }
   }
@@ -108,17 +140,19 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   report->set_points_returned(indices.size());
   for (const std::string& w : job->warnings) report->add_warnings(w);
   ReportToProto(*result, report);
-  if (!stream->Write(response)) return kClientGone;
+  if (!Send(stream, response)) return kClientGone;
   return grpc::Status::OK;
 }
 
 grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoRequest*,
                                       v1::Info* info) {
+  metrics_.RpcStarted("GetInfo");
   info->set_version(SCANPREP_VERSION);
   v1::Limits* limits = info->mutable_limits();
   limits->set_max_points_per_job(limits_.max_points_per_job);
   limits->set_max_chunk_points(limits_.max_chunk_points);
-  limits->set_max_concurrent_jobs(runner_.max_concurrent_jobs());
+  limits->set_max_concurrent_jobs(admission_.max_concurrent_jobs());
+  limits->set_max_queued_jobs(admission_.max_queued_jobs());
   limits->set_recommended_chunk_points(kRecommendedChunkPoints);
   const std::vector<std::string> defaults = DefaultStages();
   for (const StageInfo& stage : StageRegistry()) {
@@ -136,6 +170,10 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
     for (const std::string& c : spec.choices) p->add_choices(c);
   }
   info->set_default_budget_seconds(limits_.default_budget_seconds);
+  for (const auto& [stage, seconds] : limits_.default_stage_budget_seconds) {
+    (*info->mutable_default_stage_budget_seconds())[stage] = seconds;
+  }
+  metrics_.RpcHandled("GetInfo", grpc::StatusCode::OK);
   return grpc::Status::OK;
 }
 

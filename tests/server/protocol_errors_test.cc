@@ -198,6 +198,7 @@ TEST(ProtocolLimits, MorePointsThanTheJobLimitEndsTheCallWhenCrossed) {
 TEST(ProtocolLimits, CallsBeyondTheConcurrencyLimitAreRefusedAtOnce) {
   server::ServerOptions options;
   options.max_concurrent_jobs = 1;
+  options.max_queued_jobs = 0;  // no waiting room: admission_test covers the queue
   InProcessServer server(options);
   auto stub = server.Stub();
 

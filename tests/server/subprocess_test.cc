@@ -14,6 +14,7 @@
 
 #include "core/io/ply.h"
 #include "tests/server/service_fixtures.h"
+#include "tests/support/run_command.h"
 #include "tests/support/test_data.h"
 
 namespace scanprep::testing {
@@ -31,7 +32,8 @@ class ServerProcess {
     if (pid_ == 0) {
       FILE* out = std::freopen(log_.c_str(), "w", stdout);
       if (out == nullptr) _exit(127);
-      execl(SCANPREP_SERVER_BINARY, SCANPREP_SERVER_BINARY, "--listen=127.0.0.1:0", "--threads=2",
+      execl(SCANPREP_SERVER_BINARY, SCANPREP_SERVER_BINARY, "--listen=127.0.0.1:0",
+            "--metrics_listen=127.0.0.1:0", "--threads=2",
             "--grace_period=5s", static_cast<char*>(nullptr));
       _exit(127);
     }
@@ -67,20 +69,8 @@ class ServerProcess {
   int port_ = 0;
 };
 
-struct CommandResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
 CommandResult RunCli(const std::string& args) {
-  CommandResult r;
-  FILE* pipe = popen((std::string(SCANPREP_CLI_BINARY) + " " + args + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return r;
-  char buffer[4096];
-  while (size_t n = fread(buffer, 1, sizeof buffer, pipe)) r.output.append(buffer, n);
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+  return RunCommand(std::string(SCANPREP_CLI_BINARY) + " " + args);
 }
 
 TEST(ServerBinary, ServesTheClientLibrary) {

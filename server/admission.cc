@@ -1,0 +1,128 @@
+#include "server/admission.h"
+
+#include <algorithm>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+
+namespace scanprep::server {
+namespace {
+
+// How often a waiting call looks at its cancellation (client gone or deadline passed).
+constexpr std::chrono::milliseconds kPollInterval(25);
+
+const absl::Status kDrainingError = absl::UnavailableError(
+    "the server is shutting down (draining) and takes no new jobs; retry on another replica");
+
+}  // namespace
+
+AdmissionQueue::AdmissionQueue(AdmissionOptions options, ServiceMetrics& metrics)
+    : options_(std::move(options)), metrics_(metrics) {
+  metrics_.SetQueueCapacity(options_.max_queued_jobs);
+  PublishLocked();
+}
+
+AdmissionQueue::Slot::~Slot() {
+  if (queue_ != nullptr) queue_->Release(since_);
+}
+
+absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(
+    absl::Time deadline, const std::function<bool()>& cancelled) {
+  const absl::Time arrived = options_.now();
+  std::unique_lock lock(mu_);
+  if (draining_) {
+    metrics_.Rejected(RejectReason::kDraining);
+    return kDrainingError;
+  }
+  if (in_flight_ < options_.max_concurrent_jobs && waiting_.empty()) {
+    ++in_flight_;
+    PublishLocked();
+    metrics_.QueueWait(0);
+    return Slot(this, arrived);
+  }
+  if (static_cast<int>(waiting_.size()) >= options_.max_queued_jobs) {
+    metrics_.Rejected(RejectReason::kQueueFull);
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "the server is running its limit of ", options_.max_concurrent_jobs,
+        " concurrent jobs (max_concurrent_jobs) and its queue of ", options_.max_queued_jobs,
+        " waiting jobs (max_queued_jobs) is full; retry later or on another replica"));
+  }
+  const double expected = ExpectedWaitLocked();
+  const double remaining = absl::ToDoubleSeconds(deadline - arrived);
+  if (expected > remaining) {
+    metrics_.Rejected(RejectReason::kDeadline);
+    return absl::DeadlineExceededError(absl::StrFormat(
+        "expected wait %.3g s exceeds the deadline %.3g s (%d jobs queued, mean job time %.3g s)",
+        expected, std::max(0.0, remaining), static_cast<int>(waiting_.size()),
+        mean_hold_seconds_));
+  }
+
+  Waiter self;
+  const auto position = waiting_.insert(waiting_.end(), &self);
+  PublishLocked();
+  while (!self.granted && !draining_) {
+    if (changed_.wait_for(lock, kPollInterval, [&] { return self.granted || draining_; })) break;
+    if (cancelled()) break;
+  }
+  if (self.granted) {  // Release already moved it from the queue to a slot
+    metrics_.QueueWait(absl::ToDoubleSeconds(options_.now() - arrived));
+    return Slot(this, options_.now());
+  }
+  waiting_.erase(position);
+  PublishLocked();
+  if (draining_) {
+    metrics_.Rejected(RejectReason::kDraining);
+    return kDrainingError;
+  }
+  return absl::CancelledError("the call was cancelled or its deadline passed while queued");
+}
+
+void AdmissionQueue::Release(absl::Time since) {
+  const double held = absl::ToDoubleSeconds(options_.now() - since);
+  std::lock_guard lock(mu_);
+  mean_hold_seconds_ =
+      have_mean_ ? (1 - options_.mean_weight) * mean_hold_seconds_ + options_.mean_weight * held
+                 : held;
+  have_mean_ = true;
+  if (!waiting_.empty() && !draining_) {
+    // The slot passes straight to the oldest waiting call: in_flight_ stays the same.
+    waiting_.front()->granted = true;
+    waiting_.pop_front();
+    changed_.notify_all();
+  } else {
+    --in_flight_;
+  }
+  PublishLocked();
+}
+
+void AdmissionQueue::Drain() {
+  std::lock_guard lock(mu_);
+  draining_ = true;
+  changed_.notify_all();
+}
+
+int AdmissionQueue::in_flight() const {
+  std::lock_guard lock(mu_);
+  return in_flight_;
+}
+
+int AdmissionQueue::queued() const {
+  std::lock_guard lock(mu_);
+  return static_cast<int>(waiting_.size());
+}
+
+double AdmissionQueue::ExpectedWaitSeconds() const {
+  std::lock_guard lock(mu_);
+  return ExpectedWaitLocked();
+}
+
+double AdmissionQueue::ExpectedWaitLocked() const {
+  return static_cast<double>(waiting_.size() + 1) * mean_hold_seconds_ /
+         options_.max_concurrent_jobs;
+}
+
+void AdmissionQueue::PublishLocked() {
+  metrics_.SetAdmissionState(in_flight_, static_cast<int>(waiting_.size()));
+}
+
+}  // namespace scanprep::server

@@ -1,0 +1,91 @@
+#include "server/budget_config.h"
+
+#include <cmath>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
+#include "core/io/read_file.h"
+#include "core/stage.h"
+
+namespace scanprep::server {
+namespace {
+
+// Abseil's string_view is not std::string_view here: entries travel as std::string.
+absl::StatusOr<double> ParseSeconds(const std::string& text, const std::string& where) {
+  double seconds = 0;
+  if (!absl::SimpleAtod(text, &seconds) || !std::isfinite(seconds) || seconds < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(where, ": '", text, "' is not a number of seconds >= 0"));
+  }
+  return seconds;
+}
+
+// One "stage seconds" entry; "total" sets the whole-pipeline budget when `allow_total`.
+absl::Status AddEntry(const std::string& name, const std::string& value, const std::string& where,
+                      bool allow_total, BudgetDefaults& defaults) {
+  auto seconds = ParseSeconds(value, where);
+  if (!seconds.ok()) return seconds.status();
+  if (allow_total && name == "total") {
+    defaults.total_seconds = *seconds;
+    return absl::OkStatus();
+  }
+  if (FindStage(name) == nullptr) {
+    std::vector<std::string> known;
+    for (const StageInfo& s : StageRegistry()) known.push_back(s.name);
+    return absl::InvalidArgumentError(absl::StrCat(where, ": unknown stage '", name, "' (known: ",
+                                                   absl::StrJoin(known, ", "), ")"));
+  }
+  defaults.stage_seconds[name] = *seconds;
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::Status ParseStageBudgets(std::string_view spec, BudgetDefaults& defaults) {
+  for (absl::string_view entry :
+       absl::StrSplit(absl::string_view(spec.data(), spec.size()), ',', absl::SkipWhitespace())) {
+    const std::vector<std::string> kv = absl::StrSplit(entry, absl::MaxSplits('=', 1));
+    const std::string where = absl::StrCat("--stage_budgets entry '", entry, "'");
+    if (kv.size() != 2) {
+      return absl::InvalidArgumentError(absl::StrCat(where, ": expected stage=seconds"));
+    }
+    if (absl::Status s = AddEntry(std::string(absl::StripAsciiWhitespace(kv[0])),
+                                  std::string(absl::StripAsciiWhitespace(kv[1])), where, false,
+                                  defaults);
+        !s.ok()) {
+      return s;
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ParseBudgetConfig(std::string_view text, std::string_view source,
+                               BudgetDefaults& defaults) {
+  int line_number = 0;
+  for (absl::string_view line :
+       absl::StrSplit(absl::string_view(text.data(), text.size()), '\n')) {
+    ++line_number;
+    line = line.substr(0, line.find('#'));
+    const std::vector<std::string> fields =
+        absl::StrSplit(line, absl::ByAnyChar(" \t\r"), absl::SkipEmpty());
+    if (fields.empty()) continue;
+    const std::string where = absl::StrCat(std::string(source), ":", line_number);
+    if (fields.size() != 2) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(where, ": expected 'stage seconds' (or 'total seconds')"));
+    }
+    if (absl::Status s = AddEntry(fields[0], fields[1], where, true, defaults); !s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ReadBudgetConfig(const std::string& path, BudgetDefaults& defaults) {
+  auto text = io::ReadFileToString(path);
+  if (!text.ok()) return text.status();
+  return ParseBudgetConfig(*text, path, defaults);
+}
+
+}  // namespace scanprep::server
