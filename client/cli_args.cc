@@ -1,8 +1,10 @@
 #include "client/cli_args.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 
 namespace scanprep::client {
@@ -60,6 +62,28 @@ absl::StatusOr<ParsedArgs> ParseArgs(const std::vector<std::string>& args,
     slot.push_back(value);
   }
   return parsed;
+}
+
+absl::StatusOr<absl::Duration> GetDuration(const ParsedArgs& args, const std::string& name,
+                                           absl::Duration fallback) {
+  if (!args.Has(name)) return fallback;
+  absl::Duration value;
+  if (!absl::ParseDuration(args.Get(name), &value) || value <= absl::ZeroDuration()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--", name, ": '", args.Get(name), "' is not a positive duration (e.g. 90s, 5m)"));
+  }
+  return value;
+}
+
+absl::StatusOr<double> GetNumber(const ParsedArgs& args, const std::string& name, double fallback,
+                                 double min) {
+  if (!args.Has(name)) return fallback;
+  double value = 0;
+  if (!absl::SimpleAtod(args.Get(name), &value) || !(value >= min) || !std::isfinite(value)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--", name, ": '", args.Get(name), "' is not a number >= ", min));
+  }
+  return value;
 }
 
 std::string FlagHelp(const std::vector<FlagSpec>& specs) {

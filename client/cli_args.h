@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "absl/time/time.h"
 
 namespace scanprep::client {
 
@@ -37,6 +38,15 @@ class ParsedArgs {
 // INVALID_ARGUMENT for an unknown flag, a missing value or a repeated single-value flag.
 absl::StatusOr<ParsedArgs> ParseArgs(const std::vector<std::string>& args,
                                      const std::vector<FlagSpec>& specs);
+
+// The flag's value as a duration ("90s", "5m"), or `fallback` when absent; INVALID_ARGUMENT
+// naming the flag when it is no positive duration.
+absl::StatusOr<absl::Duration> GetDuration(const ParsedArgs& args, const std::string& name,
+                                           absl::Duration fallback);
+// The flag's value as a number >= `min`, or `fallback` when absent; INVALID_ARGUMENT naming the
+// flag otherwise.
+absl::StatusOr<double> GetNumber(const ParsedArgs& args, const std::string& name, double fallback,
+                                 double min);
 
 // One line per flag, for usage messages.
 std::string FlagHelp(const std::vector<FlagSpec>& specs);

@@ -21,6 +21,8 @@ struct Command {
 
 Command ProcessCommand();
 Command InfoCommand();
+Command LoadCommand();
+Command SimulateCommand();
 
 // Prints "scanprep <command>: <message>" and returns exit code 1.
 int Fail(const std::string& command, const std::string& message);

@@ -96,7 +96,28 @@ absl::Status ApplyOptionFlags(const ParsedArgs& args, v1::JobHeader& header) {
   return absl::OkStatus();
 }
 
+void SetVec3(const Eigen::Vector3d& from, v1::Vec3* to) {
+  to->set_x(from.x());
+  to->set_y(from.y());
+  to->set_z(from.z());
+}
+
 }  // namespace
+
+std::vector<FlagSpec> JobFlags() {
+  return {
+      {"unit", FlagSpec::kValue,
+       "length unit of the files: m, mm, um or in (default: the job file's, else mm)"},
+      {"job", FlagSpec::kValue, "JobHeader as JSON; the flags below override it"},
+      {"conf", FlagSpec::kValue,
+       "scanalyze .conf with each file's pose (sent as to_common; the server applies it)"},
+      {"stages", FlagSpec::kValue, "comma-separated stage list (see `scanprep info`)"},
+      {"param", FlagSpec::kRepeated, "parameter override name=value"},
+      {"scanline_spacing", FlagSpec::kValue, "scanline spacing of every scan, job unit"},
+      {"uncertainty", FlagSpec::kValue, "measuring uncertainty of every scan, job unit"},
+      {"include_removed", FlagSpec::kBool, "also return removed points, flagged"},
+  };
+}
 
 absl::StatusOr<v1::LengthUnit> ParseUnit(const std::string& text) {
   static const std::map<std::string, v1::LengthUnit> kUnits = {
@@ -186,6 +207,39 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
     AppendOptional(quality, c.quality, all.quality);
     AppendOptional(intensity, c.intensity, all.intensity);
   }
+  return job;
+}
+
+v1::ScanHeader ScanHeaderFromMeta(const ScanMeta& meta) {
+  v1::ScanHeader scan;
+  scan.set_scan_id(meta.id);
+  if (meta.camera_position) SetVec3(*meta.camera_position, scan.mutable_camera_position());
+  if (meta.view_direction) SetVec3(*meta.view_direction, scan.mutable_view_direction());
+  if (meta.projector_position) {
+    SetVec3(*meta.projector_position, scan.mutable_projector_position());
+  }
+  if (meta.projector_direction) {
+    SetVec3(*meta.projector_direction, scan.mutable_projector_direction());
+  }
+  scan.set_scanline_spacing(meta.scanline_spacing);
+  scan.set_uncertainty(meta.uncertainty);
+  scan.set_point_spacing(meta.point_spacing);
+  return scan;
+}
+
+absl::StatusOr<Job> BuildJobFromCloud(const ParsedArgs& args, PointCloud cloud) {
+  for (const char* flag : {"unit", "job", "conf"}) {
+    if (args.Has(flag)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--", flag, " does not apply to a generated scan (millimetres, posed)"));
+    }
+  }
+  Job job;
+  job.header.set_unit(v1::MILLIMETRE);
+  job.header.set_scanner_kind(cloud.kind == ScannerKind::kLine ? v1::LINE : v1::FLEXIBLE);
+  for (const ScanMeta& meta : cloud.scans) *job.header.add_scans() = ScanHeaderFromMeta(meta);
+  if (absl::Status s = ApplyOptionFlags(args, job.header); !s.ok()) return s;
+  job.points = std::move(cloud);
   return job;
 }
 

@@ -24,8 +24,19 @@ absl::StatusOr<scanprep::v1::LengthUnit> ParseUnit(const std::string& text);
 // The JSON form of JobHeader (protobuf's JSON mapping; unknown fields are errors).
 absl::StatusOr<scanprep::v1::JobHeader> ReadJobFile(const std::string& path);
 
+// The flags BuildJob reads, for the commands that build a job (process, load).
+std::vector<FlagSpec> JobFlags();
+
 // Flags used: --job, --conf, --unit, --stages, --param, --include_removed, --scanline_spacing,
 // --uncertainty; positional arguments are the scan files.
 absl::StatusOr<Job> BuildJob(const ParsedArgs& args);
+
+// The wire form of a scan's metadata, millimetres, identity pose.
+scanprep::v1::ScanHeader ScanHeaderFromMeta(const ScanMeta& meta);
+
+// The job for a cloud already in millimetres and in the common frame (a generated scan): one
+// ScanHeader per cloud.scans entry, then the option flags as BuildJob applies them except
+// --unit, --job and --conf, which would contradict the cloud (INVALID_ARGUMENT).
+absl::StatusOr<Job> BuildJobFromCloud(const ParsedArgs& args, PointCloud cloud);
 
 }  // namespace scanprep::client

@@ -12,7 +12,7 @@ int Fail(const std::string& command, const std::string& message) {
 
 namespace {
 
-std::vector<Command> Commands() { return {ProcessCommand(), InfoCommand()}; }
+std::vector<Command> Commands() { return {ProcessCommand(), InfoCommand(), LoadCommand(), SimulateCommand()}; }
 
 void PrintUsage(std::ostream& out) {
   out << "usage: scanprep COMMAND [args]\n\ncommands:\n";

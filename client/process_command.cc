@@ -5,7 +5,6 @@
 #include <google/protobuf/util/json_util.h>
 #include <unistd.h>
 
-#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
 #include "client/commands.h"
@@ -25,12 +24,9 @@ int RunProcess(const ParsedArgs& args) {
 
   CallOptions call;
   if (args.Has("timeout")) {
-    absl::Duration timeout;
-    if (!absl::ParseDuration(args.Get("timeout"), &timeout)) {
-      return Fail("process", absl::StrCat("--timeout: '", args.Get("timeout"),
-                                          "' is not a duration (e.g. 90s, 5m)"));
-    }
-    call.timeout = timeout;
+    auto timeout = GetDuration(args, "timeout", absl::ZeroDuration());
+    if (!timeout.ok()) return Fail("process", std::string(timeout.status().message()));
+    call.timeout = *timeout;
   }
   ProgressView view(std::cerr, isatty(STDERR_FILENO) != 0);
   call.progress = [&view](const v1::Progress& p) { view.Update(p); };
@@ -62,28 +58,19 @@ int RunProcess(const ParsedArgs& args) {
 }  // namespace
 
 Command ProcessCommand() {
+  std::vector<FlagSpec> flags = {
+      {"out", FlagSpec::kValue, "output PLY file (required)", "o"},
+      {"server", FlagSpec::kValue, "HOST:PORT of the service (default localhost:50051)"},
+  };
+  for (FlagSpec& flag : JobFlags()) flags.push_back(std::move(flag));
+  flags.push_back({"timeout", FlagSpec::kValue, "deadline for the whole call, e.g. 120s"});
+  flags.push_back({"report_json", FlagSpec::kValue, "also write the full report as JSON"});
   return Command{
       .name = "process",
       .synopsis = "process SCAN... -o OUT.ply [flags]",
       .summary = "send scans (one scan per file, .ply or .xyz) through the service; write the "
                  "result as binary PLY with normals and flags",
-      .flags =
-          {
-              {"out", FlagSpec::kValue, "output PLY file (required)", "o"},
-              {"server", FlagSpec::kValue, "HOST:PORT of the service (default localhost:50051)"},
-              {"unit", FlagSpec::kValue,
-               "length unit of the files: m, mm, um or in (default: the job file's, else mm)"},
-              {"job", FlagSpec::kValue, "JobHeader as JSON; the flags below override it"},
-              {"conf", FlagSpec::kValue,
-               "scanalyze .conf with each file's pose (sent as to_common; the server applies it)"},
-              {"stages", FlagSpec::kValue, "comma-separated stage list (see `scanprep info`)"},
-              {"param", FlagSpec::kRepeated, "parameter override name=value"},
-              {"scanline_spacing", FlagSpec::kValue, "scanline spacing of every scan, job unit"},
-              {"uncertainty", FlagSpec::kValue, "measuring uncertainty of every scan, job unit"},
-              {"include_removed", FlagSpec::kBool, "also write removed points, flagged"},
-              {"timeout", FlagSpec::kValue, "deadline for the whole call, e.g. 120s"},
-              {"report_json", FlagSpec::kValue, "also write the full report as JSON"},
-          },
+      .flags = std::move(flags),
       .run = RunProcess,
   };
 }

@@ -49,6 +49,12 @@ ScanPrepClient ScanPrepClient::Connect(const std::string& target) {
   return ScanPrepClient(grpc::CreateChannel(target, grpc::InsecureChannelCredentials()));
 }
 
+std::shared_ptr<grpc::Channel> RoundRobinChannel(const std::string& target) {
+  grpc::ChannelArguments arguments;
+  arguments.SetLoadBalancingPolicyName("round_robin");
+  return grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), arguments);
+}
+
 absl::StatusOr<v1::Info> ScanPrepClient::GetInfo(std::optional<absl::Duration> timeout) {
   grpc::ClientContext context;
   SetDeadline(context, timeout);

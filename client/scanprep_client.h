@@ -72,6 +72,11 @@ class ScanPrepClient {
   std::unique_ptr<v1::ScanPrep::Stub> stub_;
 };
 
+// An insecure channel to `target` (HOST:PORT or a gRPC name such as dns:///name:port) that
+// spreads its calls round-robin over every address the name resolves to, so one client loads
+// all replicas behind a headless service instead of the first one it reaches.
+std::shared_ptr<grpc::Channel> RoundRobinChannel(const std::string& target);
+
 // The request chunk for points [begin, end); scan_index only when `with_scan_index`.
 void RequestChunk(const PointCloud& points, size_t begin, size_t end, bool with_scan_index,
                   v1::PointChunk* out);

@@ -1,0 +1,141 @@
+// `scanprep load`: a bounded load test of a ScanPrep deployment with one replayed job.
+#include <cmath>
+#include <fstream>
+#include <iostream>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "client/commands.h"
+#include "client/job_builder.h"
+#include "client/load_report.h"
+#include "client/load_runner.h"
+#include "client/scan_generator.h"
+#include "client/scanprep_client.h"
+
+namespace scanprep::client {
+namespace {
+
+absl::StatusOr<LoadOptions> ParseLoadOptions(const ParsedArgs& args) {
+  LoadOptions options;
+  auto concurrency = GetNumber(args, "concurrency", 1, 1);
+  if (!concurrency.ok()) return concurrency.status();
+  if (*concurrency > 1024 || *concurrency != std::floor(*concurrency)) {
+    return absl::InvalidArgumentError("--concurrency: a whole number from 1 to 1024");
+  }
+  options.concurrency = static_cast<int>(*concurrency);
+  auto duration = GetDuration(args, "duration", absl::Seconds(60));
+  if (!duration.ok()) return duration.status();
+  options.duration = *duration;
+  auto timeout = GetDuration(args, "timeout", absl::Seconds(120));
+  if (!timeout.ok()) return timeout.status();
+  options.call_timeout = *timeout;
+  if (args.Has("max_jobs")) {
+    uint64_t max_jobs = 0;
+    if (!absl::SimpleAtoi(args.Get("max_jobs"), &max_jobs) || max_jobs == 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--max_jobs: '", args.Get("max_jobs"), "' is not a count >= 1"));
+    }
+    options.max_jobs = max_jobs;
+  }
+  auto rate = GetNumber(args, "rate", 0, 0);
+  if (!rate.ok()) return rate.status();
+  options.rate = *rate;
+  const std::string arrivals = args.Get("arrivals", "poisson");
+  if (arrivals != "poisson" && arrivals != "fixed") {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--arrivals: '", arrivals, "' is neither poisson nor fixed"));
+  }
+  options.arrivals = arrivals == "fixed" ? Arrivals::kFixed : Arrivals::kPoisson;
+  return options;
+}
+
+absl::StatusOr<Job> LoadJob(const ParsedArgs& args) {
+  if (!args.Has("simulate")) return BuildJob(args);
+  if (!args.positional.empty()) {
+    return absl::InvalidArgumentError("give SCAN files or --simulate POINTS, not both");
+  }
+  size_t points = 0;
+  if (!absl::SimpleAtoi(args.Get("simulate"), &points)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--simulate: '", args.Get("simulate"), "' is not a point count"));
+  }
+  auto options = ParseGenerateOptions(args, points);
+  if (!options.ok()) return options.status();
+  auto cloud = GenerateScan(*options);
+  if (!cloud.ok()) return cloud.status();
+  return BuildJobFromCloud(args, std::move(*cloud));
+}
+
+int RunLoadCommand(const ParsedArgs& args) {
+  if (!args.Has("server")) return Fail("load", "--server HOST:PORT is required");
+  auto options = ParseLoadOptions(args);
+  if (!options.ok()) return Fail("load", std::string(options.status().message()));
+  std::optional<double> budget;
+  if (args.Has("budget")) {
+    auto value = GetNumber(args, "budget", 0, 0);
+    if (!value.ok() || *value <= 0) return Fail("load", "--budget: seconds > 0");
+    budget = *value;
+  }
+  // The scans are read (or generated) once; every call replays the same job.
+  auto job = LoadJob(args);
+  if (!job.ok()) return Fail("load", std::string(job.status().message()));
+  for (const std::string& note : job->notes) std::cerr << "note: " << note << "\n";
+  if (budget) job->header.mutable_budget()->set_total_seconds(*budget);
+
+  const std::string target = args.Get("server");
+  std::shared_ptr<grpc::Channel> channel = RoundRobinChannel(target);
+  // An unreachable or refusing server fails here, once, rather than as a flood of errors.
+  if (auto info = ScanPrepClient(channel).GetInfo(absl::Seconds(10)); !info.ok()) {
+    return Fail("load", absl::StrCat(target, ": ", absl::StatusCodeToString(info.status().code()),
+                                     ": ", info.status().message()));
+  }
+  const LoadReport report =
+      MakeLoadReport(target, *options, *job, RunLoad(channel, *job, *options), budget);
+  PrintLoadReport(std::cout, report);
+  if (args.Has("json")) {
+    std::ofstream out(args.Get("json"));
+    out << LoadReportJson(report);
+    if (!out) return Fail("load", absl::StrCat("cannot write ", args.Get("json")));
+  }
+  return report.failures.empty() ? 0 : 1;
+}
+
+}  // namespace
+
+Command LoadCommand() {
+  std::vector<FlagSpec> flags = {
+      {"server", FlagSpec::kValue,
+       "target (required): HOST:PORT or a gRPC name such as dns:///NAME:PORT; calls are spread "
+       "round-robin over every address it resolves to"},
+      {"concurrency", FlagSpec::kValue, "workers, i.e. calls in flight at most (default 1)"},
+      {"duration", FlagSpec::kValue, "no call starts after this, e.g. 60s (default 60s)"},
+      {"max_jobs", FlagSpec::kValue, "also stop after starting this many calls"},
+      {"rate", FlagSpec::kValue,
+       "open loop: start this many jobs/s in total (default: closed loop, calls back to back)"},
+      {"arrivals", FlagSpec::kValue, "open-loop spacing: poisson (default) or fixed"},
+      {"timeout", FlagSpec::kValue, "deadline of each call (default 120s)"},
+      {"budget", FlagSpec::kValue,
+       "seconds: sent as the job's budget; the run fails when latency p99 exceeds it (default: "
+       "the budget the server reports for the job)"},
+      {"json", FlagSpec::kValue, "also write the results as JSON to this file"},
+  };
+  for (FlagSpec& flag : JobFlags()) flags.push_back(std::move(flag));
+  flags.push_back({"simulate", FlagSpec::kValue,
+                   "replay a generated laser-line scan of about this many points instead of "
+                   "SCAN files (millimetres; see `scanprep simulate`)"});
+  for (FlagSpec& flag : GenerateFlags()) flags.push_back(std::move(flag));
+  return Command{
+      .name = "load",
+      .synopsis =
+          "load --server HOST:PORT (SCAN... | --simulate POINTS) [--concurrency N] "
+          "[--duration 60s] [flags]",
+      .summary =
+          "load-test the service with one job (the scans, read once) replayed by N "
+          "workers; prints jobs/s, points/s, latency percentiles and errors by status "
+          "code; exits 1 on any failed call or when latency p99 exceeds the budget",
+      .flags = std::move(flags),
+      .run = RunLoadCommand,
+  };
+}
+
+}  // namespace scanprep::client

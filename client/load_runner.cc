@@ -1,0 +1,96 @@
+#include "client/load_runner.h"
+
+#include <mutex>
+#include <random>
+#include <thread>
+
+#include "absl/strings/str_cat.h"
+#include "client/scanprep_client.h"
+
+namespace scanprep::client {
+namespace {
+
+// Hands each worker the time its next call should start, or nothing when the run is over.
+class Schedule {
+ public:
+  Schedule(const LoadOptions& options, absl::Time start)
+      : options_(options), end_(start + options.duration), next_(start), rng_(options.seed) {}
+
+  std::optional<absl::Time> Next() {
+    std::lock_guard lock(mu_);
+    const absl::Time now = absl::Now();
+    if (now >= end_ || (options_.max_jobs && claimed_ >= *options_.max_jobs)) return std::nullopt;
+    if (options_.rate <= 0) {
+      ++claimed_;
+      return now;
+    }
+    const absl::Time at = next_;
+    if (at >= end_) return std::nullopt;
+    ++claimed_;
+    next_ +=
+        absl::Seconds(options_.arrivals == Arrivals::kFixed ? 1 / options_.rate : interval_(rng_));
+    return at;
+  }
+
+ private:
+  const LoadOptions& options_;
+  const absl::Time end_;
+  std::mutex mu_;
+  absl::Time next_;
+  uint64_t claimed_ = 0;
+  std::mt19937_64 rng_;
+  std::exponential_distribution<double> interval_{options_.rate > 0 ? options_.rate : 1};
+};
+
+}  // namespace
+
+uint64_t LoadResult::error_count() const {
+  uint64_t n = 0;
+  for (const auto& [code, tally] : errors) n += tally.count;
+  return n;
+}
+
+LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job,
+                   const LoadOptions& options) {
+  LoadResult result;
+  std::mutex mu;  // guards result
+  const absl::Time start = absl::Now();
+  Schedule schedule(options, start);
+  uint64_t next_id = 0;
+
+  auto worker = [&] {
+    ScanPrepClient client(channel);
+    CallOptions call{.timeout = options.call_timeout};
+    v1::JobHeader header = job.header;
+    const std::string base_id = header.job_id().empty() ? "load" : header.job_id();
+    while (std::optional<absl::Time> at = schedule.Next()) {
+      absl::SleepFor(*at - absl::Now());
+      const absl::Time begin = absl::Now();
+      {
+        std::lock_guard lock(mu);
+        header.set_job_id(absl::StrCat(base_id, "-", next_id++));
+        if (options.rate > 0 && begin - *at > kLateStart) ++result.late_starts;
+      }
+      absl::StatusOr<ProcessResult> r = client.Process(header, job.points, call);
+      const double seconds = absl::ToDoubleSeconds(absl::Now() - begin);
+      std::lock_guard lock(mu);
+      if (!r.ok()) {
+        ErrorTally& tally = result.errors[absl::StatusCodeToString(r.status().code())];
+        if (tally.count++ == 0) tally.example = std::string(r.status().message());
+        continue;
+      }
+      ++result.jobs_ok;
+      result.latencies.push_back(seconds);
+      if (!r->report.budget_met()) ++result.budget_misses;
+      result.report_budget_seconds =
+          std::max(result.report_budget_seconds, r->report.budget_seconds());
+    }
+  };
+  std::vector<std::thread> workers;
+  for (int i = 0; i < options.concurrency; ++i) workers.emplace_back(worker);
+  for (std::thread& t : workers) t.join();
+  result.elapsed_seconds = absl::ToDoubleSeconds(absl::Now() - start);
+  return result;
+}
+
+}  // namespace scanprep::client

@@ -1,0 +1,56 @@
+// The engine of `scanprep load`: replays one job over a shared channel from `concurrency`
+// workers, closed loop (each worker calls back to back) or open loop (arrivals at a total rate,
+// at most `concurrency` in flight), and tallies what came back.
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/time/time.h"
+#include "client/job_builder.h"
+
+namespace scanprep::client {
+
+enum class Arrivals { kPoisson, kFixed };
+
+struct LoadOptions {
+  int concurrency = 1;
+  absl::Duration duration = absl::Seconds(60);  // no call starts after this
+  std::optional<uint64_t> max_jobs;             // no call starts after this many
+  double rate = 0;                              // jobs/s over all workers; 0 = closed loop
+  Arrivals arrivals = Arrivals::kPoisson;
+  std::optional<absl::Duration> call_timeout;
+  uint64_t seed = 1;  // of the Poisson arrivals
+};
+
+struct ErrorTally {
+  uint64_t count = 0;
+  std::string example;  // the first message seen with this code
+};
+
+struct LoadResult {
+  double elapsed_seconds = 0;  // from the first start until the last call ended
+  uint64_t jobs_ok = 0;
+  std::vector<double> latencies;             // seconds per successful call, whole call
+  std::map<std::string, ErrorTally> errors;  // by status code name, e.g. "UNAVAILABLE"
+  uint64_t budget_misses = 0;                // successful calls with Report.budget_met false
+  double report_budget_seconds = 0;          // largest Report.budget_seconds seen (0 = none)
+  uint64_t late_starts = 0;                  // open loop: started > kLateStart after schedule
+
+  uint64_t error_count() const;
+};
+
+// An open-loop call that starts this much after its scheduled time waited for a free worker
+// (thread wake-up jitter is far below it): the in-flight bound, not the rate, set the pace.
+inline constexpr absl::Duration kLateStart = absl::Milliseconds(10);
+
+LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job,
+                   const LoadOptions& options);
+
+}  // namespace scanprep::client
