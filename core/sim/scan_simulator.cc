@@ -1,4 +1,4 @@
-#include "tests/support/scan_simulator.h"
+#include "core/sim/scan_simulator.h"
 
 #include <algorithm>
 #include <array>
@@ -8,7 +8,7 @@
 #include <optional>
 #include <random>
 
-namespace scanprep::testing {
+namespace scanprep::sim {
 namespace {
 
 using Eigen::Vector3d;
@@ -347,4 +347,4 @@ std::vector<SimSensor> SurroundingSensors(Part part) {
   return sensors;
 }
 
-}  // namespace scanprep::testing
+}  // namespace scanprep::sim

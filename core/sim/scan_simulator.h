@@ -1,6 +1,9 @@
-// Analytic test parts scanned by a simulated laser-line triangulation sensor, with ground truth
+// Analytic parts scanned by a simulated laser-line triangulation sensor, with ground truth
 // for every sample (true surface point, true outward normal, spike label, distance to the
 // nearest sharp edge). Everything is in millimetres and deterministic for a seed.
+//
+// Used by the tests as ground truth, by the benchmarks, and by `scanprep simulate` / `scanprep
+// load --simulate` to generate realistic scans when no real data is at hand.
 //
 // Sensor model (why it looks like this: it must produce what a light-section scanner delivers):
 // - The laser is a collimated sheet travelling along -d_l, d_l = unit(laser_position − part
@@ -26,7 +29,7 @@
 
 #include "core/point_cloud.h"
 
-namespace scanprep::testing {
+namespace scanprep::sim {
 
 // Analytic parts with known surfaces, in millimetres.
 enum class Part { kPlane, kSphere, kCylinder, kBoxWithBore };
@@ -87,4 +90,4 @@ std::vector<SimSensor> TwoOverlappingSensors(Part part);
 // Six sensors from ±x, ±y, ±z: a closed part scanned all around (for orientation without poses).
 std::vector<SimSensor> SurroundingSensors(Part part);
 
-}  // namespace scanprep::testing
+}  // namespace scanprep::sim

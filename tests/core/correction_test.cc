@@ -8,12 +8,12 @@
 
 #include "core/kdtree.h"
 #include "core/pipeline.h"
-#include "tests/support/scan_simulator.h"
+#include "core/sim/scan_simulator.h"
 
 namespace scanprep {
 namespace {
 
-using testing::Part;
+using sim::Part;
 
 // The worse of the viewing and projection angles of scan `meta` at true point t with normal n.
 double TrueAngle(const ScanMeta& meta, const Eigen::Vector3f& t, const Eigen::Vector3f& n) {
@@ -42,7 +42,7 @@ struct Outcome {
   std::array<size_t, 2> removed_per_scan{};
 };
 
-Outcome Evaluate(const testing::SimulatedCloud& sim, const PointCloud& original) {
+Outcome Evaluate(const sim::SimulatedCloud& sim, const PointCloud& original) {
   const PointCloud& cloud = sim.cloud;
   const std::array<PointCloud, 2> scans = {ScanPoints(original, 0), ScanPoints(original, 1)};
   const KdTree tree0(scans[0]), tree1(scans[1]);
@@ -70,7 +70,7 @@ Outcome Evaluate(const testing::SimulatedCloud& sim, const PointCloud& original)
 }
 
 void ExpectMergesOverlap(const std::string& mode) {
-  auto sim = testing::Simulate(Part::kSphere, testing::TwoOverlappingSensors(Part::kSphere), 21);
+  auto sim = sim::Simulate(Part::kSphere, sim::TwoOverlappingSensors(Part::kSphere), 21);
   const PointCloud original = sim.cloud;
   CancelToken cancel;
   auto report = RunPipeline(
@@ -102,7 +102,7 @@ TEST(Correction, ScatterRemovesTheWorseLayerOnly) { ExpectMergesOverlap("scatter
 // The gather form decides from labels of the previous round only: visiting order, and so the
 // order of the points in the arrays, cannot change which points go.
 TEST(Correction, GatherIgnoresPointOrder) {
-  auto sim = testing::Simulate(Part::kSphere, testing::TwoOverlappingSensors(Part::kSphere), 24);
+  auto sim = sim::Simulate(Part::kSphere, sim::TwoOverlappingSensors(Part::kSphere), 24);
   PointCloud reversed = sim.cloud;
   const size_t n = reversed.size();
   auto flip = [&](auto& v) { std::reverse(v.begin(), v.end()); };
@@ -122,7 +122,7 @@ TEST(Correction, GatherIgnoresPointOrder) {
 }
 
 TEST(Correction, SingleScanIsUntouched) {
-  auto sim = testing::Simulate(Part::kSphere, testing::FrontalSensor(Part::kSphere), 22);
+  auto sim = sim::Simulate(Part::kSphere, sim::FrontalSensor(Part::kSphere), 22);
   CancelToken cancel;
   auto report = RunPipeline(sim.cloud, {.stages = {"correction"}}, cancel);
   ASSERT_TRUE(report.ok()) << report.status();
@@ -130,7 +130,7 @@ TEST(Correction, SingleScanIsUntouched) {
 }
 
 TEST(Correction, RadiusScaleWidensTheMergeRadius) {
-  auto sim = testing::Simulate(Part::kPlane, testing::TwoOverlappingSensors(Part::kPlane), 23);
+  auto sim = sim::Simulate(Part::kPlane, sim::TwoOverlappingSensors(Part::kPlane), 23);
   CancelToken cancel;
   auto report = RunPipeline(
       sim.cloud, {.stages = {"correction"}, .params = {{"correction.radius_scale", "2"}}}, cancel);

@@ -5,10 +5,11 @@
 #include <gtest/gtest.h>
 
 #include "core/pipeline.h"
-#include "tests/support/scan_simulator.h"
+#include "core/sim/scan_simulator.h"
 #include "tests/support/sim_checks.h"
 
 namespace scanprep::testing {
+using namespace scanprep::sim;
 namespace {
 
 absl::StatusOr<PipelineReport> RunMeasures(PointCloud& cloud, PointMeasures* out) {

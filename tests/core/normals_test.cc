@@ -7,10 +7,11 @@
 #include "core/io/ply.h"
 #include "core/pipeline.h"
 #include "tests/support/test_data.h"
-#include "tests/support/scan_simulator.h"
+#include "core/sim/scan_simulator.h"
 #include "tests/support/sim_checks.h"
 
 namespace scanprep::testing {
+using namespace scanprep::sim;
 namespace {
 
 struct NormalCheck {

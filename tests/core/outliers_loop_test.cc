@@ -6,9 +6,10 @@
 #include <gtest/gtest.h>
 
 #include "core/pipeline.h"
-#include "tests/support/scan_simulator.h"
+#include "core/sim/scan_simulator.h"
 
 namespace scanprep::testing {
+using namespace scanprep::sim;
 namespace {
 
 struct Score {

@@ -10,14 +10,14 @@
 #include "core/io/ply.h"
 #include "core/kdtree.h"
 #include "core/pipeline.h"
-#include "tests/support/scan_simulator.h"
+#include "core/sim/scan_simulator.h"
 #include "tests/support/test_data.h"
 
 namespace scanprep {
 namespace {
 
 namespace fs = std::filesystem;
-using testing::Part;
+using sim::Part;
 
 const StageReport* FindReport(const PipelineReport& report, const std::string& name) {
   for (const StageReport& stage : report.stages) {
@@ -47,9 +47,9 @@ void ExpectParametersReported(const PipelineReport& report, const std::string& s
 }
 
 TEST(Pipeline, DefaultStagesRunOnTwoOverlappingScansWithSpikes) {
-  std::vector<testing::SimSensor> sensors = testing::TwoOverlappingSensors(Part::kBoxWithBore);
-  for (testing::SimSensor& s : sensors) s.outlier_fraction = 0.01;
-  auto sim = testing::Simulate(Part::kBoxWithBore, sensors, 41);
+  std::vector<sim::SimSensor> sensors = sim::TwoOverlappingSensors(Part::kBoxWithBore);
+  for (sim::SimSensor& s : sensors) s.outlier_fraction = 0.01;
+  auto sim = sim::Simulate(Part::kBoxWithBore, sensors, 41);
   PointCloud& cloud = sim.cloud;
   CancelToken cancel;
   auto report = RunPipeline(cloud, {}, cancel);
@@ -69,7 +69,7 @@ TEST(Pipeline, DefaultStagesRunOnTwoOverlappingScansWithSpikes) {
     simplified += (cloud.flags[i] & kRemovedSimplify) != 0;
     smoothed += (cloud.flags[i] & kSmoothed) != 0;
     if (cloud.removed(i) || sim.is_outlier[i]) continue;
-    const double d = testing::DistanceToSurface(Part::kBoxWithBore, cloud.point(i).cast<double>());
+    const double d = sim::DistanceToSurface(Part::kBoxWithBore, cloud.point(i).cast<double>());
     rms += d * d;
     ++kept;
   }

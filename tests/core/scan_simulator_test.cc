@@ -1,5 +1,5 @@
 // The simulator's ground truth must be trustworthy before other tests lean on it.
-#include "tests/support/scan_simulator.h"
+#include "core/sim/scan_simulator.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 namespace scanprep::testing {
+using namespace scanprep::sim;
 namespace {
 
 struct Stats {

@@ -6,12 +6,12 @@
 
 #include "core/kdtree.h"
 #include "core/pipeline.h"
-#include "tests/support/scan_simulator.h"
+#include "core/sim/scan_simulator.h"
 
 namespace scanprep {
 namespace {
 
-using testing::Part;
+using sim::Part;
 
 PointCloud KeptPoints(const PointCloud& cloud) {
   PointCloud kept;
@@ -45,7 +45,7 @@ double MeanKeptSpacing(const PointCloud& cloud, const KdTree& tree,
 }
 
 // Largest distance from a true surface sample to the nearest kept point.
-double LargestHole(const testing::SimulatedCloud& sim, const KdTree& kept_tree) {
+double LargestHole(const sim::SimulatedCloud& sim, const KdTree& kept_tree) {
   double worst = 0;
   for (const Eigen::Vector3f& t : sim.truth) {
     uint32_t idx;
@@ -63,7 +63,7 @@ absl::StatusOr<PipelineReport> Simplify(PointCloud& cloud, ParamOverrides params
 
 void ExpectPlaneSpacing(const std::string& order, const std::string& mode,
                         const std::string& floor = "0") {
-  auto sim = testing::Simulate(Part::kPlane, testing::FrontalSensor(Part::kPlane), 31);
+  auto sim = sim::Simulate(Part::kPlane, sim::FrontalSensor(Part::kPlane), 31);
   const double target = 0.5;
   auto report = Simplify(sim.cloud, {{"simplification.spacing_mm", "0.5"},
                                      {"simplification.order", order},
@@ -105,7 +105,7 @@ double KeptDensity(const PointCloud& cloud, const KdTree& tree, Select select, f
 }
 
 TEST(Simplification, KeepsEdgesDenseAndLeavesNoHoles) {
-  auto sim = testing::Simulate(Part::kBoxWithBore, testing::FrontalSensor(Part::kBoxWithBore), 32);
+  auto sim = sim::Simulate(Part::kBoxWithBore, sim::FrontalSensor(Part::kBoxWithBore), 32);
   const double target = 0.5;
   auto report = Simplify(sim.cloud, {{"simplification.spacing_mm", "0.5"}});
   ASSERT_TRUE(report.ok()) << report.status();
@@ -125,7 +125,7 @@ TEST(Simplification, KeepsEdgesDenseAndLeavesNoHoles) {
 }
 
 TEST(Simplification, UniformModeIgnoresEdges) {
-  auto sim = testing::Simulate(Part::kBoxWithBore, testing::FrontalSensor(Part::kBoxWithBore), 33);
+  auto sim = sim::Simulate(Part::kBoxWithBore, sim::FrontalSensor(Part::kBoxWithBore), 33);
   auto report = Simplify(sim.cloud, {{"simplification.spacing_mm", "0.5"},
                                      {"simplification.mode", "uniform"}});
   ASSERT_TRUE(report.ok()) << report.status();
@@ -140,7 +140,7 @@ TEST(Simplification, UniformModeIgnoresEdges) {
 }
 
 TEST(Simplification, DerivesTheSpacingFromTheScanPitch) {
-  auto sim = testing::Simulate(Part::kPlane, testing::FrontalSensor(Part::kPlane), 34);
+  auto sim = sim::Simulate(Part::kPlane, sim::FrontalSensor(Part::kPlane), 34);
   auto report = Simplify(sim.cloud, {});
   ASSERT_TRUE(report.ok()) << report.status();
   const ScanMeta& scan = sim.cloud.scans[0];

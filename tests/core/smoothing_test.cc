@@ -5,12 +5,12 @@
 #include <gtest/gtest.h>
 
 #include "core/pipeline.h"
-#include "tests/support/scan_simulator.h"
+#include "core/sim/scan_simulator.h"
 
 namespace scanprep {
 namespace {
 
-using testing::Part;
+using sim::Part;
 
 // RMS distance to the true surface over the points `select` accepts.
 template <typename Select>
@@ -19,7 +19,7 @@ double RmsToSurface(Part part, const PointCloud& cloud, Select select) {
   size_t count = 0;
   for (size_t i = 0; i < cloud.size(); ++i) {
     if (!select(i)) continue;
-    const double d = testing::DistanceToSurface(part, cloud.point(i).cast<double>());
+    const double d = sim::DistanceToSurface(part, cloud.point(i).cast<double>());
     sum += d * d;
     ++count;
   }
@@ -33,7 +33,7 @@ absl::StatusOr<PipelineReport> Smooth(PointCloud& cloud, ParamOverrides params =
 }
 
 TEST(Smoothing, LowersNoiseOnAPlane) {
-  auto sim = testing::Simulate(Part::kPlane, testing::FrontalSensor(Part::kPlane), 11);
+  auto sim = sim::Simulate(Part::kPlane, sim::FrontalSensor(Part::kPlane), 11);
   PointCloud& cloud = sim.cloud;
   // Away from the border, where a neighbourhood is one-sided.
   auto interior = [&](size_t i) {
@@ -54,7 +54,7 @@ TEST(Smoothing, LowersNoiseOnAPlane) {
 }
 
 TEST(Smoothing, KeepsSharpEdgesOfABox) {
-  auto sim = testing::Simulate(Part::kBoxWithBore, testing::FrontalSensor(Part::kBoxWithBore), 12);
+  auto sim = sim::Simulate(Part::kBoxWithBore, sim::FrontalSensor(Part::kBoxWithBore), 12);
   PointCloud& cloud = sim.cloud;
   const PointCloud original = cloud;
   const float spacing = static_cast<float>(cloud.scans[0].scanline_spacing);
@@ -91,7 +91,7 @@ TEST(Smoothing, KeepsSharpEdgesOfABox) {
 }
 
 TEST(Smoothing, ClampModeNeverMovesFartherThanTheTolerance) {
-  auto sim = testing::Simulate(Part::kBoxWithBore, testing::FrontalSensor(Part::kBoxWithBore), 13);
+  auto sim = sim::Simulate(Part::kBoxWithBore, sim::FrontalSensor(Part::kBoxWithBore), 13);
   PointCloud& cloud = sim.cloud;
   const PointCloud original = cloud;
   auto report = Smooth(cloud, {{"smoothing.tolerance", "clamp"},
@@ -111,7 +111,7 @@ TEST(Smoothing, ClampModeNeverMovesFartherThanTheTolerance) {
 }
 
 TEST(Smoothing, RejectsALambdaOutsideTheUnitInterval) {
-  auto sim = testing::Simulate(Part::kPlane, testing::FrontalSensor(Part::kPlane), 14);
+  auto sim = sim::Simulate(Part::kPlane, sim::FrontalSensor(Part::kPlane), 14);
   auto report = Smooth(sim.cloud, {{"smoothing.lambda", "1.5"}});
   EXPECT_EQ(report.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(report.status().message().find("smoothing.lambda"), std::string::npos);

@@ -8,6 +8,7 @@
 #include "core/point_cloud.h"
 
 namespace scanprep::testing {
+using namespace scanprep::sim;
 
 // The q-quantile (0..1) of `values` (copied; empty → NaN).
 inline double Quantile(std::vector<double> values, double q) {
