@@ -30,6 +30,7 @@ class InProcessServer {
     target_ = absl::StrCat("127.0.0.1:", server_->port());
   }
   const std::string& target() const { return target_; }
+  server::ScanPrepServer& server() { return *server_; }
   client::ScanPrepClient Client() const { return client::ScanPrepClient::Connect(target_); }
   std::unique_ptr<v1::ScanPrep::Stub> Stub() const {
     return v1::ScanPrep::NewStub(grpc::CreateChannel(target_, grpc::InsecureChannelCredentials()));

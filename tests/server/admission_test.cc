@@ -1,0 +1,334 @@
+// Admission control: the AdmissionQueue on its own (fake clock, so the expected-wait arithmetic
+// is exact), then through the real service with jobs held open by clients that sent a header and
+// a chunk and wait. Every wait is bounded; no sleep decides an outcome.
+#include <future>
+#include <thread>
+
+#include <gmock/gmock.h>
+#include <grpcpp/generic/generic_stub.h>
+#include <gtest/gtest.h>
+
+#include "server/admission.h"
+#include "tests/server/metrics_scrape.h"
+#include "tests/server/service_fixtures.h"
+
+namespace scanprep::testing {
+namespace {
+
+using ::testing::HasSubstr;
+using server::AdmissionQueue;
+
+// Polls `condition` every millisecond for at most 10 s.
+template <typename Fn>
+bool Eventually(Fn condition) {
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!condition()) {
+    if (std::chrono::steady_clock::now() > give_up) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return true;
+}
+
+// An AdmissionQueue with its own metrics and a clock the test moves by hand.
+class QueueUnderTest {
+ public:
+  QueueUnderTest(int max_concurrent, int max_queued)
+      : queue_({.max_concurrent_jobs = max_concurrent,
+                .max_queued_jobs = max_queued,
+                .now = [this] { return now(); }},
+               metrics_) {}
+
+  AdmissionQueue& queue() { return queue_; }
+  absl::Time now() {
+    std::lock_guard lock(mu_);
+    return now_;
+  }
+  void Advance(absl::Duration d) {
+    std::lock_guard lock(mu_);
+    now_ += d;
+  }
+  absl::StatusOr<AdmissionQueue::Slot> AdmitNow() {
+    return queue_.Admit(absl::InfiniteFuture(), [] { return false; });
+  }
+  // Admit on another thread; the future resolves when the call got a slot or failed.
+  std::future<absl::StatusOr<AdmissionQueue::Slot>> AdmitAsync(
+      absl::Time deadline = absl::InfiniteFuture(), std::atomic<bool>* cancelled = nullptr) {
+    return std::async(std::launch::async, [this, deadline, cancelled] {
+      return queue_.Admit(deadline, [cancelled] { return cancelled != nullptr && cancelled->load(); });
+    });
+  }
+  double Metric(const std::string& key) {
+    const auto samples = ParseSamples(registry_.Serialize());
+    const auto it = samples.find(key);
+    return it == samples.end() ? -1 : it->second;
+  }
+
+ private:
+  std::mutex mu_;
+  absl::Time now_ = absl::UnixEpoch();
+  metrics::Registry registry_;
+  server::ServiceMetrics metrics_{registry_};
+  AdmissionQueue queue_;
+};
+
+template <typename T>
+bool Ready(const std::future<T>& f) {
+  return f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+}
+
+TEST(AdmissionQueue, RunsUpToTheLimitQueuesUpToTheCapacityRefusesTheRest) {
+  QueueUnderTest q(/*max_concurrent=*/2, /*max_queued=*/1);
+  EXPECT_EQ(q.Metric("scanprep_queue_capacity"), 1);
+  auto a = q.AdmitNow();
+  auto b = q.AdmitNow();
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(q.queue().in_flight(), 2);
+
+  auto waiting = q.AdmitAsync();
+  ASSERT_TRUE(Eventually([&] { return q.queue().queued() == 1; }));
+  EXPECT_EQ(q.Metric("scanprep_jobs_queued"), 1);
+  EXPECT_EQ(q.Metric("scanprep_jobs_in_flight"), 2);
+
+  auto refused = q.AdmitNow();
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(refused.status().message(),
+              HasSubstr("limit of 2 concurrent jobs (max_concurrent_jobs) and its queue of 1 "
+                        "waiting jobs (max_queued_jobs) is full"));
+  EXPECT_EQ(q.Metric("scanprep_jobs_rejected_total{reason=\"queue_full\"}"), 1);
+  EXPECT_FALSE(Ready(waiting));
+
+  // A freed slot passes to the waiting call; the count of slots held stays at the limit.
+  q.Advance(absl::Seconds(3));
+  { auto release = std::move(*a); }
+  auto granted = waiting.get();
+  ASSERT_TRUE(granted.ok()) << granted.status();
+  EXPECT_EQ(q.queue().in_flight(), 2);
+  EXPECT_EQ(q.queue().queued(), 0);
+  // Two immediate admissions waited 0 s, the queued one 3 s on the fake clock.
+  EXPECT_EQ(q.Metric("scanprep_queue_wait_seconds_count"), 3);
+  EXPECT_EQ(q.Metric("scanprep_queue_wait_seconds_sum"), 3);
+}
+
+TEST(AdmissionQueue, WaitingCallsAreServedInArrivalOrder) {
+  QueueUnderTest q(1, 2);
+  auto running = q.AdmitNow();
+  ASSERT_TRUE(running.ok());
+  auto first = q.AdmitAsync();
+  ASSERT_TRUE(Eventually([&] { return q.queue().queued() == 1; }));
+  auto second = q.AdmitAsync();
+  ASSERT_TRUE(Eventually([&] { return q.queue().queued() == 2; }));
+
+  { auto release = std::move(*running); }
+  auto first_slot = first.get();
+  ASSERT_TRUE(first_slot.ok());
+  EXPECT_EQ(q.queue().queued(), 1);
+  EXPECT_FALSE(Ready(second));
+  { auto release = std::move(*first_slot); }
+  EXPECT_TRUE(second.get().ok());
+}
+
+TEST(AdmissionQueue, ExpectedWaitIsTheRunningMeanHoldTimePerSlotTimesThePosition) {
+  QueueUnderTest q(/*max_concurrent=*/2, /*max_queued=*/4);
+  EXPECT_EQ(q.queue().ExpectedWaitSeconds(), 0);  // nothing measured yet
+  {
+    auto slot = q.AdmitNow();
+    q.Advance(absl::Seconds(10));
+  }
+  EXPECT_DOUBLE_EQ(q.queue().ExpectedWaitSeconds(), 10.0 / 2);  // first sample is the mean
+  {
+    auto slot = q.AdmitNow();
+    q.Advance(absl::Seconds(20));
+  }
+  // Exponential mean with weight 0.3: 0.7 * 10 + 0.3 * 20 = 13 s; a new call is first in line.
+  EXPECT_DOUBLE_EQ(q.queue().ExpectedWaitSeconds(), 13.0 / 2);
+
+  auto a = q.AdmitNow(), b = q.AdmitNow();
+  auto waiting = q.AdmitAsync();
+  ASSERT_TRUE(Eventually([&] { return q.queue().queued() == 1; }));
+  EXPECT_DOUBLE_EQ(q.queue().ExpectedWaitSeconds(), 2 * 13.0 / 2);  // one ahead, then itself
+  q.queue().Drain();
+  EXPECT_EQ(waiting.get().status().code(), absl::StatusCode::kUnavailable);
+}
+
+TEST(AdmissionQueue, FailsFastWhenTheExpectedWaitExceedsTheDeadline) {
+  QueueUnderTest q(1, 4);
+  {
+    auto slot = q.AdmitNow();
+    q.Advance(absl::Seconds(10));
+  }
+  auto running = q.AdmitNow();
+  ASSERT_TRUE(running.ok());
+
+  auto refused = q.queue().Admit(q.now() + absl::Seconds(5), [] { return false; });
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kDeadlineExceeded);
+  EXPECT_THAT(refused.status().message(), HasSubstr("expected wait 10 s exceeds the deadline 5 s"));
+  EXPECT_EQ(q.Metric("scanprep_jobs_rejected_total{reason=\"deadline\"}"), 1);
+  EXPECT_EQ(q.queue().queued(), 0);
+
+  // With room in the deadline the call queues; when it is cancelled it leaves the queue.
+  std::atomic<bool> cancelled{false};
+  auto patient = q.AdmitAsync(q.now() + absl::Seconds(30), &cancelled);
+  ASSERT_TRUE(Eventually([&] { return q.queue().queued() == 1; }));
+  cancelled = true;
+  EXPECT_EQ(patient.get().status().code(), absl::StatusCode::kCancelled);
+  EXPECT_EQ(q.queue().queued(), 0);
+  EXPECT_EQ(q.queue().in_flight(), 1);
+}
+
+TEST(AdmissionQueue, DrainingReleasesWaitingCallsAndRefusesNewOnesButKeepsRunningSlots) {
+  QueueUnderTest q(1, 2);
+  auto running = q.AdmitNow();
+  auto waiting = q.AdmitAsync();
+  ASSERT_TRUE(Eventually([&] { return q.queue().queued() == 1; }));
+  q.queue().Drain();
+  auto released = waiting.get();
+  EXPECT_EQ(released.status().code(), absl::StatusCode::kUnavailable);
+  EXPECT_THAT(released.status().message(), HasSubstr("draining"));
+  EXPECT_EQ(q.AdmitNow().status().code(), absl::StatusCode::kUnavailable);
+  EXPECT_EQ(q.Metric("scanprep_jobs_rejected_total{reason=\"draining\"}"), 2);
+  EXPECT_EQ(q.queue().in_flight(), 1);
+  { auto release = std::move(*running); }
+  EXPECT_EQ(q.queue().in_flight(), 0);
+}
+
+// --- Through the service -------------------------------------------------------------------
+
+// A Process call that sent its header and one chunk and then waits; Finish() completes it.
+class HeldCall {
+ public:
+  explicit HeldCall(v1::ScanPrep::Stub& stub) : stream_(stub.Process(&context_)) {
+    stream_->Write(HeaderRequest(SimpleHeader()));
+    stream_->Write(ChunkRequest(LineChunk(100)));
+  }
+  // True once the server acknowledged the chunk, i.e. the call holds a slot.
+  bool WaitUntilRunning() {
+    v1::ProcessResponse ack;
+    return stream_->Read(&ack) && ack.progress().phase() == v1::Progress::UPLOAD;
+  }
+  grpc::Status Finish() {
+    stream_->WritesDone();
+    v1::ProcessResponse response;
+    while (stream_->Read(&response)) has_report_ |= response.has_report();
+    return stream_->Finish();
+  }
+  bool has_report() const { return has_report_; }
+
+ private:
+  grpc::ClientContext context_;
+  std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> stream_;
+  bool has_report_ = false;
+};
+
+grpc::Status SmallJob(v1::ScanPrep::Stub& stub, std::optional<absl::Duration> timeout = {}) {
+  grpc::ClientContext context;
+  if (timeout) context.set_deadline(absl::ToChronoTime(absl::Now() + *timeout));
+  auto stream = stub.Process(&context);
+  stream->Write(HeaderRequest(SimpleHeader()));
+  stream->Write(ChunkRequest(LineChunk(100)));
+  stream->WritesDone();
+  v1::ProcessResponse response;
+  while (stream->Read(&response)) {
+  }
+  return stream->Finish();
+}
+
+server::ServerOptions Options(int max_concurrent, int max_queued) {
+  server::ServerOptions options;
+  options.max_concurrent_jobs = max_concurrent;
+  options.max_queued_jobs = max_queued;
+  options.metrics_listen = "127.0.0.1:0";
+  return options;
+}
+
+TEST(Admission, AQueuedCallWaitsBeforeItsUploadAndRunsWhenTheSlotFrees) {
+  InProcessServer server(Options(1, 1));
+  const int metrics = server.server().metrics_port();
+  auto stub = server.Stub();
+  HeldCall held(*stub);
+  ASSERT_TRUE(held.WaitUntilRunning());
+
+  auto queued = std::async(std::launch::async, [&] { return SmallJob(*stub); });
+  ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 1));
+
+  const grpc::Status refused = SmallJob(*stub);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(refused.error_message(), HasSubstr("(max_queued_jobs) is full"));
+  EXPECT_FALSE(Ready(queued));
+
+  EXPECT_TRUE(held.Finish().ok());
+  EXPECT_TRUE(held.has_report());
+  EXPECT_TRUE(queued.get().ok());
+  EXPECT_EQ(Sample(metrics, "scanprep_jobs_queued"), 0);
+  EXPECT_EQ(Sample(metrics, "scanprep_jobs_in_flight"), 0);
+  EXPECT_EQ(Sample(metrics, "scanprep_jobs_rejected_total{reason=\"queue_full\"}"), 1);
+  EXPECT_EQ(Sample(metrics, "scanprep_rpcs_handled_total{method=\"Process\",code=\"RESOURCE_EXHAUSTED\"}"), 1);
+}
+
+TEST(Admission, ACallWhoseDeadlineIsShorterThanTheExpectedWaitFailsAtOnce) {
+  InProcessServer server(Options(1, 2));
+  auto stub = server.Stub();
+  {
+    // One job that held its slot for at least a second: the mean job time is >= 1 s.
+    HeldCall slow(*stub);
+    ASSERT_TRUE(slow.WaitUntilRunning());
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+    ASSERT_TRUE(slow.Finish().ok());
+  }
+  HeldCall held(*stub);
+  ASSERT_TRUE(held.WaitUntilRunning());
+  const grpc::Status status = SmallJob(*stub, absl::Milliseconds(500));
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  EXPECT_THAT(status.error_message(), HasSubstr("exceeds the deadline"));
+  EXPECT_THAT(status.error_message(), HasSubstr("expected wait"));
+  EXPECT_EQ(Sample(server.server().metrics_port(),
+                   "scanprep_jobs_rejected_total{reason=\"deadline\"}"),
+            1);
+  EXPECT_TRUE(held.Finish().ok());
+}
+
+// grpc.health.v1.Health/Check for the whole server, by hand (no generated health stubs in
+// Debian): 1 = SERVING, 2 = NOT_SERVING, -1 on error.
+int HealthStatus(const std::string& target) {
+  grpc::GenericStub stub(grpc::CreateChannel(target, grpc::InsecureChannelCredentials()));
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
+  grpc::Slice empty("");  // HealthCheckRequest{service: ""} serialises to no bytes
+  grpc::ByteBuffer request(&empty, 1), response;
+  std::promise<grpc::Status> done;
+  stub.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request,
+                 &response, [&](grpc::Status s) { done.set_value(s); });
+  if (!done.get_future().get().ok()) return -1;
+  std::vector<grpc::Slice> slices;
+  if (!response.Dump(&slices).ok()) return -1;
+  std::string bytes;
+  for (const grpc::Slice& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
+  // HealthCheckResponse{status = N}: field 1, varint.
+  return bytes.size() == 2 && bytes[0] == 0x08 ? bytes[1] : -1;
+}
+
+TEST(Admission, DrainingReportsNotServingRefusesNewAndQueuedCallsAndFinishesRunningOnes) {
+  InProcessServer server(Options(1, 1));
+  const int metrics = server.server().metrics_port();
+  auto stub = server.Stub();
+  EXPECT_EQ(HealthStatus(server.target()), 1);
+  HeldCall held(*stub);
+  ASSERT_TRUE(held.WaitUntilRunning());
+  auto queued = std::async(std::launch::async, [&] { return SmallJob(*stub); });
+  ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 1));
+
+  server.server().Drain();
+  EXPECT_EQ(HealthStatus(server.target()), 2);
+  const grpc::Status released = queued.get();
+  EXPECT_EQ(released.error_code(), grpc::StatusCode::UNAVAILABLE);
+  EXPECT_THAT(released.error_message(), HasSubstr("draining"));
+  const grpc::Status refused = SmallJob(*stub);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::UNAVAILABLE);
+  EXPECT_THAT(refused.error_message(), HasSubstr("retry on another replica"));
+
+  EXPECT_TRUE(held.Finish().ok());
+  EXPECT_TRUE(held.has_report());
+  EXPECT_EQ(Sample(metrics, "scanprep_jobs_rejected_total{reason=\"draining\"}"), 2);
+}
+
+}  // namespace
+}  // namespace scanprep::testing

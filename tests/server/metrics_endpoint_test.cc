@@ -1,0 +1,150 @@
+// The live /metrics endpoint of an in-process server: jobs, a refused call and GetInfo move the
+// counters and histograms by exactly what the reports say; default stage budgets reach the report
+// and the overrun counters; the scrape passes `promtool check metrics`.
+#include <cstdio>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "tests/server/service_fixtures.h"
+#include "tests/server/metrics_scrape.h"
+
+namespace scanprep::testing {
+namespace {
+
+constexpr double kAlwaysMissed = 1e-9;  // no stage finishes in a nanosecond
+
+v1::JobHeader OutliersJob() {
+  v1::JobHeader header = SimpleHeader(0.5);
+  header.mutable_options()->add_stages("outliers");
+  return header;
+}
+
+std::string Key(const std::string& name, const std::string& labels = "") {
+  return labels.empty() ? name : name + "{" + labels + "}";
+}
+
+class MetricsEndpoint : public ::testing::Test {
+ protected:
+  static server::ServerOptions Options() {
+    server::ServerOptions options;
+    options.metrics_listen = "127.0.0.1:0";
+    options.limits.default_budget_seconds = 30;
+    options.limits.default_stage_budget_seconds = {{"outliers", kAlwaysMissed}};
+    return options;
+  }
+  double Get(const std::string& key) {
+    const auto it = samples_.find(key);
+    EXPECT_NE(it, samples_.end()) << "no sample " << key;
+    return it == samples_.end() ? -1 : it->second;
+  }
+
+  InProcessServer server_{Options()};
+  int port_ = server_.server().metrics_port();
+  std::map<std::string, double> samples_;
+};
+
+TEST_F(MetricsEndpoint, ConfigurationAndProcessMetricsAreExportedBeforeAnyCall) {
+  ASSERT_GT(port_, 0);
+  samples_ = Scrape(port_);
+  EXPECT_EQ(Get("scanprep_queue_capacity"), 8);
+  EXPECT_EQ(Get("scanprep_budget_seconds"), 30);
+  EXPECT_EQ(Get("scanprep_jobs_in_flight"), 0);
+  EXPECT_EQ(Get("scanprep_jobs_queued"), 0);
+  EXPECT_EQ(Get(Key("scanprep_jobs_rejected_total", "reason=\"queue_full\"")), 0);
+  EXPECT_EQ(Get(Key("scanprep_budget_overruns_total", "stage=\"total\"")), 0);
+  EXPECT_GT(Get("process_resident_memory_bytes"), 0);
+  EXPECT_GT(Get("process_start_time_seconds"), 0);
+  EXPECT_EQ(samples_.count(Key("scanprep_rpcs_started_total", "method=\"Process\"")), 0u);
+}
+
+TEST_F(MetricsEndpoint, JobsMoveCountersAndHistogramsByWhatTheReportsSay) {
+  client::ScanPrepClient client = server_.Client();
+  const GeneratedScan scan = NoisyPlaneWithSpikes(60, 0.5f);
+  const uint64_t n = scan.cloud.size();
+
+  // Job 1 states no budget: the server's defaults apply (total 30 s met, outliers missed).
+  auto first = client.Process(OutliersJob(), scan.cloud);
+  ASSERT_TRUE(first.ok()) << first.status();
+  // Job 2 lifts the outliers budget (0 = none) and sets a total budget it cannot meet.
+  v1::JobHeader strict = OutliersJob();
+  strict.mutable_budget()->set_total_seconds(kAlwaysMissed);
+  (*strict.mutable_budget()->mutable_stage_seconds())["outliers"] = 0;
+  auto second = client.Process(strict, scan.cloud);
+  ASSERT_TRUE(second.ok()) << second.status();
+  // Job 3 is refused at its header.
+  v1::JobHeader invalid = OutliersJob();
+  invalid.set_unit(v1::LENGTH_UNIT_UNSPECIFIED);
+  EXPECT_EQ(client.Process(invalid, scan.cloud).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  auto info = client.GetInfo(absl::Seconds(10));
+  ASSERT_TRUE(info.ok());
+  EXPECT_EQ(info->default_stage_budget_seconds().at("outliers"), kAlwaysMissed);
+  EXPECT_EQ(info->limits().max_queued_jobs(), 8u);
+
+  const v1::Report& r1 = first->report;
+  const v1::Report& r2 = second->report;
+  EXPECT_EQ(r1.budget_seconds(), 30);
+  EXPECT_TRUE(r1.budget_met());
+  EXPECT_EQ(r2.budget_seconds(), kAlwaysMissed);
+  EXPECT_FALSE(r2.budget_met());
+  for (const v1::StageReport& s : r1.stages()) {
+    EXPECT_EQ(s.budget_met(), s.name() != "outliers") << s.name();
+  }
+  for (const v1::StageReport& s : r2.stages()) EXPECT_TRUE(s.budget_met()) << s.name();
+
+  samples_ = Scrape(port_);
+  EXPECT_EQ(Get(Key("scanprep_rpcs_started_total", "method=\"Process\"")), 3);
+  EXPECT_EQ(Get(Key("scanprep_rpcs_handled_total", "method=\"Process\",code=\"OK\"")), 2);
+  EXPECT_EQ(Get(Key("scanprep_rpcs_handled_total", "method=\"Process\",code=\"INVALID_ARGUMENT\"")),
+            1);
+  EXPECT_EQ(Get(Key("scanprep_rpcs_started_total", "method=\"GetInfo\"")), 1);
+  EXPECT_EQ(Get(Key("scanprep_rpcs_handled_total", "method=\"GetInfo\",code=\"OK\"")), 1);
+  EXPECT_EQ(Get(Key("scanprep_jobs_rejected_total", "reason=\"invalid\"")), 1);
+  EXPECT_EQ(Get(Key("scanprep_jobs_rejected_total", "reason=\"queue_full\"")), 0);
+
+  // Job 3 sent its header only: it was refused before its points.
+  EXPECT_EQ(Get("scanprep_points_received_total"), 2.0 * n);
+  EXPECT_EQ(Get("scanprep_points_returned_total"), r1.points_returned() + r2.points_returned());
+  EXPECT_LT(r1.points_returned(), n);  // outliers were removed, so the counts differ
+  // xyz is 12 bytes a point, scanline a varint of 1-2 bytes, plus framing per chunk.
+  EXPECT_GE(Get("scanprep_bytes_received_total"), 2.0 * n * 13);
+  EXPECT_LE(Get("scanprep_bytes_received_total"), 2.0 * n * 15 + 2000);
+  EXPECT_GE(Get("scanprep_bytes_sent_total"),
+            12.0 * (r1.points_returned() + r2.points_returned()));
+
+  EXPECT_EQ(Get("scanprep_job_duration_seconds_count"), 2);
+  EXPECT_NEAR(Get("scanprep_job_duration_seconds_sum"),
+              r1.processing_seconds() + r2.processing_seconds(), 1e-9);
+  EXPECT_EQ(Get(Key("scanprep_job_duration_seconds_bucket", "le=\"+Inf\"")), 2);
+  std::map<std::string, double> stage_seconds;
+  for (const v1::Report* r : {&r1, &r2}) {
+    for (const v1::StageReport& s : r->stages()) stage_seconds[s.name()] += s.seconds();
+  }
+  ASSERT_TRUE(stage_seconds.count("outliers"));
+  for (const auto& [stage, seconds] : stage_seconds) {
+    const std::string label = "stage=\"" + stage + "\"";
+    EXPECT_EQ(Get(Key("scanprep_stage_duration_seconds_count", label)), 2) << stage;
+    EXPECT_NEAR(Get(Key("scanprep_stage_duration_seconds_sum", label)), seconds, 1e-9) << stage;
+    EXPECT_EQ(Get(Key("scanprep_stage_duration_seconds_bucket", label + ",le=\"+Inf\"")), 2);
+  }
+  // Both admitted jobs found a free slot at once: two zero waits, in the lowest bucket.
+  EXPECT_EQ(Get("scanprep_queue_wait_seconds_count"), 2);
+  EXPECT_EQ(Get(Key("scanprep_queue_wait_seconds_bucket", "le=\"0.001\"")), 2);
+  EXPECT_EQ(Get("scanprep_jobs_in_flight"), 0);
+
+  EXPECT_EQ(Get(Key("scanprep_budget_overruns_total", "stage=\"outliers\"")), 1);
+  EXPECT_EQ(Get(Key("scanprep_budget_overruns_total", "stage=\"total\"")), 1);
+
+  if (std::system("command -v promtool >/dev/null 2>&1") != 0) {
+    GTEST_SKIP() << "promtool not installed (Debian package 'prometheus'): lint skipped";
+  }
+  const std::string text = ScrapeText(port_);
+  FILE* pipe = popen("promtool check metrics", "w");
+  ASSERT_NE(pipe, nullptr);
+  fwrite(text.data(), 1, text.size(), pipe);
+  EXPECT_EQ(pclose(pipe), 0) << text;
+}
+
+}  // namespace
+}  // namespace scanprep::testing
