@@ -8,6 +8,7 @@ packages=(
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev libabsl-dev
   libeigen3-dev libnanoflann-dev libtbb-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcpp-httplib-dev
+  prometheus  # prometheus and promtool: alert-rule and integration tests
 )
 
 missing=()
