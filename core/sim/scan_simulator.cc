@@ -347,4 +347,25 @@ std::vector<SimSensor> SurroundingSensors(Part part) {
   return sensors;
 }
 
+SimulatedCloud SimulateWithPointCount(Part part, std::vector<SimSensor> sensors, size_t points,
+                                      double spike_fraction, uint64_t seed) {
+  // The count is inversely proportional to the spacings' product only away from the part's
+  // borders, so the scale is corrected a few times.
+  double scale = 1;
+  SimulatedCloud generated;
+  for (int attempt = 0; attempt < 4; ++attempt) {
+    std::vector<SimSensor> scaled = sensors;
+    for (SimSensor& s : scaled) {
+      s.scanline_spacing *= scale;
+      s.point_spacing *= scale;
+      s.outlier_fraction = spike_fraction;
+    }
+    generated = Simulate(part, scaled, seed);
+    const double ratio = double(generated.cloud.size()) / double(points);
+    if (generated.cloud.size() == 0 || std::abs(ratio - 1) <= 0.02) break;
+    scale *= std::sqrt(ratio);
+  }
+  return generated;
+}
+
 }  // namespace scanprep::sim

@@ -90,4 +90,10 @@ std::vector<SimSensor> TwoOverlappingSensors(Part part);
 // Six sensors from ±x, ±y, ±z: a closed part scanned all around (for orientation without poses).
 std::vector<SimSensor> SurroundingSensors(Part part);
 
+// Simulates `sensors` with both spacings of every sensor scaled so the cloud has about `points`
+// points (within 2 %), each sensor with `spike_fraction` spikes. For benchmarks and generated
+// demo or load-test scans of a given size.
+SimulatedCloud SimulateWithPointCount(Part part, std::vector<SimSensor> sensors, size_t points,
+                                      double spike_fraction, uint64_t seed);
+
 }  // namespace scanprep::sim

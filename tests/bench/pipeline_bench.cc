@@ -1,0 +1,133 @@
+// Google Benchmark cases for issue 6: each stage, the neighbour graph, the whole default pipeline,
+// and the baseline every target is a ratio to: a bare nanoflann build + k=20 kNN loop (TBB) over
+// the same points. Arguments: {points, threads}. Run through deploy/run-benchmarks.sh, which
+// prints the README table.
+#include <vector>
+
+#include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "core/kdtree.h"
+#include "core/neighbourhoods.h"
+#include "core/pipeline.h"
+#include "tests/bench/bench_cloud.h"
+
+namespace scanprep::bench {
+namespace {
+
+constexpr size_t kK = 20;
+
+void SetCounters(benchmark::State& state, size_t points) {
+  state.counters["points"] = static_cast<double>(points);
+  state.counters["threads"] = static_cast<double>(state.range(1));
+  state.counters["points_per_second"] =
+      benchmark::Counter(static_cast<double>(points), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["peak_rss_bytes"] = PeakRssBytes();
+}
+
+// The peer to beat: nanoflann's own tree over the same arrays and one k=20 query per point.
+void BM_BareNanoflannKnn(benchmark::State& state) {
+  const PointCloud& cloud = ReferenceCloud(state.range(0));
+  tbb::task_arena arena(static_cast<int>(state.range(1)));
+  std::vector<uint32_t> index(cloud.size() * kK);
+  std::vector<float> dist(cloud.size() * kK);
+  for (auto _ : state) {
+    arena.execute([&] {
+      KdTree tree(cloud);
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, cloud.size(), 1024),
+                        [&](const tbb::blocked_range<size_t>& r) {
+                          for (size_t i = r.begin(); i < r.end(); ++i) {
+                            const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+                            tree.Knn(q, kK, &index[i * kK], &dist[i * kK]);
+                          }
+                        });
+    });
+    benchmark::DoNotOptimize(index.data());
+  }
+  SetCounters(state, cloud.size());
+}
+
+void BM_NeighbourGraph(benchmark::State& state) {
+  const PointCloud& cloud = ReferenceCloud(state.range(0));
+  tbb::task_arena arena(static_cast<int>(state.range(1)));
+  CancelToken cancel;
+  for (auto _ : state) {
+    arena.execute([&] {
+      auto nb = Neighbourhoods::Build(cloud, {.k = kK}, cancel);
+      benchmark::DoNotOptimize(nb);
+    });
+  }
+  SetCounters(state, cloud.size());
+}
+
+// One stage on a fresh copy of the cloud; only the stage's own time counts (the stages it pulls
+// in through Require() are timed by their own cases).
+void RunStageCase(benchmark::State& state, const std::string& stage) {
+  const PointCloud& reference = ReferenceCloud(state.range(0));
+  tbb::task_arena arena(static_cast<int>(state.range(1)));
+  CancelToken cancel;
+  for (auto _ : state) {
+    PointCloud cloud = reference;
+    absl::StatusOr<PipelineReport> report;
+    arena.execute([&] { report = RunPipeline(cloud, {.stages = {stage}}, cancel); });
+    if (!report.ok()) {
+      state.SkipWithError(std::string(report.status().message()).c_str());
+      return;
+    }
+    double seconds = 0;
+    for (const StageReport& s : report->stages) seconds += s.name == stage ? s.seconds : 0;
+    state.SetIterationTime(seconds);
+  }
+  SetCounters(state, reference.size());
+}
+
+void BM_DefaultPipeline(benchmark::State& state) {
+  const PointCloud& reference = ReferenceCloud(state.range(0));
+  tbb::task_arena arena(static_cast<int>(state.range(1)));
+  CancelToken cancel;
+  for (auto _ : state) {
+    PointCloud cloud = reference;
+    absl::StatusOr<PipelineReport> report;
+    arena.execute([&] { report = RunPipeline(cloud, {}, cancel); });
+    if (!report.ok()) {
+      state.SkipWithError(std::string(report.status().message()).c_str());
+      return;
+    }
+    state.SetIterationTime(report->total_seconds);
+  }
+  SetCounters(state, reference.size());
+}
+
+void Sizes(benchmark::internal::Benchmark* b) {
+  for (int64_t points : {100'000, 1'000'000, 4'000'000}) {
+    for (int64_t threads : {1, 2}) b->Args({points, threads});
+  }
+  b->Unit(benchmark::kMillisecond)->MinTime(0.5);
+}
+
+BENCHMARK(BM_BareNanoflannKnn)->Apply(Sizes)->UseRealTime();
+BENCHMARK(BM_NeighbourGraph)->Apply(Sizes)->UseRealTime();
+BENCHMARK(BM_DefaultPipeline)->Apply(Sizes)->UseManualTime();
+BENCHMARK_CAPTURE(RunStageCase, outliers, std::string("outliers"))->Apply(Sizes)->UseManualTime();
+BENCHMARK_CAPTURE(RunStageCase, normals, std::string("normals"))->Apply(Sizes)->UseManualTime();
+BENCHMARK_CAPTURE(RunStageCase, measures, std::string("measures"))->Apply(Sizes)->UseManualTime();
+BENCHMARK_CAPTURE(RunStageCase, correction, std::string("correction"))->Apply(Sizes)->UseManualTime();
+BENCHMARK_CAPTURE(RunStageCase, smoothing, std::string("smoothing"))->Apply(Sizes)->UseManualTime();
+BENCHMARK_CAPTURE(RunStageCase, simplification, std::string("simplification"))
+    ->Apply(Sizes)
+    ->UseManualTime();
+
+}  // namespace
+}  // namespace scanprep::bench
+
+int main(int argc, char** argv) {
+  // TBB keeps one slot for a master thread by default; the arenas here need every thread.
+  tbb::global_control workers(tbb::global_control::max_allowed_parallelism, 64);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
