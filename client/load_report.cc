@@ -71,7 +71,8 @@ void PrintLoadReport(std::ostream& out, const LoadReport& r) {
   if (o.rate > 0) out << absl::StrFormat(" at %g jobs/s (%s arrivals)", o.rate, Mode(o));
   out << absl::StrFormat(", %g s (ran %.1f s)\n", absl::ToDoubleSeconds(o.duration),
                          res.elapsed_seconds)
-      << absl::StrFormat("job: %d scans, %d points\n", r.scans_per_job, r.points_per_job)
+      << absl::StrFormat("job: %d points in %d scan%s\n", r.points_per_job, r.scans_per_job,
+                         r.scans_per_job == 1 ? "" : "s")
       << absl::StrFormat("throughput: %d jobs ok, %.2f jobs/s, %.0f points/s\n", res.jobs_ok,
                          r.jobs_per_second, r.points_per_second)
       << absl::StrFormat("latency (s): p50 %.3f  p90 %.3f  p99 %.3f  max %.3f  (mean %.3f)\n",

@@ -63,7 +63,12 @@ LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job
     CallOptions call{.timeout = options.call_timeout};
     v1::JobHeader header = job.header;
     const std::string base_id = header.job_id().empty() ? "load" : header.job_id();
-    while (std::optional<absl::Time> at = schedule.Next()) {
+    bool pause = false;
+    while (true) {
+      if (pause) absl::SleepFor(kPauseAfterError);
+      pause = false;
+      const std::optional<absl::Time> at = schedule.Next();
+      if (!at) break;
       absl::SleepFor(*at - absl::Now());
       const absl::Time begin = absl::Now();
       {
@@ -77,6 +82,7 @@ LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job
       if (!r.ok()) {
         ErrorTally& tally = result.errors[absl::StatusCodeToString(r.status().code())];
         if (tally.count++ == 0) tally.example = std::string(r.status().message());
+        pause = options.rate <= 0;
         continue;
       }
       ++result.jobs_ok;

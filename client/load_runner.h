@@ -50,6 +50,10 @@ struct LoadResult {
 // (thread wake-up jitter is far below it): the in-flight bound, not the rate, set the pace.
 inline constexpr absl::Duration kLateStart = absl::Milliseconds(10);
 
+// A closed-loop worker waits this long after a failed call: a server that refuses at once would
+// otherwise be flooded with thousands of calls a second, which measures nothing.
+inline constexpr absl::Duration kPauseAfterError = absl::Milliseconds(100);
+
 LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job,
                    const LoadOptions& options);
 
