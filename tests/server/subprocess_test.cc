@@ -14,6 +14,7 @@
 
 #include "core/io/ply.h"
 #include "tests/server/service_fixtures.h"
+#include "tests/server/metrics_scrape.h"
 #include "tests/support/run_command.h"
 #include "tests/support/test_data.h"
 
@@ -23,26 +24,37 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-// scanprep-server --listen 127.0.0.1:0, its stdout in a file from which the port is read.
+// The number after `marker` in a log line, 0 when the line has none.
+int PortAfter(const std::string& line, const std::string& marker) {
+  const size_t at = line.find(marker);
+  return at == std::string::npos ? 0 : std::atoi(line.c_str() + at + marker.size());
+}
+
+// scanprep-server --listen 127.0.0.1:0 --metrics_listen 127.0.0.1:0 plus `flags`, its stdout in
+// a file from which both ports are read.
 class ServerProcess {
  public:
-  ServerProcess() {
+  explicit ServerProcess(std::vector<std::string> flags = {}) {
     log_ = fs::path(::testing::TempDir()) / ("scanprep_server_" + std::to_string(getpid()) + ".log");
+    flags.insert(flags.begin(), {SCANPREP_SERVER_BINARY, "--listen=127.0.0.1:0",
+                                 "--metrics_listen=127.0.0.1:0", "--threads=2",
+                                 "--grace_period=5s"});
     pid_ = fork();
     if (pid_ == 0) {
       FILE* out = std::freopen(log_.c_str(), "w", stdout);
       if (out == nullptr) _exit(127);
-      execl(SCANPREP_SERVER_BINARY, SCANPREP_SERVER_BINARY, "--listen=127.0.0.1:0",
-            "--metrics_listen=127.0.0.1:0", "--threads=2",
-            "--grace_period=5s", static_cast<char*>(nullptr));
+      std::vector<char*> argv;
+      for (std::string& f : flags) argv.push_back(f.data());
+      argv.push_back(nullptr);
+      execv(SCANPREP_SERVER_BINARY, argv.data());
       _exit(127);
     }
-    for (int i = 0; i < 200 && port_ == 0; ++i) {
+    for (int i = 0; i < 200 && metrics_port_ == 0; ++i) {
       std::this_thread::sleep_for(std::chrono::milliseconds(25));
       std::ifstream in(log_);
-      std::string line;
-      if (std::getline(in, line) && line.find("listening on port ") != std::string::npos) {
-        port_ = std::stoi(line.substr(line.rfind(' ') + 1));
+      for (std::string line; std::getline(in, line);) {
+        if (const int p = PortAfter(line, "listening on port "); p > 0) port_ = p;
+        if (const int p = PortAfter(line, "metrics on port "); p > 0) metrics_port_ = p;
       }
     }
   }
@@ -54,6 +66,7 @@ class ServerProcess {
   }
   std::string target() const { return "127.0.0.1:" + std::to_string(port_); }
   int port() const { return port_; }
+  int metrics_port() const { return metrics_port_; }
   // SIGTERM, then the exit code (-1 when it did not exit normally).
   int Terminate() {
     kill(pid_, SIGTERM);
@@ -67,6 +80,7 @@ class ServerProcess {
   fs::path log_;
   pid_t pid_ = -1;
   int port_ = 0;
+  int metrics_port_ = 0;
 };
 
 CommandResult RunCli(const std::string& args) {
@@ -95,6 +109,38 @@ TEST(ServerBinary, ServesTheClientLibrary) {
     EXPECT_LT(result->cloud.size(), scan.cloud.size());
   }
   EXPECT_EQ(server.Terminate(), 0);
+}
+
+TEST(ServerBinary, ServesMetricsWithTheBudgetAndQueueFlags) {
+  const fs::path config = fs::path(::testing::TempDir()) / "budgets.conf";
+  std::ofstream(config) << "total 12  # seconds per job\noutliers 0.5\n";
+  ServerProcess server({"--budget_config=" + config.string(), "--stage_budgets=smoothing=2",
+                        "--max_queued_jobs=3"});
+  ASSERT_GT(server.metrics_port(), 0) << "scanprep-server did not report its metrics port";
+  {
+    auto info = client::ScanPrepClient::Connect(server.target()).GetInfo(absl::Seconds(10));
+    ASSERT_TRUE(info.ok()) << info.status();
+    EXPECT_EQ(info->default_budget_seconds(), 12);
+    EXPECT_EQ(info->limits().max_queued_jobs(), 3u);
+    EXPECT_EQ(info->default_stage_budget_seconds().at("outliers"), 0.5);
+    EXPECT_EQ(info->default_stage_budget_seconds().at("smoothing"), 2);
+  }
+  const auto samples = Scrape(server.metrics_port());
+  EXPECT_EQ(samples.at("scanprep_budget_seconds"), 12);
+  EXPECT_EQ(samples.at("scanprep_queue_capacity"), 3);
+  EXPECT_EQ(samples.at("scanprep_rpcs_handled_total{method=\"GetInfo\",code=\"OK\"}"), 1);
+  EXPECT_EQ(server.Terminate(), 0);
+}
+
+TEST(ServerBinary, BadBudgetFlagsExitOneWithTheReason) {
+  const CommandResult r =
+      RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --stage_budgets=sharpen=1");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.output, HasSubstr("--stage_budgets entry 'sharpen=1': unknown stage 'sharpen'"));
+  const CommandResult listen =
+      RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --metrics_listen=nowhere");
+  EXPECT_EQ(listen.exit_code, 1);
+  EXPECT_THAT(listen.output, HasSubstr("metrics_listen: 'nowhere' is not HOST:PORT"));
 }
 
 TEST(ServerBinary, SigtermLetsTheInFlightCallFinishThenExitsZero) {
