@@ -146,5 +146,24 @@ TEST_F(MetricsEndpoint, JobsMoveCountersAndHistogramsByWhatTheReportsSay) {
   EXPECT_EQ(pclose(pipe), 0) << text;
 }
 
+TEST(MetricsEndpointLimits, AJobOverTheSizeLimitCountsAsRejectedForTheLimit) {
+  server::ServerOptions options;
+  options.metrics_listen = "127.0.0.1:0";
+  options.limits.max_points_per_job = 1000;
+  InProcessServer server(options);
+  v1::JobHeader header = OutliersJob();
+  header.set_total_points(5000);
+  auto stub = server.Stub();
+  EXPECT_EQ(RawCall(*stub, {HeaderRequest(header)}).error_code(),
+            grpc::StatusCode::RESOURCE_EXHAUSTED);
+  const auto samples = Scrape(server.server().metrics_port());
+  EXPECT_EQ(samples.at(Key("scanprep_jobs_rejected_total", "reason=\"limit\"")), 1);
+  EXPECT_EQ(samples.at(Key("scanprep_jobs_rejected_total", "reason=\"invalid\"")), 0);
+  EXPECT_EQ(samples.at(Key("scanprep_rpcs_handled_total",
+                           "method=\"Process\",code=\"RESOURCE_EXHAUSTED\"")),
+            1);
+  EXPECT_EQ(samples.at("scanprep_queue_wait_seconds_count"), 0);  // never admitted
+}
+
 }  // namespace
 }  // namespace scanprep::testing
