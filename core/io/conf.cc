@@ -36,7 +36,9 @@ absl::StatusOr<std::vector<ConfEntry>> ParseConf(std::string_view text, const st
       }
     }
     Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);  // Eigen takes (w, x, y, z)
-    const double norm = q.norm();
+    // stableNorm: the plain norm squares the components and overflows to inf above ~1e154,
+    // which would "normalise" a valid direction to the zero quaternion.
+    const double norm = q.coeffs().stableNorm();
     if (!(norm > 1e-6)) return error("quaternion has (near) zero length");
     q.coeffs() /= norm;
     entries.push_back(ConfEntry{.file = std::string(fields[1]),
