@@ -15,14 +15,13 @@ const char* ReasonLabel(RejectReason reason) {
     case RejectReason::kDraining: return "draining";
     case RejectReason::kLimit: return "limit";
     case RejectReason::kInvalid: return "invalid";
-    case RejectReason::kMemory: return "memory";
   }
   return "unknown";
 }
 
 constexpr RejectReason kAllReasons[] = {RejectReason::kQueueFull, RejectReason::kDeadline,
-                                        RejectReason::kDraining,  RejectReason::kLimit,
-                                        RejectReason::kInvalid,   RejectReason::kMemory};
+                                        RejectReason::kDraining, RejectReason::kLimit,
+                                        RejectReason::kInvalid};
 
 }  // namespace
 

@@ -13,7 +13,7 @@
 namespace scanprep::server {
 
 // Why a call was refused; the `reason` label of scanprep_jobs_rejected_total.
-enum class RejectReason { kQueueFull, kDeadline, kDraining, kLimit, kInvalid, kMemory };
+enum class RejectReason { kQueueFull, kDeadline, kDraining, kLimit, kInvalid };
 
 class ServiceMetrics {
  public:
