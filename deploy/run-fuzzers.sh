@@ -28,8 +28,8 @@ for t in "${targets[@]}"; do
   "$build_dir/tests/fuzz/$t" "$work/$t/corpus" -max_total_time="$seconds" -rss_limit_mb=2048 \
     -timeout=10 -print_final_stats=1 -artifact_prefix="$work/$t/artifacts/" \
     >"$work/$t/log" 2>&1 || status=$?
-  runs=$(sed -n 's/^stat::number_of_executed_runs: *//p' "$work/$t/log")
-  last=$(grep -E '^#[0-9]+ .*cov: ' "$work/$t/log" | tail -1 || true)
+  runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$work/$t/log")
+  last=$(grep -E '^#[0-9]+[[:space:]].*cov: ' "$work/$t/log" | tail -1 || true)
   cov=$(sed -n 's/.* cov: \([0-9]*\).*/\1/p' <<<"$last")
   ft=$(sed -n 's/.* ft: \([0-9]*\).*/\1/p' <<<"$last")
   if [[ $status -eq 0 ]]; then

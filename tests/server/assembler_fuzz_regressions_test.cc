@@ -1,0 +1,46 @@
+// Inputs assembler_fuzzer (tests/fuzz) found mishandled by the JobAssembler, inlined.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "server/job_assembler.h"
+
+namespace scanprep::server {
+namespace {
+
+// A finite coordinate that leaves the float range once converted to millimetres (3e38 m) or moved
+// by a finite translation (1e300 mm) must not reach the pipeline as an infinite coordinate: it is
+// either excluded like a NaN point or the job is refused with INVALID_ARGUMENT.
+void ExpectNoInfiniteCoordinates(v1::LengthUnit unit, double translation_x, float x) {
+  JobAssembler assembler(JobLimits{});
+  v1::ProcessRequest header;
+  header.mutable_header()->set_unit(unit);
+  header.mutable_header()->add_scans()->mutable_to_common()->mutable_translation()->set_x(
+      translation_x);
+  ASSERT_TRUE(assembler.Add(header).ok());
+  v1::ProcessRequest chunk;
+  for (float v : {x, 0.f, 0.f, 1.f, 2.f, 3.f}) chunk.mutable_points()->add_xyz(v);
+  const absl::Status added = assembler.Add(chunk);
+  absl::StatusOr<AssembledJob> job =
+      added.ok() ? assembler.Finish() : absl::StatusOr<AssembledJob>(added);
+  if (!job.ok()) {
+    EXPECT_EQ(job.status().code(), absl::StatusCode::kInvalidArgument) << job.status();
+    return;
+  }
+  const PointCloud& cloud = job->cloud;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    EXPECT_TRUE(cloud.point(i).allFinite()) << "point " << i << ": " << cloud.point(i).transpose();
+  }
+  EXPECT_EQ(cloud.size() + job->points_invalid, job->points_received);
+}
+
+TEST(AssemblerFuzzRegressions, CoordinateOverflowingFloatAfterUnitConversion) {
+  ExpectNoInfiniteCoordinates(v1::METRE, 0.0, 3e38f);
+}
+
+TEST(AssemblerFuzzRegressions, CoordinateOverflowingFloatAfterTranslation) {
+  ExpectNoInfiniteCoordinates(v1::MILLIMETRE, 1e300, 1.f);
+}
+
+}  // namespace
+}  // namespace scanprep::server
