@@ -33,7 +33,8 @@ void AddPoint(PointCloud& cloud, float x, float y, float z, uint32_t scan = 0) {
   cloud.scan.push_back(scan);
 }
 
-// rows × cols grid with `step` spacing in the plane z = z0, offset by (x0, y0); row r is scanline r.
+// rows × cols grid with `step` spacing in the plane z = z0, offset by (x0, y0); row r is
+// scanline r.
 PointCloud Grid(int rows, int cols, float step, float x0 = 0, float y0 = 0, float z0 = 0) {
   PointCloud cloud;
   cloud.scans.push_back(TopViewScan("grid", step));
@@ -92,7 +93,8 @@ void ExpectStillPlane(const PointCloud& cloud, float z0, float tol) {
     EXPECT_NEAR(cloud.z[i], z0, tol) << "point " << i;
     if ((cloud.flags[i] & kNormalInvalid) != 0) continue;
     ++valid_normals;
-    EXPECT_GT(std::abs(cloud.nz[i]), 0.999f) << "normal " << i << ": " << cloud.normal(i).transpose();
+    EXPECT_GT(std::abs(cloud.nz[i]), 0.999f)
+        << "normal " << i << ": " << cloud.normal(i).transpose();
   }
   EXPECT_GT(valid_normals, 0u);
 }

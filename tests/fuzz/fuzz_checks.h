@@ -20,10 +20,12 @@ inline void Require(bool ok, const char* what) {
 inline void CheckCloud(const PointCloud& cloud) {
   const size_t n = cloud.size();
   Require(cloud.y.size() == n && cloud.z.size() == n, "x, y, z have the same length");
-  Require(cloud.scan.size() == n && cloud.flags.size() == n, "scan and flags sized by FinishLoading");
+  Require(cloud.scan.size() == n && cloud.flags.size() == n,
+          "scan and flags sized by FinishLoading");
   Require(cloud.scanline.empty() || cloud.scanline.size() == n, "scanline absent or one per point");
   Require(cloud.quality.empty() || cloud.quality.size() == n, "quality absent or one per point");
-  Require(cloud.intensity.empty() || cloud.intensity.size() == n, "intensity absent or one per point");
+  Require(cloud.intensity.empty() || cloud.intensity.size() == n,
+          "intensity absent or one per point");
   Require(!cloud.has_normals() || (cloud.ny.size() == n && cloud.nz.size() == n),
           "normals absent or one per point");
   for (size_t i = 0; i < n; ++i) {

@@ -17,12 +17,10 @@
 
 namespace {
 
-const std::string& JobFilePath(int& fd) {
-  static int memfd = memfd_create("job.json", 0);
-  static const std::string path = "/proc/self/fd/" + std::to_string(memfd);
-  fd = memfd;
-  return path;
-}
+struct MemFile {
+  int fd = memfd_create("job.json", 0);
+  std::string path = "/proc/self/fd/" + std::to_string(fd);
+};
 
 }  // namespace
 
@@ -34,12 +32,12 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  int fd = -1;
-  const std::string& path = JobFilePath(fd);
-  scanprep::fuzz::Require(fd >= 0, "memfd_create works");
-  scanprep::fuzz::Require(ftruncate(fd, 0) == 0 && pwrite(fd, data, size, 0) == static_cast<ssize_t>(size),
-                          "the job file is written");
-  auto header = scanprep::client::ReadJobFile(path);
+  static const MemFile file;
+  scanprep::fuzz::Require(file.fd >= 0, "memfd_create works");
+  scanprep::fuzz::Require(
+      ftruncate(file.fd, 0) == 0 && pwrite(file.fd, data, size, 0) == static_cast<ssize_t>(size),
+      "the job file is written");
+  auto header = scanprep::client::ReadJobFile(file.path);
   if (!header.ok()) return 0;
   scanprep::v1::ProcessRequest request;
   *request.mutable_header() = *std::move(header);
