@@ -11,7 +11,7 @@ targets=(ply_fuzzer xyz_fuzzer conf_fuzzer job_file_fuzzer assembler_fuzzer)
 
 if ! command -v clang++ >/dev/null || ! ls /usr/lib/llvm-*/lib/clang/*/lib/linux/libclang_rt.fuzzer-x86_64.a >/dev/null 2>&1; then
   echo "installing clang and its fuzzer runtime (Debian packages)"
-  apt-get install -y clang libclang-rt-14-dev >/dev/null
+  apt-get update -qq && apt-get install -y clang libclang-rt-14-dev >/dev/null
 fi
 
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
