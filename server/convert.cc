@@ -71,8 +71,11 @@ absl::StatusOr<ScanFrame> FrameFromProto(const v1::ScanHeader& scan, double mm_p
   }
   if (t.has_translation()) {
     const Eigen::Vector3d translation = FromProto(t.translation());
-    if (!Finite(translation)) return BadField(field, "to_common.translation", "must be finite");
     frame.translation_mm = translation * mm_per_unit;
+    if (!(frame.translation_mm.array().abs() <= kMaxCoordinateMm).all()) {
+      return BadField(field, "to_common.translation",
+                      absl::StrCat("must be finite and within ", kMaxCoordinateMm, " mm"));
+    }
   }
   return frame;
 }

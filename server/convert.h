@@ -17,6 +17,11 @@
 
 namespace scanprep::server {
 
+// Largest coordinate magnitude accepted after conversion to millimetres (1,000 km). Beyond it a
+// float keeps less than 0.1 mm of resolution, and a little further it overflows.
+inline constexpr double kMaxCoordinateMm = 1e9;
+
+
 namespace v1 = ::scanprep::v1;
 
 // Millimetres per job unit; INVALID_ARGUMENT for LENGTH_UNIT_UNSPECIFIED or an unknown value.

@@ -151,12 +151,13 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
   PointCloud& cloud = job_.cloud;
   for (size_t i = 0; i < n; ++i) {
     const Eigen::Vector3d p(chunk.xyz(3 * i), chunk.xyz(3 * i + 1), chunk.xyz(3 * i + 2));
-    if (!p.allFinite()) {
+    const uint32_t scan = chunk.scan_index_size() > 0 ? chunk.scan_index(i) : 0;
+    const Eigen::Vector3d q = frames_[scan].Point(p);
+    // Finite in the request's unit can still overflow float once in millimetres.
+    if (!(q.array().abs() <= kMaxCoordinateMm).all()) {
       ++job_.points_invalid;
       continue;
     }
-    const uint32_t scan = chunk.scan_index_size() > 0 ? chunk.scan_index(i) : 0;
-    const Eigen::Vector3d q = frames_[scan].Point(p);
     cloud.x.push_back(static_cast<float>(q.x()));
     cloud.y.push_back(static_cast<float>(q.y()));
     cloud.z.push_back(static_cast<float>(q.z()));
@@ -184,12 +185,13 @@ absl::StatusOr<AssembledJob> JobAssembler::Finish() {
   if (job_.points_invalid == job_.points_received) {
     return absl::InvalidArgumentError(absl::StrCat("the job has no valid points: all ",
                                                    job_.points_received,
-                                                   " have NaN or infinite coordinates"));
+                                                   " have NaN, infinite or out-of-range (> ",
+                                                   kMaxCoordinateMm, " mm) coordinates"));
   }
   if (job_.points_invalid > 0) {
     job_.warnings.push_back(absl::StrCat(job_.points_invalid, " of ", job_.points_received,
-                                         " points had NaN or infinite coordinates and were "
-                                         "excluded"));
+                                         " points had NaN, infinite or out-of-range (> ",
+                                         kMaxCoordinateMm, " mm) coordinates and were excluded"));
   }
   job_.cloud.FinishLoading();
   return std::move(job_);

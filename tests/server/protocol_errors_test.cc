@@ -158,7 +158,7 @@ TEST_F(ProtocolErrors, OnlyInvalidPoints) {
     chunk.add_xyz(0);
   }
   EXPECT_STATUS(Send(SimpleHeader(), {chunk}), INVALID_ARGUMENT,
-                "the job has no valid points: all 3 have NaN or infinite coordinates");
+                "the job has no valid points: all 3 have NaN, infinite or out-of-range (> 1e+09 mm) coordinates");
 }
 
 TEST_F(ProtocolErrors, TotalPointsMismatch) {
