@@ -42,7 +42,9 @@ std::vector<std::string> StageNames(const v1::Report& report) {
     const v1::StageReport& stage = report.stages(s);
     std::cout << stage.name() << ": " << stage.points_in() << " -> " << stage.points_out()
               << " in " << stage.seconds() << " s\n";
-    if (s > 0) EXPECT_EQ(stage.points_in(), report.stages(s - 1).points_out());
+    if (s > 0) {
+      EXPECT_EQ(stage.points_in(), report.stages(s - 1).points_out());
+    }
     if (stage.name() == "neighbourhoods" && !names.empty()) continue;
     names.push_back(stage.name());
   }
