@@ -22,19 +22,25 @@ provided=$(
     dpkg-query -W -f='${Package} ${Priority}\n' | awk '$2 == "required" {print $1}'
   } | sed 's/:amd64$//' | sort -u)
 
+# Every library the binaries load, once, with the package that owns it (one dpkg query for all;
+# with merged /usr, dpkg may know a file under /lib rather than /usr/lib, so ask for both).
+mapfile -t libs < <(for bin in "$@"; do ldd "$bin" | awk '/=>/ && $3 ~ /^\// {print $3}'; done |
+  xargs -r readlink -f | sort -u)
+declare -A owner=()
+while IFS= read -r line; do
+  file=${line#*: }
+  owner["$file"]=${line%%:*}
+  owner["/usr$file"]=${line%%:*}
+done < <(dpkg -S "${libs[@]}" "${libs[@]#/usr}" 2>/dev/null)
+
 status=0
-for bin in "$@"; do
-  while read -r lib path; do
-    [[ -n "$path" ]] || continue
-    real=$(readlink -f "$path")
-    pkg=$(dpkg -S "$real" 2>/dev/null | head -1 | cut -d: -f1) || true
-    [[ -n "$pkg" ]] || pkg=$(dpkg -S "$path" 2>/dev/null | head -1 | cut -d: -f1) || true
-    if [[ -z "$pkg" ]]; then
-      echo "MISSING  $bin: $lib ($path) belongs to no package"; status=1
-    elif ! grep -qx "$pkg" <<<"$provided"; then
-      echo "MISSING  $bin: $lib from $pkg, which the runtime stage does not install"; status=1
-    fi
-  done < <(ldd "$bin" | awk '/=>/ && $3 ~ /^\// {print $1, $3}')
+for lib in "${libs[@]}"; do
+  pkg=${owner[$lib]:-}
+  if [[ -z "$pkg" ]]; then
+    echo "MISSING  $lib belongs to no package"; status=1
+  elif ! grep -qx "$pkg" <<<"$provided"; then
+    echo "MISSING  $lib from $pkg, which the runtime stage does not install"; status=1
+  fi
 done
-((status)) || echo "runtime-libs: every library of $* is provided by the runtime stage (${#runtime[@]} packages)"
+((status)) || echo "runtime-libs: the ${#libs[@]} libraries of $* all come from the runtime stage (${#runtime[@]} packages and their dependencies)"
 exit $status
