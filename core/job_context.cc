@@ -49,6 +49,11 @@ absl::StatusOr<const Neighbourhoods*> JobContext::neighbourhoods() {
   return neighbourhoods_.get();
 }
 
+absl::Status JobContext::PointsMoved(float max_shift) {
+  if (!neighbourhoods_) return absl::OkStatus();
+  return neighbourhoods_->PointsMoved(cloud_, max_shift, cancel_);
+}
+
 bool JobContext::HasRun(std::string_view stage) const {
   return std::find(completed_.begin(), completed_.end(), stage) != completed_.end();
 }

@@ -47,18 +47,49 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
   });
   if (!status.ok()) return status;
 
-  // r_g from a seeded 1 % sample (at least min(n, 500) points): the paper's cheap global scale.
+  nb->ComputeGlobalRadius();
+  return nb;
+}
+
+// r_g from a seeded 1 % sample (at least min(n, 500) points): the paper's cheap global scale.
+void Neighbourhoods::ComputeGlobalRadius() {
+  const size_t n = index_.size() / k_;
   const size_t sample = std::min(n, std::max<size_t>((n + 99) / 100, 500));
-  std::vector<float> dk(sample);
+  std::vector<float> d(sample);
   std::mt19937_64 rng(0x5ca9);
   std::uniform_int_distribution<size_t> pick(0, n - 1);
-  for (size_t s = 0; s < sample; ++s) dk[s] = nb->dk(sample == n ? s : pick(rng));
-  std::nth_element(dk.begin(), dk.begin() + sample / 2, dk.end());
-  nb->global_radius_ = dk[sample / 2];
-  nb->density_ = nb->global_radius_ > 0
-                     ? k / (std::numbers::pi * nb->global_radius_ * nb->global_radius_)
-                     : 0.0;
-  return nb;
+  for (size_t s = 0; s < sample; ++s) d[s] = dk(sample == n ? s : pick(rng));
+  std::nth_element(d.begin(), d.begin() + sample / 2, d.end());
+  global_radius_ = d[sample / 2];
+  density_ = global_radius_ > 0 ? k_ / (std::numbers::pi * global_radius_ * global_radius_) : 0.0;
+}
+
+absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shift,
+                                         const CancelToken& cancel) {
+  slack_ += max_shift;
+  if (k_ == 0) return absl::OkStatus();
+  absl::Status status = ParallelFor(cloud.size(), cancel, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      uint32_t* idx = &index_[i * k_];
+      float* dist = &dist_[i * k_];
+      const Eigen::Vector3f p = cloud.point(i);
+      // Insertion sort: small moves leave the list nearly ordered.
+      for (uint32_t m = 0; m < k_; ++m) {
+        const uint32_t j = idx[m];
+        const float d = (cloud.point(j) - p).norm();
+        uint32_t at = m;
+        for (; at > 0 && dist[at - 1] > d; --at) {
+          idx[at] = idx[at - 1];
+          dist[at] = dist[at - 1];
+        }
+        idx[at] = j;
+        dist[at] = d;
+      }
+    }
+  });
+  if (!status.ok()) return status;
+  ComputeGlobalRadius();
+  return absl::OkStatus();
 }
 
 void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius,
@@ -73,9 +104,12 @@ void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius,
     }
     return;
   }
+  // The tree's cells bound the positions it was built on; a point now within `radius` was then
+  // within radius + slack.
   const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-  tree_->Radius(q, radius, out);
-  std::erase_if(out, [&](const auto& m) { return cloud.removed(m.first); });
+  tree_->Radius(q, radius + slack_, out);
+  const float r2 = radius * radius;
+  std::erase_if(out, [&](const auto& m) { return cloud.removed(m.first) || m.second >= r2; });
 }
 
 }  // namespace scanprep

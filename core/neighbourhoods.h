@@ -49,13 +49,22 @@ class Neighbourhoods {
   // distance). Answers from the k-NN list when the radius fits inside it, else asks the tree.
   void Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out) const;
 
+  // The points moved by at most `max_shift` each (smoothing bounds it by δ, Eq. 10). Instead of a
+  // rebuild, every k-NN list is re-ranked by its new distances and radius queries to the tree
+  // are widened by the accumulated shift, which keeps them exact. A point that entered the k
+  // nearest from outside the list is not added: a move of δ along the normal changes a
+  // neighbour distance d by about δ²/2d, far below the spacing.
+  absl::Status PointsMoved(const PointCloud& cloud, float max_shift, const CancelToken& cancel);
+
  private:
   Neighbourhoods() = default;
+  void ComputeGlobalRadius();
   std::unique_ptr<KdTree> tree_;
   uint32_t k_ = 0;
   std::vector<uint32_t> index_;
   std::vector<float> dist_;
   double global_radius_ = 0, density_ = 0, min_radius_ = 0;
+  float slack_ = 0;  // largest total move of any point since the tree was built
 };
 
 // Eq. (2): r_min = √3·Δs + ε_u (the circumsphere of a cube of edge 2Δs, which reaches both

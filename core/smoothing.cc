@@ -56,7 +56,7 @@ class SmoothingStage : public Stage {
     size_t moved = 0, clamped = 0, rejected = 0;
     double shift_sum = 0;
     for (int it = 0; it < iterations; ++it) {
-      auto nb = ctx.neighbourhoods();  // rebuilt on the moved positions after each pass
+      auto nb = ctx.neighbourhoods();
       if (!nb.ok()) return nb.status();
       absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
         RadiusMatches matches;
@@ -65,10 +65,13 @@ class SmoothingStage : public Stage {
         }
       });
       if (!status.ok()) return status;
+      float max_shift = 0;
       for (size_t i = 0; i < n; ++i) {
         if (outcome[i] == kMoved || outcome[i] == kClamped) {
           moved_ever[i] = 1;
-          shift_sum += (cloud.point(i) - Eigen::Vector3f(nx[i], ny[i], nz[i])).norm();
+          const float shift = (cloud.point(i) - Eigen::Vector3f(nx[i], ny[i], nz[i])).norm();
+          shift_sum += shift;
+          max_shift = std::max(max_shift, shift);
         }
         moved += outcome[i] == kMoved;
         clamped += outcome[i] == kClamped;
@@ -78,7 +81,7 @@ class SmoothingStage : public Stage {
       cloud.x.swap(nx);
       cloud.y.swap(ny);
       cloud.z.swap(nz);
-      ctx.InvalidateNeighbourhoods();
+      if (absl::Status s = ctx.PointsMoved(max_shift); !s.ok()) return s;
       ctx.Progress((it + 1.0) / iterations);
     }
     for (size_t i = 0; i < n; ++i) {

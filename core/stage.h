@@ -72,8 +72,9 @@ class JobContext {
 
   // Shared neighbourhoods, built on first use and reused by every later stage.
   absl::StatusOr<const Neighbourhoods*> neighbourhoods();
-  // A stage that moves points calls this so the next user rebuilds the tree on the new positions.
-  void InvalidateNeighbourhoods() { neighbourhoods_.reset(); }
+  // A stage that moved points by at most `max_shift` each calls this so the shared
+  // neighbourhoods follow them (Neighbourhoods::PointsMoved) instead of being rebuilt.
+  absl::Status PointsMoved(float max_shift);
   // Used by the "neighbourhoods" stage only.
   void SetNeighbourhoods(std::unique_ptr<Neighbourhoods> nb) { neighbourhoods_ = std::move(nb); }
 
