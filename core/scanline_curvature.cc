@@ -47,16 +47,19 @@ float WindowCurvature(const PointCloud& cloud, const LineScratch& s, size_t cent
   if (!(frame.eigenvalues[2] > 0)) return std::numeric_limits<float>::quiet_NaN();
   const Eigen::Vector3d tangent = frame.axes.col(2), across = frame.axes.col(1);
   const double inv_two_var = 1.0 / (2 * (h / 2) * (h / 2));
-  Eigen::Matrix3d normal_eq = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  // The normal equations of rows (1, x, x²) hold only the weighted power sums Σw·xᵏ, k <= 4,
+  // and Σw·y·xᵏ, k <= 2.
+  double sx[5] = {0, 0, 0, 0, 0}, sy[3] = {0, 0, 0};
   for (size_t t = lo; t <= hi; ++t) {
     const Eigen::Vector3d d = cloud.point(s.idx[t]).cast<double>() - p;
-    const double x = d.dot(tangent), y = d.dot(across), w = std::exp(-x * x * inv_two_var);
-    const Eigen::Vector3d row(1.0, x, x * x);
-    normal_eq += w * row * row.transpose();
-    rhs += w * y * row;
+    const double x = d.dot(tangent), y = d.dot(across), x2 = x * x;
+    const double w = std::exp(-x2 * inv_two_var), wx = w * x, wx2 = w * x2;
+    sx[0] += w, sx[1] += wx, sx[2] += wx2, sx[3] += wx2 * x, sx[4] += wx2 * x2;
+    sy[0] += w * y, sy[1] += wx * y, sy[2] += wx2 * y;
   }
-  const Eigen::Vector3d a = normal_eq.ldlt().solve(rhs);
+  Eigen::Matrix3d normal_eq;
+  normal_eq << sx[0], sx[1], sx[2], sx[1], sx[2], sx[3], sx[2], sx[3], sx[4];
+  const Eigen::Vector3d a = normal_eq.ldlt().solve(Eigen::Vector3d(sy[0], sy[1], sy[2]));
   const double kappa = std::abs(2 * a[2]) / std::pow(1 + a[1] * a[1], 1.5);
   return std::isfinite(kappa) ? static_cast<float>(kappa) : std::numeric_limits<float>::quiet_NaN();
 }
