@@ -72,18 +72,14 @@ class NormalsStage : public Stage {
           r = MitraRadius(cloud, nb, i, sigma, mitra, scratch.mitra);
         }
         // In an overlap part of the k-NN ball belongs to other scans: widen it once so that
-        // the own scan alone holds about k points, as r_p = d_k would on that scan alone. One
-        // query with room for the usual widening serves both balls.
-        float fetched = per_scan ? kPrefetch * r : r;
-        Gather(cloud, nb, i, fetched, per_scan, scratch.matches);
-        if (per_scan) {
-          const float r2 = r * r;
-          const size_t own = std::count_if(scratch.matches.begin(), scratch.matches.end(),
-                                           [&](const auto& m) { return m.second < r2; });
-          if (own < nb.k() + 1) {
-            r *= std::sqrt(static_cast<float>(nb.k() + 1) / std::max<size_t>(own, 1));
-            if (r > fetched) Gather(cloud, nb, i, fetched = r, per_scan, scratch.matches);
-          }
+        // the own scan alone holds about k points, as r_p = d_k would on that scan alone.
+        // Only the widened ball is fitted. (One query reaching past r_p for both balls costs
+        // more than two: the tree's radius search grows faster than the ball.)
+        Gather(cloud, nb, i, r, per_scan, scratch.matches);
+        const size_t own = scratch.matches.size();
+        if (per_scan && own < nb.k() + 1) {
+          r *= std::sqrt(static_cast<float>(nb.k() + 1) / std::max<size_t>(own, 1));
+          Gather(cloud, nb, i, r, per_scan, scratch.matches);
         }
         const LocalFrame frame = Fit(cloud, i, r, weight_scale, scratch.matches);
         radius[i] = r;
@@ -127,10 +123,6 @@ class NormalsStage : public Stage {
   }
 
  private:
-  // How far beyond r_p the first per-scan query reaches, so that widening the ball (typically
-  // by √(21/16) when the own scan holds 16 of its points) needs no second query.
-  static constexpr float kPrefetch = 1.25f;
-
   // The unremoved points within `radius` of i, of i's own scan when `per_scan`.
   static void Gather(const PointCloud& cloud, const Neighbourhoods& nb, size_t i, float radius,
                      bool per_scan, RadiusMatches& matches) {
@@ -140,17 +132,14 @@ class NormalsStage : public Stage {
     }
   }
 
-  // Eq. (4) over the gathered points within r: weights exp(−‖p_j − p‖²/(2h²)), h = factor·r,
-  // moments relative to p.
+  // Eq. (4): weights exp(−‖p_j − p‖²/(2h²)), h = factor·r, moments relative to p.
   static LocalFrame Fit(const PointCloud& cloud, size_t i, float r, double h_factor,
                         const RadiusMatches& matches) {
     const double h = h_factor * r;
     const double inv_two_h2 = h > 0 ? 1.0 / (2 * h * h) : 0.0;
     const Eigen::Vector3d p = cloud.point(i).cast<double>();
     MomentAccumulator moments;
-    const float r2 = r * r;
     for (const auto& [j, d2] : matches) {
-      if (d2 >= r2) continue;
       moments.Add(cloud.point(j).cast<double>() - p, std::exp(-d2 * inv_two_h2));
     }
     return moments.Solve();
