@@ -29,4 +29,6 @@ RUN scanprep-server --version && scanprep --help >/dev/null
 USER 10001
 EXPOSE 50051 9464
 ENTRYPOINT ["scanprep-server"]
-CMD ["--listen=0.0.0.0:50051", "--metrics_listen=0.0.0.0:9464"]
+# Plaintext for local trials only. Production mounts certificates and replaces --plaintext with
+# --tls_cert=/certs/tls.crt --tls_key=/certs/tls.key --tls_client_ca=/certs/ca.crt (mutual TLS).
+CMD ["--plaintext", "--listen=0.0.0.0:50051", "--metrics_listen=0.0.0.0:9464"]

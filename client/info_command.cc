@@ -5,6 +5,7 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "client/commands.h"
+#include "client/connection_flags.h"
 #include "client/scanprep_client.h"
 
 namespace scanprep::client {
@@ -12,7 +13,9 @@ namespace {
 
 int RunInfo(const ParsedArgs& args) {
   const std::string server = args.Get("server", "localhost:50051");
-  auto info = ScanPrepClient::Connect(server).GetInfo(absl::Seconds(10));
+  auto credentials = CredentialsFromArgs(args);
+  if (!credentials.ok()) return Fail("info", std::string(credentials.status().message()));
+  auto info = ScanPrepClient::Connect(server, *credentials).GetInfo(absl::Seconds(10));
   if (!info.ok()) {
     return Fail("info", absl::StrCat(server, ": ", absl::StatusCodeToString(info.status().code()),
                                      ": ", info.status().message()));
@@ -45,11 +48,14 @@ int RunInfo(const ParsedArgs& args) {
 }  // namespace
 
 Command InfoCommand() {
+  std::vector<FlagSpec> flags = {
+      {"server", FlagSpec::kValue, "HOST:PORT of the service (default localhost:50051)"}};
+  AddTlsFlags(flags);
   return Command{
       .name = "info",
-      .synopsis = "info [--server HOST:PORT]",
+      .synopsis = "info [--server HOST:PORT] [--tls_ca CA.pem [--tls_cert C.pem --tls_key K.pem]]",
       .summary = "show the server's version, limits, stages and parameters",
-      .flags = {{"server", FlagSpec::kValue, "HOST:PORT of the service (default localhost:50051)"}},
+      .flags = std::move(flags),
       .run = RunInfo,
   };
 }

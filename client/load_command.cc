@@ -6,6 +6,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
+#include "client/connection_flags.h"
 #include "client/job_builder.h"
 #include "client/load_report.h"
 #include "client/load_runner.h"
@@ -83,7 +84,9 @@ int RunLoadCommand(const ParsedArgs& args) {
   if (budget) job->header.mutable_budget()->set_total_seconds(*budget);
 
   const std::string target = args.Get("server");
-  std::shared_ptr<grpc::Channel> channel = RoundRobinChannel(target);
+  auto credentials = CredentialsFromArgs(args);
+  if (!credentials.ok()) return Fail("load", std::string(credentials.status().message()));
+  std::shared_ptr<grpc::Channel> channel = RoundRobinChannel(target, *credentials);
   // An unreachable or refusing server fails here, once, rather than as a flood of errors.
   if (auto info = ScanPrepClient(channel).GetInfo(absl::Seconds(10)); !info.ok()) {
     return Fail("load", absl::StrCat(target, ": ", absl::StatusCodeToString(info.status().code()),
@@ -119,6 +122,7 @@ Command LoadCommand() {
        "the budget the server reports for the job)"},
       {"json", FlagSpec::kValue, "also write the results as JSON to this file"},
   };
+  AddTlsFlags(flags);
   for (FlagSpec& flag : JobFlags()) flags.push_back(std::move(flag));
   flags.push_back({"simulate", FlagSpec::kValue,
                    "replay a generated laser-line scan of about this many points instead of "

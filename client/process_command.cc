@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
 #include "client/commands.h"
+#include "client/connection_flags.h"
 #include "client/job_builder.h"
 #include "client/progress_view.h"
 #include "client/scanprep_client.h"
@@ -32,7 +33,10 @@ int RunProcess(const ParsedArgs& args) {
   call.progress = [&view](const v1::Progress& p) { view.Update(p); };
 
   const std::string server = args.Get("server", "localhost:50051");
-  auto result = ScanPrepClient::Connect(server).Process(job->header, job->points, call);
+  auto credentials = CredentialsFromArgs(args);
+  if (!credentials.ok()) return Fail("process", std::string(credentials.status().message()));
+  auto result =
+      ScanPrepClient::Connect(server, *credentials).Process(job->header, job->points, call);
   view.Done();
   if (!result.ok()) {
     return Fail("process", absl::StrCat(server, ": ", absl::StatusCodeToString(result.status().code()),
@@ -62,6 +66,7 @@ Command ProcessCommand() {
       {"out", FlagSpec::kValue, "output PLY file (required)", "o"},
       {"server", FlagSpec::kValue, "HOST:PORT of the service (default localhost:50051)"},
   };
+  AddTlsFlags(flags);
   for (FlagSpec& flag : JobFlags()) flags.push_back(std::move(flag));
   flags.push_back({"timeout", FlagSpec::kValue, "deadline for the whole call, e.g. 120s"});
   flags.push_back({"report_json", FlagSpec::kValue, "also write the full report as JSON"});

@@ -3,6 +3,7 @@
 #include <thread>
 
 #include "absl/strings/str_cat.h"
+#include "core/io/read_file.h"
 
 namespace scanprep::client {
 namespace {
@@ -45,14 +46,42 @@ absl::Status FromGrpc(const grpc::Status& status) {
 ScanPrepClient::ScanPrepClient(std::shared_ptr<grpc::Channel> channel)
     : stub_(v1::ScanPrep::NewStub(std::move(channel))) {}
 
-ScanPrepClient ScanPrepClient::Connect(const std::string& target) {
-  return ScanPrepClient(grpc::CreateChannel(target, grpc::InsecureChannelCredentials()));
+absl::StatusOr<std::shared_ptr<grpc::ChannelCredentials>> ChannelCredentialsFor(
+    const TlsFiles& files) {
+  if (files.cert.empty() != files.key.empty()) {
+    return absl::InvalidArgumentError("--tls_cert and --tls_key go together");
+  }
+  if (files.ca.empty()) {
+    if (!files.cert.empty()) {
+      return absl::InvalidArgumentError(
+          "--tls_cert needs --tls_ca (the CA that signed the server's certificate)");
+    }
+    return grpc::InsecureChannelCredentials();
+  }
+  grpc::SslCredentialsOptions options;
+  const std::pair<const std::string*, std::string*> pem[] = {
+      {&files.ca, &options.pem_root_certs},
+      {&files.cert, &options.pem_cert_chain},
+      {&files.key, &options.pem_private_key}};
+  for (const auto& [path, into] : pem) {
+    if (path->empty()) continue;
+    auto text = io::ReadFileToString(*path);
+    if (!text.ok()) return text.status();
+    *into = std::move(*text);
+  }
+  return grpc::SslCredentials(options);
 }
 
-std::shared_ptr<grpc::Channel> RoundRobinChannel(const std::string& target) {
+ScanPrepClient ScanPrepClient::Connect(const std::string& target,
+                                       std::shared_ptr<grpc::ChannelCredentials> credentials) {
+  return ScanPrepClient(grpc::CreateChannel(target, std::move(credentials)));
+}
+
+std::shared_ptr<grpc::Channel> RoundRobinChannel(
+    const std::string& target, std::shared_ptr<grpc::ChannelCredentials> credentials) {
   grpc::ChannelArguments arguments;
   arguments.SetLoadBalancingPolicyName("round_robin");
-  return grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), arguments);
+  return grpc::CreateCustomChannel(target, std::move(credentials), arguments);
 }
 
 absl::StatusOr<v1::Info> ScanPrepClient::GetInfo(std::optional<absl::Duration> timeout) {

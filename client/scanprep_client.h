@@ -54,11 +54,27 @@ struct CallOptions {
   size_t chunk_points = kDefaultChunkPoints;
 };
 
+// PEM files for a TLS channel. With `ca` the server's certificate is verified against it; with
+// `cert` and `key` the client presents its own certificate (mutual TLS).
+struct TlsFiles {
+  std::string ca;
+  std::string cert;
+  std::string key;
+};
+
+// TLS credentials when `files.ca` is set, else insecure ones (plaintext). INVALID_ARGUMENT when a
+// certificate comes without its key (or the other way round) or without a CA; the file reader's
+// status when a file cannot be read.
+absl::StatusOr<std::shared_ptr<grpc::ChannelCredentials>> ChannelCredentialsFor(
+    const TlsFiles& files);
+
 class ScanPrepClient {
  public:
   explicit ScanPrepClient(std::shared_ptr<grpc::Channel> channel);
-  // An insecure channel to HOST:PORT.
-  static ScanPrepClient Connect(const std::string& target);
+  // A channel to HOST:PORT; plaintext unless `credentials` say otherwise.
+  static ScanPrepClient Connect(
+      const std::string& target,
+      std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials());
 
   absl::StatusOr<v1::Info> GetInfo(std::optional<absl::Duration> timeout = std::nullopt);
 
@@ -72,10 +88,12 @@ class ScanPrepClient {
   std::unique_ptr<v1::ScanPrep::Stub> stub_;
 };
 
-// An insecure channel to `target` (HOST:PORT or a gRPC name such as dns:///name:port) that
-// spreads its calls round-robin over every address the name resolves to, so one client loads
-// all replicas behind a headless service instead of the first one it reaches.
-std::shared_ptr<grpc::Channel> RoundRobinChannel(const std::string& target);
+// A channel to `target` (HOST:PORT or a gRPC name such as dns:///name:port) that spreads its
+// calls round-robin over every address the name resolves to, so one client loads all replicas
+// behind a headless service instead of the first one it reaches.
+std::shared_ptr<grpc::Channel> RoundRobinChannel(
+    const std::string& target,
+    std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials());
 
 // The request chunk for points [begin, end); scan_index only when `with_scan_index`.
 void RequestChunk(const PointCloud& points, size_t begin, size_t end, bool with_scan_index,

@@ -28,11 +28,12 @@ fi
 
 podman build --isolation=chroot --pull=never -t scanprep:latest -f Dockerfile .
 
-# The smoke test: start the server in the runtime image and ask its health service.
+# The smoke test: start the server in the runtime image and ask its health service. Plaintext on
+# loopback inside the build; production mounts certificates and uses the --tls_* flags.
 cat >"$work/Containerfile.smoke" <<'SMOKE'
 FROM scanprep:latest
 USER root
-RUN (scanprep-server --listen=127.0.0.1:50051 --metrics_listen=127.0.0.1:9464 & echo $! > /tmp/pid) \
+RUN (scanprep-server --plaintext --listen=127.0.0.1:50051 --metrics_listen=127.0.0.1:9464 & echo $! > /tmp/pid) \
  && for i in $(seq 50); do scanprep info --server=127.0.0.1:50051 >/tmp/info 2>&1 && break; sleep 0.2; done \
  && cat /tmp/info && grep -q stages /tmp/info \
  && kill -TERM "$(cat /tmp/pid)" && wait 2>/dev/null; echo "smoke test passed"

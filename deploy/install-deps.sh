@@ -9,6 +9,7 @@ packages=(
   libeigen3-dev libnanoflann-dev libtbb-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcpp-httplib-dev
   prometheus  # prometheus and promtool: alert-rule and integration tests
+  openssl     # tls_test makes its certificates at test time
 )
 
 missing=()

@@ -11,7 +11,8 @@ bin=${BUILD_DIR:-build}
 out=$(mktemp -d)
 trap 'kill "$server_pid" 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$out"' EXIT
 
-"$bin/server/scanprep-server" --listen=127.0.0.1:0 >"$out/server.log" 2>&1 &
+# Plaintext on loopback for the demo; a deployment gives --tls_cert/--tls_key/--tls_client_ca.
+"$bin/server/scanprep-server" --plaintext --listen=127.0.0.1:0 >"$out/server.log" 2>&1 &
 server_pid=$!
 for _ in $(seq 100); do
   port=$(sed -n 's/.*listening on port \([0-9]*\).*/\1/p' "$out/server.log")

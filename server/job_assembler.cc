@@ -25,6 +25,12 @@ absl::Status CheckPresence(uint64_t chunk, std::string_view name, bool expected,
 }  // namespace
 
 absl::Status JobAssembler::Add(const v1::ProcessRequest& request) {
+  bytes_ += request.ByteSizeLong();
+  if (bytes_ > limits_.max_bytes_per_call) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "the call's request messages total ", bytes_, " bytes, over the server's limit of ",
+        limits_.max_bytes_per_call, " bytes per call (max_bytes_per_call)"));
+  }
   switch (request.kind_case()) {
     case v1::ProcessRequest::kHeader: return AddHeader(request.header());
     case v1::ProcessRequest::kPoints: return AddChunk(request.points());
@@ -41,6 +47,7 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
         absl::StrCat("a second header after ", chunks_, " chunks; a job has exactly one header"));
   }
   has_header_ = true;
+  if (absl::Status s = CheckHeaderSize(header); !s.ok()) return s;
   auto mm = MillimetresPerUnit(header.unit());
   if (!mm.ok()) return mm.status();
   if (header.scans().empty()) {
@@ -70,6 +77,26 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
     return absl::ResourceExhaustedError(
         absl::StrCat("header.total_points = ", total_points_, " exceeds the server's limit of ",
                      limits_.max_points_per_job, " points per job (max_points_per_job)"));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
+  if (static_cast<uint64_t>(header.scans_size()) > limits_.max_scans_per_job) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "header.scans has ", header.scans_size(), " scans, over the server's limit of ",
+        limits_.max_scans_per_job, " scans per job (max_scans_per_job)"));
+  }
+  const std::pair<std::string_view, int> lists[] = {
+      {"header.options.stages", header.options().stages_size()},
+      {"header.options.params", header.options().params_size()},
+      {"header.budget.stage_seconds", header.budget().stage_seconds_size()}};
+  for (const auto& [field, size] : lists) {
+    if (size > kMaxHeaderListEntries) {
+      return absl::InvalidArgumentError(absl::StrCat(std::string(field), " has ", size,
+                                                     " entries; at most ",
+                                                     kMaxHeaderListEntries, " are accepted"));
+    }
   }
   return absl::OkStatus();
 }

@@ -17,9 +17,18 @@
 
 namespace scanprep::server {
 
+// Header lists (stages, parameters, stage budgets) longer than this are refused before they are
+// copied: far more than the registry's stages and parameters, far less than a hostile 4 MiB header.
+inline constexpr int kMaxHeaderListEntries = 256;
+
 struct JobLimits {
   uint64_t max_points_per_job = 20'000'000;
   uint64_t max_chunk_points = 65'536;
+  // Serialized size of all request messages of one call; the default fits a job at
+  // max_points_per_job with every optional array (about 30 bytes per point).
+  uint64_t max_bytes_per_call = uint64_t{1} << 30;
+  // Scans declared in one header; each costs a frame and metadata before any point arrives.
+  uint32_t max_scans_per_job = 1'000;
   double default_budget_seconds = 0;
   std::map<std::string, double> default_stage_budget_seconds;
 };
@@ -45,12 +54,15 @@ class JobAssembler {
   absl::StatusOr<AssembledJob> Finish();
 
   bool has_header() const { return has_header_; }
+  const std::string& job_id() const { return job_.job_id; }
   uint64_t points_received() const { return job_.points_received; }
   // The client's announced total (0 = not announced).
   uint64_t total_points() const { return total_points_; }
 
  private:
   absl::Status AddHeader(const v1::JobHeader& header);
+  // The header's list lengths against the limits, before anything is copied from it.
+  absl::Status CheckHeaderSize(const v1::JobHeader& header) const;
   absl::Status AddChunk(const v1::PointChunk& chunk);
   absl::Status CheckChunk(const v1::PointChunk& chunk, size_t n) const;
 
@@ -60,6 +72,7 @@ class JobAssembler {
   bool has_header_ = false;
   uint64_t total_points_ = 0;
   uint64_t chunks_ = 0;
+  uint64_t bytes_ = 0;  // serialized size of the messages so far
   // Which optional arrays the first non-empty chunk carried; later chunks must agree.
   bool layout_known_ = false;
   bool has_scanline_ = false, has_quality_ = false, has_intensity_ = false;

@@ -19,6 +19,7 @@ std::vector<StageProgress> RunningJob::DrainProgress() {
 }
 
 void RunningJob::OnProgress(std::string_view stage, double fraction) {
+  if (hook_) hook_(stage, fraction);
   std::lock_guard lock(mu_);
   if (!progress_.empty() && progress_.back().stage == stage) {
     progress_.back().fraction = fraction;
@@ -42,15 +43,16 @@ void RunningJob::Run() {
   done_cv_.notify_all();
 }
 
-JobRunner::JobRunner(int threads)
+JobRunner::JobRunner(int threads, ProgressHook hook)
     : threads_(threads > 0 ? threads
                            : std::max(1, static_cast<int>(std::thread::hardware_concurrency()))),
+      hook_(std::move(hook)),
       workers_(tbb::global_control::max_allowed_parallelism, threads_ + 1),
       // No slot reserved for an external thread: every job is enqueued, none is executed.
       arena_(threads_, 0) {}
 
 std::shared_ptr<RunningJob> JobRunner::Start(PointCloud cloud, PipelineOptions options) {
-  auto job = std::make_shared<RunningJob>(std::move(cloud), std::move(options));
+  auto job = std::make_shared<RunningJob>(std::move(cloud), std::move(options), hook_);
   arena_.enqueue([job] { job->Run(); });
   return job;
 }

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -22,6 +23,10 @@
 
 namespace scanprep::server {
 
+// Sees every progress event on the processing thread before it is queued for the client; a
+// test hook that can hold a job inside a chosen stage.
+using ProgressHook = std::function<void(std::string_view stage, double fraction)>;
+
 struct StageProgress {
   std::string stage;
   double fraction = 0;
@@ -31,8 +36,8 @@ struct StageProgress {
 // it. The job owns its cloud, so the task never outlives the data it works on.
 class RunningJob {
  public:
-  RunningJob(PointCloud cloud, PipelineOptions options)
-      : cloud_(std::move(cloud)), options_(std::move(options)) {}
+  RunningJob(PointCloud cloud, PipelineOptions options, ProgressHook hook)
+      : cloud_(std::move(cloud)), options_(std::move(options)), hook_(std::move(hook)) {}
 
   void Cancel() { cancel_.Cancel(); }
   // True once the pipeline finished (or failed); waits at most `timeout`.
@@ -50,6 +55,7 @@ class RunningJob {
 
   PointCloud cloud_;
   PipelineOptions options_;
+  ProgressHook hook_;
   CancelToken cancel_;
   std::mutex mu_;
   std::condition_variable done_cv_;
@@ -60,7 +66,7 @@ class RunningJob {
 class JobRunner {
  public:
   // `threads` = arena concurrency; 0 = hardware concurrency.
-  explicit JobRunner(int threads);
+  explicit JobRunner(int threads, ProgressHook hook = {});
 
   std::shared_ptr<RunningJob> Start(PointCloud cloud, PipelineOptions options);
 
@@ -68,6 +74,7 @@ class JobRunner {
 
  private:
   int threads_;
+  ProgressHook hook_;
   // TBB caps its workers at hardware concurrency - 1 by default (the rest is kept for a master
   // thread); every job here is enqueued, so the arena needs all `threads` as workers.
   tbb::global_control workers_;

@@ -12,10 +12,28 @@
 #include "absl/time/time.h"
 #include "server/budget_config.h"
 #include "server/scanprep_server.h"
+#include "server/transport_security.h"
 
 ABSL_FLAG(std::string, listen, "0.0.0.0:50051", "HOST:PORT to listen on (port 0 = any free port)");
+ABSL_FLAG(std::string, tls_cert, "", "PEM certificate chain of the gRPC port (TLS)");
+ABSL_FLAG(std::string, tls_key, "", "PEM private key of --tls_cert");
+ABSL_FLAG(std::string, tls_client_ca, "",
+          "PEM CA bundle: clients must present a certificate it signed (mutual TLS)");
+ABSL_FLAG(bool, plaintext, false,
+          "serve the gRPC port unencrypted and unauthenticated; without it the server needs the "
+          "TLS flags and refuses to start");
 ABSL_FLAG(uint64_t, max_points_per_job, 20'000'000,
           "largest job in points; larger jobs end with RESOURCE_EXHAUSTED");
+ABSL_FLAG(uint64_t, max_chunk_points, 65'536,
+          "largest request chunk in points; larger chunks end the call with RESOURCE_EXHAUSTED");
+ABSL_FLAG(uint64_t, max_bytes_per_call, uint64_t{1} << 30,
+          "serialized size of all request messages of one call; beyond it the call ends with "
+          "RESOURCE_EXHAUSTED");
+ABSL_FLAG(uint32_t, max_scans_per_job, 1'000,
+          "scans one job header may declare; more end the call with RESOURCE_EXHAUSTED");
+ABSL_FLAG(int, max_calls_per_peer, 16,
+          "Process calls one client host (address without port) may have in progress, queued "
+          "included; more end at once with RESOURCE_EXHAUSTED");
 ABSL_FLAG(std::string, metrics_listen, "0.0.0.0:9464",
           "HOST:PORT of the Prometheus /metrics endpoint (port 0 = any free port; empty = off)");
 ABSL_FLAG(int, max_concurrent_jobs, 4,
@@ -61,7 +79,9 @@ int main(int argc, char** argv) {
   absl::FlagsUsageConfig usage;
   usage.version_string = [] { return std::string("scanprep-server " SCANPREP_VERSION "\n"); };
   absl::SetFlagsUsageConfig(usage);
-  absl::SetProgramUsageMessage("scanprep-server [--listen HOST:PORT] [flags]");
+  absl::SetProgramUsageMessage(
+      "scanprep-server (--tls_cert FILE --tls_key FILE [--tls_client_ca FILE] | --plaintext) "
+      "[--listen HOST:PORT] [flags]");
   absl::ParseCommandLine(argc, argv);
 
   // Block the stop signals in every thread (gRPC's and TBB's threads inherit this mask) and take
@@ -77,10 +97,26 @@ int main(int argc, char** argv) {
     std::cerr << "scanprep-server: " << budgets.status().message() << "\n";
     return 1;
   }
+  auto transport = scanprep::server::TransportFromFlags({
+      .tls_cert = absl::GetFlag(FLAGS_tls_cert),
+      .tls_key = absl::GetFlag(FLAGS_tls_key),
+      .tls_client_ca = absl::GetFlag(FLAGS_tls_client_ca),
+      .plaintext = absl::GetFlag(FLAGS_plaintext),
+  });
+  if (!transport.ok()) {
+    std::cerr << "scanprep-server: " << transport.status().message() << "\n";
+    return 1;
+  }
   scanprep::server::ServerOptions options;
+  options.credentials = transport->credentials;
+  options.log = &std::cerr;
   options.listen = absl::GetFlag(FLAGS_listen);
   options.metrics_listen = absl::GetFlag(FLAGS_metrics_listen);
   options.limits.max_points_per_job = absl::GetFlag(FLAGS_max_points_per_job);
+  options.limits.max_chunk_points = absl::GetFlag(FLAGS_max_chunk_points);
+  options.limits.max_bytes_per_call = absl::GetFlag(FLAGS_max_bytes_per_call);
+  options.limits.max_scans_per_job = absl::GetFlag(FLAGS_max_scans_per_job);
+  options.max_calls_per_peer = absl::GetFlag(FLAGS_max_calls_per_peer);
   options.limits.default_budget_seconds = budgets->total_seconds;
   options.limits.default_stage_budget_seconds = budgets->stage_seconds;
   options.max_concurrent_jobs = absl::GetFlag(FLAGS_max_concurrent_jobs);
@@ -93,7 +129,7 @@ int main(int argc, char** argv) {
   }
   // The actual ports, for callers that asked for port 0.
   std::cout << "scanprep-server " SCANPREP_VERSION " listening on port " << (*server)->port()
-            << std::endl;
+            << " (" << transport->description << ")" << std::endl;
   if ((*server)->metrics_port() != 0) {
     std::cout << "scanprep-server: metrics on port " << (*server)->metrics_port() << std::endl;
   }

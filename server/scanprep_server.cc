@@ -34,11 +34,13 @@ absl::StatusOr<HostPort> ParseHostPort(const std::string& text, const std::strin
 
 ScanPrepServer::ScanPrepServer(const ServerOptions& options)
     : metrics_(registry_),
+      log_(options.log),
+      peers_(options.max_calls_per_peer),
       admission_({.max_concurrent_jobs = options.max_concurrent_jobs,
                   .max_queued_jobs = options.max_queued_jobs},
                  metrics_),
-      runner_(options.threads),
-      service_(options.limits, admission_, runner_, metrics_) {
+      runner_(options.threads, options.on_progress),
+      service_(options.limits, admission_, runner_, metrics_, peers_, log_) {
   metrics_.SetDefaultBudget(options.limits.default_budget_seconds);
 }
 
@@ -49,6 +51,9 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
   }
   if (options.max_queued_jobs < 0) {
     return absl::InvalidArgumentError("max_queued_jobs must be at least 0");
+  }
+  if (options.max_calls_per_peer < 1) {
+    return absl::InvalidArgumentError("max_calls_per_peer must be at least 1");
   }
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -61,11 +66,18 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
     server->exporter_ = std::move(*exporter);
   }
   grpc::ServerBuilder builder;
-  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &server->port_);
+  builder.AddListeningPort(
+      options.listen,
+      options.credentials != nullptr ? options.credentials : grpc::InsecureServerCredentials(),
+      &server->port_);
+  builder.SetMaxReceiveMessageSize(kMaxMessageBytes);
   builder.RegisterService(&server->service_);
   server->server_ = builder.BuildAndStart();
   if (server->server_ == nullptr || server->port_ == 0) {
-    return absl::UnavailableError(absl::StrCat("cannot listen on ", options.listen));
+    return absl::UnavailableError(absl::StrCat(
+        "cannot listen on ", options.listen,
+        options.credentials != nullptr ? " (or the TLS certificate and key are not a valid pair)"
+                                       : ""));
   }
   server->server_->GetHealthCheckService()->SetServingStatus(true);
   return server;

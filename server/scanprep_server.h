@@ -4,6 +4,7 @@
 #pragma once
 
 #include <memory>
+#include <ostream>
 #include <string>
 
 #include <grpcpp/grpcpp.h>
@@ -11,10 +12,12 @@
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
 #include "server/admission.h"
+#include "server/call_log.h"
 #include "server/job_assembler.h"
 #include "server/job_runner.h"
 #include "server/metrics/http_exporter.h"
 #include "server/metrics/registry.h"
+#include "server/peer_limiter.h"
 #include "server/scanprep_service.h"
 #include "server/service_metrics.h"
 
@@ -27,6 +30,13 @@ struct ServerOptions {
   int max_concurrent_jobs = 4;
   int max_queued_jobs = 8;
   int threads = 0;  // arena threads; 0 = hardware concurrency
+  // Process calls one client host may have in progress (queued included).
+  int max_calls_per_peer = 16;
+  // The gRPC port's transport security; null = plaintext. The in-process tests keep the
+  // default; scanprep-server always sets it and serves plaintext only when asked to.
+  std::shared_ptr<grpc::ServerCredentials> credentials;
+  std::ostream* log = nullptr;  // where CallLog writes; null = no log
+  ProgressHook on_progress;     // test hook, see ProgressHook
 };
 
 class ScanPrepServer {
@@ -50,6 +60,8 @@ class ScanPrepServer {
 
   metrics::Registry registry_;
   ServiceMetrics metrics_;
+  CallLog log_;
+  PeerLimiter peers_;
   AdmissionQueue admission_;
   JobRunner runner_;
   ScanPrepService service_;

@@ -5,6 +5,7 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "core/stage.h"
 
 namespace scanprep::server {
@@ -17,12 +18,22 @@ grpc::Status ToGrpc(const absl::Status& s) {
   return grpc::Status(static_cast<grpc::StatusCode>(s.code()), std::string(s.message()));
 }
 
-const grpc::Status kClientGone(grpc::StatusCode::CANCELLED, "the call was cancelled by the client");
-
 absl::Time CallDeadline(const grpc::ServerContext& context) {
   const auto deadline = context.deadline();
   return deadline == std::chrono::system_clock::time_point::max() ? absl::InfiniteFuture()
                                                                   : absl::FromChrono(deadline);
+}
+
+// The status of a call that ended from the client's side during `phase`: its deadline passed, or
+// it was cancelled (client gone, connection lost).
+grpc::Status Gone(const grpc::ServerContext& context, std::string_view phase) {
+  if (absl::Now() >= CallDeadline(context)) {
+    return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
+                        absl::StrCat("the call's deadline passed during ", std::string(phase)));
+  }
+  return grpc::Status(grpc::StatusCode::CANCELLED,
+                      absl::StrCat("the call was cancelled by the client during ",
+                                   std::string(phase)));
 }
 
 uint64_t ChunkPoints(const v1::PointChunk& chunk) { return chunk.xyz_size() / 3; }
@@ -31,15 +42,38 @@ uint64_t ChunkPoints(const v1::PointChunk& chunk) { return chunk.xyz_size() / 3;
 
 grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stream) {
   metrics_.RpcStarted("Process");
+  const absl::Time start = absl::Now();
+  CallRecord record;
   grpc::Status status;
-  try {
-    status = ProcessJob(context, stream);
-  } catch (const std::bad_alloc&) {
-    status = grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
-                          "the server ran out of memory holding this job");
+  // Counted before anything is read, so one host's calls cannot fill every slot and queue place.
+  if (auto lease = peers_.Acquire(context->peer()); !lease.ok()) {
+    status = Refuse(lease.status());
+  } else {
+    try {
+      status = ProcessJob(context, stream, record);
+    } catch (const std::bad_alloc&) {
+      status = grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                            "the server ran out of memory holding this job");
+    }
   }
   metrics_.RpcHandled("Process", status.error_code());
+  LogCall(*context, record, status, absl::Now() - start);
   return status;
+}
+
+void ScanPrepService::LogCall(const grpc::ServerContext& context, const CallRecord& record,
+                              const grpc::Status& status, absl::Duration elapsed) {
+  // A client that hangs up is routine; every other failure is worth a look.
+  const bool routine = status.ok() || status.error_code() == grpc::StatusCode::CANCELLED;
+  const std::string outcome =
+      status.ok() ? "OK"
+                  : absl::StrCat(absl::StatusCodeToString(
+                                     static_cast<absl::StatusCode>(status.error_code())),
+                                 ": ", Quoted(status.error_message(), 300));
+  log_.Write(routine ? CallLog::kInfo : CallLog::kWarning,
+             absl::StrCat("process peer=", context.peer(), " job=", Quoted(record.job_id),
+                          " points=", record.points, " ", outcome, " ",
+                          absl::StrFormat("%.3fs", absl::ToDoubleSeconds(elapsed))));
 }
 
 bool ScanPrepService::Send(Stream* stream, const v1::ProcessResponse& response) {
@@ -65,7 +99,8 @@ grpc::Status ScanPrepService::Refuse(const absl::Status& status) {
   return ToGrpc(status);
 }
 
-grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* stream) {
+grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* stream,
+                                         CallRecord& record) {
   // Upload: validate each message as it arrives; the first error ends the call without reading
   // the rest. The call queues for a slot once its header is valid, before any points arrive.
   JobAssembler assembler(limits_);
@@ -74,7 +109,10 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   while (stream->Read(&request)) {
     metrics_.RequestReceived(request.ByteSizeLong(),
                              request.has_points() ? ChunkPoints(request.points()) : 0);
-    if (absl::Status s = assembler.Add(request); !s.ok()) return Refuse(s);
+    absl::Status added = assembler.Add(request);
+    record.job_id = assembler.job_id();
+    record.points = assembler.points_received();
+    if (!added.ok()) return Refuse(added);
     if (!slot.has_value()) {  // the assembler accepts only a header first
       auto admitted =
           admission_.Admit(CallDeadline(*context), [context] { return context->IsCancelled(); });
@@ -85,9 +123,11 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     const uint64_t total = assembler.total_points();
     const uint64_t received = assembler.points_received();
     const double fraction = total > 0 ? static_cast<double>(received) / total : 0.0;
-    if (!SendProgress(stream, v1::Progress::UPLOAD, "", fraction, received)) return kClientGone;
+    if (!SendProgress(stream, v1::Progress::UPLOAD, "", fraction, received)) {
+      return Gone(*context, "upload");
+    }
   }
-  if (context->IsCancelled()) return kClientGone;
+  if (context->IsCancelled()) return Gone(*context, "upload");
   auto job = assembler.Finish();
   if (!job.ok()) return Refuse(job.status());
 
@@ -109,7 +149,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
       }
     }
   }
-  if (client_gone) return kClientGone;
+  if (client_gone) return Gone(*context, "processing");
   const absl::StatusOr<PipelineReport>& result = running->result();
   if (!result.ok()) return ToGrpc(result.status());
   metrics_.JobProcessed(*result);
@@ -128,7 +168,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     if (!Send(stream, response) ||
         !SendProgress(stream, v1::Progress::DOWNLOAD, "",
                       static_cast<double>(end) / indices.size(), end)) {
-      return kClientGone;
+      return Gone(*context, "download");
     }
   }
   v1::ProcessResponse response;
@@ -140,7 +180,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   report->set_points_returned(indices.size());
   for (const std::string& w : job->warnings) report->add_warnings(w);
   ReportToProto(*result, report);
-  if (!Send(stream, response)) return kClientGone;
+  if (!Send(stream, response)) return Gone(*context, "download");
   return grpc::Status::OK;
 }
 
@@ -154,6 +194,10 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
   limits->set_max_concurrent_jobs(admission_.max_concurrent_jobs());
   limits->set_max_queued_jobs(admission_.max_queued_jobs());
   limits->set_recommended_chunk_points(kRecommendedChunkPoints);
+  limits->set_max_bytes_per_call(limits_.max_bytes_per_call);
+  limits->set_max_calls_per_peer(peers_.max_calls_per_peer());
+  limits->set_max_scans_per_job(limits_.max_scans_per_job);
+  limits->set_max_message_bytes(kMaxMessageBytes);
   const std::vector<std::string> defaults = DefaultStages();
   for (const StageInfo& stage : StageRegistry()) {
     v1::StageInfo* s = info->add_stages();

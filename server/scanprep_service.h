@@ -7,20 +7,30 @@
 
 #include "scanprep/v1/scanprep.grpc.pb.h"
 #include "server/admission.h"
+#include "server/call_log.h"
 #include "server/job_assembler.h"
 #include "server/job_runner.h"
+#include "server/peer_limiter.h"
 #include "server/service_metrics.h"
 
 namespace scanprep::server {
 
 // Points per result chunk; half the per-chunk limit, about 0.8 MiB with every array filled.
 inline constexpr uint32_t kRecommendedChunkPoints = 32'768;
+// Largest request message gRPC accepts (its default, set explicitly so the limit is ours): a
+// chunk at the default max_chunk_points with every optional array is about 2 MiB.
+inline constexpr int kMaxMessageBytes = 4 << 20;
 
 class ScanPrepService final : public v1::ScanPrep::Service {
  public:
   ScanPrepService(JobLimits limits, AdmissionQueue& admission, JobRunner& runner,
-                  ServiceMetrics& metrics)
-      : limits_(std::move(limits)), admission_(admission), runner_(runner), metrics_(metrics) {}
+                  ServiceMetrics& metrics, PeerLimiter& peers, CallLog& log)
+      : limits_(std::move(limits)),
+        admission_(admission),
+        runner_(runner),
+        metrics_(metrics),
+        peers_(peers),
+        log_(log) {}
 
   grpc::Status Process(
       grpc::ServerContext* context,
@@ -30,7 +40,14 @@ class ScanPrepService final : public v1::ScanPrep::Service {
 
  private:
   using Stream = grpc::ServerReaderWriter<v1::ProcessResponse, v1::ProcessRequest>;
-  grpc::Status ProcessJob(grpc::ServerContext* context, Stream* stream);
+  // What the log line of a Process call says besides its status.
+  struct CallRecord {
+    std::string job_id;
+    uint64_t points = 0;
+  };
+  grpc::Status ProcessJob(grpc::ServerContext* context, Stream* stream, CallRecord& record);
+  void LogCall(const grpc::ServerContext& context, const CallRecord& record,
+               const grpc::Status& status, absl::Duration elapsed);
   // Writes one response and counts it; false when the client is gone.
   bool Send(Stream* stream, const v1::ProcessResponse& response);
   bool SendProgress(Stream* stream, v1::Progress::Phase phase, std::string_view stage,
@@ -42,6 +59,8 @@ class ScanPrepService final : public v1::ScanPrep::Service {
   AdmissionQueue& admission_;
   JobRunner& runner_;
   ServiceMetrics& metrics_;
+  PeerLimiter& peers_;
+  CallLog& log_;
 };
 
 }  // namespace scanprep::server

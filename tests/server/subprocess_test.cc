@@ -30,13 +30,13 @@ int PortAfter(const std::string& line, const std::string& marker) {
   return at == std::string::npos ? 0 : std::atoi(line.c_str() + at + marker.size());
 }
 
-// scanprep-server --listen 127.0.0.1:0 --metrics_listen 127.0.0.1:0 plus `flags`, its stdout in
-// a file from which both ports are read.
+// scanprep-server --plaintext --listen 127.0.0.1:0 --metrics_listen 127.0.0.1:0 plus `flags`, its
+// stdout in a file from which both ports are read.
 class ServerProcess {
  public:
   explicit ServerProcess(std::vector<std::string> flags = {}) {
     log_ = fs::path(::testing::TempDir()) / ("scanprep_server_" + std::to_string(getpid()) + ".log");
-    flags.insert(flags.begin(), {SCANPREP_SERVER_BINARY, "--listen=127.0.0.1:0",
+    flags.insert(flags.begin(), {SCANPREP_SERVER_BINARY, "--plaintext", "--listen=127.0.0.1:0",
                                  "--metrics_listen=127.0.0.1:0", "--threads=2",
                                  "--grace_period=5s"});
     pid_ = fork();
@@ -98,6 +98,10 @@ TEST(ServerBinary, ServesTheClientLibrary) {
     ASSERT_TRUE(info.ok()) << info.status();
     EXPECT_EQ(info->limits().max_points_per_job(), 20'000'000u);
     EXPECT_EQ(info->limits().max_concurrent_jobs(), 4u);
+    EXPECT_EQ(info->limits().max_chunk_points(), 65'536u);
+    EXPECT_EQ(info->limits().max_bytes_per_call(), 1u << 30);
+    EXPECT_EQ(info->limits().max_scans_per_job(), 1'000u);
+    EXPECT_EQ(info->limits().max_calls_per_peer(), 16u);
 
     v1::JobHeader header = SimpleHeader(0.5);
     header.mutable_options()->add_stages("outliers");
@@ -138,9 +142,37 @@ TEST(ServerBinary, BadBudgetFlagsExitOneWithTheReason) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.output, HasSubstr("--stage_budgets entry 'sharpen=1': unknown stage 'sharpen'"));
   const CommandResult listen =
-      RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --metrics_listen=nowhere");
+      RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --plaintext --metrics_listen=nowhere");
   EXPECT_EQ(listen.exit_code, 1);
   EXPECT_THAT(listen.output, HasSubstr("metrics_listen: 'nowhere' is not HOST:PORT"));
+}
+
+TEST(ServerBinary, RefusesToStartWithoutTransportSecurityOrPlaintext) {
+  const CommandResult r =
+      RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --listen=127.0.0.1:0 --metrics_listen=");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.output, HasSubstr("no transport security configured: give --tls_cert and "
+                                  "--tls_key (and --tls_client_ca for mutual TLS), or --plaintext"));
+  const CommandResult missing = RunCommand(std::string(SCANPREP_SERVER_BINARY) +
+                                           " --tls_cert=/nonexistent.pem --tls_key=/nonexistent.key");
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_THAT(missing.output, HasSubstr("--tls_cert: file not found: /nonexistent.pem"));
+}
+
+TEST(ServerBinary, LimitFlagsReachGetInfo) {
+  ServerProcess server({"--max_chunk_points=1000", "--max_bytes_per_call=123456",
+                        "--max_scans_per_job=7", "--max_calls_per_peer=3"});
+  ASSERT_GT(server.port(), 0);
+  {
+    auto info = client::ScanPrepClient::Connect(server.target()).GetInfo(absl::Seconds(10));
+    ASSERT_TRUE(info.ok()) << info.status();
+    EXPECT_EQ(info->limits().max_chunk_points(), 1000u);
+    EXPECT_EQ(info->limits().max_bytes_per_call(), 123456u);
+    EXPECT_EQ(info->limits().max_scans_per_job(), 7u);
+    EXPECT_EQ(info->limits().max_calls_per_peer(), 3u);
+    EXPECT_EQ(info->limits().max_message_bytes(), 4u << 20);
+  }
+  EXPECT_EQ(server.Terminate(), 0);
 }
 
 TEST(ServerBinary, SigtermLetsTheInFlightCallFinishThenExitsZero) {

@@ -1,0 +1,38 @@
+#include "server/peer_limiter.h"
+
+#include "absl/strings/str_cat.h"
+
+namespace scanprep::server {
+
+std::string PeerHost(const std::string& peer) {
+  // gRPC writes IP peers as ipv4:ADDR:PORT and ipv6:[ADDR]:PORT (or %5BADDR%5D:PORT), always with
+  // the port; other schemes (unix:PATH) name no port.
+  const bool ip = peer.rfind("ipv4:", 0) == 0 || peer.rfind("ipv6:", 0) == 0;
+  const size_t colon = peer.rfind(':');
+  return ip && colon > 4 ? peer.substr(0, colon) : peer;
+}
+
+PeerLimiter::Lease::~Lease() {
+  if (limiter_ != nullptr) limiter_->Release(host_);
+}
+
+absl::StatusOr<PeerLimiter::Lease> PeerLimiter::Acquire(const std::string& peer) {
+  std::string host = PeerHost(peer);
+  std::lock_guard lock(mu_);
+  int& calls = calls_[host];
+  if (calls >= max_) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        host, " already has ", calls, " calls in progress, the server's limit of concurrent calls "
+        "per client host (max_calls_per_peer); wait for one to end"));
+  }
+  ++calls;
+  return Lease(this, std::move(host));
+}
+
+void PeerLimiter::Release(const std::string& host) {
+  std::lock_guard lock(mu_);
+  auto it = calls_.find(host);
+  if (--it->second == 0) calls_.erase(it);
+}
+
+}  // namespace scanprep::server
