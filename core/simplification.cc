@@ -11,8 +11,11 @@
 #include "core/simplification.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <numeric>
+
+#include <tbb/parallel_sort.h>
 
 #include "absl/strings/str_cat.h"
 #include "core/parallel.h"
@@ -77,20 +80,24 @@ class Thinner {
   std::vector<uint8_t> locked_;
 };
 
-// Centres in visiting order: edge set first, then descending q̂, then index.
+// Centres in visiting order: edge set first, then descending q̂, then index. Sorted as packed
+// keys: a comparator that looked q̂ and κ̂ up by index would miss the cache on nearly every
+// comparison of a million-point cloud.
 std::vector<uint32_t> VisitOrder(const PointCloud& cloud, const PointMeasures& m,
                                  const Thinner& thinner) {
-  std::vector<uint32_t> order;
-  order.reserve(cloud.size());
+  // Non-negative floats order like their bit patterns, and q̂ <= 1 fits in 30 bits.
+  constexpr uint64_t kOne = std::bit_cast<uint32_t>(1.f);
+  std::vector<uint64_t> keys;
+  keys.reserve(cloud.size());
   for (uint32_t i = 0; i < cloud.size(); ++i) {
-    if (!cloud.removed(i)) order.push_back(i);
+    if (cloud.removed(i)) continue;
+    const float q = m.quality[i];
+    const uint64_t bits = q > 0 ? std::bit_cast<uint32_t>(std::min(q, 1.f)) : 0;
+    keys.push_back(uint64_t(thinner.InEdgeSet(i) ? 0 : 1) << 62 | (kOne - bits) << 32 | i);
   }
-  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-    const bool ea = thinner.InEdgeSet(a), eb = thinner.InEdgeSet(b);
-    if (ea != eb) return ea;
-    if (m.quality[a] != m.quality[b]) return m.quality[a] > m.quality[b];
-    return a < b;
-  });
+  tbb::parallel_sort(keys.begin(), keys.end());
+  std::vector<uint32_t> order(keys.size());
+  for (size_t v = 0; v < keys.size(); ++v) order[v] = static_cast<uint32_t>(keys[v]);
   return order;
 }
 
