@@ -29,6 +29,16 @@ class MomentAccumulator {
     second_ += w * d * d.transpose();
     ++count_;
   }
+  // The moments of the points added to this one but not to `part` (an earlier state of the
+  // same running sum): a sliding window as the difference of two prefix sums.
+  MomentAccumulator Without(const MomentAccumulator& part) const {
+    MomentAccumulator rest = *this;
+    rest.weight_ -= part.weight_;
+    rest.first_ -= part.first_;
+    rest.second_ -= part.second_;
+    rest.count_ -= part.count_;
+    return rest;
+  }
   size_t count() const { return count_; }
   LocalFrame Solve() const;
 

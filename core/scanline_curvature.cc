@@ -35,15 +35,15 @@ struct LineScratch {
   std::vector<uint32_t> idx;
   std::vector<double> arc, gaps;
   std::vector<uint32_t> segment;
+  // prefix[t]: moments of points [0, t) of the line relative to its first point.
+  std::vector<MomentAccumulator> prefix;
 };
 
 // The weighted quadratic y = a0 + a1·x + a2·x² in the window's own PCA frame.
 float WindowCurvature(const PointCloud& cloud, const LineScratch& s, size_t centre, size_t lo,
                       size_t hi, double h) {
   const Eigen::Vector3d p = cloud.point(s.idx[centre]).cast<double>();
-  MomentAccumulator moments;
-  for (size_t t = lo; t <= hi; ++t) moments.Add(cloud.point(s.idx[t]).cast<double>() - p, 1.0);
-  const LocalFrame frame = moments.Solve();
+  const LocalFrame frame = s.prefix[hi + 1].Without(s.prefix[lo]).Solve();
   if (!(frame.eigenvalues[2] > 0)) return std::numeric_limits<float>::quiet_NaN();
   const Eigen::Vector3d tangent = frame.axes.col(2), across = frame.axes.col(1);
   const double inv_two_var = 1.0 / (2 * (h / 2) * (h / 2));
@@ -53,7 +53,8 @@ float WindowCurvature(const PointCloud& cloud, const LineScratch& s, size_t cent
   for (size_t t = lo; t <= hi; ++t) {
     const Eigen::Vector3d d = cloud.point(s.idx[t]).cast<double>() - p;
     const double x = d.dot(tangent), y = d.dot(across), x2 = x * x;
-    const double w = std::exp(-x2 * inv_two_var), wx = w * x, wx2 = w * x2;
+    const double w = std::exp(static_cast<float>(-x2 * inv_two_var));  // float: a weight
+    const double wx = w * x, wx2 = w * x2;
     sx[0] += w, sx[1] += wx, sx[2] += wx2, sx[3] += wx2 * x, sx[4] += wx2 * x2;
     sy[0] += w * y, sy[1] += wx * y, sy[2] += wx2 * y;
   }
@@ -84,6 +85,15 @@ void LineCurvature(const PointCloud& cloud, size_t begin, size_t end, double h, 
   for (size_t t = 1; t < m; ++t) {
     s.arc[t] = s.arc[t - 1] + s.gaps[t - 1];
     s.segment[t] = s.segment[t - 1] + (s.gaps[t - 1] > max_gap ? 1 : 0);
+  }
+  // Central moments do not depend on the reference point, and a line spans at most a few
+  // hundred mm, so prefix sums in double keep the window's noise-level eigenvalues.
+  const Eigen::Vector3d origin = cloud.point(s.idx[0]).cast<double>();
+  s.prefix.resize(m + 1);
+  s.prefix[0] = MomentAccumulator();
+  for (size_t t = 0; t < m; ++t) {
+    s.prefix[t + 1] = s.prefix[t];
+    s.prefix[t + 1].Add(cloud.point(s.idx[t]).cast<double>() - origin, 1.0);
   }
   size_t lo = 0, hi = 0;
   for (size_t t = 0; t < m; ++t) {
