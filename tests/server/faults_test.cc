@@ -1,0 +1,295 @@
+// Faults from the client's side against the real service in-process: clients that vanish mid-
+// upload and mid-download, deadlines that expire inside every stage and in upload and download,
+// and a long run of malformed calls. The server must answer each with the right status, give its
+// memory back, log the refusals, and keep serving.
+#include <malloc.h>
+
+#include <atomic>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "tests/server/metrics_scrape.h"
+#include "tests/server/service_fixtures.h"
+
+namespace scanprep::testing {
+namespace {
+
+using ::testing::HasSubstr;
+
+// glibc gives threads their own heaps (up to 8 per core), and every new gRPC or TBB thread that
+// allocates can add one: resident memory then grows with the number of heaps, not with what is
+// live. Two heaps make resident memory follow live memory; set before the servers start.
+const bool kFewHeaps = mallopt(M_ARENA_MAX, 2) == 1;
+
+// Resident memory of this process in MiB, after returning freed heap pages to the kernel.
+double ResidentMib() {
+  malloc_trim(0);
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024;  // kB
+  }
+  ADD_FAILURE() << "no VmRSS in /proc/self/status";
+  return 0;
+}
+
+server::ServerOptions WithMetrics(server::ServerOptions options = {}) {
+  options.metrics_listen = "127.0.0.1:0";
+  return options;
+}
+
+std::string Handled(const std::string& code) {
+  return "scanprep_rpcs_handled_total{method=\"Process\",code=\"" + code + "\"}";
+}
+
+v1::JobHeader OutliersHeader() {
+  v1::JobHeader header = SimpleHeader(0.5);
+  header.mutable_options()->add_stages("outliers");
+  return header;
+}
+
+// A scan big enough that holding it shows in resident memory: about 300,000 points.
+const GeneratedScan& LargeScan() {
+  static const GeneratedScan* scan = new GeneratedScan(NoisyPlaneWithSpikes(545, 0.5f));
+  return *scan;
+}
+
+// Uploads the header and about half of `scan`, waits for the server to acknowledge a chunk, then
+// cancels the call.
+grpc::Status DisconnectMidUpload(v1::ScanPrep::Stub& stub, const PointCloud& cloud) {
+  grpc::ClientContext context;
+  auto stream = stub.Process(&context);
+  v1::JobHeader header = OutliersHeader();
+  header.set_total_points(cloud.size());
+  bool open = stream->Write(HeaderRequest(header));
+  for (size_t begin = 0; open && begin < cloud.size() / 2; begin += client::kDefaultChunkPoints) {
+    v1::ProcessRequest request;
+    client::RequestChunk(cloud, begin, std::min(cloud.size(), begin + client::kDefaultChunkPoints),
+                         false, request.mutable_points());
+    open = stream->Write(request);
+  }
+  v1::ProcessResponse response;
+  EXPECT_TRUE(stream->Read(&response));
+  context.TryCancel();
+  return stream->Finish();
+}
+
+TEST(Faults, ClientsThatVanishMidUploadOrMidDownloadLeaveNoMemoryBehind) {
+  InProcessServer server(WithMetrics());
+  const int metrics = server.server().metrics_port();
+  auto stub = server.Stub();
+  client::ScanPrepClient client = server.Client();
+  const GeneratedScan& scan = LargeScan();
+  ASSERT_TRUE(kFewHeaps);
+  // A round first, so thread stacks, pools and heaps exist before the baseline.
+  constexpr int kRounds = 6, kWarmUp = 1;
+  double baseline = 0;
+  for (int round = 1; round <= kRounds; ++round) {
+    if (round == kWarmUp + 1) baseline = ResidentMib();
+    EXPECT_EQ(DisconnectMidUpload(*stub, scan.cloud).error_code(), grpc::StatusCode::CANCELLED);
+
+    client::CallCanceller canceller;
+    auto result = client.Process(OutliersHeader(), scan.cloud,
+                                 {.progress =
+                                      [&](const v1::Progress& p) {
+                                        if (p.phase() == v1::Progress::DOWNLOAD) canceller.Cancel();
+                                      },
+                                  .canceller = &canceller});
+    EXPECT_EQ(result.status().code(), absl::StatusCode::kCancelled);
+    // The server saw both calls end as cancelled and released them.
+    ASSERT_TRUE(WaitForSample(metrics, Handled("CANCELLED"), 2 * round));
+  }
+  const double after = ResidentMib();
+  // One job of this size holds well over 30 MiB (cloud, neighbour graph, messages).
+  EXPECT_LT(after - baseline, 30) << "baseline " << baseline << " MiB, after " << after << " MiB";
+  RecordProperty("rss_baseline_mib", std::to_string(baseline));
+  RecordProperty("rss_after_mib", std::to_string(after));
+  EXPECT_TRUE(client.Process(OutliersHeader(), scan.cloud).ok());
+}
+
+// Holds the job at the start of `stage` until `until`: a deadline set before `until` then
+// expires while that stage runs.
+struct StageHold {
+  std::mutex mu;
+  std::string stage;
+  absl::Time until;
+  std::atomic<bool> held{false};
+
+  void OnProgress(std::string_view s, double fraction) {
+    absl::Time release;
+    {
+      std::lock_guard lock(mu);
+      if (s != stage || fraction != 0) return;
+      release = until;
+    }
+    held = true;
+    absl::SleepFor(release - absl::Now());
+  }
+};
+
+TEST(Faults, ADeadlineExpiringInsideEveryStageEndsWithDeadlineExceeded) {
+  StageHold hold;
+  server::ServerOptions options = WithMetrics();
+  options.on_progress = [&hold](std::string_view s, double f) { hold.OnProgress(s, f); };
+  InProcessServer server(options);
+  const int metrics = server.server().metrics_port();
+  client::ScanPrepClient client = server.Client();
+  const GeneratedScan scan = NoisyPlaneWithSpikes(40, 0.5f);
+
+  // The default pipeline's stages as they run, nested ones included.
+  auto full = client.Process(SimpleHeader(0.5), scan.cloud);
+  ASSERT_TRUE(full.ok()) << full.status();
+  std::vector<std::string> stages;
+  for (const v1::StageReport& s : full->report.stages()) stages.push_back(s.name());
+  ASSERT_GE(stages.size(), 5u);
+
+  // Upload, every stage and processing before it take milliseconds on this scan; 400 ms
+  // later the deadline passes while the held stage is still running.
+  constexpr absl::Duration kDeadline = absl::Milliseconds(400);
+  int expired = 0;
+  for (const std::string& stage : stages) {
+    SCOPED_TRACE(stage);
+    {
+      std::lock_guard lock(hold.mu);
+      hold.stage = stage;
+      hold.until = absl::Now() + kDeadline + absl::Milliseconds(150);
+    }
+    hold.held = false;
+    auto result = client.Process(SimpleHeader(0.5), scan.cloud, {.timeout = kDeadline});
+    EXPECT_EQ(result.status().code(), absl::StatusCode::kDeadlineExceeded);
+    EXPECT_TRUE(hold.held) << "the job never reached the stage";
+    // The server's own answer, not only the client's timer.
+    EXPECT_TRUE(WaitForSample(metrics, Handled("DEADLINE_EXCEEDED"), ++expired));
+  }
+  {
+    std::lock_guard lock(hold.mu);
+    hold.stage.clear();
+  }
+  auto again = client.Process(SimpleHeader(0.5), scan.cloud, {.timeout = absl::Seconds(30)});
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_EQ(again->report.stages_size(), full->report.stages_size());
+}
+
+TEST(Faults, ADeadlineExpiringDuringUploadOrDownloadEndsWithDeadlineExceeded) {
+  InProcessServer server(WithMetrics());
+  const int metrics = server.server().metrics_port();
+  auto stub = server.Stub();
+  {  // Upload: the client sends a chunk, then nothing until the deadline has passed.
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(300));
+    auto stream = stub->Process(&context);
+    ASSERT_TRUE(stream->Write(HeaderRequest(SimpleHeader())));
+    ASSERT_TRUE(stream->Write(ChunkRequest(LineChunk(100))));
+    v1::ProcessResponse response;
+    while (stream->Read(&response)) {
+    }
+    EXPECT_EQ(stream->Finish().error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+    EXPECT_TRUE(WaitForSample(metrics, Handled("DEADLINE_EXCEEDED"), 1));
+  }
+  {  // Download: the client stops reading at the first result chunk until its deadline passed.
+     // gRPC completes the server's writes into the transport's buffers, so the server may well
+     // have sent the whole result (and count the call OK) before the deadline: the client must
+     // still see DEADLINE_EXCEEDED and the server must end the call and go on serving.
+    const GeneratedScan scan = NoisyPlaneWithSpikes(150, 0.5f);
+    const absl::Time deadline = absl::Now() + absl::Seconds(2);
+    client::ScanPrepClient client = server.Client();
+    bool stalled = false;
+    auto result = client.Process(
+        OutliersHeader(), scan.cloud,
+        {.timeout = deadline - absl::Now(), .progress = [&](const v1::Progress& p) {
+           if (p.phase() != v1::Progress::DOWNLOAD || stalled) return;
+           stalled = true;
+           absl::SleepFor(deadline - absl::Now() + absl::Milliseconds(200));
+         }});
+    EXPECT_TRUE(stalled);
+    EXPECT_EQ(result.status().code(), absl::StatusCode::kDeadlineExceeded);
+    const auto samples = Scrape(metrics);
+    auto count = [&](const std::string& code) {
+      const auto it = samples.find(Handled(code));
+      return it == samples.end() ? 0.0 : it->second;
+    };
+    EXPECT_EQ(count("OK") + count("DEADLINE_EXCEEDED"), 2) << ScrapeText(metrics);
+  }
+  EXPECT_TRUE(RawCall(*stub, {HeaderRequest(OutliersHeader()), ChunkRequest(LineChunk(100))}).ok());
+}
+
+// Malformed calls of every kind the assembler refuses, in turn. Coordinates are 4242.5, so the
+// log can be checked for point data.
+std::vector<std::vector<v1::ProcessRequest>> MalformedCalls() {
+  v1::PointChunk marked = LineChunk(50);
+  for (int i = 0; i < marked.xyz_size(); ++i) marked.set_xyz(i, 4242.5f);
+  v1::JobHeader no_unit = SimpleHeader();
+  no_unit.clear_unit();
+  v1::JobHeader unknown_stage = SimpleHeader();
+  unknown_stage.mutable_options()->add_stages("sharpen");
+  v1::JobHeader two_scans = SimpleHeader();
+  *two_scans.add_scans() = two_scans.scans(0);
+  v1::PointChunk ragged = marked;
+  ragged.add_xyz(1.f);
+  v1::PointChunk bad_quality = marked;
+  for (int i = 0; i < 50; ++i) bad_quality.add_quality(i == 7 ? 3.f : 0.5f);
+  v1::PointChunk too_big = LineChunk(65'537);
+  return {
+      {ChunkRequest(marked)},                                        // points before the header
+      {HeaderRequest(no_unit), ChunkRequest(marked)},                // unit unspecified
+      {HeaderRequest(unknown_stage)},                                // unknown stage
+      {HeaderRequest(SimpleHeader()), ChunkRequest(ragged)},         // xyz not in threes
+      {HeaderRequest(SimpleHeader()), ChunkRequest(bad_quality)},    // quality out of range
+      {HeaderRequest(two_scans), ChunkRequest(marked)},              // scan_index missing
+      {HeaderRequest(SimpleHeader()), ChunkRequest(too_big)},        // chunk over the limit
+      {HeaderRequest(SimpleHeader()), HeaderRequest(SimpleHeader())},  // second header
+      {HeaderRequest(SimpleHeader())},                               // no points
+  };
+}
+
+TEST(Faults, AThousandMalformedCallsKeepMemoryFlatAndAreLogged) {
+  std::ostringstream log;
+  std::string log_text;
+  {
+    server::ServerOptions options;
+    options.log = &log;
+    InProcessServer server(options);
+    auto stub = server.Stub();
+    const auto calls = MalformedCalls();
+    auto run = [&](int n) {
+      int refused = 0;
+      for (int i = 0; i < n; ++i) {
+        const grpc::Status s = RawCall(*stub, calls[i % calls.size()]);
+        refused += s.error_code() == grpc::StatusCode::INVALID_ARGUMENT ||
+                   s.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED;
+      }
+      return refused;
+    };
+    EXPECT_EQ(run(100), 100);  // warm-up: connections, thread pools, the log's buffer
+    const double baseline = ResidentMib();
+    EXPECT_EQ(run(1000), 1000);
+    const double after = ResidentMib();
+    EXPECT_LT(after - baseline, 20) << "baseline " << baseline << " MiB, after " << after << " MiB";
+    RecordProperty("rss_growth_mib", std::to_string(after - baseline));
+
+    const GeneratedScan scan = NoisyPlaneWithSpikes(40, 0.5f);
+    auto good = server.Client().Process(OutliersHeader(), scan.cloud);
+    ASSERT_TRUE(good.ok()) << good.status();
+    EXPECT_EQ(good->report.points_received(), scan.cloud.size());
+  }
+  log_text = log.str();  // the server is gone: nothing writes to the log any more
+
+  // One warning line per refused call, with the peer and the reason, never the points.
+  int warnings = 0;
+  std::istringstream lines(log_text);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.find(" W process peer=ipv4:127.0.0.1:") != std::string::npos) ++warnings;
+  }
+  EXPECT_EQ(warnings, 1100);
+  EXPECT_THAT(log_text, HasSubstr("INVALID_ARGUMENT: \"chunk 0: quality[7] = 3 is outside [0, 1]\""));
+  EXPECT_THAT(log_text, HasSubstr("RESOURCE_EXHAUSTED: \"chunk 0: 65537 points exceed the limit"));
+  EXPECT_THAT(log_text, HasSubstr(" I process peer=ipv4:127.0.0.1:"));  // the good call
+  EXPECT_THAT(log_text, ::testing::Not(HasSubstr("4242")));
+}
+
+}  // namespace
+}  // namespace scanprep::testing

@@ -1,0 +1,130 @@
+// The limits that bound what one call or one client can make the server hold, each enforced
+// before the memory it guards is allocated: bytes per call, calls per client host, scans per
+// header, header list lengths and gRPC's message size. (Points per job and per chunk:
+// protocol_errors_test.)
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "server/peer_limiter.h"
+#include "tests/server/service_fixtures.h"
+
+namespace scanprep::testing {
+namespace {
+
+using ::testing::HasSubstr;
+
+TEST(Limits, BytesPerCallEndTheCallAtTheCrossingMessage) {
+  server::ServerOptions options;
+  options.limits.max_bytes_per_call = 50'000;
+  InProcessServer server(options);
+  std::vector<v1::ProcessRequest> requests = {HeaderRequest(SimpleHeader())};
+  for (int i = 0; i < 10; ++i) requests.push_back(ChunkRequest(LineChunk(1000)));
+  // The chunks whose running total stays within the limit are acknowledged, no more.
+  size_t bytes = 0, acknowledged = 0;
+  for (size_t i = 0; i < requests.size(); ++i) {
+    bytes += requests[i].ByteSizeLong();
+    if (bytes > options.limits.max_bytes_per_call) break;
+    if (i > 0) ++acknowledged;
+  }
+  ASSERT_LT(acknowledged, 10u);
+
+  std::vector<v1::ProcessResponse> responses;
+  const grpc::Status status = RawCall(*server.Stub(), requests, &responses);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(status.error_message(),
+              HasSubstr("over the server's limit of 50000 bytes per call (max_bytes_per_call)"));
+  EXPECT_EQ(responses.size(), acknowledged);
+}
+
+TEST(Limits, CallsPerPeerCountEveryCallInProgressFromOneHost) {
+  server::ServerOptions options;
+  options.max_calls_per_peer = 2;
+  InProcessServer server(options);
+  auto stub = server.Stub();
+  // Two calls in progress: each has sent a chunk and seen it acknowledged.
+  struct OpenCall {
+    grpc::ClientContext context;
+    std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> stream;
+  };
+  OpenCall calls[2];
+  for (OpenCall& call : calls) {
+    call.stream = stub->Process(&call.context);
+    ASSERT_TRUE(call.stream->Write(HeaderRequest(SimpleHeader())));
+    ASSERT_TRUE(call.stream->Write(ChunkRequest(LineChunk(100))));
+    v1::ProcessResponse response;
+    ASSERT_TRUE(call.stream->Read(&response));
+  }
+  const grpc::Status third = RawCall(*stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))});
+  EXPECT_EQ(third.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(third.error_message(),
+              HasSubstr("ipv4:127.0.0.1 already has 2 calls in progress, the server's limit of "
+                        "concurrent calls per client host (max_calls_per_peer)"));
+
+  // One call ends: its place is free again.
+  calls[0].stream->WritesDone();
+  v1::ProcessResponse response;
+  while (calls[0].stream->Read(&response)) {
+  }
+  ASSERT_TRUE(calls[0].stream->Finish().ok());
+  const grpc::Status next = RawCall(*stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))});
+  EXPECT_TRUE(next.ok()) << next.error_message();
+  calls[1].context.TryCancel();
+  (void)calls[1].stream->Finish();
+}
+
+TEST(Limits, PeerHostDropsOnlyThePort) {
+  EXPECT_EQ(server::PeerHost("ipv4:10.0.0.7:51234"), "ipv4:10.0.0.7");
+  EXPECT_EQ(server::PeerHost("ipv6:[::1]:51234"), "ipv6:[::1]");
+  EXPECT_EQ(server::PeerHost("ipv6:%5B::1%5D:51234"), "ipv6:%5B::1%5D");
+  EXPECT_EQ(server::PeerHost("unix:/run/scanprep.sock"), "unix:/run/scanprep.sock");
+}
+
+TEST(Limits, ScansPerJobAreCheckedBeforeAnyScanIsBuilt) {
+  server::ServerOptions options;
+  options.limits.max_scans_per_job = 3;
+  InProcessServer server(options);
+  v1::JobHeader header = SimpleHeader();
+  for (int i = 0; i < 3; ++i) *header.add_scans() = header.scans(0);
+  const grpc::Status status = RawCall(*server.Stub(), {HeaderRequest(header)});
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(status.error_message(),
+              HasSubstr("header.scans has 4 scans, over the server's limit of 3 scans per job "
+                        "(max_scans_per_job)"));
+}
+
+TEST(Limits, LongHeaderListsAreRefusedBeforeTheyAreCopied) {
+  InProcessServer server;
+  v1::JobHeader header = SimpleHeader();
+  for (int i = 0; i <= server::kMaxHeaderListEntries; ++i) {
+    header.mutable_options()->add_stages("outliers");
+  }
+  const grpc::Status status = RawCall(*server.Stub(), {HeaderRequest(header)});
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(status.error_message(),
+              HasSubstr("header.options.stages has 257 entries; at most 256 are accepted"));
+}
+
+TEST(Limits, MessagesAboveFourMebibytesAreRefusedByGrpcBeforeTheyAreParsed) {
+  InProcessServer server;
+  v1::PointChunk chunk = LineChunk(400'000);  // 4.8 MB of xyz
+  ASSERT_GT(ChunkRequest(chunk).ByteSizeLong(), size_t{server::kMaxMessageBytes});
+  const grpc::Status status = RawCall(*server.Stub(), {HeaderRequest(SimpleHeader()), ChunkRequest(chunk)});
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  // gRPC's own refusal, not the assembler's chunk limit: the message never became a request.
+  EXPECT_THAT(status.error_message(), ::testing::Not(HasSubstr("max_chunk_points")));
+  // And the server still serves.
+  EXPECT_TRUE(RawCall(*server.Stub(), {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))}).ok());
+}
+
+TEST(Limits, GetInfoReportsEveryLimit) {
+  InProcessServer server;
+  auto info = server.Client().GetInfo(absl::Seconds(10));
+  ASSERT_TRUE(info.ok()) << info.status();
+  EXPECT_EQ(info->limits().max_bytes_per_call(), uint64_t{1} << 30);
+  EXPECT_EQ(info->limits().max_calls_per_peer(), 16u);
+  EXPECT_EQ(info->limits().max_scans_per_job(), 1000u);
+  EXPECT_EQ(info->limits().max_message_bytes(), 4u << 20);
+}
+
+}  // namespace
+}  // namespace scanprep::testing
