@@ -28,15 +28,16 @@ fi
 
 podman build --isolation=chroot --pull=never -t scanprep:latest -f Dockerfile .
 
-# The smoke test: start the server in the runtime image and ask its health service. Plaintext on
+# The smoke test: start the server in the runtime image and ask it for GetInfo. Plaintext on
 # loopback inside the build; production mounts certificates and uses the --tls_* flags.
 cat >"$work/Containerfile.smoke" <<'SMOKE'
 FROM scanprep:latest
 USER root
-RUN (scanprep-server --plaintext --listen=127.0.0.1:50051 --metrics_listen=127.0.0.1:9464 & echo $! > /tmp/pid) \
- && for i in $(seq 50); do scanprep info --server=127.0.0.1:50051 >/tmp/info 2>&1 && break; sleep 0.2; done \
- && cat /tmp/info && grep -q stages /tmp/info \
- && kill -TERM "$(cat /tmp/pid)" && wait 2>/dev/null; echo "smoke test passed"
+# The step fails unless the server answers GetInfo and then exits 0 on SIGTERM.
+RUN scanprep-server --plaintext --listen=127.0.0.1:50051 --metrics_listen=127.0.0.1:9464 & pid=$! \
+ ; for i in $(seq 50); do scanprep info --server=127.0.0.1:50051 >/tmp/info 2>&1 && break; sleep 0.2; done \
+ ; cat /tmp/info && grep -q "stages" /tmp/info \
+ && kill -TERM "$pid" && wait "$pid" && echo "smoke test passed"
 SMOKE
 podman build --isolation=chroot --pull=never -t scanprep:smoke -f "$work/Containerfile.smoke" "$work"
 echo "container-check: image built and smoke-tested in $(( $(date +%s) - start )) s"
