@@ -95,7 +95,7 @@ absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shif
 void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius,
                             RadiusMatches& out) const {
   out.clear();
-  if (k_ > 0 && radius <= dk(i)) {
+  if (k_ > 0 && slack_ == 0 && radius <= dk(i)) {
     if (!cloud.removed(i)) out.emplace_back(static_cast<uint32_t>(i), 0.f);
     const auto idx = knn(i);
     const auto dist = knn_dist(i);

@@ -46,14 +46,16 @@ class Neighbourhoods {
   float adaptive_radius(size_t i) const { return std::max(static_cast<float>(min_radius_), dk(i)); }
 
   // Unremoved points within `radius` of point i (i itself included), as (index, squared
-  // distance). Answers from the k-NN list when the radius fits inside it, else asks the tree.
+  // distance). Answers from the k-NN list when the radius fits inside it and no point has moved
+  // since the build, else asks the tree.
   void Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out) const;
 
-  // The points moved by at most `max_shift` each (smoothing bounds it by δ, Eq. 10). Instead of a
-  // rebuild, every k-NN list is re-ranked by its new distances and radius queries to the tree
-  // are widened by the accumulated shift, which keeps them exact. A point that entered the k
-  // nearest from outside the list is not added: a move of δ along the normal changes a
-  // neighbour distance d by about δ²/2d, far below the spacing.
+  // The points moved by at most `max_shift` each (smoothing bounds it by δ, Eq. 10). Instead of
+  // a rebuild (a full k-NN pass) every k-NN list is re-ranked by its new distances, so knn_dist()
+  // and dk() follow the points, and Within() asks the tree with its radius widened by the
+  // accumulated shift (the tree's cells bound the old positions), which keeps it exact. The
+  // lists may now miss a point that moved into the k nearest from outside (at 1 M points a
+  // smoothing move is half the spacing), so Within() stops answering from them.
   absl::Status PointsMoved(const PointCloud& cloud, float max_shift, const CancelToken& cancel);
 
  private:
