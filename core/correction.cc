@@ -14,8 +14,9 @@
 #include <numeric>
 
 #include "absl/strings/str_cat.h"
-#include "core/parallel.h"
+#include "core/ball_cache.h"
 #include "core/measures.h"
+#include "core/parallel.h"
 
 namespace scanprep {
 namespace {
@@ -113,6 +114,10 @@ class CorrectionStage : public Stage {
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
     std::vector<uint8_t> go(n, 0), fresh(n, 0);  // fresh: removed in the previous round
+    // Points whose r_c exceeds d_k are re-judged every round; their balls come from the tree
+    // once instead of once per round.
+    BallCache balls;
+    if (absl::Status s = balls.Gather(cloud, nb, radius, ctx.cancel()); !s.ok()) return s;
     // Only a point whose neighbourhood lost a point can change its verdict; when r_c exceeds
     // the k-NN list the list cannot tell, so the point is re-judged.
     auto touched = [&](size_t i) {
@@ -133,7 +138,7 @@ class CorrectionStage : public Stage {
         for (size_t i = begin; i < end; ++i) {
           go[i] = 0;
           if (cloud.removed(i) || (round > 0 && !touched(i))) continue;
-          nb.Within(cloud, i, radius[cloud.scan[i]], matches);
+          if (!balls.Within(cloud, i, matches)) nb.Within(cloud, i, radius[cloud.scan[i]], matches);
           if (matches.size() < 2) continue;  // alone: nothing overlaps
           go[i] = ShouldGo(cloud, quality, Judge(cloud, quality, matches), uint32_t(i));
         }

@@ -1,0 +1,52 @@
+#include "core/ball_cache.h"
+
+#include <algorithm>
+
+#include "core/parallel.h"
+
+namespace scanprep {
+
+absl::Status BallCache::Gather(const PointCloud& cloud, const Neighbourhoods& nb,
+                               const std::vector<float>& radius_of_scan,
+                               const CancelToken& cancel) {
+  const size_t n = cloud.size();
+  // Fixed blocks, so that concatenating their members in block order follows the index order.
+  constexpr size_t kBlock = 4096;
+  const size_t blocks = (n + kBlock - 1) / kBlock;
+  std::vector<std::vector<uint32_t>> block_members(blocks);
+  start_.assign(n + 1, 0);
+  absl::Status status = ParallelFor(blocks, cancel, [&](size_t first, size_t last) {
+    RadiusMatches matches;
+    for (size_t b = first; b < last; ++b) {
+      for (size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i) {
+        const float radius = radius_of_scan[cloud.scan[i]];
+        if (cloud.removed(i) || radius <= nb.dk(i)) continue;
+        nb.Within(cloud, i, radius, matches);
+        start_[i + 1] = static_cast<uint32_t>(matches.size());
+        for (const auto& match : matches) block_members[b].push_back(match.first);
+      }
+    }
+  }, /*grain=*/1);
+  if (!status.ok()) return status;
+  for (size_t i = 0; i < n; ++i) start_[i + 1] += start_[i];
+  members_.clear();
+  members_.reserve(start_[n]);
+  for (const std::vector<uint32_t>& block : block_members) {
+    members_.insert(members_.end(), block.begin(), block.end());
+  }
+  return absl::OkStatus();
+}
+
+bool BallCache::Within(const PointCloud& cloud, size_t i, RadiusMatches& out) const {
+  // A gathered ball holds at least i itself.
+  if (start_.empty() || start_[i + 1] == start_[i]) return false;
+  out.clear();
+  const Eigen::Vector3f p = cloud.point(i);
+  for (uint32_t m = start_[i]; m < start_[i + 1]; ++m) {
+    const uint32_t j = members_[m];
+    if (!cloud.removed(j)) out.emplace_back(j, (cloud.point(j) - p).squaredNorm());
+  }
+  return true;
+}
+
+}  // namespace scanprep

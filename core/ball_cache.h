@@ -1,0 +1,32 @@
+// Radius balls that the k-NN lists cannot answer (radius > d_k), gathered once from the tree in
+// parallel and in index order and kept in CSR form, for a stage that asks the same balls again
+// (correction's rounds). The points must not move while it is in use.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "core/cancel.h"
+#include "core/kdtree.h"
+#include "core/neighbourhoods.h"
+#include "core/point_cloud.h"
+
+namespace scanprep {
+
+class BallCache {
+ public:
+  // Gathers the ball of every unremoved point i whose radius_of_scan[scan(i)] exceeds d_k(i).
+  absl::Status Gather(const PointCloud& cloud, const Neighbourhoods& nb,
+                      const std::vector<float>& radius_of_scan, const CancelToken& cancel);
+
+  // Like Neighbourhoods::Within for a gathered ball, skipping points removed since; false when
+  // i has no gathered ball.
+  bool Within(const PointCloud& cloud, size_t i, RadiusMatches& out) const;
+
+ private:
+  std::vector<uint32_t> start_;    // ball of i: members_[start_[i], start_[i + 1])
+  std::vector<uint32_t> members_;
+};
+
+}  // namespace scanprep
