@@ -20,6 +20,9 @@ struct NeighbourhoodOptions {
   double min_radius = 0.0;  // r_min of Eq. (2); 0 = no lower bound
 };
 
+// The minimum radius is capped at this multiple of the global radius r_g.
+inline constexpr double kMaxRadiusPerGlobalRadius = 5.0;
+
 class Neighbourhoods {
  public:
   // Builds the tree and the k-NN graph over all points of `cloud` (removed ones included: the
@@ -41,6 +44,7 @@ class Neighbourhoods {
   double global_radius() const { return global_radius_; }
   // ρ_g = k / (π r_g²), points per mm² assuming a locally planar surface.
   double density() const { return density_; }
+  // r_min as used: the requested one, capped at kMaxRadiusPerGlobalRadius·r_g.
   double min_radius() const { return min_radius_; }
   // r_p = max(r_min, d_k(p)): the adaptive radius used by normals and smoothing.
   float adaptive_radius(size_t i) const { return std::max(static_cast<float>(min_radius_), dk(i)); }

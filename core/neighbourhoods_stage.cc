@@ -5,6 +5,8 @@
 
 #include <algorithm>
 
+#include "absl/strings/str_cat.h"
+
 namespace scanprep {
 namespace {
 
@@ -26,6 +28,14 @@ class NeighbourhoodsStage : public Stage {
         ctx.Number("neighbourhoods.min_radius_mm", MinRadiusFromScanlineSpacing(spacing, epsilon_u));
     auto nb = Neighbourhoods::Build(cloud, options, ctx.cancel());
     if (!nb.ok()) return nb.status();
+    if ((*nb)->min_radius() < options.min_radius) {
+      ctx.Warn(absl::StrCat("neighbourhoods: the minimum radius ", options.min_radius,
+                            " mm (from scanline spacing and uncertainty) is more than ",
+                            kMaxRadiusPerGlobalRadius, "x the data's global radius ",
+                            (*nb)->global_radius(), " mm; capped at ", (*nb)->min_radius(),
+                            " mm — check the scanline spacing and the job's unit"));
+    }
+    ctx.Record("neighbourhoods.min_radius_used_mm", (*nb)->min_radius());
     ctx.Record("neighbourhoods.global_radius_mm", (*nb)->global_radius());
     ctx.Record("neighbourhoods.density_per_mm2", (*nb)->density());
     ctx.SetNeighbourhoods(*std::move(nb));

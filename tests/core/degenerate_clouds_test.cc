@@ -137,12 +137,12 @@ TEST(DegenerateClouds, TwoPointsKeepTheirPositions) {
   }
 }
 
-TEST(DegenerateClouds, FourThousandIdenticalPointsStayPut) {
+// The minimum radius from the stated scanline spacing is capped at 5 r_g; with r_g = 0 the balls
+// hold the point alone instead of every coincident copy (which used to cost O(copies²)).
+TEST(DegenerateClouds, TenThousandIdenticalPointsStayPut) {
   PointCloud cloud;
   cloud.scans.push_back(TopViewScan("same", 0.5));
-  // Kept at 4,000: every radius query returns all coincident points, so the cost grows with the
-  // square of their number (10,000 copies take ~6 s, mostly normals and smoothing).
-  for (int i = 0; i < 4'000; ++i) AddPoint(cloud, 5, -3, 7);
+  for (int i = 0; i < 10'000; ++i) AddPoint(cloud, 5, -3, 7);
   ExpectResultOrPreciseError(RunAllStages(cloud));
   ExpectFinite(cloud);
   EXPECT_GE(cloud.CountKept(), 1u);
@@ -179,6 +179,23 @@ TEST(DegenerateClouds, CoplanarGridStaysAPlane) {
   auto report = RunAllStages(cloud);
   ASSERT_TRUE(report.ok()) << report.status();
   ExpectFinite(cloud);
+  ExpectStillPlane(cloud, 0, 1e-4f);
+}
+
+// A scanline spacing stated 200× too large (e.g. mm in a job declared in metres' place) would make
+// every ball the whole grid; the cap keeps balls local and says why in a warning.
+TEST(DegenerateClouds, ScanlineSpacingFarTooLargeIsCappedAndReported) {
+  PointCloud cloud = Grid(120, 120, 0.5f);
+  cloud.scans[0].scanline_spacing = 100;
+  auto report = RunAllStages(cloud);
+  ASSERT_TRUE(report.ok()) << report.status();
+  const StageReport& nb = report->stages.front();
+  ASSERT_EQ(nb.name, "neighbourhoods");
+  EXPECT_NEAR(nb.parameters.at("neighbourhoods.min_radius_mm"), std::sqrt(3.0) * 100 + 0.1, 1e-6);
+  EXPECT_LE(nb.parameters.at("neighbourhoods.min_radius_used_mm"),
+            5 * nb.parameters.at("neighbourhoods.global_radius_mm") + 1e-9);
+  ASSERT_FALSE(report->warnings.empty());
+  EXPECT_NE(report->warnings.front().find("check the scanline spacing"), std::string::npos);
   ExpectStillPlane(cloud, 0, 1e-4f);
 }
 
