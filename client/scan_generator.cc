@@ -1,6 +1,5 @@
 #include "client/scan_generator.h"
 
-#include <cmath>
 #include <map>
 
 #include "absl/strings/numbers.h"
@@ -12,9 +11,6 @@ namespace {
 
 // Enough to give the outlier stage real work without dominating the scan.
 constexpr double kSpikeFraction = 0.01;
-// The count is only inversely proportional to the spacings' product away from the part's
-// borders, so the scale is corrected until the count is this close.
-constexpr double kCountTolerance = 0.02;
 constexpr size_t kMinPoints = 1'000;
 constexpr size_t kMaxPoints = 20'000'000;
 
@@ -60,21 +56,9 @@ absl::StatusOr<PointCloud> GenerateScan(const GenerateOptions& options) {
   const std::vector<sim::SimSensor> sensors = options.scans == 2
                                                   ? sim::TwoOverlappingSensors(part->second)
                                                   : sim::FrontalSensor(part->second);
-  double scale = 1;  // of both spacings
-  sim::SimulatedCloud generated;
-  for (int attempt = 0; attempt < 4; ++attempt) {
-    std::vector<sim::SimSensor> scaled = sensors;
-    for (sim::SimSensor& s : scaled) {
-      s.scanline_spacing *= scale;
-      s.point_spacing *= scale;
-      s.outlier_fraction = kSpikeFraction;
-    }
-    generated = sim::Simulate(part->second, scaled, options.seed);
-    const double ratio = double(generated.cloud.size()) / double(options.points);
-    if (generated.cloud.size() == 0 || std::abs(ratio - 1) <= kCountTolerance) break;
-    scale *= std::sqrt(ratio);
-  }
-  return std::move(generated.cloud);
+  return sim::SimulateWithPointCount(part->second, sensors, options.points, kSpikeFraction,
+                                     options.seed)
+      .cloud;
 }
 
 }  // namespace scanprep::client

@@ -62,40 +62,26 @@ void BM_NeighbourGraph(benchmark::State& state) {
   SetCounters(state, cloud.size());
 }
 
-// One stage on a fresh copy of the cloud; only the stage's own time counts (the stages it pulls
-// in through Require() are timed by their own cases).
-void RunStageCase(benchmark::State& state, const std::string& stage) {
+// The pipeline over a fresh copy of the cloud each iteration, timed by its own report:
+// `stage` empty = the whole default pipeline, else that stage alone (the stages it pulls in
+// through Require() are timed by their own cases).
+void RunPipelineCase(benchmark::State& state, const std::string& stage) {
   const PointCloud& reference = ReferenceCloud(state.range(0));
   tbb::task_arena arena(static_cast<int>(state.range(1)));
   CancelToken cancel;
+  PipelineOptions options;
+  if (!stage.empty()) options.stages = {stage};
   for (auto _ : state) {
     PointCloud cloud = reference;
     absl::StatusOr<PipelineReport> report;
-    arena.execute([&] { report = RunPipeline(cloud, {.stages = {stage}}, cancel); });
+    arena.execute([&] { report = RunPipeline(cloud, options, cancel); });
     if (!report.ok()) {
       state.SkipWithError(std::string(report.status().message()).c_str());
       return;
     }
-    double seconds = 0;
+    double seconds = stage.empty() ? report->total_seconds : 0;
     for (const StageReport& s : report->stages) seconds += s.name == stage ? s.seconds : 0;
     state.SetIterationTime(seconds);
-  }
-  SetCounters(state, reference.size());
-}
-
-void BM_DefaultPipeline(benchmark::State& state) {
-  const PointCloud& reference = ReferenceCloud(state.range(0));
-  tbb::task_arena arena(static_cast<int>(state.range(1)));
-  CancelToken cancel;
-  for (auto _ : state) {
-    PointCloud cloud = reference;
-    absl::StatusOr<PipelineReport> report;
-    arena.execute([&] { report = RunPipeline(cloud, {}, cancel); });
-    if (!report.ok()) {
-      state.SkipWithError(std::string(report.status().message()).c_str());
-      return;
-    }
-    state.SetIterationTime(report->total_seconds);
   }
   SetCounters(state, reference.size());
 }
@@ -109,13 +95,13 @@ void Sizes(benchmark::internal::Benchmark* b) {
 
 BENCHMARK(BM_BareNanoflannKnn)->Apply(Sizes)->UseRealTime();
 BENCHMARK(BM_NeighbourGraph)->Apply(Sizes)->UseRealTime();
-BENCHMARK(BM_DefaultPipeline)->Apply(Sizes)->UseManualTime();
-BENCHMARK_CAPTURE(RunStageCase, outliers, std::string("outliers"))->Apply(Sizes)->UseManualTime();
-BENCHMARK_CAPTURE(RunStageCase, normals, std::string("normals"))->Apply(Sizes)->UseManualTime();
-BENCHMARK_CAPTURE(RunStageCase, measures, std::string("measures"))->Apply(Sizes)->UseManualTime();
-BENCHMARK_CAPTURE(RunStageCase, correction, std::string("correction"))->Apply(Sizes)->UseManualTime();
-BENCHMARK_CAPTURE(RunStageCase, smoothing, std::string("smoothing"))->Apply(Sizes)->UseManualTime();
-BENCHMARK_CAPTURE(RunStageCase, simplification, std::string("simplification"))
+BENCHMARK_CAPTURE(RunPipelineCase, DefaultPipeline, std::string())->Apply(Sizes)->UseManualTime();
+BENCHMARK_CAPTURE(RunPipelineCase, outliers, std::string("outliers"))->Apply(Sizes)->UseManualTime();
+BENCHMARK_CAPTURE(RunPipelineCase, normals, std::string("normals"))->Apply(Sizes)->UseManualTime();
+BENCHMARK_CAPTURE(RunPipelineCase, measures, std::string("measures"))->Apply(Sizes)->UseManualTime();
+BENCHMARK_CAPTURE(RunPipelineCase, correction, std::string("correction"))->Apply(Sizes)->UseManualTime();
+BENCHMARK_CAPTURE(RunPipelineCase, smoothing, std::string("smoothing"))->Apply(Sizes)->UseManualTime();
+BENCHMARK_CAPTURE(RunPipelineCase, simplification, std::string("simplification"))
     ->Apply(Sizes)
     ->UseManualTime();
 

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Runs every benchmark case (tests/bench/pipeline_bench: stages, neighbour graph, whole pipeline,
+# bare nanoflann baseline at 100k/1M/4M points, 1 and 2 threads) and prints the README table:
+# points, threads, case, seconds, points/s, peak resident memory.
+# Usage: deploy/run-benchmarks.sh [BENCHMARK_FILTER]   e.g. '/1000000/2' for 1 M points, 2 threads
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash deploy/install-deps.sh
+command -v python3 >/dev/null || { apt-get update -qq && apt-get install -y -qq python3-minimal; }
+bash deploy/build.sh >/dev/null
+out=$(mktemp)
+# Each case in its own process, so peak resident memory belongs to that case alone.
+mapfile -t cases < <(build/tests/bench/pipeline_bench --benchmark_list_tests \
+  --benchmark_filter="${1:-.}")
+for c in "${cases[@]}"; do
+  build/tests/bench/pipeline_bench --benchmark_filter="^${c}\$" \
+    --benchmark_format=json 2>/dev/null | python3 -c '
+import json, sys
+for b in json.load(sys.stdin)["benchmarks"]:
+    print(json.dumps(b))' >>"$out"
+done
+echo "machine: $(nproc) cores, $(free -g | awk "/Mem:/ {print \$2}") GiB, $(. /etc/os-release; echo "$PRETTY_NAME")"
+python3 - "$out" <<'PY'
+import json, sys
+rows = [json.loads(l) for l in open(sys.argv[1])]
+print("| points | threads | case | seconds | points/s | peak RSS (MiB) |")
+print("|---:|---:|---|---:|---:|---:|")
+for b in rows:
+    name = b["name"].split("/")
+    case = name[1] if name[0] == "RunPipelineCase" else name[0].removeprefix("BM_")
+    seconds = b["real_time"] / 1e3  # ms
+    print(f"| {int(b['points']):,} | {int(b['threads'])} | {case} | {seconds:.3f} | "
+          f"{b['points_per_second']:,.0f} | {b['peak_rss_bytes'] / 2**20:,.0f} |")
+PY
+rm -f "$out"
