@@ -65,7 +65,11 @@ class NormalsStage : public Stage {
       size_t local_invalid = 0;
       for (size_t i = begin; i < end; ++i) {
         cloud.flags[i] &= static_cast<uint8_t>(~kNormalInvalid);
-        if (cloud.removed(i)) continue;
+        // Removed points get no normal; the flag tells clients that asked for them too.
+        if (cloud.removed(i)) {
+          cloud.flags[i] |= kNormalInvalid;
+          continue;
+        }
         float r = nb.adaptive_radius(i);
         if (mode == "mitra") {
           const double sigma = sigma_override.value_or(cloud.scans[cloud.scan[i]].uncertainty);
