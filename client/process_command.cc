@@ -2,6 +2,7 @@
 #include <fstream>
 #include <iostream>
 
+#include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
 #include <unistd.h>
 
@@ -17,10 +18,36 @@
 namespace scanprep::client {
 namespace {
 
+double SecondsSince(absl::Time start) { return absl::ToDoubleSeconds(absl::Now() - start); }
+
+// The report's JSON with the client's phase timings added as "phases" (the report message
+// itself carries only the server's side).
+std::string ReportJson(const v1::Report& report, const PhaseSeconds& phases) {
+  namespace pb = google::protobuf;
+  std::string json;
+  pb::Struct root;
+  (void)pb::util::MessageToJsonString(report, &json);
+  (void)pb::util::JsonStringToMessage(json, &root);
+  pb::Struct& out = *(*root.mutable_fields())["phases"].mutable_struct_value();
+  const std::pair<const char*, double> values[] = {
+      {"readSeconds", phases.read},         {"uploadSeconds", phases.upload},
+      {"processingSeconds", phases.processing}, {"downloadSeconds", phases.download},
+      {"writeSeconds", phases.write},       {"totalSeconds", phases.total}};
+  for (const auto& [name, seconds] : values) (*out.mutable_fields())[name].set_number_value(seconds);
+  pb::util::JsonPrintOptions options;
+  options.add_whitespace = true;
+  json.clear();
+  (void)pb::util::MessageToJsonString(root, &json, options);
+  return json;
+}
+
 int RunProcess(const ParsedArgs& args) {
   if (!args.Has("out")) return Fail("process", "-o OUT.ply is required");
+  const absl::Time start = absl::Now();
+  PhaseSeconds phases;
   auto job = BuildJob(args);
   if (!job.ok()) return Fail("process", std::string(job.status().message()));
+  phases.read = SecondsSince(start);
   for (const std::string& note : job->notes) std::cerr << "note: " << note << "\n";
 
   CallOptions call;
@@ -44,17 +71,20 @@ int RunProcess(const ParsedArgs& args) {
   }
   const std::string out = args.Get("out");
   io::PlyWriteOptions ply_options{.include_removed = job->header.options().include_removed()};
+  const absl::Time write_start = absl::Now();
   if (absl::Status s = io::WritePly(out, result->cloud, ply_options); !s.ok()) {
     return Fail("process", std::string(s.message()));
   }
+  phases.write = SecondsSince(write_start);
+  phases.total = SecondsSince(start);
+  phases.upload = result->transfer.upload;
+  phases.processing = result->report.processing_seconds();
+  phases.download = result->transfer.download;
   if (args.Has("report_json")) {
-    std::string json;
-    google::protobuf::util::JsonPrintOptions json_options;
-    json_options.add_whitespace = true;
-    (void)google::protobuf::util::MessageToJsonString(result->report, &json, json_options);
-    std::ofstream(args.Get("report_json")) << json;
+    std::ofstream(args.Get("report_json")) << ReportJson(result->report, phases);
   }
   PrintSummary(std::cout, result->report);
+  PrintPhases(std::cout, phases);
   std::cout << "wrote " << result->cloud.size() << " points to " << out << "\n";
   return 0;
 }
@@ -69,7 +99,8 @@ Command ProcessCommand() {
   AddTlsFlags(flags);
   for (FlagSpec& flag : JobFlags()) flags.push_back(std::move(flag));
   flags.push_back({"timeout", FlagSpec::kValue, "deadline for the whole call, e.g. 120s"});
-  flags.push_back({"report_json", FlagSpec::kValue, "also write the full report as JSON"});
+  flags.push_back({"report_json", FlagSpec::kValue,
+                   "also write the full report as JSON, with the phase timings under \"phases\""});
   return Command{
       .name = "process",
       .synopsis = "process SCAN... -o OUT.ply [flags]",

@@ -69,4 +69,12 @@ void PrintSummary(std::ostream& out, const v1::Report& report) {
   for (const std::string& w : report.warnings()) out << "warning: " << w << "\n";
 }
 
+void PrintPhases(std::ostream& out, const PhaseSeconds& p) {
+  const double other = p.total - p.read - p.upload - p.processing - p.download - p.write;
+  out << absl::StrFormat(
+      "phases: read %.3f s, upload %.3f s, processing %.3f s (server), download %.3f s, write "
+      "%.3f s; total %.3f s wall (%.3f s in none of them)\n",
+      p.read, p.upload, p.processing, p.download, p.write, p.total, other);
+}
+
 }  // namespace scanprep::client

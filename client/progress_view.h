@@ -25,6 +25,16 @@ class ProgressView {
   bool drawn_ = false;
 };
 
+// One job's phases for `scanprep process`: read, upload, download, write and total on the
+// client's clock; processing is the server's report.processing_seconds.
+struct PhaseSeconds {
+  double read = 0, upload = 0, processing = 0, download = 0, write = 0, total = 0;
+};
+
+// One line with every phase, and what none of them covers (connecting, the server assembling
+// the job and preparing the first result chunk).
+void PrintPhases(std::ostream& out, const PhaseSeconds& phases);
+
 // Per stage: points in and out, seconds and the stage's parameters (per-scan values are
 // summarised by count); then point totals, invalid points, budget and warnings.
 void PrintSummary(std::ostream& out, const scanprep::v1::Report& report);

@@ -161,19 +161,33 @@ absl::StatusOr<ProcessResult> ScanPrepClient::Process(v1::JobHeader header,
   for (const v1::ScanHeader& scan : header.scans()) result.cloud.scans.push_back({.id = scan.scan_id()});
   bool has_report = false;
   absl::Status read_error;
+  // gRPC's Write returns once the transport took the message, which can be megabytes before the
+  // server read it; the server's UPLOAD progress for the last point says it decoded them all.
+  const uint64_t total_points = header.total_points();
+  std::optional<absl::Time> upload_acked;
   std::thread reader([&] {
     v1::ProcessResponse response;
+    std::optional<absl::Time> download_start;
     while (stream->Read(&response)) {
       switch (response.kind_case()) {
         case v1::ProcessResponse::kProgress:
+          if (response.progress().phase() == v1::Progress::UPLOAD &&
+              response.progress().points() == total_points) {
+            upload_acked = absl::Now();
+          }
           if (options.progress) options.progress(response.progress());
           break;
         case v1::ProcessResponse::kPoints:
+          if (!download_start) download_start = absl::Now();
           if (read_error.ok()) read_error = AppendResultChunk(response.points(), result.cloud);
           break;
         case v1::ProcessResponse::kReport:
           result.report = std::move(*response.mutable_report());
           has_report = true;
+          // No points come back when every point was removed; that download took no time.
+          if (download_start) {
+            result.transfer.download = absl::ToDoubleSeconds(absl::Now() - *download_start);
+          }
           break;
         default:
           break;
@@ -185,6 +199,7 @@ absl::StatusOr<ProcessResult> ScanPrepClient::Process(v1::JobHeader header,
   *request.mutable_header() = std::move(header);
   // A failed write means the server already ended the call; Finish() tells why.
   bool writing = stream->Write(request);
+  const absl::Time upload_start = absl::Now();
   for (size_t begin = 0; writing && begin < points.size(); begin += chunk_points) {
     request.Clear();
     RequestChunk(points, begin, std::min(points.size(), begin + chunk_points), with_scan_index,
@@ -192,7 +207,9 @@ absl::StatusOr<ProcessResult> ScanPrepClient::Process(v1::JobHeader header,
     writing = stream->Write(request);
   }
   if (writing) stream->WritesDone();
+  const absl::Time half_closed = absl::Now();
   reader.join();
+  result.transfer.upload = absl::ToDoubleSeconds(upload_acked.value_or(half_closed) - upload_start);
   grpc::Status status = stream->Finish();
   if (options.canceller != nullptr) options.canceller->Detach();
 

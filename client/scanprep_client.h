@@ -22,10 +22,20 @@ namespace v1 = ::scanprep::v1;
 
 inline constexpr size_t kDefaultChunkPoints = 32'768;
 
+// The call's transfer phases on the client's clock (the processing time is the server's
+// report.processing_seconds).
+struct TransferSeconds {
+  // First point chunk written → the server's progress for the last point (the half-close when
+  // the server sent none).
+  double upload = 0;
+  double download = 0;  // first result chunk received → the report received
+};
+
 struct ProcessResult {
   // In the job's unit and the common frame; `scans` carries the header's scan ids.
   PointCloud cloud;
   v1::Report report;
+  TransferSeconds transfer;
 };
 
 // Called on the call's reader thread for every Progress event.

@@ -8,6 +8,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "absl/time/clock.h"
 #include "tests/server/service_fixtures.h"
 
 namespace scanprep::testing {
@@ -150,6 +151,27 @@ TEST(Process, MetresAndAPoseGiveTheSameJobAsMillimetres) {
   EXPECT_EQ(m->report.points_returned(), mm->report.points_returned());
   EXPECT_NEAR(static_cast<double>(m->report.stages(1).points_out()),
               static_cast<double>(mm->report.stages(1).points_out()), 2.0);
+}
+
+TEST(Process, UploadProcessingAndDownloadAreTimedAndFitInTheCall) {
+  InProcessServer server;
+  const GeneratedScan scan = NoisyPlaneWithSpikes(200, 0.5f);
+  client::CallOptions call;
+  call.chunk_points = 4'096;  // several chunks each way, so both transfers take measurable time
+  const absl::Time start = absl::Now();
+  auto result = server.Client().Process(OutliersJob(v1::MILLIMETRE, 0.5), scan.cloud, call);
+  const double wall = absl::ToDoubleSeconds(absl::Now() - start);
+  ASSERT_TRUE(result.ok()) << result.status();
+  ASSERT_GT(result->report.points_returned(), 32'768u);  // at least two result chunks
+
+  const double upload = result->transfer.upload;
+  const double processing = result->report.processing_seconds();
+  const double download = result->transfer.download;
+  EXPECT_GT(upload, 0);
+  EXPECT_GT(processing, 0);
+  EXPECT_GT(download, 0);
+  // The three phases follow one another within the call.
+  EXPECT_LE(upload + processing + download, wall);
 }
 
 TEST(Process, InvalidCoordinatesAreExcludedCountedAndWarned) {
