@@ -10,7 +10,9 @@ absl::Status BallCache::Gather(const PointCloud& cloud, const Neighbourhoods& nb
                                const std::vector<float>& radius_of_scan,
                                const CancelToken& cancel) {
   const size_t n = cloud.size();
-  // Fixed blocks, so that concatenating their members in block order follows the index order.
+  // Balls are asked in grid order (neighbouring balls read the same cells) in fixed blocks,
+  // then each block's members are moved to their points' slots in index order.
+  const std::span<const uint32_t> order = nb.order();
   constexpr size_t kBlock = 4096;
   const size_t blocks = (n + kBlock - 1) / kBlock;
   std::vector<std::vector<uint32_t>> block_members(blocks);
@@ -18,7 +20,8 @@ absl::Status BallCache::Gather(const PointCloud& cloud, const Neighbourhoods& nb
   absl::Status status = ParallelFor(blocks, cancel, [&](size_t first, size_t last) {
     RadiusMatches matches;
     for (size_t b = first; b < last; ++b) {
-      for (size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i) {
+      for (size_t v = b * kBlock; v < std::min(n, (b + 1) * kBlock); ++v) {
+        const uint32_t i = order[v];
         const float radius = radius_of_scan[cloud.scan[i]];
         if (cloud.removed(i) || radius <= nb.dk(i)) continue;
         nb.Within(cloud, i, radius, matches);
@@ -29,12 +32,18 @@ absl::Status BallCache::Gather(const PointCloud& cloud, const Neighbourhoods& nb
   }, /*grain=*/1);
   if (!status.ok()) return status;
   for (size_t i = 0; i < n; ++i) start_[i + 1] += start_[i];
-  members_.clear();
-  members_.reserve(start_[n]);
-  for (const std::vector<uint32_t>& block : block_members) {
-    members_.insert(members_.end(), block.begin(), block.end());
-  }
-  return absl::OkStatus();
+  members_.resize(start_[n]);
+  return ParallelFor(blocks, cancel, [&](size_t first, size_t last) {
+    for (size_t b = first; b < last; ++b) {
+      const uint32_t* from = block_members[b].data();
+      for (size_t v = b * kBlock; v < std::min(n, (b + 1) * kBlock); ++v) {
+        const uint32_t i = order[v];
+        std::copy(from, from + (start_[i + 1] - start_[i]), members_.begin() + start_[i]);
+        from += start_[i + 1] - start_[i];
+      }
+      block_members[b] = {};
+    }
+  }, /*grain=*/1);
 }
 
 bool BallCache::Within(const PointCloud& cloud, size_t i, RadiusMatches& out) const {

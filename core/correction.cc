@@ -114,7 +114,7 @@ class CorrectionStage : public Stage {
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
     std::vector<uint8_t> go(n, 0), fresh(n, 0);  // fresh: removed in the previous round
-    // Points whose r_c exceeds d_k are re-judged every round; their balls come from the tree
+    // Points whose r_c exceeds d_k are re-judged every round; their balls come from the grid
     // once instead of once per round.
     BallCache balls;
     if (absl::Status s = balls.Gather(cloud, nb, radius, ctx.cancel()); !s.ok()) return s;
@@ -133,6 +133,7 @@ class CorrectionStage : public Stage {
     size_t removed = 0;
     int round = 0;
     while (round < max_rounds) {
+      // Index order: the cached balls are stored by index.
       absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
         RadiusMatches matches;
         for (size_t i = begin; i < end; ++i) {

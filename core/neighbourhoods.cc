@@ -13,36 +13,64 @@ double MinRadiusFromScanlineSpacing(double scanline_spacing, double epsilon_u) {
   return std::sqrt(3.0) * scanline_spacing + epsilon_u;
 }
 
+namespace {
+
+// Cell edge of the grid in units of the typical d_k: balls of d_k (the graph) up to ~2.5·d_k
+// (r_min) then read a handful of short runs.
+constexpr float kCellEdgePerDk = 1.0f;
+
+// Median d_k over an evenly strided sample, from a grid of any cell size.
+float SampleDk(const PointCloud& cloud, const CellGrid& grid, uint32_t k) {
+  const size_t n = cloud.size();
+  const size_t sample = std::min<size_t>(n, 1000);
+  std::vector<float> dk(sample);
+  std::vector<uint32_t> idx(k);
+  std::vector<float> d2(k);
+  std::vector<uint64_t> scratch;
+  for (size_t s = 0; s < sample; ++s) {
+    const size_t i = s * n / sample;
+    const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+    const size_t found = grid.Knn(q, k, static_cast<uint32_t>(i), 0.f, idx.data(), d2.data(), scratch);
+    dk[s] = found ? std::sqrt(d2[found - 1]) : 0.f;
+  }
+  std::nth_element(dk.begin(), dk.begin() + sample / 2, dk.end());
+  return dk[sample / 2];
+}
+
+}  // namespace
+
 absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
     const PointCloud& cloud, const NeighbourhoodOptions& options, const CancelToken& cancel) {
   std::unique_ptr<Neighbourhoods> nb(new Neighbourhoods());
   const size_t n = cloud.size();
-  nb->tree_ = std::make_unique<KdTree>(cloud);
   nb->k_ = static_cast<uint32_t>(std::min<size_t>(options.k, n > 0 ? n - 1 : 0));
   nb->min_radius_ = options.min_radius;
   const uint32_t k = nb->k_;
+  if (absl::Status s = nb->grid_.Build(cloud, 0.f, cancel); !s.ok()) return s;
+  if (k == 0) return nb;
+  const float typical_dk = SampleDk(cloud, nb->grid_, k);
+  if (typical_dk > 0) {
+    if (absl::Status s = nb->grid_.Build(cloud, kCellEdgePerDk * typical_dk, cancel); !s.ok()) {
+      return s;
+    }
+  }
   nb->index_.resize(n * k);
   nb->dist_.resize(n * k);
-  if (k == 0) return nb;
 
+  // In grid order, so consecutive queries read the same cells, and each starts from a radius
+  // just above its predecessor's d_k.
+  const std::span<const uint32_t> order = nb->grid_.order();
   absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
-    std::vector<uint32_t> idx(k + 1);
-    std::vector<float> d2(k + 1);
-    for (size_t i = begin; i < end; ++i) {
+    std::vector<uint32_t> idx(k);
+    std::vector<float> d2(k);
+    std::vector<uint64_t> scratch;
+    float guess = typical_dk;
+    for (size_t v = begin; v < end; ++v) {
+      const uint32_t i = order[v];
       const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-      const size_t found = nb->tree_->Knn(q, k + 1, idx.data(), d2.data());
-      // Drop the query point itself; among exact duplicates it need not come first, and in a
-      // cluster of more than k+1 duplicates it may be missing, then the farthest entry goes.
-      size_t self = std::find(idx.begin(), idx.begin() + found, static_cast<uint32_t>(i)) -
-                    idx.begin();
-      if (self == found) self = found - 1;
-      size_t out = i * k;
-      for (size_t j = 0; j < found && out < (i + 1) * k; ++j) {
-        if (j == self) continue;
-        nb->index_[out] = idx[j];
-        nb->dist_[out] = std::sqrt(d2[j]);
-        ++out;
-      }
+      nb->grid_.Knn(q, k, i, guess * 1.2f, &nb->index_[size_t(i) * k], d2.data(), scratch);
+      for (uint32_t m = 0; m < k; ++m) nb->dist_[size_t(i) * k + m] = std::sqrt(d2[m]);
+      guess = nb->dist_[size_t(i) * k + k - 1];
     }
   });
   if (!status.ok()) return status;
@@ -70,7 +98,9 @@ void Neighbourhoods::ComputeGlobalRadius() {
 
 absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shift,
                                          const CancelToken& cancel) {
-  slack_ += max_shift;
+  if (max_shift == 0) return absl::OkStatus();
+  moved_ = true;
+  if (absl::Status s = grid_.Build(cloud, grid_.cell_edge(), cancel); !s.ok()) return s;
   if (k_ == 0) return absl::OkStatus();
   absl::Status status = ParallelFor(cloud.size(), cancel, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
@@ -99,7 +129,7 @@ absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shif
 void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius,
                             RadiusMatches& out) const {
   out.clear();
-  if (k_ > 0 && slack_ == 0 && radius <= dk(i)) {
+  if (k_ > 0 && !moved_ && radius <= dk(i)) {
     if (!cloud.removed(i)) out.emplace_back(static_cast<uint32_t>(i), 0.f);
     const auto idx = knn(i);
     const auto dist = knn_dist(i);
@@ -108,12 +138,10 @@ void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius,
     }
     return;
   }
-  // The tree's cells bound the positions it was built on; a point now within `radius` was then
-  // within radius + slack.
   const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-  tree_->Radius(q, radius + slack_, out);
-  const float r2 = radius * radius;
-  std::erase_if(out, [&](const auto& m) { return cloud.removed(m.first) || m.second >= r2; });
+  grid_.ForEachWithin(q, radius, [&](uint32_t j, float d2) {
+    if (!cloud.removed(j)) out.emplace_back(j, d2);
+  });
 }
 
 }  // namespace scanprep

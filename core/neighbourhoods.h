@@ -1,6 +1,6 @@
 // Neighbourhoods computed once per job and shared by every stage (paper §2.1, algorithms.md
-// §1-§4): the kd-tree, the k-nearest-neighbour graph, the global radius and density, and the
-// minimum radius from the scanline spacing.
+// §1-§4): the spatial index (a uniform grid), the k-nearest-neighbour graph, the global radius
+// and density, and the minimum radius from the scanline spacing.
 #pragma once
 
 #include <cstdint>
@@ -10,6 +10,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/cancel.h"
+#include "core/cell_grid.h"
 #include "core/kdtree.h"
 #include "core/point_cloud.h"
 
@@ -25,14 +26,17 @@ inline constexpr double kMaxRadiusPerGlobalRadius = 5.0;
 
 class Neighbourhoods {
  public:
-  // Builds the tree and the k-NN graph over all points of `cloud` (removed ones included: the
+  // Builds the grid and the k-NN graph over all points of `cloud` (removed ones included: the
   // graph is built once, stages skip removed neighbours). The cloud must outlive this object and
   // its coordinates must not move while it is in use.
   static absl::StatusOr<std::unique_ptr<Neighbourhoods>> Build(const PointCloud& cloud,
                                                                const NeighbourhoodOptions& options,
                                                                const CancelToken& cancel);
 
-  const KdTree& tree() const { return *tree_; }
+  const CellGrid& grid() const { return grid_; }
+  // Every point index once, in grid order. A loop that asks a ball per point runs in this order
+  // so that consecutive balls read the same cells from cache (the order changes when points move).
+  std::span<const uint32_t> order() const { return grid_.order(); }
   uint32_t k() const { return k_; }
   // The k nearest other points of i, nearest first, and their distances (not squared).
   std::span<const uint32_t> knn(size_t i) const { return {&index_[i * k_], k_}; }
@@ -51,26 +55,26 @@ class Neighbourhoods {
 
   // Unremoved points within `radius` of point i (i itself included), as (index, squared
   // distance). Answers from the k-NN list when the radius fits inside it and no point has moved
-  // since the build, else asks the tree.
+  // since the build, else asks the grid.
   void Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out) const;
 
   // The points moved by at most `max_shift` each (smoothing bounds it by δ, Eq. 10). Instead of
-  // a rebuild (a full k-NN pass) every k-NN list is re-ranked by its new distances, so knn_dist()
-  // and dk() follow the points, and Within() asks the tree with its radius widened by the
-  // accumulated shift (the tree's cells bound the old positions), which keeps it exact. The
-  // lists may now miss a point that moved into the k nearest from outside (at 1 M points a
-  // smoothing move is half the spacing), so Within() stops answering from them.
+  // a rebuild of the graph (a full k-NN pass) every k-NN list is re-ranked by its new distances,
+  // so knn_dist() and dk() follow the points; the grid is re-sorted on the new positions, so
+  // Within() stays exact. The lists may now miss a point that moved into the k nearest from
+  // outside (at 1 M points a smoothing move is half the spacing), so Within() stops answering
+  // from them.
   absl::Status PointsMoved(const PointCloud& cloud, float max_shift, const CancelToken& cancel);
 
  private:
   Neighbourhoods() = default;
   void ComputeGlobalRadius();
-  std::unique_ptr<KdTree> tree_;
+  CellGrid grid_;
   uint32_t k_ = 0;
   std::vector<uint32_t> index_;
   std::vector<float> dist_;
   double global_radius_ = 0, density_ = 0, min_radius_ = 0;
-  float slack_ = 0;  // largest total move of any point since the tree was built
+  bool moved_ = false;  // points moved since the graph was built
 };
 
 // Eq. (2): r_min = √3·Δs + ε_u (the circumsphere of a cube of edge 2Δs, which reaches both

@@ -1,4 +1,4 @@
-// The "neighbourhoods" stage: builds the shared kd-tree and k-NN graph and reports the derived
+// The "neighbourhoods" stage: builds the shared grid and k-NN graph and reports the derived
 // global radius, density and minimum radius. Other stages pull it in through
 // JobContext::neighbourhoods(); listing it explicitly only makes its timing visible.
 #include "core/neighbourhoods_stage.h"
@@ -48,7 +48,7 @@ class NeighbourhoodsStage : public Stage {
 StageInfo NeighbourhoodsStageInfo() {
   return {
       .name = "neighbourhoods",
-      .summary = "kd-tree and k-NN graph shared by all stages; global radius r_g and density",
+      .summary = "spatial grid and k-NN graph shared by all stages; global radius r_g and density",
       .params =
           {
               {"neighbourhoods.k", "neighbours per point in the shared graph (k_g)", "20", {}},

@@ -84,10 +84,11 @@ absl::Status Bridge(const PointCloud& cloud, const Neighbourhoods& nb,
     absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
       std::vector<uint32_t> idx(kq);
       std::vector<float> d2(kq);
+      std::vector<uint64_t> scratch;
       for (size_t i = begin; i < end; ++i) {
         if (root[i] == kNone || root[i] == largest) continue;
         const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-        const size_t found = nb.tree().Knn(q, kq, idx.data(), d2.data());
+        const size_t found = nb.grid().Knn(q, kq, kNone, 0.f, idx.data(), d2.data(), scratch);
         for (size_t m = 0; m < found; ++m) {
           if (root[idx[m]] != kNone && root[idx[m]] != root[i]) {
             best_d2[i] = d2[m];

@@ -60,10 +60,12 @@ class NormalsStage : public Stage {
     std::vector<float> radius(n, 0.f);
     std::atomic<size_t> invalid{0};
 
+    const std::span<const uint32_t> order = nb.order();
     absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
       Scratch scratch;
       size_t local_invalid = 0;
-      for (size_t i = begin; i < end; ++i) {
+      for (size_t v = begin; v < end; ++v) {
+        const size_t i = order[v];
         cloud.flags[i] &= static_cast<uint8_t>(~kNormalInvalid);
         // Removed points get no normal; the flag tells clients that asked for them too.
         if (cloud.removed(i)) {
@@ -78,7 +80,7 @@ class NormalsStage : public Stage {
         // In an overlap part of the k-NN ball belongs to other scans: widen it once so that
         // the own scan alone holds about k points, as r_p = d_k would on that scan alone.
         // Only the widened ball is fitted. (One query reaching past r_p for both balls costs
-        // more than two: the tree's radius search grows faster than the ball.)
+        // more than two: a radius search grows faster than the ball.)
         Gather(cloud, nb, i, r, per_scan, scratch.matches);
         const size_t own = scratch.matches.size();
         if (per_scan && own < nb.k() + 1) {

@@ -2,7 +2,7 @@
 // r_s (Eq. 13) and removes the rest, lowest quality first; p itself stays. Flat parts (κ̂ ≈ 0) thin
 // to a Poisson-disk set of spacing r_s, edges (κ̂ ≈ 1) keep their full density. Edge centres go
 // first so planar neighbourhoods cannot strip an edge; within each set better-viewed centres go
-// first. Removal is a label; the kd-tree is not rebuilt (removed points are skipped by queries).
+// first. Removal is a label; the grid is not rebuilt (removed points are skipped by queries).
 //
 // The visit order makes the result order-dependent. "tiled" runs it in parallel: space is cut into
 // cells of edge 2·r_s in 8 colour classes; two cells of one colour are ≥ 2·r_s apart, so their

@@ -58,9 +58,11 @@ class SmoothingStage : public Stage {
     for (int it = 0; it < iterations; ++it) {
       auto nb = ctx.neighbourhoods();
       if (!nb.ok()) return nb.status();
+      const std::span<const uint32_t> order = (*nb)->order();
       absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
         RadiusMatches matches;
-        for (size_t i = begin; i < end; ++i) {
+        for (size_t v = begin; v < end; ++v) {
+          const size_t i = order[v];
           outcome[i] = SmoothPoint(cloud, **nb, m, *settings, i, matches, nx[i], ny[i], nz[i]);
         }
       });

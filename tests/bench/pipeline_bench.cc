@@ -2,6 +2,8 @@
 // and the baseline every target is a ratio to: a bare nanoflann build + k=20 kNN loop (TBB) over
 // the same points. Arguments: {points, threads}. Run through deploy/run-benchmarks.sh, which
 // prints the README table.
+#include <map>
+#include <string>
 #include <vector>
 
 #include <benchmark/benchmark.h>
@@ -71,6 +73,7 @@ void RunPipelineCase(benchmark::State& state, const std::string& stage) {
   CancelToken cancel;
   PipelineOptions options;
   if (!stage.empty()) options.stages = {stage};
+  std::map<std::string, double> stage_seconds;  // per-stage breakdown of the whole pipeline
   for (auto _ : state) {
     PointCloud cloud = reference;
     absl::StatusOr<PipelineReport> report;
@@ -80,10 +83,18 @@ void RunPipelineCase(benchmark::State& state, const std::string& stage) {
       return;
     }
     double seconds = stage.empty() ? report->total_seconds : 0;
-    for (const StageReport& s : report->stages) seconds += s.name == stage ? s.seconds : 0;
+    for (const StageReport& s : report->stages) {
+      seconds += s.name == stage ? s.seconds : 0;
+      stage_seconds[s.name] += s.seconds;
+    }
     state.SetIterationTime(seconds);
   }
   SetCounters(state, reference.size());
+  if (stage.empty()) {
+    for (const auto& [name, seconds] : stage_seconds) {
+      state.counters["s_" + name] = benchmark::Counter(seconds, benchmark::Counter::kAvgIterations);
+    }
+  }
 }
 
 void Sizes(benchmark::internal::Benchmark* b) {

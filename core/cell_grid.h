@@ -1,0 +1,133 @@
+// A uniform grid over the cloud's points, in place of a kd-tree: the points are copied next to
+// their indices and sorted by cell, x-major and z-minor, so every (x, y) column of cells is one
+// contiguous stretch; a dense table holds where each column's occupied cells start. A ball then
+// reads one contiguous run per column it crosses (a dozen or so) instead of descending a tree,
+// and the k nearest neighbours come from balls widened until they hold k points.
+//
+// Exact: a ball returns precisely the points whose squared distance, computed as nanoflann does
+// it (((q−p)ₓ² + (q−p)ᵧ²) + (q−p)_z² in float), is below r², so its sets equal the kd-tree's.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "core/cancel.h"
+#include "core/point_cloud.h"
+
+namespace scanprep {
+
+class CellGrid {
+ public:
+  // Grids the cloud's current positions with cells of edge `cell_edge` (widened when the cloud
+  // would need more than 2^21 cells along an axis, or the column table more than 4 entries a
+  // point); 0 = a first guess from the bounding box, about 8 points per cell if they filled it.
+  absl::Status Build(const PointCloud& cloud, float cell_edge, const CancelToken& cancel);
+
+  float cell_edge() const { return static_cast<float>(edge_); }
+  // Point indices in cell order: neighbouring entries are near in space.
+  std::span<const uint32_t> order() const { return id_; }
+
+  // Calls visit(j, d2) for every point j with squared distance d2 < radius² to q, unsorted.
+  template <typename Visit>
+  void ForEachWithin(const float q[3], float radius, Visit&& visit) const;
+
+  // The k nearest points to q other than `exclude`, nearest first (ties: lower index first), as
+  // indices and squared distances; returns how many were found (< k only if the cloud has fewer).
+  // `guess` is a radius to try first; `scratch` is reused between calls.
+  size_t Knn(const float q[3], size_t k, uint32_t exclude, float guess, uint32_t* idx,
+             float* dist_sq, std::vector<uint64_t>& scratch) const;
+
+ private:
+  struct Entry {
+    float x, y, z;
+    uint32_t id;
+  };
+  // Calls run(begin, end) for each run of entries in cells that may hold a point within
+  // `radius` of q; false when the cell range is wider than the cell list, so a scan of all
+  // entries is cheaper.
+  template <typename Run>
+  bool ForEachRun(const float q[3], float radius, Run&& run) const;
+  double CellOf(float v, int axis) const { return (double(v) - origin_[axis]) * inverse_edge_; }
+
+  double edge_ = 1, inverse_edge_ = 1;
+  double origin_[3] = {0, 0, 0};
+  int64_t cells_[3] = {1, 1, 1};  // grid extent per axis
+  std::vector<Entry> entries_;     // sorted by (column x·cells_y + y, z)
+  std::vector<uint32_t> id_;       // entries_[e].id, for order()
+  std::vector<uint32_t> column_start_;  // column c: occupied cells [column_start_[c], [c+1])
+  std::vector<uint32_t> cell_z_;        // per occupied cell, in entry order: its z
+  std::vector<uint32_t> cell_start_;    // occupied cell c: entries [cell_start_[c], [c+1])
+};
+
+template <typename Run>
+bool CellGrid::ForEachRun(const float q[3], float radius, Run&& run) const {
+  if (entries_.empty()) return true;
+  // Padded so that float rounding in the caller's distance test cannot admit a point the cell
+  // range missed; the range itself is computed in double.
+  const double r = double(radius) * (1 + 1e-5) + 1e-30;
+  if (!(r * inverse_edge_ < 1e12)) return false;
+  int64_t lo[3], hi[3];
+  double c[3];
+  for (int a = 0; a < 3; ++a) {
+    c[a] = CellOf(q[a], a);
+    const double reach = r * inverse_edge_;
+    lo[a] = std::max<int64_t>(0, static_cast<int64_t>(std::floor(c[a] - reach)));
+    hi[a] = std::min<int64_t>(cells_[a] - 1, static_cast<int64_t>(std::floor(c[a] + reach)));
+    if (lo[a] > hi[a]) return true;
+  }
+  const double span =
+      double(hi[0] - lo[0] + 1) * double(hi[1] - lo[1] + 1) * double(hi[2] - lo[2] + 1);
+  if (span > double(cell_start_.size()) + double(column_start_.size())) return false;
+  const double reach2 = (r * inverse_edge_) * (r * inverse_edge_);
+  // Distance (in cells) from q to the nearest face of cell v along an axis, 0 inside.
+  auto gap = [](double cq, int64_t v) {
+    return cq < double(v) ? double(v) - cq : cq > double(v + 1) ? cq - double(v + 1) : 0.0;
+  };
+  for (int64_t x = lo[0]; x <= hi[0]; ++x) {
+    const double gx = gap(c[0], x), rx = reach2 - gx * gx;
+    if (rx < 0) continue;
+    for (int64_t y = lo[1]; y <= hi[1]; ++y) {
+      const double gy = gap(c[1], y), ry = rx - gy * gy;
+      if (ry < 0) continue;
+      const double dz = std::sqrt(ry);
+      const auto z0 = static_cast<uint32_t>(
+          std::max(lo[2], static_cast<int64_t>(std::floor(c[2] - dz))));
+      const auto z1 = static_cast<uint32_t>(
+          std::min(hi[2], static_cast<int64_t>(std::floor(c[2] + dz))));
+      // This column's occupied cells from z0 to z1 are one run of entries.
+      const size_t column = static_cast<size_t>(x * cells_[1] + y);
+      uint32_t first = column_start_[column];
+      const uint32_t last = column_start_[column + 1];
+      if (last - first > 8) {
+        first = static_cast<uint32_t>(
+            std::lower_bound(cell_z_.begin() + first, cell_z_.begin() + last, z0) - cell_z_.begin());
+      } else {
+        while (first < last && cell_z_[first] < z0) ++first;
+      }
+      uint32_t end = first;
+      while (end < last && cell_z_[end] <= z1) ++end;
+      if (end > first) run(cell_start_[first], cell_start_[end]);
+    }
+  }
+  return true;
+}
+
+template <typename Visit>
+void CellGrid::ForEachWithin(const float q[3], float radius, Visit&& visit) const {
+  const float r2 = radius * radius;
+  auto scan = [&](uint32_t begin, uint32_t end) {
+    for (uint32_t e = begin; e < end; ++e) {
+      const Entry& p = entries_[e];
+      const float dx = q[0] - p.x, dy = q[1] - p.y, dz = q[2] - p.z;
+      const float d2 = dx * dx + dy * dy + dz * dz;
+      if (d2 < r2) visit(p.id, d2);
+    }
+  };
+  if (!ForEachRun(q, radius, scan)) scan(0, static_cast<uint32_t>(entries_.size()));
+}
+
+}  // namespace scanprep

@@ -1,0 +1,159 @@
+// The grid must answer exactly what the kd-tree answers: every ball the same set of points with
+// the same squared distances, every k-NN list the same distances. Checked on a simulated scan
+// pair, on a cloud with far-flung points (wide bounding box, few occupied cells) and on one with
+// coincident points, and again after points moved.
+#include "core/cell_grid.h"
+
+#include <algorithm>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "core/kdtree.h"
+#include "core/neighbourhoods.h"
+#include "core/sim/scan_simulator.h"
+
+namespace scanprep {
+namespace {
+
+PointCloud BoxScans() {
+  const auto part = sim::Part::kBoxWithBore;
+  return sim::SimulateWithPointCount(part, sim::TwoOverlappingSensors(part), 40'000, 0.01, 3).cloud;
+}
+
+// A plane of 0.1 mm pitch, a few points a metre away, and clusters of exact duplicates.
+PointCloud SparseAndDuplicated() {
+  PointCloud cloud;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> jitter(-0.02f, 0.02f);
+  for (int r = 0; r < 120; ++r) {
+    for (int c = 0; c < 120; ++c) {
+      cloud.x.push_back(c * 0.1f + jitter(rng));
+      cloud.y.push_back(r * 0.1f + jitter(rng));
+      cloud.z.push_back(jitter(rng));
+    }
+  }
+  for (int far = 0; far < 5; ++far) {
+    cloud.x.push_back(1000.f * far - 2000.f);
+    cloud.y.push_back(-700.f * far);
+    cloud.z.push_back(300.f + far);
+  }
+  for (int dup = 0; dup < 30; ++dup) {
+    cloud.x.push_back(5.f);
+    cloud.y.push_back(5.f);
+    cloud.z.push_back(0.5f);
+  }
+  cloud.FinishLoading();
+  return cloud;
+}
+
+// Compares grid and tree balls of several radii around every 7th point and a few off-cloud
+// points.
+void ExpectSameBalls(const PointCloud& cloud, const CellGrid& grid) {
+  KdTree tree(cloud);
+  RadiusMatches expected;
+  std::vector<std::pair<uint32_t, float>> got;
+  size_t compared = 0, found = 0;
+  for (size_t i = 0; i < cloud.size(); i += 7) {
+    for (float radius : {0.03f, 0.09f, 0.25f, 0.6f}) {
+      const float q[3] = {cloud.x[i] + 0.01f * (i % 3), cloud.y[i], cloud.z[i] - 0.005f * (i % 5)};
+      tree.Radius(q, radius, expected);
+      got.clear();
+      grid.ForEachWithin(q, radius, [&](uint32_t j, float d2) { got.emplace_back(j, d2); });
+      std::sort(expected.begin(), expected.end());
+      std::sort(got.begin(), got.end());
+      ASSERT_EQ(got, expected) << "point " << i << " radius " << radius;
+      ++compared;
+      found += got.size();
+    }
+  }
+  EXPECT_GT(found, compared);  // the balls were not all empty
+}
+
+void ExpectSameKnn(const PointCloud& cloud, const CellGrid& grid, size_t k) {
+  KdTree tree(cloud);
+  std::vector<uint32_t> tree_idx(k + 1), grid_idx(k);
+  std::vector<float> tree_d2(k + 1), grid_d2(k);
+  std::vector<uint64_t> scratch;
+  for (size_t i = 0; i < cloud.size(); i += 5) {
+    const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+    const size_t expected = tree.Knn(q, k + 1, tree_idx.data(), tree_d2.data());
+    const size_t got = grid.Knn(q, k, static_cast<uint32_t>(i), 0.f, grid_idx.data(),
+                                grid_d2.data(), scratch);
+    ASSERT_EQ(got, std::min(k, cloud.size() - 1));
+    ASSERT_EQ(expected, got + 1);
+    // The tree's list holds i itself at distance 0; duplicates of i too, so drop one zero.
+    tree_d2.erase(tree_d2.begin());
+    for (size_t m = 0; m < got; ++m) {
+      ASSERT_EQ(grid_d2[m], tree_d2[m]) << "point " << i << " rank " << m;
+      if (m > 0) {
+        ASSERT_LE(grid_d2[m - 1], grid_d2[m]);
+      }
+      ASSERT_NE(grid_idx[m], i);
+    }
+    tree_d2.resize(k + 1);
+  }
+}
+
+TEST(CellGrid, BallsAndNeighboursEqualTheKdTreesOnScans) {
+  const PointCloud cloud = BoxScans();
+  CancelToken cancel;
+  for (float edge : {0.f, 0.02f, 0.07f, 0.5f}) {
+    CellGrid grid;
+    ASSERT_TRUE(grid.Build(cloud, edge, cancel).ok());
+    ExpectSameBalls(cloud, grid);
+    ExpectSameKnn(cloud, grid, 20);
+  }
+}
+
+TEST(CellGrid, BallsAndNeighboursEqualTheKdTreesOnSparseAndDuplicatedPoints) {
+  const PointCloud cloud = SparseAndDuplicated();
+  CancelToken cancel;
+  for (float edge : {0.f, 0.1f}) {
+    CellGrid grid;
+    ASSERT_TRUE(grid.Build(cloud, edge, cancel).ok());
+    ExpectSameBalls(cloud, grid);
+    ExpectSameKnn(cloud, grid, 20);
+    ExpectSameKnn(cloud, grid, 40);
+  }
+}
+
+TEST(CellGrid, OrderVisitsEveryPointOnce) {
+  const PointCloud cloud = BoxScans();
+  CellGrid grid;
+  ASSERT_TRUE(grid.Build(cloud, 0.f, CancelToken()).ok());
+  std::vector<uint32_t> order(grid.order().begin(), grid.order().end());
+  std::sort(order.begin(), order.end());
+  for (uint32_t i = 0; i < order.size(); ++i) ASSERT_EQ(order[i], i);
+  EXPECT_EQ(order.size(), cloud.size());
+}
+
+TEST(Neighbourhoods, WithinStaysExactAfterPointsMove) {
+  PointCloud cloud = BoxScans();
+  CancelToken cancel;
+  auto nb = Neighbourhoods::Build(cloud, {.k = 20}, cancel);
+  ASSERT_TRUE(nb.ok());
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> move(-0.03f, 0.03f);
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    cloud.x[i] += move(rng);
+    cloud.y[i] += move(rng);
+    cloud.z[i] += move(rng);
+  }
+  ASSERT_TRUE((*nb)->PointsMoved(cloud, 0.03f * std::sqrt(3.f), cancel).ok());
+  ExpectSameBalls(cloud, (*nb)->grid());
+  KdTree tree(cloud);
+  RadiusMatches expected, got;
+  for (size_t i = 0; i < cloud.size(); i += 11) {
+    const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+    const float radius = (*nb)->dk(i) * 0.8f;  // inside the k-NN list, which may now be stale
+    tree.Radius(q, radius, expected);
+    (*nb)->Within(cloud, i, radius, got);
+    std::sort(expected.begin(), expected.end());
+    std::sort(got.begin(), got.end());
+    ASSERT_EQ(got, expected) << "point " << i;
+  }
+}
+
+}  // namespace
+}  // namespace scanprep
