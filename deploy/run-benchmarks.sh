@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Runs every benchmark case (tests/bench/pipeline_bench: stages, neighbour graph, whole pipeline,
 # bare nanoflann baseline at 100k/1M/4M points, 1 and 2 threads) and prints the README table:
-# points, threads, case, seconds, points/s, peak resident memory.
+# points, threads, case, seconds, points/s, peak resident memory. Then the end-to-end service
+# benchmark (deploy/run-e2e-benchmark.sh) adds its rows to the same table: at the point counts the
+# filter names (numbers of 1000 or more; all of 1 M and 4 M when it names none), with the thread
+# count the filter ends with (/N/T), else with 1 and 2 threads.
 # Usage: deploy/run-benchmarks.sh [BENCHMARK_FILTER]   e.g. '/1000000/2' for 1 M points, 2 threads
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -33,3 +36,7 @@ for b in rows:
           f"{b['points_per_second']:,.0f} | {b['peak_rss_bytes'] / 2**20:,.0f} |")
 PY
 rm -f "$out"
+mapfile -t e2e_points < <(grep -oE '[0-9]{4,}' <<<"${1:-}" || true)
+e2e_threads=$(sed -nE 's|.*/[0-9]+/([0-9]+)\$?$|\1|p' <<<"${1:-}")
+BUILD_DIR=build SKIP_BUILD=1 THREADS=${e2e_threads:-1 2} \
+  bash deploy/run-e2e-benchmark.sh --no-header "${e2e_points[@]}"
