@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -19,6 +20,9 @@
 #include "core/point_cloud.h"
 
 namespace scanprep {
+
+// Ball-query result: (point index, squared distance).
+using RadiusMatches = std::vector<std::pair<uint32_t, float>>;
 
 class CellGrid {
  public:
@@ -31,9 +35,8 @@ class CellGrid {
   // Point indices in cell order: neighbouring entries are near in space.
   std::span<const uint32_t> order() const { return id_; }
 
-  // Calls visit(j, d2) for every point j with squared distance d2 < radius² to q, unsorted.
-  template <typename Visit>
-  void ForEachWithin(const float q[3], float radius, Visit&& visit) const;
+  // Every point j with squared distance d2 < radius² to q, as (j, d2), unsorted, into `out`.
+  void Within(const float q[3], float radius, RadiusMatches& out) const;
 
   // The k nearest points to q other than `exclude`, nearest first (ties: lower index first), as
   // indices and squared distances; returns how many were found (< k only if the cloud has fewer).
@@ -116,16 +119,22 @@ bool CellGrid::ForEachRun(const float q[3], float radius, Run&& run) const {
   return true;
 }
 
-template <typename Visit>
-void CellGrid::ForEachWithin(const float q[3], float radius, Visit&& visit) const {
+inline void CellGrid::Within(const float q[3], float radius, RadiusMatches& out) const {
+  out.clear();
   const float r2 = radius * radius;
+  // Branch-free: every candidate is written, the end advances only past those inside (about
+  // half of them, which a branch would mispredict).
   auto scan = [&](uint32_t begin, uint32_t end) {
+    size_t at = out.size();
+    out.resize(at + (end - begin));
     for (uint32_t e = begin; e < end; ++e) {
       const Entry& p = entries_[e];
       const float dx = q[0] - p.x, dy = q[1] - p.y, dz = q[2] - p.z;
       const float d2 = dx * dx + dy * dy + dz * dz;
-      if (d2 < r2) visit(p.id, d2);
+      out[at] = {p.id, d2};
+      at += d2 < r2;
     }
+    out.resize(at);
   };
   if (!ForEachRun(q, radius, scan)) scan(0, static_cast<uint32_t>(entries_.size()));
 }

@@ -7,6 +7,7 @@
 
 #include <nanoflann.hpp>
 
+#include "core/cell_grid.h"  // RadiusMatches
 #include "core/point_cloud.h"
 
 namespace scanprep {
@@ -23,9 +24,6 @@ struct CloudAdaptor {
 
 using KdTreeIndex = nanoflann::KDTreeSingleIndexAdaptor<
     nanoflann::L2_Simple_Adaptor<float, CloudAdaptor, float, uint32_t>, CloudAdaptor, 3, uint32_t>;
-
-// Radius-query result: (point index, squared distance).
-using RadiusMatches = std::vector<std::pair<uint32_t, float>>;
 
 class KdTree {
  public:

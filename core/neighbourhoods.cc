@@ -139,9 +139,8 @@ void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius,
     return;
   }
   const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-  grid_.ForEachWithin(q, radius, [&](uint32_t j, float d2) {
-    if (!cloud.removed(j)) out.emplace_back(j, d2);
-  });
+  grid_.Within(q, radius, out);
+  std::erase_if(out, [&](const auto& m) { return cloud.removed(m.first); });
 }
 
 }  // namespace scanprep

@@ -52,14 +52,13 @@ PointCloud SparseAndDuplicated() {
 void ExpectSameBalls(const PointCloud& cloud, const CellGrid& grid) {
   KdTree tree(cloud);
   RadiusMatches expected;
-  std::vector<std::pair<uint32_t, float>> got;
+  RadiusMatches got;
   size_t compared = 0, found = 0;
   for (size_t i = 0; i < cloud.size(); i += 7) {
     for (float radius : {0.03f, 0.09f, 0.25f, 0.6f}) {
       const float q[3] = {cloud.x[i] + 0.01f * (i % 3), cloud.y[i], cloud.z[i] - 0.005f * (i % 5)};
       tree.Radius(q, radius, expected);
-      got.clear();
-      grid.ForEachWithin(q, radius, [&](uint32_t j, float d2) { got.emplace_back(j, d2); });
+      grid.Within(q, radius, got);
       std::sort(expected.begin(), expected.end());
       std::sort(got.begin(), got.end());
       ASSERT_EQ(got, expected) << "point " << i << " radius " << radius;
