@@ -59,6 +59,9 @@ class NormalsStage : public Stage {
     variation.assign(n, 0.f);
     std::vector<float> radius(n, 0.f);
     std::atomic<size_t> invalid{0};
+    // Flags are applied after the loop: other blocks read flags[j] of their neighbours
+    // (removed()) while this one would write flags[i] of the same byte.
+    std::vector<uint8_t> no_normal(n, 0);
 
     const std::span<const uint32_t> order = nb.order();
     absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
@@ -66,10 +69,9 @@ class NormalsStage : public Stage {
       size_t local_invalid = 0;
       for (size_t v = begin; v < end; ++v) {
         const size_t i = order[v];
-        cloud.flags[i] &= static_cast<uint8_t>(~kNormalInvalid);
         // Removed points get no normal; the flag tells clients that asked for them too.
         if (cloud.removed(i)) {
-          cloud.flags[i] |= kNormalInvalid;
+          no_normal[i] = 1;
           continue;
         }
         float r = nb.adaptive_radius(i);
@@ -90,7 +92,7 @@ class NormalsStage : public Stage {
         const LocalFrame frame = Fit(cloud, i, r, weight_scale, scratch.matches);
         radius[i] = r;
         if (!frame.valid) {
-          cloud.flags[i] |= kNormalInvalid;
+          no_normal[i] = 1;
           ++local_invalid;
           continue;
         }
@@ -103,6 +105,10 @@ class NormalsStage : public Stage {
       invalid += local_invalid;
     });
     if (!status.ok()) return status;
+    for (size_t i = 0; i < n; ++i) {
+      cloud.flags[i] = no_normal[i] ? cloud.flags[i] | kNormalInvalid
+                                    : cloud.flags[i] & static_cast<uint8_t>(~kNormalInvalid);
+    }
 
     OrientationCounts counts;
     status = OrientNormals(cloud, nb, static_cast<uint32_t>(orientation_k), ctx.cancel(), counts);

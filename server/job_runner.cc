@@ -5,6 +5,7 @@
 #include <thread>
 
 #include "absl/strings/str_cat.h"
+#include "core/happens_before.h"
 
 namespace scanprep::server {
 
@@ -53,7 +54,11 @@ JobRunner::JobRunner(int threads, ProgressHook hook)
 
 std::shared_ptr<RunningJob> JobRunner::Start(PointCloud cloud, PipelineOptions options) {
   auto job = std::make_shared<RunningJob>(std::move(cloud), std::move(options), hook_);
-  arena_.enqueue([job] { job->Run(); });
+  HappensBefore(job.get());  // TBB's queue orders this, but TSan cannot see inside libtbb
+  arena_.enqueue([job] {
+    HappensAfter(job.get());
+    job->Run();
+  });
   return job;
 }
 
