@@ -30,9 +30,13 @@ std::string ReportJson(const v1::Report& report, const PhaseSeconds& phases) {
   (void)pb::util::JsonStringToMessage(json, &root);
   pb::Struct& out = *(*root.mutable_fields())["phases"].mutable_struct_value();
   const std::pair<const char*, double> values[] = {
-      {"readSeconds", phases.read},         {"uploadSeconds", phases.upload},
-      {"processingSeconds", phases.processing}, {"downloadSeconds", phases.download},
-      {"writeSeconds", phases.write},       {"totalSeconds", phases.total}};
+      {"readSeconds", phases.read},
+      {"uploadSeconds", phases.upload},
+      {"processingSeconds", phases.processing},
+      {"downloadSeconds", phases.download},
+      {"writeSeconds", phases.write},
+      {"totalSeconds", phases.total},
+  };
   for (const auto& [name, seconds] : values) (*out.mutable_fields())[name].set_number_value(seconds);
   pb::util::JsonPrintOptions options;
   options.add_whitespace = true;
