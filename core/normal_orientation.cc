@@ -6,7 +6,6 @@
 #include <numeric>
 #include <tuple>
 
-#include <tbb/parallel_sort.h>
 
 #include "core/parallel.h"
 
@@ -142,7 +141,7 @@ absl::Status Propagate(PointCloud& cloud, const Neighbourhoods& nb, uint32_t k,
   });
   if (!status.ok()) return status;
   std::erase_if(edges, [](const Edge& e) { return !std::isfinite(e.cost); });
-  tbb::parallel_sort(edges.begin(), edges.end());
+  ParallelSort(edges.begin(), edges.end());
   if (absl::Status s = cancel.Check(); !s.ok()) return s;
 
   DisjointSets sets(n);

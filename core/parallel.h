@@ -2,10 +2,12 @@
 // stops within one block of work instead of finishing the stage.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include "core/cancel.h"
 #include "core/happens_before.h"
@@ -27,6 +29,17 @@ absl::Status ParallelFor(size_t n, const CancelToken& cancel, Body&& body, size_
                     });
   HappensAfter(&join);
   return cancel.Check();
+}
+
+// tbb::parallel_sort, except in ThreadSanitizer builds: there its tasks hand the elements between
+// threads inside uninstrumented libtbb, where no annotation reaches, so those builds sort serially.
+template <typename It>
+void ParallelSort(It first, It last) {
+#ifdef SCANPREP_TSAN
+  std::sort(first, last);
+#else
+  tbb::parallel_sort(first, last);
+#endif
 }
 
 }  // namespace scanprep

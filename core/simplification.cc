@@ -15,7 +15,6 @@
 #include <cmath>
 #include <numeric>
 
-#include <tbb/parallel_sort.h>
 
 #include "absl/strings/str_cat.h"
 #include "core/parallel.h"
@@ -95,7 +94,7 @@ std::vector<uint32_t> VisitOrder(const PointCloud& cloud, const PointMeasures& m
     const uint64_t bits = q > 0 ? std::bit_cast<uint32_t>(std::min(q, 1.f)) : 0;
     keys.push_back(uint64_t(thinner.InEdgeSet(i) ? 0 : 1) << 62 | (kOne - bits) << 32 | i);
   }
-  tbb::parallel_sort(keys.begin(), keys.end());
+  ParallelSort(keys.begin(), keys.end());
   std::vector<uint32_t> order(keys.size());
   for (size_t v = 0; v < keys.size(); ++v) order[v] = static_cast<uint32_t>(keys[v]);
   return order;

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages scanprep builds and tests with. Safe to repeat: apt runs only
-# when something is missing.
+# when something is missing. With --sanitizers also clang and its sanitizer and libFuzzer runtimes
+# (deploy/run-sanitizers.sh, deploy/run-fuzzers.sh).
 set -euo pipefail
 
 packages=(
@@ -11,6 +12,9 @@ packages=(
   prometheus  # prometheus and promtool: alert-rule and integration tests
   openssl     # tls_test makes its certificates at test time
 )
+if [[ ${1:-} == --sanitizers ]]; then
+  packages+=(clang libclang-rt-14-dev)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

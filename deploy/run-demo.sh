@@ -12,14 +12,8 @@ out=$(mktemp -d)
 trap 'kill "$server_pid" 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$out"' EXIT
 
 # Plaintext on loopback for the demo; a deployment gives --tls_cert/--tls_key/--tls_client_ca.
-"$bin/server/scanprep-server" --plaintext --listen=127.0.0.1:0 >"$out/server.log" 2>&1 &
-server_pid=$!
-for _ in $(seq 100); do
-  port=$(sed -n 's/.*listening on port \([0-9]*\).*/\1/p' "$out/server.log")
-  [[ -n "$port" ]] && break
-  sleep 0.1
-done
-[[ -n "${port:-}" ]] || { cat "$out/server.log"; echo "server did not start" >&2; exit 1; }
+source deploy/lib/local-server.sh
+start_local_server "$out/server.log"
 echo "scanprep-server listening on 127.0.0.1:$port"
 
 data=../shared/data/stanford_bunny_range_scans
@@ -32,6 +26,5 @@ else
   "$bin/client/scanprep" process "$out/sample.ply" --job "$out/sample.job.json" \
     --server "127.0.0.1:$port" -o "$out/sample-processed.ply"
 fi
-kill -TERM "$server_pid"
-wait "$server_pid"
+stop_local_server
 echo "server stopped"

@@ -1,21 +1,18 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (tests/fuzz, ASan + UBSan, clang) into ./build-fuzz, or $BUILD_DIR,
+# Builds the libFuzzer targets (tests/fuzz, ASan + UBSan, clang) into ./build-asan, or $BUILD_DIR,
 # and runs each for SECONDS (default 60) over a scratch copy of its seed corpus. Prints runs,
 # coverage and the result per target; exits non-zero if any target crashed, leaked, hung or ran
 # out of memory (the reproducer is kept and its path printed).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
-build_dir=${BUILD_DIR:-build-fuzz}
+build_dir=${BUILD_DIR:-build-asan}
 targets=(ply_fuzzer xyz_fuzzer conf_fuzzer job_file_fuzzer assembler_fuzzer)
 
-if ! command -v clang++ >/dev/null || ! ls /usr/lib/llvm-*/lib/clang/*/lib/linux/libclang_rt.fuzzer-x86_64.a >/dev/null 2>&1; then
-  echo "installing clang and its fuzzer runtime (Debian packages)"
-  apt-get update -qq && apt-get install -y clang libclang-rt-14-dev >/dev/null
-fi
-
+bash deploy/install-deps.sh --sanitizers
+# The same configuration as deploy/run-sanitizers.sh, so both can share one build directory.
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
-  -DSCANPREP_FUZZ=ON -DSCANPREP_BUILD_TESTS=OFF -DSCANPREP_BUILD_BENCHMARKS=OFF >/dev/null
+  -DSCANPREP_FUZZ=ON -DSCANPREP_BUILD_BENCHMARKS=OFF >/dev/null
 ninja -C "$build_dir" "${targets[@]}"
 
 work=$(mktemp -d "${TMPDIR:-/tmp}/scanprep-fuzz.XXXXXX")

@@ -1,0 +1,23 @@
+# Sourced by the deploy scripts that need a local server: start_local_server LOG [FLAGS...] runs
+# $bin/server/scanprep-server in plaintext on a free loopback port and sets server_pid and port;
+# stop_local_server sends SIGTERM and returns the server's exit status.
+start_local_server() {
+  local log=$1
+  shift
+  "$bin/server/scanprep-server" --plaintext --listen=127.0.0.1:0 "$@" >"$log" 2>&1 &
+  server_pid=$!
+  port=
+  for _ in $(seq 100); do
+    port=$(sed -n 's/.*listening on port \([0-9]*\).*/\1/p' "$log")
+    [[ -n "$port" ]] && return 0
+    sleep 0.1
+  done
+  cat "$log" >&2
+  echo "scanprep-server did not start" >&2
+  return 1
+}
+
+stop_local_server() {
+  kill -TERM "$server_pid"
+  wait "$server_pid"
+}
