@@ -6,7 +6,6 @@
 #include <numeric>
 #include <tuple>
 
-
 #include "core/parallel.h"
 
 namespace scanprep {

@@ -20,7 +20,8 @@ read -ra threads <<<"${THREADS:-1 2}"
 build_dir=${BUILD_DIR:-build}
 [[ ${SKIP_BUILD:-} == 1 ]] || bash deploy/build.sh >/dev/null
 cli=$build_dir/client/scanprep
-server_bin=$build_dir/server/scanprep-server
+bin=$build_dir  # for deploy/lib/local-server.sh
+source deploy/lib/local-server.sh
 
 work=$(mktemp -d)
 server_pid=
@@ -42,24 +43,13 @@ for n in "${sizes[@]}"; do
   "$cli" simulate --points "$n" --scans 2 -o "$work/sim.ply" >/dev/null
   declare -A seconds=()  # threads → "processing end-to-end"
   for t in "${threads[@]}"; do
-    log=$work/server.log
-    "$server_bin" --plaintext --listen 127.0.0.1:0 --metrics_listen= --threads "$t" \
-      >"$log" 2>&1 &
-    server_pid=$!
-    port=
-    for _ in $(seq 100); do
-      port=$(sed -n 's/.*listening on port \([0-9]*\).*/\1/p' "$log")
-      [[ -n $port ]] && break
-      sleep 0.1
-    done
-    [[ -n $port ]] || { cat "$log" >&2; echo "scanprep-server did not start" >&2; exit 1; }
+    start_local_server "$work/server.log" --metrics_listen= --threads "$t"
     sleep 1  # let startup settle before taking the idle baseline
     idle_kb=$(status_kb "$server_pid" VmRSS)
     "$cli" process "$work"/sim_*.ply --job "$work/sim.job.json" -o "$work/out.ply" \
       --server "127.0.0.1:$port" --report_json "$work/report.json" >/dev/null
     peak_kb=$(status_kb "$server_pid" VmHWM)
-    kill -TERM "$server_pid"
-    wait "$server_pid" || true
+    stop_local_server || true
     server_pid=
     summary=$(python3 - "$work/report.json" "$t" "$idle_kb" "$peak_kb" <<'PY'
 import json, sys
