@@ -124,17 +124,10 @@ size_t CellGrid::Knn(const float q[3], size_t k, uint32_t exclude, float guess, 
   while (true) {
     scratch.clear();
     const float r2 = radius * radius;
-    auto collect = [&](uint32_t begin, uint32_t end, float limit) {  // branch-free, as Within
-      size_t at = scratch.size();
-      scratch.resize(at + (end - begin));
-      for (uint32_t e = begin; e < end; ++e) {
-        const Entry& p = entries_[e];
-        const float dx = q[0] - p.x, dy = q[1] - p.y, dz = q[2] - p.z;
-        const float d2 = dx * dx + dy * dy + dz * dz;
-        scratch[at] = uint64_t(std::bit_cast<uint32_t>(d2)) << 32 | p.id;
-        at += (d2 < limit) & (p.id != exclude);
-      }
-      scratch.resize(at);
+    auto collect = [&](uint32_t begin, uint32_t end, float limit) {
+      AppendInside(q, begin, end, limit, exclude, scratch, [](uint32_t id, float d2) {
+        return uint64_t(std::bit_cast<uint32_t>(d2)) << 32 | id;
+      });
     };
     // All points within `radius` are in scratch; if there are k, they hold the k nearest.
     const bool ranged =

@@ -54,6 +54,23 @@ class CellGrid {
   // entries is cheaper.
   template <typename Run>
   bool ForEachRun(const float q[3], float radius, Run&& run) const;
+  // Appends make(id, d2) for the entries [begin, end) with squared distance d2 < limit and
+  // id != exclude. Branch-free: every candidate is written, the end advances only past those
+  // kept (about half of them, which a branch would mispredict).
+  template <typename T, typename Make>
+  void AppendInside(const float q[3], uint32_t begin, uint32_t end, float limit, uint32_t exclude,
+                    std::vector<T>& out, Make make) const {
+    size_t at = out.size();
+    out.resize(at + (end - begin));
+    for (uint32_t e = begin; e < end; ++e) {
+      const Entry& p = entries_[e];
+      const float dx = q[0] - p.x, dy = q[1] - p.y, dz = q[2] - p.z;
+      const float d2 = dx * dx + dy * dy + dz * dz;
+      out[at] = make(p.id, d2);
+      at += (d2 < limit) & (p.id != exclude);
+    }
+    out.resize(at);
+  }
   double CellOf(float v, int axis) const { return (double(v) - origin_[axis]) * inverse_edge_; }
 
   double edge_ = 1, inverse_edge_ = 1;
@@ -122,19 +139,9 @@ bool CellGrid::ForEachRun(const float q[3], float radius, Run&& run) const {
 inline void CellGrid::Within(const float q[3], float radius, RadiusMatches& out) const {
   out.clear();
   const float r2 = radius * radius;
-  // Branch-free: every candidate is written, the end advances only past those inside (about
-  // half of them, which a branch would mispredict).
   auto scan = [&](uint32_t begin, uint32_t end) {
-    size_t at = out.size();
-    out.resize(at + (end - begin));
-    for (uint32_t e = begin; e < end; ++e) {
-      const Entry& p = entries_[e];
-      const float dx = q[0] - p.x, dy = q[1] - p.y, dz = q[2] - p.z;
-      const float d2 = dx * dx + dy * dy + dz * dz;
-      out[at] = {p.id, d2};
-      at += d2 < r2;
-    }
-    out.resize(at);
+    AppendInside(q, begin, end, r2, UINT32_MAX, out,
+                 [](uint32_t id, float d2) { return std::pair<uint32_t, float>(id, d2); });
   };
   if (!ForEachRun(q, radius, scan)) scan(0, static_cast<uint32_t>(entries_.size()));
 }

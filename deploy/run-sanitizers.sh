@@ -11,8 +11,7 @@ cd "$(dirname "$0")/.."
 jobs=("$@")
 ((${#jobs[@]})) || jobs=(asan tsan)
 
-bash deploy/install-deps.sh
-bash deploy/install-deps.sh --sanitizers
+bash deploy/install-deps.sh --sanitizers  # the build's packages, clang and its runtimes
 
 configure() {  # DIR, extra cmake flags...
   local dir=$1
