@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Runs every benchmark case (tests/bench/pipeline_bench: stages, neighbour graph, whole pipeline,
-# bare nanoflann baseline at 100k/1M/4M points, 1 and 2 threads) and prints the README table:
+# bare nanoflann baseline at 100k/1M/4M points, 1 and 2 threads), then, when it was built (only
+# where libpcl-dev is installed), the PCL baseline tests/bench/pcl_chain_bench (PCL's chain and
+# each of its steps, rows pcl_*), and prints the README table:
 # points, threads, case, seconds, points/s, peak resident memory. Then the end-to-end service
 # benchmark (deploy/run-e2e-benchmark.sh) adds its rows to the same table: at the point counts the
 # filter names (numbers of 1000 or more; all of 1 M and 4 M when it names none), with the thread
@@ -13,24 +15,35 @@ command -v python3 >/dev/null || { apt-get update -qq && apt-get install -y -qq 
 bash deploy/build.sh >/dev/null
 out=$(mktemp)
 # Each case in its own process, so peak resident memory belongs to that case alone.
-mapfile -t cases < <(build/tests/bench/pipeline_bench --benchmark_list_tests \
-  --benchmark_filter="${1:-.}")
-for c in "${cases[@]}"; do
-  build/tests/bench/pipeline_bench --benchmark_filter="^${c}\$" \
-    --benchmark_format=json 2>/dev/null | python3 -c '
+run_cases() {  # BENCHMARK_BINARY; appends one JSON line per case matching the filter to $out
+  local cases c
+  mapfile -t cases < <("$1" --benchmark_list_tests --benchmark_filter="${filter}" 2>/dev/null)
+  for c in "${cases[@]}"; do
+    "$1" --benchmark_filter="^${c}\$" --benchmark_format=json 2>/dev/null | python3 -c '
 import json, sys
 for b in json.load(sys.stdin)["benchmarks"]:
     print(json.dumps(b))' >>"$out"
-done
+  done
+}
+filter=${1:-.}
+run_cases build/tests/bench/pipeline_bench
+if [[ -x build/tests/bench/pcl_chain_bench ]]; then
+  run_cases build/tests/bench/pcl_chain_bench
+else
+  echo "PCL baseline (pcl_chain_bench) not built: libpcl-dev is not installed" >&2
+fi
 echo "machine: $(nproc) cores, $(free -g | awk "/Mem:/ {print \$2}") GiB, $(. /etc/os-release; echo "$PRETTY_NAME")"
 python3 - "$out" <<'PY'
 import json, sys
 rows = [json.loads(l) for l in open(sys.argv[1])]
+pcl = {"BM_PclChain": "pcl_chain", "BM_PclStatisticalOutlierRemoval": "pcl_sor",
+       "BM_PclNormalEstimationOMP": "pcl_normals", "BM_PclMovingLeastSquares": "pcl_mls",
+       "BM_PclVoxelGrid": "pcl_voxel"}
 print("| points | threads | case | seconds | points/s | peak RSS (MiB) |")
 print("|---:|---:|---|---:|---:|---:|")
 for b in rows:
     name = b["name"].split("/")
-    case = name[1] if name[0] == "RunPipelineCase" else name[0].removeprefix("BM_")
+    case = name[1] if name[0] == "RunPipelineCase" else pcl.get(name[0], name[0].removeprefix("BM_"))
     seconds = b["real_time"] / 1e3  # ms
     print(f"| {int(b['points']):,} | {int(b['threads'])} | {case} | {seconds:.3f} | "
           f"{b['points_per_second']:,.0f} | {b['peak_rss_bytes'] / 2**20:,.0f} |")

@@ -26,4 +26,19 @@ double PeakRssBytes() {
   return usage.ru_maxrss * 1024.0;
 }
 
+void SetCounters(benchmark::State& state, size_t points) {
+  state.counters["points"] = static_cast<double>(points);
+  state.counters["threads"] = static_cast<double>(state.range(1));
+  state.counters["points_per_second"] = benchmark::Counter(
+      static_cast<double>(points), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["peak_rss_bytes"] = PeakRssBytes();
+}
+
+void Sizes(benchmark::internal::Benchmark* b) {
+  for (int64_t points : {100'000, 1'000'000, 4'000'000}) {
+    for (int64_t threads : {1, 2}) b->Args({points, threads});
+  }
+  b->Unit(benchmark::kMillisecond)->MinTime(0.5);
+}
+
 }  // namespace scanprep::bench

@@ -5,6 +5,8 @@
 
 #include <cstddef>
 
+#include <benchmark/benchmark.h>
+
 #include "core/point_cloud.h"
 
 namespace scanprep::bench {
@@ -13,5 +15,13 @@ const PointCloud& ReferenceCloud(size_t points);
 
 // Peak resident set size of this process so far, in bytes.
 double PeakRssBytes();
+
+// The counters deploy/run-benchmarks.sh turns into the table: points, threads (the case's second
+// argument), points_per_second, peak_rss_bytes.
+void SetCounters(benchmark::State& state, size_t points);
+
+// Every case's arguments {points, threads}: 100 k, 1 M and 4 M points on 1 and 2 threads; the
+// minimum time is short enough that one iteration suffices at the large sizes.
+void Sizes(benchmark::internal::Benchmark* b);
 
 }  // namespace scanprep::bench

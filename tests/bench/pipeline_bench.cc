@@ -21,14 +21,6 @@ namespace {
 
 constexpr size_t kK = 20;
 
-void SetCounters(benchmark::State& state, size_t points) {
-  state.counters["points"] = static_cast<double>(points);
-  state.counters["threads"] = static_cast<double>(state.range(1));
-  state.counters["points_per_second"] =
-      benchmark::Counter(static_cast<double>(points), benchmark::Counter::kIsIterationInvariantRate);
-  state.counters["peak_rss_bytes"] = PeakRssBytes();
-}
-
 // The peer to beat: nanoflann's own tree over the same arrays and one k=20 query per point.
 void BM_BareNanoflannKnn(benchmark::State& state) {
   const PointCloud& cloud = ReferenceCloud(state.range(0));
@@ -95,13 +87,6 @@ void RunPipelineCase(benchmark::State& state, const std::string& stage) {
       state.counters["s_" + name] = benchmark::Counter(seconds, benchmark::Counter::kAvgIterations);
     }
   }
-}
-
-void Sizes(benchmark::internal::Benchmark* b) {
-  for (int64_t points : {100'000, 1'000'000, 4'000'000}) {
-    for (int64_t threads : {1, 2}) b->Args({points, threads});
-  }
-  b->Unit(benchmark::kMillisecond)->MinTime(0.5);
 }
 
 BENCHMARK(BM_BareNanoflannKnn)->Apply(Sizes)->UseRealTime();
