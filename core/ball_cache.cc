@@ -8,6 +8,7 @@ namespace scanprep {
 
 absl::Status BallCache::Gather(const PointCloud& cloud, const Neighbourhoods& nb,
                                const std::vector<float>& radius_of_scan,
+                               const std::function<bool(const RadiusMatches&)>& keep,
                                const CancelToken& cancel) {
   const size_t n = cloud.size();
   // Balls are asked in grid order (neighbouring balls read the same cells) in fixed blocks,
@@ -25,6 +26,7 @@ absl::Status BallCache::Gather(const PointCloud& cloud, const Neighbourhoods& nb
         const float radius = radius_of_scan[cloud.scan[i]];
         if (cloud.removed(i) || radius <= nb.dk(i)) continue;
         nb.Within(cloud, i, radius, matches);
+        if (!keep(matches)) continue;
         start_[i + 1] = static_cast<uint32_t>(matches.size());
         for (const auto& match : matches) block_members[b].push_back(match.first);
       }

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -16,12 +17,16 @@ namespace scanprep {
 
 class BallCache {
  public:
-  // Gathers the ball of every unremoved point i whose radius_of_scan[scan(i)] exceeds d_k(i).
+  // Asks the ball of every unremoved point i whose radius_of_scan[scan(i)] exceeds d_k(i) and
+  // keeps those that `keep` accepts (a caller that knows it will not ask a ball again saves its
+  // memory: at 4 M points the balls take gigabytes).
   absl::Status Gather(const PointCloud& cloud, const Neighbourhoods& nb,
-                      const std::vector<float>& radius_of_scan, const CancelToken& cancel);
+                      const std::vector<float>& radius_of_scan,
+                      const std::function<bool(const RadiusMatches&)>& keep,
+                      const CancelToken& cancel);
 
-  // Like Neighbourhoods::Within for a gathered ball, skipping points removed since; false when
-  // i has no gathered ball.
+  // Like Neighbourhoods::Within for a kept ball, skipping points removed since; false when i
+  // has no kept ball.
   bool Within(const PointCloud& cloud, size_t i, RadiusMatches& out) const;
 
  private:

@@ -28,6 +28,12 @@ struct Verdict {
   bool overlap = false;
 };
 
+bool SpansScans(const PointCloud& cloud, const RadiusMatches& matches) {
+  return std::any_of(matches.begin(), matches.end(), [&](const auto& m) {
+    return cloud.scan[m.first] != cloud.scan[matches.front().first];
+  });
+}
+
 Verdict Judge(const PointCloud& cloud, const std::vector<float>& quality,
               const RadiusMatches& matches) {
   Verdict v;
@@ -36,9 +42,9 @@ Verdict Judge(const PointCloud& cloud, const std::vector<float>& quality,
   for (const auto& [j, d2] : matches) {
     sum += quality[j];
     if (quality[j] > quality[best] || (quality[j] == quality[best] && j < best)) best = j;
-    v.overlap |= cloud.scan[j] != cloud.scan[matches.front().first];
   }
   v.mean_quality = static_cast<float>(sum / static_cast<double>(matches.size()));
+  v.overlap = SpansScans(cloud, matches);
   v.best_scan = cloud.scan[best];
   return v;
 }
@@ -114,19 +120,25 @@ class CorrectionStage : public Stage {
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
     std::vector<uint8_t> go(n, 0), fresh(n, 0);  // fresh: removed in the previous round
+    // Balls only lose points from round to round, so a ball that holds one scan never spans two
+    // again: its centre is settled for good, and its ball is not worth keeping.
+    std::vector<uint8_t> settled(n, 0);
     // Points whose r_c exceeds d_k are re-judged every round; their balls come from the grid
     // once instead of once per round.
     BallCache balls;
-    if (absl::Status s = balls.Gather(cloud, nb, radius, ctx.cancel()); !s.ok()) return s;
+    if (absl::Status s = balls.Gather(
+            cloud, nb, radius, [&](const RadiusMatches& m) { return SpansScans(cloud, m); },
+            ctx.cancel()); !s.ok()) {
+      return s;
+    }
     // Only a point whose neighbourhood lost a point can change its verdict; when r_c exceeds
     // the k-NN list the list cannot tell, so the point is re-judged.
     auto touched = [&](size_t i) {
       const float r = radius[cloud.scan[i]];
       if (r > nb.dk(i)) return true;
-      const auto idx = nb.knn(i);
-      const auto dist = nb.knn_dist(i);
-      for (uint32_t j = 0; j < nb.k() && dist[j] < r; ++j) {
-        if (fresh[idx[j]]) return true;
+      for (const uint32_t j : nb.knn(i)) {
+        if (!(cloud.squared_distance(i, j) < r * r)) break;  // nearest first
+        if (fresh[j]) return true;
       }
       return false;
     };
@@ -138,10 +150,17 @@ class CorrectionStage : public Stage {
         RadiusMatches matches;
         for (size_t i = begin; i < end; ++i) {
           go[i] = 0;
-          if (cloud.removed(i) || (round > 0 && !touched(i))) continue;
-          if (!balls.Within(cloud, i, matches)) nb.Within(cloud, i, radius[cloud.scan[i]], matches);
-          if (matches.size() < 2) continue;  // alone: nothing overlaps
-          go[i] = ShouldGo(cloud, quality, Judge(cloud, quality, matches), uint32_t(i));
+          if (cloud.removed(i) || settled[i] || (round > 0 && !touched(i))) continue;
+          const float r = radius[cloud.scan[i]];
+          if (r <= nb.dk(i)) {
+            nb.Within(cloud, i, r, matches);
+          } else if (!balls.Within(cloud, i, matches)) {
+            settled[i] = 1;  // gathered, but not kept: one scan
+            continue;
+          }
+          const Verdict v = Judge(cloud, quality, matches);
+          settled[i] = !v.overlap;
+          go[i] = ShouldGo(cloud, quality, v, uint32_t(i));
         }
       });
       if (!status.ok()) return status;

@@ -167,7 +167,7 @@ std::vector<double> ScanPointSpacing(JobContext& ctx) {
   if (!nb.ok() || (*nb)->k() == 0) return spacing;
   for (size_t i = 0; i < cloud.size(); ++i) {
     if (!cloud.removed(i) && spacing[cloud.scan[i]] == 0) {
-      nearest[cloud.scan[i]].push_back((*nb)->knn_dist(i)[0]);
+      nearest[cloud.scan[i]].push_back((*nb)->knn_dist(cloud, i, 0));
     }
   }
   for (size_t s = 0; s < spacing.size(); ++s) {

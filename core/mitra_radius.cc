@@ -47,11 +47,10 @@ float MitraRadius(const PointCloud& cloud, const Neighbourhoods& nb, size_t i, d
                   const MitraOptions& options, RadiusMatches& scratch) {
   const uint32_t k = nb.k();
   if (k == 0) return static_cast<float>(nb.min_radius());
-  const auto dist = nb.knn_dist(i);
-  const double r_floor =
-      std::max(nb.min_radius(), double(dist[std::min(options.min_points, k) - 1]));
+  const double r_floor = std::max(
+      nb.min_radius(), double(nb.knn_dist(cloud, i, std::min(options.min_points, k) - 1)));
   const double r_ceiling = std::max(r_floor, options.r_max);
-  double r = dist[std::min<uint32_t>(15, k) - 1];
+  double r = nb.knn_dist(cloud, i, std::min<uint32_t>(15, k) - 1);
   for (int it = 0; it < options.max_iterations; ++it) {
     nb.Within(cloud, i, static_cast<float>(r), scratch);
     const double rho = scratch.size() / (std::numbers::pi * r * r);

@@ -55,7 +55,7 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
     }
   }
   nb->index_.resize(n * k);
-  nb->dist_.resize(n * k);
+  nb->dk_.resize(n);
 
   // In grid order, so consecutive queries read the same cells, and each starts from a radius
   // just above its predecessor's d_k.
@@ -69,8 +69,8 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
       const uint32_t i = order[v];
       const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
       nb->grid_.Knn(q, k, i, guess * 1.2f, &nb->index_[size_t(i) * k], d2.data(), scratch);
-      for (uint32_t m = 0; m < k; ++m) nb->dist_[size_t(i) * k + m] = std::sqrt(d2[m]);
-      guess = nb->dist_[size_t(i) * k + k - 1];
+      nb->dk_[i] = std::sqrt(d2[k - 1]);
+      guess = nb->dk_[i];
     }
   });
   if (!status.ok()) return status;
@@ -85,7 +85,7 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
 
 // r_g from a seeded 1 % sample (at least min(n, 500) points): the paper's cheap global scale.
 void Neighbourhoods::ComputeGlobalRadius() {
-  const size_t n = index_.size() / k_;
+  const size_t n = dk_.size();
   const size_t sample = std::min(n, std::max<size_t>((n + 99) / 100, 500));
   std::vector<float> d(sample);
   std::mt19937_64 rng(0x5ca9);
@@ -103,14 +103,13 @@ absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shif
   if (absl::Status s = grid_.Build(cloud, grid_.cell_edge(), cancel); !s.ok()) return s;
   if (k_ == 0) return absl::OkStatus();
   absl::Status status = ParallelFor(cloud.size(), cancel, [&](size_t begin, size_t end) {
+    std::vector<float> dist(k_);
     for (size_t i = begin; i < end; ++i) {
       uint32_t* idx = &index_[i * k_];
-      float* dist = &dist_[i * k_];
-      const Eigen::Vector3f p = cloud.point(i);
       // Insertion sort: small moves leave the list nearly ordered.
       for (uint32_t m = 0; m < k_; ++m) {
         const uint32_t j = idx[m];
-        const float d = (cloud.point(j) - p).norm();
+        const float d = std::sqrt(cloud.squared_distance(i, j));
         uint32_t at = m;
         for (; at > 0 && dist[at - 1] > d; --at) {
           idx[at] = idx[at - 1];
@@ -119,6 +118,7 @@ absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shif
         idx[at] = j;
         dist[at] = d;
       }
+      dk_[i] = dist[k_ - 1];
     }
   });
   if (!status.ok()) return status;
@@ -131,10 +131,10 @@ void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius,
   out.clear();
   if (k_ > 0 && !moved_ && radius <= dk(i)) {
     if (!cloud.removed(i)) out.emplace_back(static_cast<uint32_t>(i), 0.f);
-    const auto idx = knn(i);
-    const auto dist = knn_dist(i);
-    for (uint32_t j = 0; j < k_ && dist[j] < radius; ++j) {
-      if (!cloud.removed(idx[j])) out.emplace_back(idx[j], dist[j] * dist[j]);
+    for (const uint32_t j : knn(i)) {
+      const float d2 = cloud.squared_distance(i, j);
+      if (!(d2 < radius * radius)) break;  // the list is nearest first
+      if (!cloud.removed(j)) out.emplace_back(j, d2);
     }
     return;
   }

@@ -3,6 +3,7 @@
 // and density, and the minimum radius from the scanline spacing.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -38,11 +39,15 @@ class Neighbourhoods {
   // so that consecutive balls read the same cells from cache (the order changes when points move).
   std::span<const uint32_t> order() const { return grid_.order(); }
   uint32_t k() const { return k_; }
-  // The k nearest other points of i, nearest first, and their distances (not squared).
+  // The k nearest other points of i, nearest first.
   std::span<const uint32_t> knn(size_t i) const { return {&index_[i * k_], k_}; }
-  std::span<const float> knn_dist(size_t i) const { return {&dist_[i * k_], k_}; }
+  // Distance from i to knn(i)[m], from the current coordinates. Not stored: at k = 20 the
+  // distances would double the graph's memory, and recomputing one is three subtractions.
+  float knn_dist(const PointCloud& cloud, size_t i, uint32_t m) const {
+    return std::sqrt(cloud.squared_distance(i, index_[i * k_ + m]));
+  }
   // d_k(i): distance to the k-th nearest other point.
-  float dk(size_t i) const { return k_ ? dist_[i * k_ + k_ - 1] : 0.f; }
+  float dk(size_t i) const { return k_ ? dk_[i] : 0.f; }
 
   // r_g: median d_k over a seeded 1 % sample (at least min(n, 500) points).
   double global_radius() const { return global_radius_; }
@@ -60,7 +65,7 @@ class Neighbourhoods {
 
   // The points moved by at most `max_shift` each (smoothing bounds it by δ, Eq. 10). Instead of
   // a rebuild of the graph (a full k-NN pass) every k-NN list is re-ranked by its new distances,
-  // so knn_dist() and dk() follow the points; the grid is re-sorted on the new positions, so
+  // so knn() stays nearest first and dk() follows the points; the grid is re-sorted on the new positions, so
   // Within() stays exact. The lists may now miss a point that moved into the k nearest from
   // outside (at 1 M points a smoothing move is half the spacing), so Within() stops answering
   // from them.
@@ -72,7 +77,7 @@ class Neighbourhoods {
   CellGrid grid_;
   uint32_t k_ = 0;
   std::vector<uint32_t> index_;
-  std::vector<float> dist_;
+  std::vector<float> dk_;
   double global_radius_ = 0, density_ = 0, min_radius_ = 0;
   bool moved_ = false;  // points moved since the graph was built
 };

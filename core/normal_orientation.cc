@@ -129,11 +129,10 @@ absl::Status Propagate(PointCloud& cloud, const Neighbourhoods& nb, uint32_t k,
     for (size_t i = begin; i < end; ++i) {
       if (!member[i]) continue;
       const auto idx = nb.knn(i);
-      const auto dist = nb.knn_dist(i);
       for (uint32_t m = 0; m < k; ++m) {
         const uint32_t j = idx[m];
         if (!member[j] || j == i) continue;
-        edges[i * k + m] = {1.f - AbsDot(cloud, i, j) + 1e-6f * dist[m],
+        edges[i * k + m] = {1.f - AbsDot(cloud, i, j) + 1e-6f * nb.knn_dist(cloud, i, m),
                             std::min<uint32_t>(i, j), std::max<uint32_t>(i, j)};
       }
     }

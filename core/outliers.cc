@@ -38,9 +38,8 @@ class OutliersStage : public Stage {
     std::vector<float> d(n);
     absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
       for (size_t i = begin; i < end; ++i) {
-        const auto dist = nb.knn_dist(i);
         float sum = 0;
-        for (uint32_t j = 0; j < k_o; ++j) sum += dist[j];
+        for (uint32_t m = 0; m < k_o; ++m) sum += nb.knn_dist(cloud, i, m);
         d[i] = sum / static_cast<float>(k_o);
       }
     });

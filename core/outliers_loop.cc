@@ -24,11 +24,10 @@ absl::Status RemoveLoopOutliers(JobContext& ctx, const Neighbourhoods& nb) {
   // Visits the first k unremoved neighbours of i.
   auto for_neighbours = [&](size_t i, auto&& visit) {
     const auto idx = nb.knn(i);
-    const auto dist = nb.knn_dist(i);
     uint32_t used = 0;
     for (uint32_t m = 0; m < nb.k() && used < k; ++m) {
       if (cloud.removed(idx[m])) continue;
-      visit(idx[m], dist[m]);
+      visit(idx[m], nb.knn_dist(cloud, i, m));
       ++used;
     }
     return used;

@@ -66,6 +66,12 @@ struct PointCloud {
 
   Eigen::Vector3f point(size_t i) const { return {x[i], y[i], z[i]}; }
   Eigen::Vector3f normal(size_t i) const { return {nx[i], ny[i], nz[i]}; }
+  // ‖p_i − p_j‖² summed as (dx² + dy²) + dz² in float, the way CellGrid and nanoflann sum it,
+  // so a ball answered from the k-NN lists holds exactly the points the grid's would.
+  float squared_distance(size_t i, size_t j) const {
+    const float dx = x[i] - x[j], dy = y[i] - y[j], dz = z[i] - z[j];
+    return dx * dx + dy * dy + dz * dz;
+  }
 
   // Sizes `flags` to the point count (zeros) and `scan` to all-zero when a loader left it
   // empty; call once after loading.
