@@ -30,8 +30,13 @@ class BallCache {
   bool Within(const PointCloud& cloud, size_t i, RadiusMatches& out) const;
 
  private:
-  std::vector<uint32_t> start_;    // ball of i: members_[start_[i], start_[i + 1])
-  std::vector<uint32_t> members_;
+  // Balls stay in the blocks they were gathered in: one contiguous copy would double the peak,
+  // and at 4 M points the balls alone take a gigabyte.
+  struct Slot {
+    uint32_t block = 0, begin = 0, size = 0;  // ball of i: blocks_[block][begin, begin + size)
+  };
+  std::vector<Slot> slots_;
+  std::vector<std::vector<uint32_t>> blocks_;
 };
 
 }  // namespace scanprep

@@ -11,10 +11,15 @@ double LocalFrame::surface_variation() const {
 
 LocalFrame MomentAccumulator::Solve() const {
   LocalFrame frame;
-  if (count_ < 3 || !(weight_ > 0)) return frame;
-  frame.centroid = first_ / weight_;
+  const double weight = sums_[0];
+  if (count_ < 3 || !(weight > 0)) return frame;
+  frame.centroid = Eigen::Vector3d(sums_[1], sums_[2], sums_[3]) / weight;
+  Eigen::Matrix3d second;
+  second << sums_[4], sums_[5], sums_[6],  //
+      sums_[5], sums_[7], sums_[8],        //
+      sums_[6], sums_[8], sums_[9];
   // Central moments M = E[d dᵀ] − E[d] E[d]ᵀ, symmetric by construction.
-  const Eigen::Matrix3d m = second_ / weight_ - frame.centroid * frame.centroid.transpose();
+  const Eigen::Matrix3d m = second / weight - frame.centroid * frame.centroid.transpose();
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
   solver.computeDirect(m);
   // The closed form resolves eigenvalues only to ~1e-8·λ2; near-collinear sets, where the

@@ -19,23 +19,22 @@ struct LocalFrame {
   double surface_variation() const;
 };
 
-// Accumulates w·d and w·d·dᵀ in double for offsets d taken relative to a reference point, so
-// large absolute coordinates do not cancel.
+// Accumulates w·d and the six distinct entries of w·d·dᵀ in double for offsets d taken relative
+// to a reference point, so large absolute coordinates do not cancel.
 class MomentAccumulator {
  public:
   void Add(const Eigen::Vector3d& d, double w) {
-    weight_ += w;
-    first_ += w * d;
-    second_ += w * d * d.transpose();
+    const double wx = w * d.x(), wy = w * d.y(), wz = w * d.z();
+    const double terms[kSums] = {w,           wx,          wy,          wz,          wx * d.x(),
+                                 wx * d.y(),  wx * d.z(),  wy * d.y(),  wy * d.z(),  wz * d.z()};
+    for (int t = 0; t < kSums; ++t) sums_[t] += terms[t];
     ++count_;
   }
   // The moments of the points added to this one but not to `part` (an earlier state of the
   // same running sum): a sliding window as the difference of two prefix sums.
   MomentAccumulator Without(const MomentAccumulator& part) const {
     MomentAccumulator rest = *this;
-    rest.weight_ -= part.weight_;
-    rest.first_ -= part.first_;
-    rest.second_ -= part.second_;
+    for (int t = 0; t < kSums; ++t) rest.sums_[t] -= part.sums_[t];
     rest.count_ -= part.count_;
     return rest;
   }
@@ -43,9 +42,9 @@ class MomentAccumulator {
   LocalFrame Solve() const;
 
  private:
-  double weight_ = 0;
-  Eigen::Vector3d first_ = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d second_ = Eigen::Matrix3d::Zero();
+  // Σw, Σw·d (x, y, z), Σw·d·dᵀ (xx, xy, xz, yy, yz, zz).
+  static constexpr int kSums = 10;
+  double sums_[kSums] = {};
   size_t count_ = 0;
 };
 
