@@ -45,12 +45,25 @@ class Thinner {
 
   // Processes centre i (algorithms.md §12 step 3); `matches` and `candidates` are reused buffers.
   void Visit(uint32_t i, RadiusMatches& matches, std::vector<uint32_t>& candidates) {
+    Gather(i, matches);
+    Apply(i, matches, candidates);
+  }
+
+  // The read-only half of a visit: the unremoved points within r_s of centre i. Safe to run for
+  // many centres at once while nothing is being removed.
+  void Gather(uint32_t i, RadiusMatches& matches) const {
+    matches.clear();
+    if (!cloud_.removed(i)) nb_.Within(cloud_, i, plan_.spacing, matches);
+  }
+
+  // The writing half: `matches` may be a superset gathered before other centres removed some of
+  // its points; those are skipped here, so the outcome equals a visit with a fresh query.
+  void Apply(uint32_t i, const RadiusMatches& matches, std::vector<uint32_t>& candidates) {
     if (cloud_.removed(i)) return;
-    nb_.Within(cloud_, i, plan_.spacing, matches);
     candidates.clear();
     size_t n = 0, locked = 0;
     for (const auto& [j, d2] : matches) {
-      if (j == i) continue;
+      if (j == i || cloud_.removed(j)) continue;
       ++n;
       if (locked_[j]) {
         ++locked;
@@ -62,7 +75,9 @@ class Thinner {
         plan_.adaptive ? static_cast<size_t>(std::floor(KeptShare(i) * float(n) + 0.5f)) : 0;
     const size_t remove = n - std::min(n, std::max(keep, locked));
     if (remove > 0) {
-      const auto worse = [&](uint32_t a, uint32_t b) {  // low quality removed first
+      // Low quality removed first; a strict total order, so the removed set does not depend on
+      // the order of `candidates`.
+      const auto worse = [&](uint32_t a, uint32_t b) {
         return m_.quality[a] != m_.quality[b] ? m_.quality[a] < m_.quality[b] : a < b;
       };
       std::partial_sort(candidates.begin(), candidates.begin() + remove, candidates.end(), worse);
@@ -100,15 +115,25 @@ std::vector<uint32_t> VisitOrder(const PointCloud& cloud, const PointMeasures& m
   return order;
 }
 
+// The sequential order, with the queries (most of a visit's cost) gathered ahead in parallel for a
+// batch of upcoming centres, then applied one by one in order. Centres are in quality order, so a
+// batch is spread over the whole part and few of its centres remove one another's points: little
+// gathered work is wasted, and Apply makes the result identical to one query per visit.
 absl::Status RunSequential(JobContext& ctx, Thinner& thinner, const std::vector<uint32_t>& order) {
-  RadiusMatches matches;
+  constexpr size_t kBatch = 4096;
+  std::vector<RadiusMatches> balls(std::min(kBatch, order.size()));
   std::vector<uint32_t> candidates;
-  for (size_t v = 0; v < order.size(); ++v) {
-    if ((v & 0xffff) == 0) {
-      if (absl::Status s = ctx.cancel().Check(); !s.ok()) return s;
-      ctx.Progress(double(v) / order.size());
-    }
-    thinner.Visit(order[v], matches, candidates);
+  for (size_t first = 0; first < order.size(); first += kBatch) {
+    const size_t n = std::min(kBatch, order.size() - first);
+    absl::Status status = ParallelFor(
+        n, ctx.cancel(),
+        [&](size_t begin, size_t end) {
+          for (size_t b = begin; b < end; ++b) thinner.Gather(order[first + b], balls[b]);
+        },
+        /*grain=*/64);
+    if (!status.ok()) return status;
+    for (size_t b = 0; b < n; ++b) thinner.Apply(order[first + b], balls[b], candidates);
+    ctx.Progress(double(first + n) / order.size());
   }
   return absl::OkStatus();
 }
