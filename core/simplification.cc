@@ -214,6 +214,11 @@ class SimplificationStage : public Stage {
     }
     auto nb = ctx.neighbourhoods();
     if (!nb.ok()) return nb.status();
+    const size_t before = cloud.CountKept();
+    if (before < 2) {  // already as thin as it gets; one point gives no spacing to derive
+      ctx.Record("simplification.removed", 0);
+      return absl::OkStatus();
+    }
 
     Plan plan;
     plan.adaptive = ctx.Choice("simplification.mode", "adaptive") == "adaptive";
@@ -231,7 +236,6 @@ class SimplificationStage : public Stage {
     if (!plan.adaptive) plan.edge_threshold = std::numeric_limits<float>::infinity();
     const bool tiled = ctx.Choice("simplification.order", "sequential") == "tiled";
 
-    const size_t before = cloud.CountKept();
     Thinner thinner(cloud, **nb, m, plan);
     std::vector<uint32_t> order = VisitOrder(cloud, m, thinner);
     absl::Status status = tiled ? RunTiled(ctx, thinner, std::move(order), 2 * plan.spacing)
