@@ -1,6 +1,8 @@
 #include "tests/bench/bench_cloud.h"
 
+#include <algorithm>
 #include <map>
+#include <string>
 #include <memory>
 
 #include <sys/resource.h>
@@ -16,6 +18,43 @@ const PointCloud& ReferenceCloud(size_t points) {
     const auto part = sim::Part::kBoxWithBore;
     slot = std::make_unique<PointCloud>(
         sim::SimulateWithPointCount(part, sim::TwoOverlappingSensors(part), points, 0.01, 1).cloud);
+  }
+  return *slot;
+}
+
+const PointCloud& PartsInARowCloud(size_t points) {
+  static std::map<size_t, std::unique_ptr<PointCloud>> cache;
+  auto& slot = cache[points];
+  if (!slot) {
+    const PointCloud& part = ReferenceCloud(1'000'000);
+    const auto [lo, hi] = std::minmax_element(part.x.begin(), part.x.end());
+    const float step = 1.5f * (*hi - *lo);  // half a part's length between parts
+    const size_t copies = std::max<size_t>(1, (points + 999'999) / 1'000'000);
+    auto row = std::make_unique<PointCloud>();
+    row->kind = part.kind;
+    const auto append = [](std::vector<float>& to, const std::vector<float>& from, float shift) {
+      for (const float v : from) to.push_back(v + shift);
+    };
+    for (size_t c = 0; c < copies; ++c) {
+      const float shift = static_cast<float>(c) * step;
+      const auto first_scan = static_cast<uint32_t>(row->scans.size());
+      for (ScanMeta scan : part.scans) {
+        scan.id += "#" + std::to_string(c);
+        for (auto* position : {&scan.camera_position, &scan.projector_position}) {
+          if (position->has_value()) (*position)->x() += shift;
+        }
+        row->scans.push_back(std::move(scan));
+      }
+      append(row->x, part.x, shift);
+      append(row->y, part.y, 0);
+      append(row->z, part.z, 0);
+      append(row->quality, part.quality, 0);
+      append(row->intensity, part.intensity, 0);
+      for (const uint32_t s : part.scan) row->scan.push_back(first_scan + s);
+      row->scanline.insert(row->scanline.end(), part.scanline.begin(), part.scanline.end());
+    }
+    row->FinishLoading();
+    slot = std::move(row);
   }
   return *slot;
 }

@@ -13,6 +13,12 @@ namespace scanprep::bench {
 
 const PointCloud& ReferenceCloud(size_t points);
 
+// About `points` points at the 1 M cloud's density: ⌈points / 1 M⌉ copies of the 1 M cloud side
+// by side along x, each with its own two scans, like parts in a row on one conveyor. The 4 M
+// ReferenceCloud is the same part sampled denser, which makes every ball fuller; this one scales
+// the point count alone.
+const PointCloud& PartsInARowCloud(size_t points);
+
 // Peak resident set size of this process so far, in bytes.
 double PeakRssBytes();
 

@@ -58,9 +58,10 @@ void BM_NeighbourGraph(benchmark::State& state) {
 
 // The pipeline over a fresh copy of the cloud each iteration, timed by its own report:
 // `stage` empty = the whole default pipeline, else that stage alone (the stages it pulls in
-// through Require() are timed by their own cases).
-void RunPipelineCase(benchmark::State& state, const std::string& stage) {
-  const PointCloud& reference = ReferenceCloud(state.range(0));
+// through Require() are timed by their own cases). `workload` makes the cloud of a point count.
+void RunPipelineCase(benchmark::State& state, const std::string& stage,
+                     const PointCloud& (*workload)(size_t) = ReferenceCloud) {
+  const PointCloud& reference = workload(state.range(0));
   tbb::task_arena arena(static_cast<int>(state.range(1)));
   CancelToken cancel;
   PipelineOptions options;
@@ -92,6 +93,12 @@ void RunPipelineCase(benchmark::State& state, const std::string& stage) {
 BENCHMARK(BM_BareNanoflannKnn)->Apply(Sizes)->UseRealTime();
 BENCHMARK(BM_NeighbourGraph)->Apply(Sizes)->UseRealTime();
 BENCHMARK_CAPTURE(RunPipelineCase, DefaultPipeline, std::string())->Apply(Sizes)->UseManualTime();
+// 4 M points at the 1 M density: whether the pipeline scales with the point count alone.
+BENCHMARK_CAPTURE(RunPipelineCase, DefaultPipelinePartsInARow, std::string(), PartsInARowCloud)
+    ->Args({4'000'000, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.5)
+    ->UseManualTime();
 BENCHMARK_CAPTURE(RunPipelineCase, outliers, std::string("outliers"))->Apply(Sizes)->UseManualTime();
 BENCHMARK_CAPTURE(RunPipelineCase, normals, std::string("normals"))->Apply(Sizes)->UseManualTime();
 BENCHMARK_CAPTURE(RunPipelineCase, measures, std::string("measures"))->Apply(Sizes)->UseManualTime();
