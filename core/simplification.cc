@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <numbers>
 #include <numeric>
 
 
@@ -41,6 +42,11 @@ class Thinner {
   float KeptShare(uint32_t i) const {
     const float f = plan_.curvature_floor;
     return std::max(0.f, m_.curvature[i] - f) / (1.f - f);
+  }
+
+  // Points a ball of radius r_s holds on a surface of the cloud's global density.
+  double ExpectedBallSize() const {
+    return nb_.density() * std::numbers::pi * plan_.spacing * plan_.spacing + 1;
   }
 
   // Processes centre i (algorithms.md §12 step 3); `matches` and `candidates` are reused buffers.
@@ -74,15 +80,15 @@ class Thinner {
     const size_t keep =
         plan_.adaptive ? static_cast<size_t>(std::floor(KeptShare(i) * float(n) + 0.5f)) : 0;
     const size_t remove = n - std::min(n, std::max(keep, locked));
-    if (remove > 0) {
-      // Low quality removed first; a strict total order, so the removed set does not depend on
-      // the order of `candidates`.
+    // Low quality removed first; a strict total order, so the removed set does not depend on the
+    // order of `candidates`. Removing them all (flat parts, uniform mode) needs no order.
+    if (remove > 0 && remove < candidates.size()) {
       const auto worse = [&](uint32_t a, uint32_t b) {
         return m_.quality[a] != m_.quality[b] ? m_.quality[a] < m_.quality[b] : a < b;
       };
       std::partial_sort(candidates.begin(), candidates.begin() + remove, candidates.end(), worse);
-      for (size_t c = 0; c < remove; ++c) cloud_.flags[candidates[c]] |= kRemovedSimplify;
     }
+    for (size_t c = 0; c < remove; ++c) cloud_.flags[candidates[c]] |= kRemovedSimplify;
     locked_[i] = 1;
   }
 
@@ -116,24 +122,34 @@ std::vector<uint32_t> VisitOrder(const PointCloud& cloud, const PointMeasures& m
 }
 
 // The sequential order, with the queries (most of a visit's cost) gathered ahead in parallel for a
-// batch of upcoming centres, then applied one by one in order. Centres are in quality order, so a
-// batch is spread over the whole part and few of its centres remove one another's points: little
-// gathered work is wasted, and Apply makes the result identical to one query per visit.
+// batch of the next centres not yet removed, then applied one by one in order. Centres are in
+// quality order, so a batch is spread over the whole part and few of its centres remove one
+// another's points: little gathered work is wasted, and Apply makes the result identical to one
+// query per visit. A batch holds about 2^18 gathered points (2 MiB) at most, so a large r_s means
+// fewer centres a batch rather than more memory (and fewer centres a batch-mate removes).
 absl::Status RunSequential(JobContext& ctx, Thinner& thinner, const std::vector<uint32_t>& order) {
-  constexpr size_t kBatch = 4096;
-  std::vector<RadiusMatches> balls(std::min(kBatch, order.size()));
-  std::vector<uint32_t> candidates;
-  for (size_t first = 0; first < order.size(); first += kBatch) {
-    const size_t n = std::min(kBatch, order.size() - first);
+  constexpr double kGatheredPoints = 1 << 18;
+  const size_t batch = std::min(
+      order.size(),
+      static_cast<size_t>(std::clamp(kGatheredPoints / thinner.ExpectedBallSize(), 16.0, 4096.0)));
+  const PointCloud& cloud = ctx.cloud();
+  std::vector<RadiusMatches> balls(batch);
+  std::vector<uint32_t> centres, candidates;
+  centres.reserve(batch);
+  for (size_t next = 0; next < order.size();) {
+    centres.clear();
+    for (; next < order.size() && centres.size() < batch; ++next) {
+      if (!cloud.removed(order[next])) centres.push_back(order[next]);
+    }
     absl::Status status = ParallelFor(
-        n, ctx.cancel(),
+        centres.size(), ctx.cancel(),
         [&](size_t begin, size_t end) {
-          for (size_t b = begin; b < end; ++b) thinner.Gather(order[first + b], balls[b]);
+          for (size_t b = begin; b < end; ++b) thinner.Gather(centres[b], balls[b]);
         },
-        /*grain=*/64);
+        /*grain=*/16);
     if (!status.ok()) return status;
-    for (size_t b = 0; b < n; ++b) thinner.Apply(order[first + b], balls[b], candidates);
-    ctx.Progress(double(first + n) / order.size());
+    for (size_t b = 0; b < centres.size(); ++b) thinner.Apply(centres[b], balls[b], candidates);
+    ctx.Progress(double(next) / order.size());
   }
   return absl::OkStatus();
 }

@@ -58,13 +58,16 @@ void BM_NeighbourGraph(benchmark::State& state) {
 
 // The pipeline over a fresh copy of the cloud each iteration, timed by its own report:
 // `stage` empty = the whole default pipeline, else that stage alone (the stages it pulls in
-// through Require() are timed by their own cases). `workload` makes the cloud of a point count.
+// through Require() are timed by their own cases). `workload` makes the cloud of a point count;
+// `params` overrides stage parameters.
 void RunPipelineCase(benchmark::State& state, const std::string& stage,
-                     const PointCloud& (*workload)(size_t) = ReferenceCloud) {
+                     const PointCloud& (*workload)(size_t) = ReferenceCloud,
+                     const ParamOverrides& params = {}) {
   const PointCloud& reference = workload(state.range(0));
   tbb::task_arena arena(static_cast<int>(state.range(1)));
   CancelToken cancel;
   PipelineOptions options;
+  options.params = params;
   if (!stage.empty()) options.stages = {stage};
   std::map<std::string, double> stage_seconds;  // per-stage breakdown of the whole pipeline
   for (auto _ : state) {
@@ -105,6 +108,14 @@ BENCHMARK_CAPTURE(RunPipelineCase, measures, std::string("measures"))->Apply(Siz
 BENCHMARK_CAPTURE(RunPipelineCase, correction, std::string("correction"))->Apply(Sizes)->UseManualTime();
 BENCHMARK_CAPTURE(RunPipelineCase, smoothing, std::string("smoothing"))->Apply(Sizes)->UseManualTime();
 BENCHMARK_CAPTURE(RunPipelineCase, simplification, std::string("simplification"))
+    ->Apply(Sizes)
+    ->UseManualTime();
+// The nearest equivalent of a 0.5 mm voxel grid (CGAL grid_simplify, PCL VoxelGrid): uniform
+// thinning to r_s = 0.5 mm.
+BENCHMARK_CAPTURE(RunPipelineCase, uniform_simplification_0_5mm, std::string("simplification"),
+                  ReferenceCloud,
+                  ParamOverrides{{"simplification.mode", "uniform"},
+                                 {"simplification.spacing_mm", "0.5"}})
     ->Apply(Sizes)
     ->UseManualTime();
 
