@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <map>
-#include <string>
 #include <memory>
 
 #include <sys/resource.h>
 
+#include "absl/strings/str_cat.h"
 #include "core/sim/scan_simulator.h"
 
 namespace scanprep::bench {
@@ -39,7 +39,7 @@ const PointCloud& PartsInARowCloud(size_t points) {
       const float shift = static_cast<float>(c) * step;
       const auto first_scan = static_cast<uint32_t>(row->scans.size());
       for (ScanMeta scan : part.scans) {
-        scan.id += "#" + std::to_string(c);
+        scan.id = absl::StrCat(scan.id, "#", c);
         for (auto* position : {&scan.camera_position, &scan.projector_position}) {
           if (position->has_value()) (*position)->x() += shift;
         }
@@ -77,7 +77,9 @@ void Sizes(benchmark::internal::Benchmark* b) {
   for (int64_t points : {100'000, 1'000'000, 4'000'000}) {
     for (int64_t threads : {1, 2}) b->Args({points, threads});
   }
-  b->Unit(benchmark::kMillisecond)->MinTime(0.5);
+  Timing(b);
 }
+
+void Timing(benchmark::internal::Benchmark* b) { b->Unit(benchmark::kMillisecond)->MinTime(0.5); }
 
 }  // namespace scanprep::bench

@@ -30,4 +30,8 @@ void SetCounters(benchmark::State& state, size_t points);
 // minimum time is short enough that one iteration suffices at the large sizes.
 void Sizes(benchmark::internal::Benchmark* b);
 
+// Milliseconds, and a minimum time short enough that one iteration suffices at the large sizes;
+// part of Sizes, and for cases with arguments of their own.
+void Timing(benchmark::internal::Benchmark* b);
+
 }  // namespace scanprep::bench

@@ -99,8 +99,7 @@ BENCHMARK_CAPTURE(RunPipelineCase, DefaultPipeline, std::string())->Apply(Sizes)
 // 4 M points at the 1 M density: whether the pipeline scales with the point count alone.
 BENCHMARK_CAPTURE(RunPipelineCase, DefaultPipelinePartsInARow, std::string(), PartsInARowCloud)
     ->Args({4'000'000, 2})
-    ->Unit(benchmark::kMillisecond)
-    ->MinTime(0.5)
+    ->Apply(Timing)
     ->UseManualTime();
 BENCHMARK_CAPTURE(RunPipelineCase, outliers, std::string("outliers"))->Apply(Sizes)->UseManualTime();
 BENCHMARK_CAPTURE(RunPipelineCase, normals, std::string("normals"))->Apply(Sizes)->UseManualTime();
