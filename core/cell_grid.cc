@@ -36,6 +36,30 @@ void RadixSort(std::vector<Keyed>& items, int bits) {
   }
 }
 
+// The box the grid covers: per axis the 1st to 99th percentile of a strided sample, widened by
+// half that span on each side and clipped to the bounding box. A stray point far outside (a
+// reflection at 1e8 mm) no longer stretches the cells until the whole scan shares one; it is
+// kept in the outermost cell layer, which ForEachRun treats as reaching to infinity.
+void RobustBox(const PointCloud& cloud, double lo[3], double hi[3]) {
+  const size_t n = cloud.size();
+  const size_t sample = std::min<size_t>(n, 8192);
+  std::vector<float> v(sample);
+  const std::vector<float>* axes[3] = {&cloud.x, &cloud.y, &cloud.z};
+  for (int a = 0; a < 3; ++a) {
+    const std::vector<float>& values = *axes[a];
+    const auto [min, max] = std::minmax_element(values.begin(), values.end());
+    for (size_t s = 0; s < sample; ++s) v[s] = values[s * n / sample];
+    const size_t low = sample / 100, high = sample - 1 - sample / 100;
+    std::nth_element(v.begin(), v.begin() + low, v.end());
+    const double q_low = v[low];
+    std::nth_element(v.begin(), v.begin() + high, v.end());
+    const double q_high = v[high];
+    const double margin = 0.5 * (q_high - q_low);
+    lo[a] = std::max(double(*min), q_low - margin);
+    hi[a] = std::min(double(*max), q_high + margin);
+  }
+}
+
 }  // namespace
 
 absl::Status CellGrid::Build(const PointCloud& cloud, float cell_edge, const CancelToken& cancel) {
@@ -49,17 +73,13 @@ absl::Status CellGrid::Build(const PointCloud& cloud, float cell_edge, const Can
   if (n == 0) return absl::OkStatus();
 
   double lo[3], hi[3];
-  for (int a = 0; a < 3; ++a) lo[a] = std::numeric_limits<double>::max(), hi[a] = -lo[a];
-  for (size_t i = 0; i < n; ++i) {
-    const float p[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], double(p[a])), hi[a] = std::max(hi[a], double(p[a]));
-  }
+  RobustBox(cloud, lo, hi);
   const double extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
   double volume = 1;
   for (int a = 0; a < 3; ++a) volume *= std::max(hi[a] - lo[a], 1e-3 * extent);
   const double edge = cell_edge > 0 ? double(cell_edge) : std::cbrt(8 * volume / double(n));
   edge_ = std::max(edge, extent / double((1 << kMaxBitsPerAxis) - 2));
-  // A far-flung point would make the column table huge: bound it by 4 entries a point.
+  // Bound the column table by 4 entries a point.
   const double table = (hi[0] - lo[0]) * (hi[1] - lo[1]);
   edge_ = std::max(edge_, std::sqrt(table / double(4 * n + 4096)));
   if (!(edge_ > 0) || !std::isfinite(edge_)) edge_ = 1;  // all points coincide
@@ -76,10 +96,7 @@ absl::Status CellGrid::Build(const PointCloud& cloud, float cell_edge, const Can
     for (size_t i = begin; i < end; ++i) {
       const float p[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
       uint64_t c[3];
-      for (int a = 0; a < 3; ++a) {
-        c[a] = static_cast<uint64_t>(
-            std::clamp<int64_t>(static_cast<int64_t>(std::floor(CellOf(p[a], a))), 0, cells_[a] - 1));
-      }
+      for (int a = 0; a < 3; ++a) c[a] = static_cast<uint64_t>(PointCell(p[a], a));
       keyed[i] = {(c[0] * cells_[1] + c[1]) << z_bits | c[2], static_cast<uint32_t>(i)};
     }
   });

@@ -4,6 +4,10 @@
 // reads one contiguous run per column it crosses (a dozen or so) instead of descending a tree,
 // and the k nearest neighbours come from balls widened until they hold k points.
 //
+// The grid covers a robust box (percentiles of the coordinates), not the bounding box, so one
+// stray point at 1e8 mm cannot make every point share a cell; points beyond the box live in the
+// outermost cells, and queries treat those cells as reaching to infinity.
+//
 // Exact: a ball returns precisely the points whose squared distance, computed as nanoflann does
 // it (((q−p)ₓ² + (q−p)ᵧ²) + (q−p)_z² in float), is below r², so its sets equal the kd-tree's.
 #pragma once
@@ -26,9 +30,9 @@ using RadiusMatches = std::vector<std::pair<uint32_t, float>>;
 
 class CellGrid {
  public:
-  // Grids the cloud's current positions with cells of edge `cell_edge` (widened when the cloud
-  // would need more than 2^21 cells along an axis, or the column table more than 4 entries a
-  // point); 0 = a first guess from the bounding box, about 8 points per cell if they filled it.
+  // Grids the cloud's current positions with cells of edge `cell_edge` (widened when the robust
+  // box would need more than 2^21 cells along an axis, or the column table more than 4 entries a
+  // point); 0 = a first guess from the robust box, about 8 points per cell if they filled it.
   absl::Status Build(const PointCloud& cloud, float cell_edge, const CancelToken& cancel);
 
   float cell_edge() const { return static_cast<float>(edge_); }
@@ -72,6 +76,12 @@ class CellGrid {
     out.resize(at);
   }
   double CellOf(float v, int axis) const { return (double(v) - origin_[axis]) * inverse_edge_; }
+  // The cell along `axis` that holds coordinate v: points outside the grid's box belong to its
+  // outermost cells.
+  int64_t ClampedCell(double cell, int axis) const {
+    return static_cast<int64_t>(std::clamp(std::floor(cell), 0.0, double(cells_[axis] - 1)));
+  }
+  int64_t PointCell(float v, int axis) const { return ClampedCell(CellOf(v, axis), axis); }
 
   double edge_ = 1, inverse_edge_ = 1;
   double origin_[3] = {0, 0, 0};
@@ -92,32 +102,33 @@ bool CellGrid::ForEachRun(const float q[3], float radius, Run&& run) const {
   if (!(r * inverse_edge_ < 1e12)) return false;
   int64_t lo[3], hi[3];
   double c[3];
+  const double reach = r * inverse_edge_;
   for (int a = 0; a < 3; ++a) {
+    // Clamped like the points' own cells: the outermost cells hold what lies beyond the box.
     c[a] = CellOf(q[a], a);
-    const double reach = r * inverse_edge_;
-    lo[a] = std::max<int64_t>(0, static_cast<int64_t>(std::floor(c[a] - reach)));
-    hi[a] = std::min<int64_t>(cells_[a] - 1, static_cast<int64_t>(std::floor(c[a] + reach)));
-    if (lo[a] > hi[a]) return true;
+    lo[a] = ClampedCell(c[a] - reach, a);
+    hi[a] = ClampedCell(c[a] + reach, a);
   }
   const double span =
       double(hi[0] - lo[0] + 1) * double(hi[1] - lo[1] + 1) * double(hi[2] - lo[2] + 1);
   if (span > double(cell_start_.size()) + double(column_start_.size())) return false;
-  const double reach2 = (r * inverse_edge_) * (r * inverse_edge_);
-  // Distance (in cells) from q to the nearest face of cell v along an axis, 0 inside.
-  auto gap = [](double cq, int64_t v) {
-    return cq < double(v) ? double(v) - cq : cq > double(v + 1) ? cq - double(v + 1) : 0.0;
+  const double reach2 = reach * reach;
+  // Distance (in cells) from q to cell v along an axis, 0 inside; the outermost cells reach to
+  // infinity, as they hold every point beyond the box.
+  auto gap = [&](int a, double cq, int64_t v) {
+    const double low = v == 0 ? -HUGE_VAL : double(v);
+    const double high = v == cells_[a] - 1 ? HUGE_VAL : double(v + 1);
+    return cq < low ? low - cq : cq > high ? cq - high : 0.0;
   };
   for (int64_t x = lo[0]; x <= hi[0]; ++x) {
-    const double gx = gap(c[0], x), rx = reach2 - gx * gx;
+    const double gx = gap(0, c[0], x), rx = reach2 - gx * gx;
     if (rx < 0) continue;
     for (int64_t y = lo[1]; y <= hi[1]; ++y) {
-      const double gy = gap(c[1], y), ry = rx - gy * gy;
+      const double gy = gap(1, c[1], y), ry = rx - gy * gy;
       if (ry < 0) continue;
       const double dz = std::sqrt(ry);
-      const auto z0 = static_cast<uint32_t>(
-          std::max(lo[2], static_cast<int64_t>(std::floor(c[2] - dz))));
-      const auto z1 = static_cast<uint32_t>(
-          std::min(hi[2], static_cast<int64_t>(std::floor(c[2] + dz))));
+      const auto z0 = static_cast<uint32_t>(ClampedCell(c[2] - dz, 2));
+      const auto z1 = static_cast<uint32_t>(ClampedCell(c[2] + dz, 2));
       // This column's occupied cells from z0 to z1 are one run of entries.
       const size_t column = static_cast<size_t>(x * cells_[1] + y);
       uint32_t first = column_start_[column];

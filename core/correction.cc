@@ -21,6 +21,11 @@
 namespace scanprep {
 namespace {
 
+// r_c is held to this multiple of r_g. Each term of Eq. (11) is about one sampling step, and r_g
+// (d_k at k = 20) about 2.5 steps on a surface, so an honest r_c stays near r_g; one of 2·r_g
+// already reaches ~5 steps, and a larger one comes from a unit slip or an override.
+constexpr double kMaxMergeRadiusPerGlobalRadius = 2.0;
+
 // What N_{r_c}(p) says: its mean quality, the scan of its best point, whether it spans scans.
 struct Verdict {
   float mean_quality = 0;
@@ -71,7 +76,7 @@ class CorrectionStage : public Stage {
     if (!nb_or.ok()) return nb_or.status();
     const Neighbourhoods& nb = **nb_or;
 
-    absl::StatusOr<std::vector<float>> radius = Radii(ctx);
+    absl::StatusOr<std::vector<float>> radius = Radii(ctx, nb);
     if (!radius.ok()) return radius.status();
     const std::string mode = ctx.Choice("correction.mode", "gather");
     absl::StatusOr<size_t> removed;
@@ -89,7 +94,7 @@ class CorrectionStage : public Stage {
 
  private:
   // r_c per scan, scaled; recorded per scan when there are several.
-  static absl::StatusOr<std::vector<float>> Radii(JobContext& ctx) {
+  static absl::StatusOr<std::vector<float>> Radii(JobContext& ctx, const Neighbourhoods& nb) {
     const PointCloud& cloud = ctx.cloud();
     const double scale = ctx.Number("correction.radius_scale", 1.0);
     if (!(scale > 0)) return absl::InvalidArgumentError("correction.radius_scale: must be > 0");
@@ -104,8 +109,11 @@ class CorrectionStage : public Stage {
       const double ds = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
       const double r_c = std::sqrt(ds * ds + scan.uncertainty * scan.uncertainty +
                                    spacing[s] * spacing[s]);  // Eq. (11)
-      radius.push_back(static_cast<float>(forced.value_or(scale * r_c)));
       const std::string suffix = cloud.scans.size() > 1 ? absl::StrCat(".scan", s) : "";
+      radius.push_back(static_cast<float>(
+          ctx.CapRadius(absl::StrCat("the merge radius r_c (Eq. 11) of scan '", scan.id, "'"),
+                        forced.value_or(scale * r_c),
+                        kMaxMergeRadiusPerGlobalRadius * nb.global_radius())));
       ctx.Record(absl::StrCat("correction.radius_mm", suffix), radius.back());
     }
     return radius;

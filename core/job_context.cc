@@ -5,6 +5,7 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 
 namespace scanprep {
 
@@ -33,6 +34,26 @@ std::string JobContext::Choice(std::string_view name, std::string_view fallback)
 
 void JobContext::Record(std::string_view name, double value) {
   current().parameters[std::string(name)] = value;
+}
+
+double JobContext::CapRadius(std::string_view what, double radius, double limit) {
+  if (!(radius > limit)) return radius;
+  const std::string& stage = current().name;
+  current().parameters[absl::StrCat(stage, ".radii_capped")] += 1;
+  Warn(absl::StrFormat("%s: %s of %g mm is more than the data's own scale allows (%g mm, a "
+                       "multiple of the global radius r_g); capped at %g mm. Check the job's "
+                       "unit, the scanner metadata (spacing, uncertainty) and radius overrides",
+                       stage, what, radius, limit, limit));
+  return limit;
+}
+
+uint64_t JobContext::KeptInputPoints() const {
+  if (duplicates_collapsed() == 0) return cloud_.CountKept();
+  uint64_t kept = 0;
+  for (size_t g = 0; g < cloud_.size(); ++g) {
+    if (!cloud_.removed(g)) kept += duplicates_->multiplicity[g];
+  }
+  return kept;
 }
 
 void JobContext::Warn(std::string message) { report_.warnings.push_back(std::move(message)); }
@@ -65,6 +86,22 @@ absl::Status JobContext::Require(std::string_view stage) {
   return RunStage(*info);
 }
 
+void JobContext::RecordCappedBalls(const std::string& stage) {
+  if (!neighbourhoods_) return;
+  // Since the last stage that ended: a stage nested in another claims the balls it capped.
+  const uint64_t capped = neighbourhoods_->capped_balls() - capped_reported_;
+  const uint64_t cut = neighbourhoods_->capped_points() - cut_reported_;
+  capped_reported_ += capped;
+  cut_reported_ += cut;
+  if (capped == 0) return;
+  Record(absl::StrCat(stage, ".balls_capped"), static_cast<double>(capped));
+  Record(absl::StrCat(stage, ".ball_points_left_out"), static_cast<double>(cut));
+  Warn(absl::StrCat(stage, ": ", capped, " neighbourhoods held more than ",
+                    neighbourhoods_->max_ball_points(), " points and kept their nearest ",
+                    neighbourhoods_->max_ball_points(), " (", cut, " points left out); a radius "
+                    "far beyond the data's spacing: check the job's unit and radius overrides"));
+}
+
 absl::Status JobContext::RunStage(const StageInfo& info) {
   if (absl::Status s = cancel_.Check(); !s.ok()) return s;
   // A stage pulled in by Require() while another runs is listed before it, as it ran first in
@@ -73,12 +110,13 @@ absl::Status JobContext::RunStage(const StageInfo& info) {
   const size_t slot = nested ? current_stage_ : report_.stages.size();
   report_.stages.insert(report_.stages.begin() + slot, StageReport{.name = info.name});
   current_stage_ = slot;
-  report_.stages[slot].points_in = cloud_.CountKept();
+  report_.stages[slot].points_in = KeptInputPoints();
   Progress(0.0);
 
   running_ = true;
   const auto start = std::chrono::steady_clock::now();
   absl::Status status = info.make()->Run(*this);
+  RecordCappedBalls(info.name);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   running_ = nested;
@@ -86,7 +124,7 @@ absl::Status JobContext::RunStage(const StageInfo& info) {
   // Stages nested in this one moved it down the list by one slot each.
   StageReport& done = report_.stages[current_stage_];
   done.seconds += seconds;
-  done.points_out = cloud_.CountKept();
+  done.points_out = KeptInputPoints();
   if (nested) report_.stages[current_stage_ + 1].seconds -= seconds;
   if (status.ok()) {
     Progress(1.0);

@@ -128,6 +128,19 @@ absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shif
 
 void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius,
                             RadiusMatches& out) const {
+  WithinUncapped(cloud, i, radius, out);
+  const size_t cap = max_ball_points();
+  if (out.size() <= cap) return;
+  std::nth_element(out.begin(), out.begin() + (cap - 1), out.end(), [](const auto& a, const auto& b) {
+    return a.second < b.second || (a.second == b.second && a.first < b.first);
+  });
+  capped_balls_.fetch_add(1, std::memory_order_relaxed);
+  capped_points_.fetch_add(out.size() - cap, std::memory_order_relaxed);
+  out.resize(cap);
+}
+
+void Neighbourhoods::WithinUncapped(const PointCloud& cloud, size_t i, float radius,
+                                    RadiusMatches& out) const {
   out.clear();
   if (k_ > 0 && !moved_ && radius <= dk(i)) {
     if (!cloud.removed(i)) out.emplace_back(static_cast<uint32_t>(i), 0.f);

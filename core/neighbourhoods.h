@@ -3,6 +3,8 @@
 // and density, and the minimum radius from the scanline spacing.
 #pragma once
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -24,6 +26,11 @@ struct NeighbourhoodOptions {
 
 // The minimum radius is capped at this multiple of the global radius r_g.
 inline constexpr double kMaxRadiusPerGlobalRadius = 5.0;
+// A ball keeps at most this many times k points, the nearest: on a surface a ball of
+// kMaxRadiusPerGlobalRadius·r_g holds about 25·k, so only a radius stated in the wrong unit, an
+// override far beyond the data's scale or a cluster denser than the rest reaches it. It bounds
+// every stage's work and memory at O(n·k).
+inline constexpr uint32_t kMaxBallPointsPerK = 10;
 
 class Neighbourhoods {
  public:
@@ -59,9 +66,17 @@ class Neighbourhoods {
   float adaptive_radius(size_t i) const { return std::max(static_cast<float>(min_radius_), dk(i)); }
 
   // Unremoved points within `radius` of point i (i itself included), as (index, squared
-  // distance). Answers from the k-NN list when the radius fits inside it and no point has moved
-  // since the build, else asks the grid.
+  // distance), at most max_ball_points() of them: a fuller ball keeps its nearest (ties to the
+  // lower index) and is counted in capped_balls(). Answers from the k-NN list when the radius
+  // fits inside it and no point has moved since the build, else asks the grid.
   void Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out) const;
+  // Every unremoved point within `radius`, for a caller whose total work stays O(n) however full
+  // the balls (simplification: each point lies in the balls of a bounded number of kept centres).
+  void WithinUncapped(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out) const;
+  uint32_t max_ball_points() const { return std::max<uint32_t>(kMaxBallPointsPerK * k_, 64); }
+  // Balls capped so far, and the points they left out.
+  uint64_t capped_balls() const { return capped_balls_.load(std::memory_order_relaxed); }
+  uint64_t capped_points() const { return capped_points_.load(std::memory_order_relaxed); }
 
   // The points moved by at most `max_shift` each (smoothing bounds it by δ, Eq. 10). Instead of
   // a rebuild of the graph (a full k-NN pass) every k-NN list is re-ranked by its new distances,
@@ -80,6 +95,7 @@ class Neighbourhoods {
   std::vector<float> dk_;
   double global_radius_ = 0, density_ = 0, min_radius_ = 0;
   bool moved_ = false;  // points moved since the graph was built
+  mutable std::atomic<uint64_t> capped_balls_{0}, capped_points_{0};
 };
 
 // Eq. (2): r_min = √3·Δs + ε_u (the circumsphere of a cube of edge 2Δs, which reaches both

@@ -28,13 +28,15 @@ class NeighbourhoodsStage : public Stage {
         ctx.Number("neighbourhoods.min_radius_mm", MinRadiusFromScanlineSpacing(spacing, epsilon_u));
     auto nb = Neighbourhoods::Build(cloud, options, ctx.cancel());
     if (!nb.ok()) return nb.status();
-    if ((*nb)->min_radius() < options.min_radius) {
-      ctx.Warn(absl::StrCat("neighbourhoods: the minimum radius ", options.min_radius,
-                            " mm (from scanline spacing and uncertainty) is more than ",
-                            kMaxRadiusPerGlobalRadius, "x the data's global radius ",
-                            (*nb)->global_radius(), " mm; capped at ", (*nb)->min_radius(),
-                            " mm — check the scanline spacing and the job's unit"));
+    // Build() already held r_min to kMaxRadiusPerGlobalRadius·r_g; this reports it.
+    ctx.CapRadius("the minimum radius r_min (Eq. 2, from scanline spacing and uncertainty)",
+                  options.min_radius, (*nb)->min_radius());
+    if (const size_t collapsed = ctx.duplicates_collapsed(); collapsed > 0) {
+      ctx.Warn(absl::StrCat("neighbourhoods: ", collapsed, " points coincide exactly with another "
+                            "point of their scan; each group was processed once and every "
+                            "point of it returned with that result"));
     }
+    ctx.Record("neighbourhoods.duplicates_collapsed", static_cast<double>(ctx.duplicates_collapsed()));
     ctx.Record("neighbourhoods.min_radius_used_mm", (*nb)->min_radius());
     ctx.Record("neighbourhoods.global_radius_mm", (*nb)->global_radius());
     ctx.Record("neighbourhoods.density_per_mm2", (*nb)->density());

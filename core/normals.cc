@@ -45,7 +45,10 @@ class NormalsStage : public Stage {
       mitra.c1 = ctx.Number("normals.mitra_c1", 1.0);
       mitra.c2 = ctx.Number("normals.mitra_c2", 1.0);
       mitra.epsilon = ctx.Number("normals.mitra_epsilon", 0.05);
-      mitra.r_max = ctx.Number("normals.mitra_max_radius_mm", 5 * nb.global_radius());
+      const double r_max_limit = kMaxRadiusPerGlobalRadius * nb.global_radius();
+      mitra.r_max = ctx.CapRadius("normals.mitra_max_radius_mm",
+                                  ctx.Number("normals.mitra_max_radius_mm", r_max_limit),
+                                  r_max_limit);
       if (!(mitra.epsilon > 0 && mitra.epsilon < 1)) {
         return absl::InvalidArgumentError("normals.mitra_epsilon: must be in (0, 1)");
       }

@@ -6,6 +6,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "core/duplicates.h"
 
 namespace scanprep {
 
@@ -44,18 +45,40 @@ absl::Status ValidateOptions(const PipelineOptions& options) {
   return ValidateOverrides(options.params, AllParamSpecs());
 }
 
-absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOptions& options,
-                                           const CancelToken& cancel, ProgressFn progress) {
-  if (absl::Status s = ValidateOptions(options); !s.ok()) return s;
-  if (cloud.flags.size() != cloud.size()) cloud.FinishLoading();
+namespace {
+
+absl::StatusOr<PipelineReport> RunStages(PointCloud& cloud, const PipelineOptions& options,
+                                         const CancelToken& cancel, ProgressFn progress,
+                                         const DuplicateGroups& duplicates) {
   JobContext ctx(cloud, options.params, cancel, std::move(progress));
-  const auto start = std::chrono::steady_clock::now();
+  ctx.SetDuplicates(&duplicates);
   const std::vector<std::string> stages = options.stages.empty() ? DefaultStages() : options.stages;
   for (const std::string& name : stages) {
     if (ctx.HasRun(name)) continue;  // already pulled in by an earlier stage's Require()
     if (absl::Status s = ctx.RunStage(*FindStage(name)); !s.ok()) return s;
   }
-  PipelineReport report = std::move(ctx.report());
+  return std::move(ctx.report());
+}
+
+}  // namespace
+
+absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOptions& options,
+                                           const CancelToken& cancel, ProgressFn progress) {
+  if (absl::Status s = ValidateOptions(options); !s.ok()) return s;
+  if (cloud.flags.size() != cloud.size()) cloud.FinishLoading();
+  const auto start = std::chrono::steady_clock::now();
+  absl::StatusOr<DuplicateGroups> duplicates = FindDuplicates(cloud, cancel);
+  if (!duplicates.ok()) return duplicates.status();
+  absl::StatusOr<PipelineReport> result;
+  if (duplicates->collapsed() == 0) {
+    result = RunStages(cloud, options, cancel, std::move(progress), *duplicates);
+  } else {
+    PointCloud compact = CompactDuplicates(cloud, *duplicates);
+    result = RunStages(compact, options, cancel, std::move(progress), *duplicates);
+    if (result.ok()) ExpandDuplicates(compact, *duplicates, cloud);
+  }
+  if (!result.ok()) return result.status();
+  PipelineReport report = *std::move(result);
   report.total_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (StageReport& stage : report.stages) {

@@ -59,7 +59,7 @@ class Thinner {
   // many centres at once while nothing is being removed.
   void Gather(uint32_t i, RadiusMatches& matches) const {
     matches.clear();
-    if (!cloud_.removed(i)) nb_.Within(cloud_, i, plan_.spacing, matches);
+    if (!cloud_.removed(i)) nb_.WithinUncapped(cloud_, i, plan_.spacing, matches);
   }
 
   // The writing half: `matches` may be a superset gathered before other centres removed some of
@@ -238,8 +238,14 @@ class SimplificationStage : public Stage {
 
     Plan plan;
     plan.adaptive = ctx.Choice("simplification.mode", "adaptive") == "adaptive";
-    plan.spacing = static_cast<float>(ctx.Number(
-        "simplification.spacing_mm", DefaultSpacing(cloud, ScanPointSpacing(ctx), **nb)));
+    // A derived r_s far beyond r_g comes from spacings in the wrong unit and would thin the scan
+    // to a handful of points; an override is the user's explicit choice (and costs O(n) anyway).
+    double spacing = DefaultSpacing(cloud, ScanPointSpacing(ctx), **nb);
+    if (!ctx.Overridden("simplification.spacing_mm")) {
+      spacing = ctx.CapRadius("the spacing r_s derived from the scans' spacings", spacing,
+                              kMaxRadiusPerGlobalRadius * (*nb)->global_radius());
+    }
+    plan.spacing = static_cast<float>(ctx.Number("simplification.spacing_mm", spacing));
     if (!(plan.spacing > 0)) {
       return absl::InvalidArgumentError(
           "simplification.spacing_mm: must be > 0 (no spacing could be derived from the data)");

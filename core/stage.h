@@ -10,6 +10,7 @@
 
 #include "absl/status/status.h"
 #include "core/cancel.h"
+#include "core/duplicates.h"
 #include "core/neighbourhoods.h"
 #include "core/params.h"
 #include "core/point_cloud.h"
@@ -68,6 +69,11 @@ class JobContext {
   // Records a derived value that cannot be overridden (e.g. a count or a measured statistic).
   void Record(std::string_view name, double value);
   void Warn(std::string message);
+  // A radius from scanner metadata or an override (`what` names it), held to at most `limit`, a
+  // multiple of the data's own scale r_g: a radius far beyond it makes every ball hold a large
+  // part of the cloud. A cap is warned about, naming the likely causes, and counted in the
+  // running stage's report as <stage>.radii_capped.
+  double CapRadius(std::string_view what, double radius, double limit);
   void Progress(double fraction) const;
 
   // Shared neighbourhoods, built on first use and reused by every later stage.
@@ -83,17 +89,28 @@ class JobContext {
   absl::Status Require(std::string_view stage);
   bool HasRun(std::string_view stage) const;
 
+  // The job's exact duplicates, collapsed before the first stage: the stages see one point per
+  // group, and the report counts every input point of a group.
+  void SetDuplicates(const DuplicateGroups* duplicates) { duplicates_ = duplicates; }
+  size_t duplicates_collapsed() const { return duplicates_ ? duplicates_->collapsed() : 0; }
+
   // Runs one stage with timing, counts and its own report entry.
   absl::Status RunStage(const StageInfo& info);
   PipelineReport& report() { return report_; }
 
  private:
   StageReport& current() { return report_.stages[current_stage_]; }
+  // Records and warns about the balls the running stage capped (Neighbourhoods::Within).
+  void RecordCappedBalls(const std::string& stage);
+  // Unremoved input points, each duplicate group counted with its multiplicity.
+  uint64_t KeptInputPoints() const;
 
   PointCloud& cloud_;
   const ParamOverrides& overrides_;
   const CancelToken& cancel_;
   ProgressFn progress_;
+  const DuplicateGroups* duplicates_ = nullptr;
+  uint64_t capped_reported_ = 0, cut_reported_ = 0;  // Neighbourhoods' cap counters, reported
   PointMeasures measures_;
   std::unique_ptr<Neighbourhoods> neighbourhoods_;
   std::vector<std::string> completed_;
