@@ -39,6 +39,16 @@ class CellGrid {
   // Point indices in cell order: neighbouring entries are near in space.
   std::span<const uint32_t> order() const { return id_; }
 
+  // How many points a ball query of this radius reads (its candidates): the work counter that
+  // tests hold to a bound where a degenerate grid would read most of the cloud.
+  size_t Candidates(const float q[3], float radius) const {
+    size_t read = 0;
+    if (!ForEachRun(q, radius, [&](uint32_t begin, uint32_t end) { read += end - begin; })) {
+      read = entries_.size();
+    }
+    return read;
+  }
+
   // Every point j with squared distance d2 < radius² to q, as (j, d2), unsorted, into `out`.
   void Within(const float q[3], float radius, RadiusMatches& out) const;
 

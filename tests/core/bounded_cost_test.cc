@@ -1,0 +1,134 @@
+// The cliffs of unbounded cost, each on a small instance with a control: the work counters
+// (candidates a grid query reads, duplicates collapsed, balls capped, radii capped) must stay
+// bounded where the input is hostile, so a test fails if a cliff comes back.
+#include <algorithm>
+#include <random>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "core/neighbourhoods.h"
+#include "core/pipeline.h"
+
+namespace scanprep {
+namespace {
+
+// A noisy plane of `side`² points at 0.1 mm pitch, one line-scanner scan seen from +z, each row a
+// scanline.
+PointCloud Plane(int side, uint32_t seed = 5) {
+  PointCloud cloud;
+  cloud.scans.push_back(ScanMeta{.id = "plane",
+                                 .view_direction = Eigen::Vector3d::UnitZ(),
+                                 .scanline_spacing = 0.1,
+                                 .uncertainty = 0.01});
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> noise(0.f, 0.005f);
+  for (int r = 0; r < side; ++r) {
+    for (int c = 0; c < side; ++c) {
+      cloud.x.push_back(c * 0.1f);
+      cloud.y.push_back(r * 0.1f);
+      cloud.z.push_back(noise(rng));
+      cloud.scanline.push_back(r);
+    }
+  }
+  return cloud;
+}
+
+void AddPoint(PointCloud& cloud, float x, float y, float z) {
+  cloud.x.push_back(x);
+  cloud.y.push_back(y);
+  cloud.z.push_back(z);
+  cloud.scanline.push_back(cloud.scanline.empty() ? 0 : cloud.scanline.back());
+}
+
+// The most candidates any point's k-NN ball (radius d_k) reads from the grid.
+size_t MaxCandidates(const PointCloud& cloud) {
+  auto nb = Neighbourhoods::Build(cloud, {.k = 20}, CancelToken());
+  EXPECT_TRUE(nb.ok()) << nb.status();
+  size_t most = 0;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+    if (std::abs(q[0]) > 1e5f) continue;  // the stray point's own ball is the whole cloud
+    most = std::max(most, (*nb)->grid().Candidates(q, (*nb)->dk(i)));
+  }
+  return most;
+}
+
+TEST(BoundedCost, OneFarPointDoesNotCollapseTheGrid) {
+  PointCloud cloud = Plane(150);
+  cloud.FinishLoading();
+  const size_t control = MaxCandidates(cloud);
+  for (float far : {1e6f, 1e8f}) {
+    PointCloud stray = Plane(150);
+    AddPoint(stray, far, 0.f, 0.f);
+    stray.FinishLoading();
+    const size_t with_stray = MaxCandidates(stray);
+    // Sized from the bounding box, the cells would hold the whole plane: 22,500 candidates.
+    EXPECT_LE(with_stray, 2 * control) << "far point at " << far << " mm";
+    EXPECT_LE(with_stray, 20u * 20u) << "far point at " << far << " mm";
+  }
+}
+
+TEST(BoundedCost, CoincidentPointsAreCollapsedAndExpanded) {
+  PointCloud cloud = Plane(100);
+  // 10 % of the points repeated at one missing-sample position, plus a spike 5 mm above the
+  // plane, stated twice: with d₁ = 0 the pair would survive the outlier rule.
+  const size_t plane = cloud.size();
+  for (size_t d = 0; d < plane / 10; ++d) AddPoint(cloud, 2.5f, 2.5f, 0.f);
+  AddPoint(cloud, 5.05f, 5.05f, 5.f);
+  AddPoint(cloud, 5.05f, 5.05f, 5.f);
+  cloud.FinishLoading();
+  PipelineOptions options;
+  options.stages = {"outliers", "normals", "smoothing"};
+  auto report = RunPipeline(cloud, options, CancelToken());
+  ASSERT_TRUE(report.ok()) << report.status();
+  const StageReport& nb = report->stages.front();
+  ASSERT_EQ(nb.name, "neighbourhoods");
+  // The plane's points have noisy z, so no plane point is one of the repeats: 999 repeats and one
+  // spike copy collapse.
+  EXPECT_EQ(nb.parameters.at("neighbourhoods.duplicates_collapsed"), double(plane / 10));
+  EXPECT_EQ(nb.points_in, cloud.size());  // the report counts every input point
+  // The duplicated spike is judged like a single one.
+  EXPECT_TRUE(cloud.flags[cloud.size() - 1] & kRemovedOutlier);
+  EXPECT_TRUE(cloud.flags[cloud.size() - 2] & kRemovedOutlier);
+  // Every repeat got its representative's result.
+  for (size_t d = plane + 1; d < plane + plane / 10; ++d) {
+    EXPECT_EQ(cloud.flags[d], cloud.flags[plane]);
+    EXPECT_EQ(cloud.z[d], cloud.z[plane]);
+    EXPECT_EQ(cloud.nz[d], cloud.nz[plane]);
+  }
+}
+
+TEST(BoundedCost, MergeRadiusOverrideIsCappedAndBallsKeepTheirNearest) {
+  PointCloud cloud = Plane(80);
+  const size_t first_scan = cloud.size();
+  PointCloud second = Plane(80, 9);
+  cloud.scans.push_back(second.scans[0]);
+  cloud.scans[1].id = "again";
+  for (size_t i = 0; i < second.size(); ++i) {
+    AddPoint(cloud, second.x[i] + 0.05f, second.y[i] + 0.05f, second.z[i]);
+  }
+  cloud.FinishLoading();
+  for (size_t i = first_scan; i < cloud.size(); ++i) cloud.scan[i] = 1;
+  PipelineOptions options;
+  options.stages = {"correction"};
+  options.params["correction.radius_mm"] = "1000000";
+  auto report = RunPipeline(cloud, options, CancelToken());
+  ASSERT_TRUE(report.ok()) << report.status();
+  const StageReport& correction = report->stages.back();
+  ASSERT_EQ(correction.name, "correction");
+  const double r_g = report->stages.front().parameters.at("neighbourhoods.global_radius_mm");
+  EXPECT_EQ(correction.parameters.at("correction.radii_capped"), 2);
+  EXPECT_LE(correction.parameters.at("correction.radius_mm.scan0"), 2 * r_g + 1e-6);
+  // Control: the default r_c is left alone.
+  PointCloud control = cloud;
+  control.FinishLoading();
+  options.params.clear();
+  auto plain = RunPipeline(control, options, CancelToken());
+  ASSERT_TRUE(plain.ok()) << plain.status();
+  EXPECT_FALSE(plain->stages.back().parameters.contains("correction.radii_capped"));
+  EXPECT_FALSE(plain->stages.back().parameters.contains("correction.balls_capped"));
+}
+
+}  // namespace
+}  // namespace scanprep
