@@ -204,6 +204,10 @@ absl::Status RunTiled(JobContext& ctx, Thinner& thinner, std::vector<uint32_t> o
   return absl::OkStatus();
 }
 
+// r_s at most this many r_g: a ball of it holds ~100·k points on a surface; plenty for thinning to a
+// tenth of the scanner's pitch and beyond, and still a bounded amount of work per centre.
+constexpr double kMaxSpacingPerGlobalRadius = 10.0;
+
 // Default r_s: twice the scanner's own sampling pitch, √(Δs·Δp) per scan (the side of the square
 // each sample covers), median over scans; from the global density when there is no pitch.
 double DefaultSpacing(const PointCloud& cloud, const std::vector<double>& point_spacing,
@@ -238,14 +242,14 @@ class SimplificationStage : public Stage {
 
     Plan plan;
     plan.adaptive = ctx.Choice("simplification.mode", "adaptive") == "adaptive";
-    // A derived r_s far beyond r_g comes from spacings in the wrong unit and would thin the scan
-    // to a handful of points; an override is the user's explicit choice (and costs O(n) anyway).
-    double spacing = DefaultSpacing(cloud, ScanPointSpacing(ctx), **nb);
-    if (!ctx.Overridden("simplification.spacing_mm")) {
-      spacing = ctx.CapRadius("the spacing r_s derived from the scans' spacings", spacing,
-                              kMaxRadiusPerGlobalRadius * (*nb)->global_radius());
-    }
-    plan.spacing = static_cast<float>(ctx.Number("simplification.spacing_mm", spacing));
+    // r_s is held to kMaxSpacingPerGlobalRadius·r_g: a derived one beyond it comes from spacings
+    // in the wrong unit, and where κ̂ keeps most points every centre's ball would be a large
+    // part of the cloud. The report shows the spacing used.
+    const double spacing =
+        ctx.Number("simplification.spacing_mm", DefaultSpacing(cloud, ScanPointSpacing(ctx), **nb));
+    plan.spacing = static_cast<float>(ctx.CapRadius(
+        "the thinning spacing r_s", spacing, kMaxSpacingPerGlobalRadius * (*nb)->global_radius()));
+    ctx.Record("simplification.spacing_mm", plan.spacing);
     if (!(plan.spacing > 0)) {
       return absl::InvalidArgumentError(
           "simplification.spacing_mm: must be > 0 (no spacing could be derived from the data)");
