@@ -39,7 +39,9 @@ void JobContext::Record(std::string_view name, double value) {
 double JobContext::CapRadius(std::string_view what, double radius, double limit) {
   if (!(radius > limit)) return radius;
   const std::string& stage = current().name;
-  current().parameters[absl::StrCat(stage, ".radii_capped")] += 1;
+  // One warning per stage (a job of 1,000 scans would otherwise say it 1,000 times); the
+  // counter has them all.
+  if (current().parameters[absl::StrCat(stage, ".radii_capped")]++ > 0) return limit;
   Warn(absl::StrFormat("%s: %s of %g mm is more than the data's own scale allows (%g mm, a "
                        "multiple of the global radius r_g); capped at %g mm. Check the job's "
                        "unit, the scanner metadata (spacing, uncertainty) and radius overrides",

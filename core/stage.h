@@ -71,8 +71,8 @@ class JobContext {
   void Warn(std::string message);
   // A radius from scanner metadata or an override (`what` names it), held to at most `limit`, a
   // multiple of the data's own scale r_g: a radius far beyond it makes every ball hold a large
-  // part of the cloud. A cap is warned about, naming the likely causes, and counted in the
-  // running stage's report as <stage>.radii_capped.
+  // part of the cloud. A cap is counted in the running stage's report as <stage>.radii_capped;
+  // the stage's first is warned about, naming the likely causes.
   double CapRadius(std::string_view what, double radius, double limit);
   void Progress(double fraction) const;
 
