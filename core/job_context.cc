@@ -100,8 +100,9 @@ void JobContext::RecordCappedBalls(const std::string& stage) {
   Record(absl::StrCat(stage, ".ball_points_left_out"), static_cast<double>(cut));
   Warn(absl::StrCat(stage, ": ", capped, " neighbourhoods held more than ",
                     neighbourhoods_->max_ball_points(), " points and kept their nearest ",
-                    neighbourhoods_->max_ball_points(), " (", cut, " points left out); a radius "
-                    "far beyond the data's spacing: check the job's unit and radius overrides"));
+                    neighbourhoods_->max_ball_points(), " (", cut, " points left out); many "
+                    "point to a radius far beyond the data's spacing: check the job's unit and "
+                    "radius overrides"));
 }
 
 absl::Status JobContext::RunStage(const StageInfo& info) {

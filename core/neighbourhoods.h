@@ -27,10 +27,10 @@ struct NeighbourhoodOptions {
 // The minimum radius is capped at this multiple of the global radius r_g.
 inline constexpr double kMaxRadiusPerGlobalRadius = 5.0;
 // A ball keeps at most this many times k points, the nearest: on a surface a ball of
-// kMaxRadiusPerGlobalRadius·r_g holds about 25·k, so only a radius stated in the wrong unit, an
-// override far beyond the data's scale or a cluster denser than the rest reaches it. It bounds
-// every stage's work and memory at O(n·k).
-inline constexpr uint32_t kMaxBallPointsPerK = 10;
+// kMaxRadiusPerGlobalRadius·r_g holds about 25·k, and the per-scan widening of normals in an
+// overlap up to about twice that; beyond it lie only radii far off the data's scale (a unit slip,
+// an override) and clusters far denser than the rest. It bounds every stage at O(n·k) work.
+inline constexpr uint32_t kMaxBallPointsPerK = 32;
 
 class Neighbourhoods {
  public:

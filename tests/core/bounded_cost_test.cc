@@ -99,7 +99,36 @@ TEST(BoundedCost, CoincidentPointsAreCollapsedAndExpanded) {
   }
 }
 
-TEST(BoundedCost, MergeRadiusOverrideIsCappedAndBallsKeepTheirNearest) {
+// A blob of 2,000 points within a micrometre (a scanner's repeated sample with float jitter, not
+// exact duplicates) inside the r_min balls of its neighbours: every such ball keeps its nearest
+// 32·k points; the control without the blob caps none.
+TEST(BoundedCost, BallsInADenseClusterKeepTheirNearest) {
+  for (const bool blob : {false, true}) {
+    PointCloud cloud = Plane(60);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> jitter(-1e-3f, 1e-3f);
+    for (int b = 0; blob && b < 2000; ++b) AddPoint(cloud, 3.f + jitter(rng), 3.f + jitter(rng), jitter(rng));
+    cloud.FinishLoading();
+    PipelineOptions options;
+    options.stages = {"normals", "smoothing"};
+    auto report = RunPipeline(cloud, options, CancelToken());
+    ASSERT_TRUE(report.ok()) << report.status();
+    for (const StageReport& stage : report->stages) {
+      if (stage.name != "normals" && stage.name != "smoothing") continue;  // the ball stages
+      const auto capped = stage.parameters.find(stage.name + ".balls_capped");
+      if (!blob) {
+        EXPECT_EQ(capped, stage.parameters.end()) << stage.name;
+        continue;
+      }
+      ASSERT_NE(capped, stage.parameters.end()) << stage.name;
+      EXPECT_GE(capped->second, 2000) << stage.name;  // at least the blob's own balls
+      EXPECT_GT(stage.parameters.at(stage.name + ".ball_points_left_out"), 0) << stage.name;
+    }
+    EXPECT_EQ(report->warnings.empty(), !blob);
+  }
+}
+
+TEST(BoundedCost, MergeRadiusOverrideIsCapped) {
   PointCloud cloud = Plane(80);
   const size_t first_scan = cloud.size();
   PointCloud second = Plane(80, 9);
