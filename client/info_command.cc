@@ -48,9 +48,9 @@ int RunInfo(const ParsedArgs& args) {
   }
   std::cout << "\nparameters (override with --param name=value):\n";
   for (const v1::ParameterInfo& p : info->parameters()) {
-    std::cout << "  " << p.name() << "  " << Admits(p) << "; default "
-              << (p.default_from_data() ? "from the data: " : "") << p.default_value() << "\n      "
-              << p.description() << "\n";
+    std::cout << "  " << p.name() << "  " << Admits(p) << "; "
+              << (p.default_derived() ? "derived default: " : "default ") << p.default_value()
+              << "\n      " << p.description() << "\n";
   }
   return 0;
 }

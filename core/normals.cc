@@ -175,7 +175,7 @@ StageInfo NormalsStageInfo() {
                         "Gaussian width h as a fraction of the ball radius", 0.5, LeftOpen(0, 10)),
               DerivedIntegerParam("normals.orientation_k",
                                   "neighbours per point in the orientation graph (Eq. 5)",
-                                  absl::StrCat(kOrientationK, ", at most neighbourhoods.k"),
+                                  absl::StrCat("min(", kOrientationK, ", neighbourhoods.k)"),
                                   Closed(1, 64))
                   .AtMost("neighbourhoods.k"),
               RealParam("normals.mitra_c1", "c1 of Eq. (1)", 1, Closed(0, 1000)),

@@ -172,7 +172,7 @@ void ParamSpecToProto(const ParamSpec& spec, v1::ParameterInfo* out) {
     case ParamKind::kInteger: out->set_kind(v1::INTEGER); break;
     case ParamKind::kChoice: out->set_kind(v1::CHOICE); return;
   }
-  out->set_default_from_data(!spec.default_value.has_value());
+  out->set_default_derived(!spec.default_value.has_value());
   out->set_min(spec.range.min);
   out->set_max(spec.range.max);
   out->set_min_inclusive(spec.range.min_inclusive);
