@@ -11,6 +11,16 @@
 namespace scanprep::client {
 namespace {
 
+// "integer in [1, 64], at most neighbourhoods.k", "real in (0, 10000]", "one of {nn, loop}".
+std::string Admits(const v1::ParameterInfo& p) {
+  if (p.kind() == v1::CHOICE) {
+    return absl::StrCat("one of {", absl::StrJoin(p.choices(), ", "), "}");
+  }
+  std::string text = absl::StrCat(p.kind() == v1::INTEGER ? "integer" : "real", " in ", p.range());
+  if (!p.at_most().empty()) absl::StrAppend(&text, ", at most ", p.at_most());
+  return text;
+}
+
 int RunInfo(const ParsedArgs& args) {
   const std::string server = args.Get("server", "localhost:50051");
   auto credentials = CredentialsFromArgs(args);
@@ -38,9 +48,9 @@ int RunInfo(const ParsedArgs& args) {
   }
   std::cout << "\nparameters (override with --param name=value):\n";
   for (const v1::ParameterInfo& p : info->parameters()) {
-    std::cout << "  " << p.name() << "  [default: " << p.default_value() << "]";
-    if (!p.choices().empty()) std::cout << "  {" << absl::StrJoin(p.choices(), ", ") << "}";
-    std::cout << "\n      " << p.description() << "\n";
+    std::cout << "  " << p.name() << "  " << Admits(p) << "; "
+              << (p.default_derived() ? "derived default: " : "default ") << p.default_value()
+              << "\n      " << p.description() << "\n";
   }
   return 0;
 }

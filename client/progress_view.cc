@@ -3,6 +3,7 @@
 #include <map>
 
 #include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 
 namespace scanprep::client {
@@ -50,6 +51,10 @@ void PrintSummary(std::ostream& out, const v1::Report& report) {
         continue;
       }
       absl::StrAppendFormat(&shown, "%s%s=%.4g", shown.empty() ? "" : " ", name, value);
+    }
+    for (const auto& [name, value] : std::map<std::string, std::string>(
+             stage.text_parameters().begin(), stage.text_parameters().end())) {
+      absl::StrAppend(&shown, shown.empty() ? "" : " ", name, "=", value);
     }
     if (per_scan > 0) absl::StrAppendFormat(&shown, " (+%d per-scan values)", per_scan);
     std::string seconds = absl::StrFormat("%.3f", stage.seconds());

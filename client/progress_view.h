@@ -35,8 +35,8 @@ struct PhaseSeconds {
 // the job and preparing the first result chunk).
 void PrintPhases(std::ostream& out, const PhaseSeconds& phases);
 
-// Per stage: points in and out, seconds and the stage's parameters (per-scan values are
-// summarised by count); then point totals, invalid points, budget and warnings.
+// Per stage: points in and out, seconds and the stage's parameters, numbers and choices (per-scan
+// values are summarised by count); then point totals, invalid points, budget and warnings.
 void PrintSummary(std::ostream& out, const scanprep::v1::Report& report);
 
 }  // namespace scanprep::client

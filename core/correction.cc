@@ -78,13 +78,12 @@ class CorrectionStage : public Stage {
 
     absl::StatusOr<std::vector<float>> radius = Radii(ctx, nb);
     if (!radius.ok()) return radius.status();
-    const std::string mode = ctx.Choice("correction.mode", "gather");
+    const std::string mode = ctx.Choice("correction.mode");
     absl::StatusOr<size_t> removed;
     if (mode == "scatter") {
       removed = Scatter(ctx, nb, quality, *radius);
     } else {
-      const int rounds = static_cast<int>(ctx.Number("correction.rounds", 10));
-      if (rounds < 1) return absl::InvalidArgumentError("correction.rounds: must be >= 1");
+      const int rounds = static_cast<int>(ctx.Integer("correction.rounds"));
       removed = Gather(ctx, nb, quality, *radius, rounds);
     }
     if (!removed.ok()) return removed.status();
@@ -96,12 +95,8 @@ class CorrectionStage : public Stage {
   // r_c per scan, scaled; recorded per scan when there are several.
   static absl::StatusOr<std::vector<float>> Radii(JobContext& ctx, const Neighbourhoods& nb) {
     const PointCloud& cloud = ctx.cloud();
-    const double scale = ctx.Number("correction.radius_scale", 1.0);
-    if (!(scale > 0)) return absl::InvalidArgumentError("correction.radius_scale: must be > 0");
+    const double scale = ctx.Number("correction.radius_scale");
     const std::optional<double> forced = ctx.Overridden("correction.radius_mm");
-    if (forced && !(*forced > 0)) {
-      return absl::InvalidArgumentError("correction.radius_mm: must be > 0");
-    }
     const std::vector<double> spacing = ScanPointSpacing(ctx);
     std::vector<float> radius;
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
@@ -228,17 +223,20 @@ StageInfo CorrectionStageInfo() {
                  "other scans than the best point's whose quality is below the mean (Eq. 11)",
       .params =
           {
-              {"correction.mode",
-               "gather: each point decides from its own neighbourhood (parallel, order-free); "
-               "scatter: centres in descending quality remove neighbours at once (paper)",
-               "gather", {"gather", "scatter"}},
-              {"correction.rounds",
-               "most gather rounds, each from the previous round's labels (1 = a single pass); "
-               "stops early when a round removes nothing", "10", {}},
-              {"correction.radius_scale",
-               "factor on r_c, for registration residuals larger than r_c", "1", {}},
-              {"correction.radius_mm", "r_c of Eq. (11) for every scan",
-               "radius_scale·√(Δs² + u² + Δp²) per scan", {}},
+              ChoiceParam("correction.mode",
+                          "gather: each point decides from its own neighbourhood (parallel, "
+                          "order-free); scatter: centres in descending quality remove "
+                          "neighbours at once (paper)",
+                          {"gather", "scatter"}),
+              IntegerParam("correction.rounds",
+                           "most gather rounds, each from the previous round's labels (1 = a "
+                           "single pass); stops early when a round removes nothing",
+                           10, Closed(1, 1000)),
+              RealParam("correction.radius_scale",
+                        "factor on r_c, for registration residuals larger than r_c", 1,
+                        LeftOpen(0, 100)),
+              DerivedRealParam("correction.radius_mm", "r_c of Eq. (11) for every scan",
+                               "radius_scale·√(Δs² + u² + Δp²) per scan", LeftOpen(0, 1e4)),
           },
       .make = [] { return std::make_unique<CorrectionStage>(); },
   };

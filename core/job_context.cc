@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -21,15 +23,47 @@ std::optional<double> JobContext::Overridden(std::string_view name) const {
   return value;
 }
 
+double JobContext::Number(std::string_view name) {
+  const ParamSpec& spec = DeclaredSpec(name, ParamKind::kReal, /*derived=*/false);
+  return Recorded(name, Overridden(name).value_or(*spec.default_value));
+}
+
 double JobContext::Number(std::string_view name, double derived) {
-  const double value = Overridden(name).value_or(derived);
-  current().parameters[std::string(name)] = value;
+  DeclaredSpec(name, ParamKind::kReal, /*derived=*/true);
+  return Recorded(name, Overridden(name).value_or(derived));
+}
+
+int64_t JobContext::Integer(std::string_view name) {
+  const ParamSpec& spec = DeclaredSpec(name, ParamKind::kInteger, /*derived=*/false);
+  // In range, so well inside int64_t: the conversion is exact.
+  return static_cast<int64_t>(Recorded(name, Overridden(name).value_or(*spec.default_value)));
+}
+
+int64_t JobContext::Integer(std::string_view name, int64_t derived) {
+  DeclaredSpec(name, ParamKind::kInteger, /*derived=*/true);
+  const double value = Overridden(name).value_or(static_cast<double>(derived));
+  return static_cast<int64_t>(Recorded(name, value));
+}
+
+std::string JobContext::Choice(std::string_view name) {
+  const ParamSpec& spec = DeclaredSpec(name, ParamKind::kChoice, /*derived=*/false);
+  auto it = overrides_.find(name);
+  std::string value = it != overrides_.end() ? it->second : spec.choices.front();
+  current().text_parameters[std::string(name)] = value;
   return value;
 }
 
-std::string JobContext::Choice(std::string_view name, std::string_view fallback) {
-  auto it = overrides_.find(name);
-  return std::string(it != overrides_.end() ? std::string_view(it->second) : fallback);
+// A stage reading a parameter it did not declare, or with the wrong kind of default, is a
+// programming error that no request can cause; the parameter sweep test reads every one.
+const ParamSpec& JobContext::DeclaredSpec(std::string_view name, ParamKind kind, bool derived) {
+  const ParamSpec* spec = FindParam(name);
+  if (spec == nullptr || spec->kind != kind ||
+      (kind != ParamKind::kChoice && spec->default_value.has_value() == derived)) {
+    std::fprintf(stderr, "scanprep: parameter %.*s is read against its declaration\n",
+                 static_cast<int>(name.size()), name.data());
+    std::abort();
+  }
+  return *spec;
 }
 
 void JobContext::Record(std::string_view name, double value) {
@@ -56,6 +90,11 @@ uint64_t JobContext::KeptInputPoints() const {
     if (!cloud_.removed(g)) kept += duplicates_->multiplicity[g];
   }
   return kept;
+}
+
+double JobContext::Recorded(std::string_view name, double value) {
+  Record(name, value);
+  return value;
 }
 
 void JobContext::Warn(std::string message) { report_.warnings.push_back(std::move(message)); }

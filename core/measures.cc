@@ -99,16 +99,13 @@ class MeasuresStage : public Stage {
   static absl::Status Curvature(JobContext& ctx) {
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
-    const double scale = ctx.Number("measures.curvature_scale_per_mm", 0.2);
-    const double variation_scale = ctx.Number("measures.variation_scale", 0.02);
-    const double threshold = ctx.Number("measures.edge_threshold", 0.5);
-    if (!(scale > 0)) return absl::InvalidArgumentError("measures.curvature_scale_per_mm: must be > 0");
-    if (!(variation_scale > 0)) return absl::InvalidArgumentError("measures.variation_scale: must be > 0");
+    const double scale = ctx.Number("measures.curvature_scale_per_mm");
+    const double variation_scale = ctx.Number("measures.variation_scale");
+    const double threshold = ctx.Number("measures.edge_threshold");
 
     const std::vector<double> spacing = ScanPointSpacing(ctx);
     std::vector<double> window(cloud.scans.size(), 0.0);
     const std::optional<double> forced = ctx.Overridden("measures.window_mm");
-    if (forced && !(*forced > 0)) return absl::InvalidArgumentError("measures.window_mm: must be > 0");
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
       const double u = cloud.scans[s].uncertainty;
       window[s] = forced.value_or(
@@ -185,14 +182,15 @@ StageInfo MeasuresStageInfo() {
       .summary = "viewing quality q̂ and normalised curvature κ̂ per point (Eq. 7); edge flags",
       .params =
           {
-              {"measures.curvature_scale_per_mm", "s: scanline curvature of a significant edge",
-               "0.2", {}},
-              {"measures.variation_scale", "s_σ: surface variation of a significant edge "
-               "(fallback without scanlines)", "0.02", {}},
-              {"measures.edge_threshold", "κ̂ at or above which a point is flagged as an edge",
-               "0.5", {}},
-              {"measures.window_mm", "half-width h of the scanline curvature window",
-               "max(3Δp, 2u, (1215·u²·Δp/s²)^(1/5)) per scan", {}},
+              RealParam("measures.curvature_scale_per_mm",
+                        "s: scanline curvature of a significant edge", 0.2, LeftOpen(0, 1000)),
+              RealParam("measures.variation_scale", "s_σ: surface variation of a significant "
+                        "edge (fallback without scanlines)", 0.02, LeftOpen(0, 1)),
+              RealParam("measures.edge_threshold",
+                        "κ̂ at or above which a point is flagged as an edge", 0.5, Closed(0, 1)),
+              DerivedRealParam("measures.window_mm", "half-width h of the scanline curvature "
+                               "window", "max(3Δp, 2u, (1215·u²·Δp/s²)^(1/5)) per scan",
+                               LeftOpen(0, 1e4)),
           },
       .make = [] { return std::make_unique<MeasuresStage>(); },
   };

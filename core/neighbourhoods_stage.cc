@@ -20,7 +20,7 @@ class NeighbourhoodsStage : public Stage {
       uncertainty = std::max(uncertainty, scan.uncertainty);
     }
     NeighbourhoodOptions options;
-    options.k = static_cast<uint32_t>(std::clamp(ctx.Number("neighbourhoods.k", 20), 3.0, 64.0));
+    options.k = static_cast<uint32_t>(ctx.Integer("neighbourhoods.k"));
     const double epsilon_u = ctx.Number("neighbourhoods.epsilon_u_mm", uncertainty);
     // Flexible scanners have no fixed spacing: r_min = ε_u and r_p = max(r_min, d_k) grows the
     // ball until it holds k points (algorithms.md §4).
@@ -53,11 +53,13 @@ StageInfo NeighbourhoodsStageInfo() {
       .summary = "spatial grid and k-NN graph shared by all stages; global radius r_g and density",
       .params =
           {
-              {"neighbourhoods.k", "neighbours per point in the shared graph (k_g)", "20", {}},
-              {"neighbourhoods.epsilon_u_mm", "ε_u of Eq. (2), uncertainty margin",
-               "largest scan uncertainty", {}},
-              {"neighbourhoods.min_radius_mm", "r_min of Eq. (2): √3·Δs + ε_u",
-               "from scanline spacing; ε_u for flexible scanners", {}},
+              IntegerParam("neighbourhoods.k", "neighbours per point in the shared graph (k_g)",
+                           20, Closed(3, 64)),
+              DerivedRealParam("neighbourhoods.epsilon_u_mm", "ε_u of Eq. (2), uncertainty margin",
+                               "largest scan uncertainty", Closed(0, 1e4)),
+              DerivedRealParam("neighbourhoods.min_radius_mm", "r_min of Eq. (2): √3·Δs + ε_u",
+                               "from scanline spacing; ε_u for flexible scanners",
+                               Closed(0, 1e4)),
           },
       .make = [] { return std::make_unique<NeighbourhoodsStage>(); },
   };

@@ -17,6 +17,9 @@
 namespace scanprep {
 namespace {
 
+// Neighbours per point in the orientation graph unless the request says otherwise.
+constexpr uint32_t kOrientationK = 10;
+
 struct Scratch {
   RadiusMatches matches;
   RadiusMatches mitra;
@@ -30,30 +33,27 @@ class NormalsStage : public Stage {
     const Neighbourhoods& nb = **nb_or;
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
-    const std::string mode = ctx.Choice("normals.radius_mode", "adaptive");
-    const double weight_scale = ctx.Number("normals.gaussian_h_factor", 0.5);
-    if (!(weight_scale > 0)) {
-      return absl::InvalidArgumentError("normals.gaussian_h_factor: must be > 0");
-    }
-    const double orientation_k = ctx.Number("normals.orientation_k", 10);
-    if (!(orientation_k >= 1)) {
-      return absl::InvalidArgumentError("normals.orientation_k: must be >= 1");
-    }
+    const std::string mode = ctx.Choice("normals.radius_mode");
+    const double weight_scale = ctx.Number("normals.gaussian_h_factor");
+    // At most neighbourhoods.k (ValidateOverrides): orientation walks the shared graph.
+    const int64_t orientation_k =
+        ctx.Integer("normals.orientation_k", std::min(kOrientationK, nb.k()));
     const bool per_scan = cloud.scans.size() > 1;
     MitraOptions mitra;
     if (mode == "mitra") {
-      mitra.c1 = ctx.Number("normals.mitra_c1", 1.0);
-      mitra.c2 = ctx.Number("normals.mitra_c2", 1.0);
-      mitra.epsilon = ctx.Number("normals.mitra_epsilon", 0.05);
+      mitra.c1 = ctx.Number("normals.mitra_c1");
+      mitra.c2 = ctx.Number("normals.mitra_c2");
+      mitra.epsilon = ctx.Number("normals.mitra_epsilon");
       const double r_max_limit = kMaxRadiusPerGlobalRadius * nb.global_radius();
       mitra.r_max = ctx.CapRadius("normals.mitra_max_radius_mm",
                                   ctx.Number("normals.mitra_max_radius_mm", r_max_limit),
                                   r_max_limit);
-      if (!(mitra.epsilon > 0 && mitra.epsilon < 1)) {
-        return absl::InvalidArgumentError("normals.mitra_epsilon: must be in (0, 1)");
-      }
     }
     const std::optional<double> sigma_override = ctx.Overridden("normals.mitra_sigma_mm");
+    for (size_t s = 0; mode == "mitra" && s < cloud.scans.size(); ++s) {
+      ctx.Record(absl::StrCat("normals.mitra_sigma_mm", per_scan ? absl::StrCat(".scan", s) : ""),
+                 sigma_override.value_or(cloud.scans[s].uncertainty));
+    }
 
     cloud.nx.assign(n, 0.f);
     cloud.ny.assign(n, 0.f);
@@ -172,18 +172,23 @@ StageInfo NormalsStageInfo() {
                  "along a minimum spanning tree (Eq. 5)",
       .params =
           {
-              {"normals.radius_mode", "PCA ball radius: adaptive r_p = max(r_min, d_k), or the "
-               "Mitra et al. radius of Eq. (1)", "adaptive", {"adaptive", "mitra"}},
-              {"normals.gaussian_h_factor", "Gaussian width h as a fraction of the ball radius",
-               "0.5", {}},
-              {"normals.orientation_k", "neighbours per point in the orientation graph (Eq. 5)",
-               "10", {}},
-              {"normals.mitra_c1", "c1 of Eq. (1)", "1", {}},
-              {"normals.mitra_c2", "c2 of Eq. (1)", "1", {}},
-              {"normals.mitra_epsilon", "ε of Eq. (1): the normal bound fails with this "
-               "probability", "0.05", {}},
-              {"normals.mitra_sigma_mm", "noise σ_n of Eq. (1)", "the scan's uncertainty u", {}},
-              {"normals.mitra_max_radius_mm", "upper clamp of the Mitra radius", "5·r_g", {}},
+              ChoiceParam("normals.radius_mode", "PCA ball radius: adaptive r_p = max(r_min, "
+                          "d_k), or the Mitra et al. radius of Eq. (1)", {"adaptive", "mitra"}),
+              RealParam("normals.gaussian_h_factor",
+                        "Gaussian width h as a fraction of the ball radius", 0.5, LeftOpen(0, 10)),
+              DerivedIntegerParam("normals.orientation_k",
+                                  "neighbours per point in the orientation graph (Eq. 5)",
+                                  absl::StrCat("min(", kOrientationK, ", neighbourhoods.k)"),
+                                  Closed(1, 64))
+                  .AtMost("neighbourhoods.k"),
+              RealParam("normals.mitra_c1", "c1 of Eq. (1)", 1, Closed(0, 1000)),
+              RealParam("normals.mitra_c2", "c2 of Eq. (1)", 1, Closed(0, 1000)),
+              RealParam("normals.mitra_epsilon", "ε of Eq. (1): the normal bound fails with this "
+                        "probability", 0.05, Open(0, 1)),
+              DerivedRealParam("normals.mitra_sigma_mm", "noise σ_n of Eq. (1)",
+                               "the scan's uncertainty u", Closed(0, 1e4)),
+              DerivedRealParam("normals.mitra_max_radius_mm", "upper clamp of the Mitra radius",
+                               "5·r_g", LeftOpen(0, 1e4)),
           },
       .make = [] { return std::make_unique<NormalsStage>(); },
   };

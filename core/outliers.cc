@@ -27,12 +27,17 @@ class OutliersStage : public Stage {
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
     if (nb.k() == 0) return absl::OkStatus();
-    if (ctx.Choice("outliers.method", "nn") == "loop") return RemoveLoopOutliers(ctx, nb);
+    if (ctx.Choice("outliers.method") == "loop") return RemoveLoopOutliers(ctx, nb);
 
-    const uint32_t k_o = static_cast<uint32_t>(
-        std::clamp(ctx.Number("outliers.k", 1), 1.0, static_cast<double>(nb.k())));
-    const double multiplier = ctx.Number("outliers.multiplier", 2.0);
-    const double floor_factor = ctx.Number("outliers.median_floor", 1.5);
+    // At most neighbourhoods.k (ValidateOverrides); only a cloud of n ≤ k points has fewer.
+    const int64_t k_asked = ctx.Integer("outliers.k");
+    const uint32_t k_o = static_cast<uint32_t>(std::min<int64_t>(k_asked, nb.k()));
+    if (k_o < k_asked) {
+      ctx.Warn(absl::StrCat("outliers: outliers.k = ", k_asked, " but the cloud has ", n,
+                            " points; d is averaged over ", k_o, " neighbours"));
+    }
+    const double multiplier = ctx.Number("outliers.multiplier");
+    const double floor_factor = ctx.Number("outliers.median_floor");
 
     // d_1 (or the mean over k_o neighbours, PCL-style SOR, when k_o > 1).
     std::vector<float> d(n);
@@ -96,19 +101,24 @@ StageInfo OutliersStageInfo() {
       .summary = "statistical outlier removal: d_1 > max(μ + 2σ, 1.5·median) per scan",
       .params =
           {
-              {"outliers.method", "nn: the paper's global d_1 rule; loop: Local Outlier "
-               "Probabilities for strongly varying density", "nn", {"nn", "loop"}},
-              {"outliers.k", "neighbours averaged into d (1 = the paper's d_1)", "1", {}},
-              {"outliers.multiplier", "σ multiplier of the threshold μ + m·σ", "2", {}},
-              {"outliers.median_floor", "the threshold is at least this times median(d)", "1.5",
-               {}},
-              {"outliers.threshold_mm", "distance above which a point is an outlier",
-               "max(μ + m·σ, floor·median) per scan", {}},
-              {"outliers.loop_k", "LoOP neighbourhood size", "20", {}},
-              {"outliers.loop_lambda", "LoOP λ (standard deviations of the probabilistic "
-               "distance)", "3", {}},
-              {"outliers.loop_threshold", "LoOP probability above which a point is an outlier",
-               "0.8", {}},
+              ChoiceParam("outliers.method", "nn: the paper's global d_1 rule; loop: Local "
+                          "Outlier Probabilities for strongly varying density", {"nn", "loop"}),
+              IntegerParam("outliers.k", "neighbours averaged into d (1 = the paper's d_1)", 1,
+                           Closed(1, 64))
+                  .AtMost("neighbourhoods.k"),
+              RealParam("outliers.multiplier", "σ multiplier of the threshold μ + m·σ", 2,
+                        Closed(0, 100)),
+              RealParam("outliers.median_floor", "the threshold is at least this times median(d)",
+                        1.5, Closed(0, 100)),
+              DerivedRealParam("outliers.threshold_mm", "distance above which a point is an "
+                               "outlier", "max(μ + m·σ, floor·median) per scan", LeftOpen(0, 1e4)),
+              DerivedIntegerParam("outliers.loop_k", "LoOP neighbourhood size",
+                                  "neighbourhoods.k", Closed(1, 64))
+                  .AtMost("neighbourhoods.k"),
+              RealParam("outliers.loop_lambda", "LoOP λ (standard deviations of the probabilistic "
+                        "distance)", 3, LeftOpen(0, 100)),
+              RealParam("outliers.loop_threshold", "LoOP probability above which a point is an "
+                        "outlier", 0.8, Closed(0, 1)),
           },
       .make = [] { return std::make_unique<OutliersStage>(); },
   };

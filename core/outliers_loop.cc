@@ -15,11 +15,10 @@ namespace scanprep {
 absl::Status RemoveLoopOutliers(JobContext& ctx, const Neighbourhoods& nb) {
   PointCloud& cloud = ctx.cloud();
   const size_t n = cloud.size();
-  const uint32_t k = static_cast<uint32_t>(
-      std::clamp(ctx.Number("outliers.loop_k", 20), 1.0, static_cast<double>(nb.k())));
-  const double lambda = ctx.Number("outliers.loop_lambda", 3.0);
-  const double threshold = ctx.Number("outliers.loop_threshold", 0.8);
-  if (!(lambda > 0)) return absl::InvalidArgumentError("outliers.loop_lambda: must be > 0");
+  // At most neighbourhoods.k (ValidateOverrides); for_neighbours() takes what the graph holds.
+  const uint32_t k = static_cast<uint32_t>(ctx.Integer("outliers.loop_k", nb.k()));
+  const double lambda = ctx.Number("outliers.loop_lambda");
+  const double threshold = ctx.Number("outliers.loop_threshold");
 
   // Visits the first k unremoved neighbours of i.
   auto for_neighbours = [&](size_t i, auto&& visit) {

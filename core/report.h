@@ -15,6 +15,8 @@ struct StageReport {
   double seconds = 0;
   // Every parameter the stage used, derived or overridden, by its full name (lengths in mm).
   std::map<std::string, double> parameters;
+  // Every choice parameter the stage used, e.g. "outliers.method" = "nn".
+  std::map<std::string, std::string> text_parameters;
   double budget_seconds = 0;  // 0 = no budget
   bool budget_met = true;
 };

@@ -241,7 +241,7 @@ class SimplificationStage : public Stage {
     }
 
     Plan plan;
-    plan.adaptive = ctx.Choice("simplification.mode", "adaptive") == "adaptive";
+    plan.adaptive = ctx.Choice("simplification.mode") == "adaptive";
     // r_s is held to kMaxSpacingPerGlobalRadius·r_g: a derived one beyond it comes from spacings
     // in the wrong unit, and where κ̂ keeps most points every centre's ball would be a large
     // part of the cloud. The report shows the spacing used.
@@ -254,13 +254,10 @@ class SimplificationStage : public Stage {
       return absl::InvalidArgumentError(
           "simplification.spacing_mm: must be > 0 (no spacing could be derived from the data)");
     }
-    plan.edge_threshold = static_cast<float>(ctx.Number("simplification.edge_threshold", 0.5));
-    plan.curvature_floor = static_cast<float>(ctx.Number("simplification.curvature_floor", 0));
-    if (!(plan.curvature_floor >= 0 && plan.curvature_floor < 1)) {
-      return absl::InvalidArgumentError("simplification.curvature_floor: must be in [0, 1)");
-    }
+    plan.edge_threshold = static_cast<float>(ctx.Number("simplification.edge_threshold"));
+    plan.curvature_floor = static_cast<float>(ctx.Number("simplification.curvature_floor"));
     if (!plan.adaptive) plan.edge_threshold = std::numeric_limits<float>::infinity();
-    const bool tiled = ctx.Choice("simplification.order", "sequential") == "tiled";
+    const bool tiled = ctx.Choice("simplification.order") == "tiled";
 
     Thinner thinner(cloud, **nb, m, plan);
     std::vector<uint32_t> order = VisitOrder(cloud, m, thinner);
@@ -281,19 +278,24 @@ StageInfo SimplificationStageInfo() {
                  "dense at edges, uniform on flat parts",
       .params =
           {
-              {"simplification.mode",
-               "adaptive: Eq. (13) keeps points by curvature; uniform: κ̂ ignored",
-               "adaptive", {"adaptive", "uniform"}},
-              {"simplification.spacing_mm", "target spacing r_s between kept points",
-               "2·√(Δs·Δp), median over scans; 2/√density without scanlines", {}},
-              {"simplification.edge_threshold",
-               "τ_E: centres with κ̂ ≥ τ_E form the edge set, processed first", "0.5", {}},
-              {"simplification.curvature_floor",
-               "κ̂ at or below which Eq. (13) keeps no neighbours (rescaled above): suppresses "
-               "the clusters that curvature noise on flat parts would keep", "0 (the paper)", {}},
-              {"simplification.order",
-               "sequential (the paper's order) or tiled: 8-colour cells of edge 2·r_s in "
-               "parallel", "sequential", {"sequential", "tiled"}},
+              ChoiceParam("simplification.mode",
+                          "adaptive: Eq. (13) keeps points by curvature; uniform: κ̂ ignored",
+                          {"adaptive", "uniform"}),
+              DerivedRealParam("simplification.spacing_mm",
+                               "target spacing r_s between kept points",
+                               "2·√(Δs·Δp), median over scans; 2/√density without scanlines",
+                               LeftOpen(0, 1e4)),
+              RealParam("simplification.edge_threshold",
+                        "τ_E: centres with κ̂ ≥ τ_E form the edge set, processed first", 0.5,
+                        Closed(0, 1)),
+              RealParam("simplification.curvature_floor",
+                        "κ̂ at or below which Eq. (13) keeps no neighbours (rescaled above): "
+                        "suppresses the clusters that curvature noise on flat parts would keep "
+                        "(0 = the paper)", 0, RightOpen(0, 1)),
+              ChoiceParam("simplification.order",
+                          "sequential (the paper's order) or tiled: 8-colour cells of edge 2·r_s "
+                          "in parallel",
+                          {"sequential", "tiled"}),
           },
       .make = [] { return std::make_unique<SimplificationStage>(); },
   };

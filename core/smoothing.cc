@@ -47,8 +47,7 @@ class SmoothingStage : public Stage {
     }
     absl::StatusOr<Settings> settings = ReadSettings(ctx);
     if (!settings.ok()) return settings.status();
-    const int iterations =
-        static_cast<int>(std::clamp(ctx.Number("smoothing.iterations", 1), 0.0, 100.0));
+    const int iterations = static_cast<int>(ctx.Integer("smoothing.iterations"));
 
     std::vector<float> nx(n), ny(n), nz(n);
     std::vector<uint8_t> outcome(n);
@@ -100,21 +99,15 @@ class SmoothingStage : public Stage {
  private:
   static absl::StatusOr<Settings> ReadSettings(JobContext& ctx) {
     Settings s;
-    s.lambda = static_cast<float>(ctx.Number("smoothing.lambda", 0.5));
-    if (!(s.lambda >= 0 && s.lambda <= 1)) {
-      return absl::InvalidArgumentError("smoothing.lambda: must be in [0, 1]");
-    }
-    const std::string influence = ctx.Choice("smoothing.influence", "cubic");
+    s.lambda = static_cast<float>(ctx.Number("smoothing.lambda"));
+    const std::string influence = ctx.Choice("smoothing.influence");
     s.influence = influence == "gauss"     ? Influence::kGauss
                   : influence == "average" ? Influence::kAverage
                                            : Influence::kCubic;
-    s.blend = ctx.Choice("smoothing.mode", "mean") == "blend";
-    s.clamp = ctx.Choice("smoothing.tolerance", "reject") == "clamp";
+    s.blend = ctx.Choice("smoothing.mode") == "blend";
+    s.clamp = ctx.Choice("smoothing.tolerance") == "clamp";
     const PointCloud& cloud = ctx.cloud();
     const std::optional<double> forced = ctx.Overridden("smoothing.tolerance_mm");
-    if (forced && !(*forced >= 0)) {
-      return absl::InvalidArgumentError("smoothing.tolerance_mm: must be >= 0");
-    }
     for (size_t scan = 0; scan < std::max<size_t>(cloud.scans.size(), 1); ++scan) {
       // δ = u: a move within the measuring uncertainty cannot be told apart from noise.
       const double u = scan < cloud.scans.size() ? cloud.scans[scan].uncertainty : 0.1;
@@ -176,19 +169,23 @@ StageInfo SmoothingStageInfo() {
                  "longer than the uncertainty rejected (Eqs. 6-10)",
       .params =
           {
-              {"smoothing.lambda", "λ of Eq. (6): share of viewing quality vs. flatness in w_j",
-               "0.5", {}},
-              {"smoothing.influence", "distance fall-off Φ: 1-0.8x³, e^{-2x²} or none", "cubic",
-               {"cubic", "gauss", "average"}},
-              {"smoothing.mode",
-               "mean: p' of Eq. (8); blend: p + w_p·(p' - p), each point's move scaled by its own "
-               "weight", "mean", {"mean", "blend"}},
-              {"smoothing.tolerance", "a move longer than δ is rejected (Eq. 10) or clamped to δ",
-               "reject", {"reject", "clamp"}},
-              {"smoothing.tolerance_mm", "δ of Eq. (10)", "the scan's measuring uncertainty u",
-               {}},
-              {"smoothing.iterations", "Jacobi passes, each from the previous pass's positions",
-               "1", {}},
+              RealParam("smoothing.lambda",
+                        "λ of Eq. (6): share of viewing quality vs. flatness in w_j", 0.5,
+                        Closed(0, 1)),
+              ChoiceParam("smoothing.influence", "distance fall-off Φ: 1-0.8x³, e^{-2x²} or none",
+                          {"cubic", "gauss", "average"}),
+              ChoiceParam("smoothing.mode",
+                          "mean: p' of Eq. (8); blend: p + w_p·(p' - p), each point's move "
+                          "scaled by its own weight",
+                          {"mean", "blend"}),
+              ChoiceParam("smoothing.tolerance",
+                          "a move longer than δ is rejected (Eq. 10) or clamped to δ",
+                          {"reject", "clamp"}),
+              DerivedRealParam("smoothing.tolerance_mm", "δ of Eq. (10)",
+                               "the scan's measuring uncertainty u", Closed(0, 1e4)),
+              IntegerParam("smoothing.iterations",
+                           "Jacobi passes, each from the previous pass's positions", 1,
+                           Closed(0, 100)),
           },
       .make = [] { return std::make_unique<SmoothingStage>(); },
   };

@@ -1,6 +1,7 @@
 // The stage interface and the per-job context every stage works in.
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -41,6 +42,7 @@ const std::vector<StageInfo>& StageRegistry();
 const StageInfo* FindStage(std::string_view name);
 // All parameter specs of all stages (plus the shared neighbourhood ones).
 std::vector<ParamSpec> AllParamSpecs();
+const ParamSpec* FindParam(std::string_view name);
 
 // Per-point measures shared between stages (§8, §9), filled by the "measures" stage.
 struct PointMeasures {
@@ -58,14 +60,21 @@ class JobContext {
   const CancelToken& cancel() const { return cancel_; }
   PointMeasures& measures() { return measures_; }
 
-  // The value to use for a numeric parameter: the request's override if there is one, else
-  // `derived`. Either way it is recorded in the running stage's report.
+  // The value to use for a numeric parameter: the request's override if there is one, else the
+  // default its spec declares. Either way it is recorded in the running stage's report.
+  // Overrides were range-checked before the job started (ValidateOverrides).
+  double Number(std::string_view name);
+  // Like Number() for a parameter whose default is derived from the data: `derived`.
   double Number(std::string_view name, double derived);
+  // Like Number() for an integer parameter.
+  int64_t Integer(std::string_view name);
+  int64_t Integer(std::string_view name, int64_t derived);
   // The request's override of a numeric parameter, if any, without recording it; for parameters
   // that are derived per scan and recorded under per-scan names.
   std::optional<double> Overridden(std::string_view name) const;
-  // Like Number() for a choice parameter.
-  std::string Choice(std::string_view name, std::string_view fallback);
+  // The chosen value of a choice parameter (override, else the spec's default); recorded in the
+  // running stage's report as a text parameter.
+  std::string Choice(std::string_view name);
   // Records a derived value that cannot be overridden (e.g. a count or a measured statistic).
   void Record(std::string_view name, double value);
   void Warn(std::string message);
@@ -104,6 +113,9 @@ class JobContext {
   void RecordCappedBalls(const std::string& stage);
   // Unremoved input points, each duplicate group counted with its multiplicity.
   uint64_t KeptInputPoints() const;
+  // Record()s a parameter's value and returns it.
+  double Recorded(std::string_view name, double value);
+  static const ParamSpec& DeclaredSpec(std::string_view name, ParamKind kind, bool derived);
 
   PointCloud& cloud_;
   const ParamOverrides& overrides_;

@@ -40,4 +40,13 @@ std::vector<ParamSpec> AllParamSpecs() {
   return specs;
 }
 
+const ParamSpec* FindParam(std::string_view name) {
+  for (const StageInfo& stage : StageRegistry()) {
+    for (const ParamSpec& spec : stage.params) {
+      if (spec.name == name) return &spec;
+    }
+  }
+  return nullptr;
+}
+
 }  // namespace scanprep

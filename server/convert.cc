@@ -150,6 +150,9 @@ void ReportToProto(const PipelineReport& report, v1::Report* out) {
     s->set_points_out(stage.points_out);
     s->set_seconds(stage.seconds);
     for (const auto& [name, value] : stage.parameters) (*s->mutable_parameters())[name] = value;
+    for (const auto& [name, value] : stage.text_parameters) {
+      (*s->mutable_text_parameters())[name] = value;
+    }
     s->set_budget_seconds(stage.budget_seconds);
     s->set_budget_met(stage.budget_met);
   }
@@ -157,6 +160,25 @@ void ReportToProto(const PipelineReport& report, v1::Report* out) {
   out->set_budget_seconds(report.budget_seconds);
   out->set_budget_met(report.budget_met);
   for (const std::string& w : report.warnings) out->add_warnings(w);
+}
+
+void ParamSpecToProto(const ParamSpec& spec, v1::ParameterInfo* out) {
+  out->set_name(spec.name);
+  out->set_description(spec.description);
+  out->set_default_value(spec.default_text);
+  for (const std::string& c : spec.choices) out->add_choices(c);
+  switch (spec.kind) {
+    case ParamKind::kReal: out->set_kind(v1::REAL); break;
+    case ParamKind::kInteger: out->set_kind(v1::INTEGER); break;
+    case ParamKind::kChoice: out->set_kind(v1::CHOICE); return;
+  }
+  out->set_default_derived(!spec.default_value.has_value());
+  out->set_min(spec.range.min);
+  out->set_max(spec.range.max);
+  out->set_min_inclusive(spec.range.min_inclusive);
+  out->set_max_inclusive(spec.range.max_inclusive);
+  out->set_range(spec.range.ToString());
+  out->set_at_most(spec.at_most);
 }
 
 void ResultChunk(const PointCloud& cloud, const std::vector<uint32_t>& indices, size_t begin,

@@ -58,6 +58,9 @@ PipelineOptions OptionsFromHeader(const v1::JobHeader& header, double default_bu
 
 void ReportToProto(const PipelineReport& report, v1::Report* out);
 
+// A parameter's declaration as GetInfo() lists it: kind, default and valid range.
+void ParamSpecToProto(const ParamSpec& spec, v1::ParameterInfo* out);
+
 // Writes points [begin, end) of `indices` into `out`, coordinates divided by `mm_per_unit`.
 void ResultChunk(const PointCloud& cloud, const std::vector<uint32_t>& indices, size_t begin,
                  size_t end, double mm_per_unit, v1::PointChunk* out);

@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/stage.h"
+#include "server/convert.h"
 
 namespace scanprep::server {
 namespace {
@@ -212,13 +213,7 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
     s->set_default_enabled(std::find(defaults.begin(), defaults.end(), stage.name) !=
                            defaults.end());
   }
-  for (const ParamSpec& spec : AllParamSpecs()) {
-    v1::ParameterInfo* p = info->add_parameters();
-    p->set_name(spec.name);
-    p->set_description(spec.description);
-    p->set_default_value(spec.default_text);
-    for (const std::string& c : spec.choices) p->add_choices(c);
-  }
+  for (const ParamSpec& spec : AllParamSpecs()) ParamSpecToProto(spec, info->add_parameters());
   info->set_default_budget_seconds(limits_.default_budget_seconds);
   for (const auto& [stage, seconds] : limits_.default_stage_budget_seconds) {
     (*info->mutable_default_stage_budget_seconds())[stage] = seconds;
