@@ -5,14 +5,15 @@
 # with one thing wrong (deploy/lib/hostile_cases.py): far points at 1e6 and 1e8 mm, 10 % and 50 %
 # coincident points, all points on one line, one plane, metre data sent as mm and mm data sent as
 # metres, a no-pose unorganized scene (a floor and separated spheres, no camera, no scanlines),
-# 1,000 scans of one point; then every numeric parameter `scanprep info` lists, one at a time,
-# set to each of -1, 0, 1e-30, 1e30, 2^32 and NaN. Each case runs `scanprep process` (the
-# default pipeline) against a fresh scanprep-server on loopback, timed end to end, with the
-# server's peak resident memory (/proc VmHWM) taken when the call returns.
+# 1,000 scans of one point (alone, and the ordinary cloud in 1,000 scans); then every numeric
+# parameter `scanprep info` lists, one at a time, set to each of -1, 0, 1e-30, 1e30, 2^32 and
+# NaN. Each case runs `scanprep process` (the default pipeline) against a fresh scanprep-server
+# on loopback, timed end to end, with the server's peak resident memory (/proc VmHWM) taken when
+# the call returns.
 # A case passes when it ends, with a result or INVALID_ARGUMENT (for a parameter, a message that
-# names it), within 3x the ordinary cloud's seconds and 2x its peak server memory. A case still
-# running after CASE_TIMEOUT seconds is FAIL-timeout, one whose server grows past MEMORY_CAP_MIB
-# is FAIL-memory-cap (both end the server and go on with a fresh one).
+# names it and its value), within 3x the ordinary cloud's seconds and 2x its peak server memory.
+# A case still running after CASE_TIMEOUT seconds is FAIL-timeout, one whose server grows past
+# MEMORY_CAP_MIB is FAIL-memory-cap (both end the server and go on with a fresh one).
 # Prints a markdown table (case, points, seconds, peak server memory, time and memory ratio,
 # verdict) and the status messages; exits 1 when any case fails.
 # Usage: deploy/run-hostile-benchmark.sh [POINTS]   (default 100000 points per cloud)
@@ -140,18 +141,21 @@ import re, statistics, sys
 
 
 def precise(message, case):
-    """A refusal of a swept parameter must name it and its value (as text or as a number equal
-    to it); other cases' refusals are taken as they are."""
+    """A refusal of a swept parameter must name it followed by its value, the project's
+    "NAME: VALUE ..." / "NAME = VALUE ..." (as text or a number equal to it), so that the limit
+    in the message is not taken for the value; other cases' refusals are taken as they are."""
     if "=" not in case:
         return True
     parameter, value = case.split("=")
-    rest = message.replace(parameter, " ")
-    if parameter not in message:
+    found = re.search(re.escape(parameter) + r"['\"\]\s:=]*(?:is |of )?'?([^\s',;)]+)", message)
+    if not found:
         return False
     if value == "nan":
-        return "nan" in rest.lower()
-    numbers = re.findall(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", rest)
-    return any(abs(float(n) - float(value)) <= 1e-5 * abs(float(value)) for n in numbers)
+        return found[1].lower() == "nan"
+    try:
+        return abs(float(found[1]) - float(value)) <= 1e-5 * abs(float(value))
+    except ValueError:
+        return False
 
 
 rows = [line.rstrip("\n").split("\t") for line in open(sys.argv[1])]

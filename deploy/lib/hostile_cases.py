@@ -67,20 +67,18 @@ class Cases:
         self.scans = {s["scanId"]: read_ply(os.path.join(ordinary_dir, s["scanId"] + ".ply"))
                       for s in self.job["scans"]}
 
-    def emit(self, case, scans, job=None, extra=()):
-        """Writes `scans` ({stem: (names, fmt, rows)}) and `job` (default: the ordinary one)
-        under OUT/case and prints the manifest line."""
+    def emit(self, case, scans, job, extra=()):
+        """Writes `scans` ({stem: (names, fmt, rows)}) and `job` (None: no job file, so no
+        scanner metadata) under OUT/case and prints the manifest line."""
         folder = os.path.join(self.out, case)
         os.makedirs(folder)
-        files = []
+        args = []
         for stem, (names, fmt, rows) in scans.items():
-            files.append(os.path.join(folder, stem + ".ply"))
-            write_ply(files[-1], names, fmt, rows)
-        args = files
-        if job is not None or scans.keys() <= self.scans.keys():
-            job_path = os.path.join(folder, "job.json")
-            json.dump(self.job if job is None else job, open(job_path, "w"), indent=1)
-            args += ["--job", job_path]
+            args.append(os.path.join(folder, stem + ".ply"))
+            write_ply(args[-1], names, fmt, rows)
+        if job is not None:
+            args += ["--job", os.path.join(folder, "job.json")]
+            json.dump(job, open(args[-1], "w"), indent=1)
         points = sum(len(rows) for _, _, rows in scans.values())
         print("\t".join([case, str(points), *args, *extra]))
 
@@ -95,11 +93,11 @@ class Cases:
 
     def far_point(self, distance):
         # One point of the first scan copied to x = distance beside the ordinary cloud.
-        scans = self.mapped(lambda rows, names: None)
+        scans = self.mapped(lambda rows, names: None)  # copies
         names, _, rows = scans[self.job["scans"][0]["scanId"]]
         rows.append(list(rows[0]))
         rows[-1][names.index("x")] = distance
-        self.emit(f"far_point_{distance:.0e}".replace("+0", ""), scans)
+        self.emit(f"far_point_{distance:.0e}".replace("+0", ""), scans, self.job)
 
     def coincident(self, percent):
         # Every (100 / percent)-th point moved onto the scan's first point: one location holding
@@ -111,7 +109,7 @@ class Cases:
                 row = rows[int(k * step)]
                 for a in xyz:
                     row[a] = rows[0][a]
-        self.emit(f"coincident_{percent}pct", self.mapped(collapse))
+        self.emit(f"coincident_{percent}pct", self.mapped(collapse), self.job)
 
     def line(self):
         # All points on the x axis at the job's point spacing, in their scan order.
@@ -122,7 +120,7 @@ class Cases:
             x, y, z = (names.index(a) for a in "xyz")
             for row in rows:
                 row[x], row[y], row[z] = next(counter) * spacing, 0.0, 0.0
-        self.emit("line", self.mapped(flatten))
+        self.emit("line", self.mapped(flatten), self.job)
 
     def unit_slips(self):
         # Metre data sent as mm: the same scanner in metres (points and job ×1e-3), no --unit.
@@ -131,9 +129,9 @@ class Cases:
                 for a in (names.index(a) for a in "xyz"):
                     row[a] *= 1e-3
         self.emit("metre_data_as_mm", self.mapped(to_metres),
-                  job=scale_job(json.loads(json.dumps(self.job)), 1e-3))
+                  scale_job(json.loads(json.dumps(self.job)), 1e-3))
         # Millimetre data sent as metres: the ordinary files and job with --unit m.
-        self.emit("mm_data_as_metres", self.mapped(lambda rows, names: None), extra=["--unit", "m"])
+        self.emit("mm_data_as_metres", self.scans, self.job, extra=["--unit", "m"])
 
     def one_point_scans(self, scans):
         """`scans` scans of one point each (points of the first scan, with its metadata), alone;
@@ -146,14 +144,14 @@ class Cases:
 
         def job(stems):
             return dict(self.job, scans=[dict(self.job["scans"][0], scanId=s) for s in stems])
-        self.emit(f"one_point_scans_{scans}", singles, job=job(singles))
+        self.emit(f"one_point_scans_{scans}", singles, job(singles))
         extra = dict(list(singles.items())[:scans - len(self.scans)])
         taken = {n * step for n in range(len(extra))}
         ordinary = dict(self.scans)
         ordinary[first] = (names, fmt, [r for i, r in enumerate(rows) if i not in taken])
         ordinary_job = job(extra)
         ordinary_job["scans"] = self.job["scans"] + ordinary_job["scans"]
-        self.emit(f"ordinary_in_{scans}_scans", {**ordinary, **extra}, job=ordinary_job)
+        self.emit(f"ordinary_in_{scans}_scans", {**ordinary, **extra}, ordinary_job)
 
 
 def no_pose_scene(scene_dir, cases, points):
@@ -168,20 +166,20 @@ def no_pose_scene(scene_dir, cases, points):
     for k in range(spheres):  # a grid of spheres 40 mm apart, 5 mm above the floor
         dx, dy = (40 * (k % side - (side - 1) / 2), 40 * (k // side - (side - 1) / 2))
         rows += [[r[0] + dx, r[1] + dy, r[2] + 15] for r in sphere]
-    cases.emit("no_pose_unorganized", {"scene": (["x", "y", "z"], "<fff", rows)})
+    cases.emit("no_pose_unorganized", {"scene": (["x", "y", "z"], "<fff", rows)}, None)
 
 
 def main():
     ordinary_dir, plane_dir, scene_dir, out_dir = sys.argv[1:5]
     cases = Cases(ordinary_dir, out_dir)
-    cases.emit("ordinary", cases.scans)
+    cases.emit("ordinary", cases.scans, cases.job)
     cases.far_point(1e6)
     cases.far_point(1e8)
     cases.coincident(10)
     cases.coincident(50)
     cases.line()
     plane = Cases(plane_dir, out_dir)
-    plane.emit("plane", plane.scans)
+    plane.emit("plane", plane.scans, plane.job)
     cases.unit_slips()
     no_pose_scene(scene_dir, cases, sum(len(r) for _, _, r in cases.scans.values()))
     cases.one_point_scans(1000)
