@@ -36,7 +36,9 @@ for b in json.load(sys.stdin)["benchmarks"]:
       local rc=$?
       python3 -c '
 import json, sys
-reason = f"FAIL-timeout after {sys.argv[3]} s" if sys.argv[2] == "124" else f"exit {sys.argv[2]}"
+rc = int(sys.argv[2])
+reason = (f"FAIL-timeout after {sys.argv[3]} s" if rc == 124 else
+          f"FAIL: exit {rc}" + (f" (signal {rc - 128})" if rc > 128 else ""))
 print(json.dumps({"name": sys.argv[1], "error_occurred": True, "error_message": reason}))' \
         "$c" "$rc" "${CASE_TIMEOUT:-0}" >>"$out"
     fi

@@ -90,7 +90,7 @@ run_case() {
     rss=$(status_kb "$server_pid" VmRSS)
     if [[ -z $rss ]]; then
       break  # the server is gone; the client reports how
-    elif ((${rss} > memory_cap_kb)); then
+    elif ((rss > memory_cap_kb)); then
       outcome=FAIL-memory-cap
     elif ((${now/[.,]/} - ${start/[.,]/} > limit_us)); then
       outcome=FAIL-timeout
@@ -160,6 +160,8 @@ def precise(message, case):
 
 rows = [line.rstrip("\n").split("\t") for line in open(sys.argv[1])]
 ordinary, cases = rows[:3], rows[3:]
+if any(r[4] != "ok" for r in ordinary):
+    sys.exit(f"the ordinary cloud itself failed, no reference: {ordinary}")
 seconds = statistics.median(float(r[2]) for r in ordinary)
 peak_kb = statistics.median(int(r[3]) for r in ordinary)
 print("| case | points | seconds | peak server memory (MiB) | time ratio | memory ratio "
