@@ -6,8 +6,13 @@
 # table (points, threads, case, seconds, points/s, peak resident memory). Then the end-to-end service
 # benchmark (deploy/run-e2e-benchmark.sh) adds its rows to the same table: at the point counts the
 # filter names (numbers of 1000 or more; all of 1 M and 4 M when it names none), with the thread
-# count the filter ends with (/N/T), else with 1 and 2 threads.
+# count the filter ends with (/N/T), else with 1 and 2 threads. The hostile-input family
+# (BM_Hostile/*, docs/hostile-inputs.md) runs only when the filter names it ('Hostile'), without
+# these service rows: its service side is deploy/run-hostile-benchmark.sh.
+# A case that fails (a refused parameter) shows its message instead of its numbers.
 # Usage: deploy/run-benchmarks.sh [BENCHMARK_FILTER]   e.g. '/1000000/2' for 1 M points, 2 threads
+# Environment: CASE_TIMEOUT (seconds; a case still running then is stopped and shown as
+# FAIL-timeout; default none).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash deploy/install-deps.sh
@@ -17,12 +22,26 @@ out=$(mktemp)
 # Each case in its own process, so peak resident memory belongs to that case alone.
 run_cases() {  # BENCHMARK_BINARY; appends one JSON line per case matching the filter to $out
   local cases c
-  mapfile -t cases < <("$1" --benchmark_list_tests --benchmark_filter="${filter}" 2>/dev/null)
+  # The hostile-input family only when asked for by name: on unbounded code its cases may not end.
+  mapfile -t cases < <("$1" --benchmark_list_tests --benchmark_filter="${filter}" 2>/dev/null |
+    if [[ $filter == *Hostile* ]]; then cat; else grep -v '^BM_Hostile/'; fi)
   for c in "${cases[@]}"; do
-    "$1" --benchmark_filter="^${c}\$" --benchmark_format=json 2>/dev/null | python3 -c '
+    if json=$(timeout "${CASE_TIMEOUT:-0}" "$1" --benchmark_filter="^${c}\$" \
+      --benchmark_format=json 2>/dev/null); then
+      python3 -c '
 import json, sys
 for b in json.load(sys.stdin)["benchmarks"]:
-    print(json.dumps(b))' >>"$out"
+    print(json.dumps(b))' <<<"$json" >>"$out"
+    else
+      local rc=$?
+      python3 -c '
+import json, sys
+rc = int(sys.argv[2])
+reason = (f"FAIL-timeout after {sys.argv[3]} s" if rc == 124 else
+          f"FAIL: exit {rc}" + (f" (signal {rc - 128})" if rc > 128 else ""))
+print(json.dumps({"name": sys.argv[1], "error_occurred": True, "error_message": reason}))' \
+        "$c" "$rc" "${CASE_TIMEOUT:-0}" >>"$out"
+    fi
   done
 }
 filter=${1:-.}
@@ -43,12 +62,19 @@ print("| points | threads | case | seconds | points/s | peak RSS (MiB) |")
 print("|---:|---:|---|---:|---:|---:|")
 for b in rows:
     name = b["name"].split("/")
-    case = name[1] if name[0] == "RunPipelineCase" else pcl.get(name[0], name[0].removeprefix("BM_"))
+    case = {"RunPipelineCase": name[1], "BM_Hostile": f"hostile: {name[1]}"}.get(
+        name[0], pcl.get(name[0], name[0].removeprefix("BM_")))
+    if b.get("error_occurred"):  # no counters: points and threads are the name's arguments
+        points, threads = [int(part) for part in name if part.isdigit()][:2]
+        print(f"| {points:,} | {threads} | {case} | {b['error_message']} | | |")
+        continue
     seconds = b["real_time"] / 1e3  # ms
     print(f"| {int(b['points']):,} | {int(b['threads'])} | {case} | {seconds:.3f} | "
           f"{b['points_per_second']:,.0f} | {b['peak_rss_bytes'] / 2**20:,.0f} |")
 PY
 rm -f "$out"
+# The hostile family's service side is deploy/run-hostile-benchmark.sh, not these e2e rows.
+[[ ${1:-} != *Hostile* ]] || exit 0
 mapfile -t e2e_points < <(grep -oE '[0-9]{4,}' <<<"${1:-}" || true)
 e2e_threads=$(sed -nE 's|.*/[0-9]+/([0-9]+)\$?$|\1|p' <<<"${1:-}")
 BUILD_DIR=build SKIP_BUILD=1 THREADS=${e2e_threads:-1 2} \

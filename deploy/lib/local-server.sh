@@ -4,6 +4,7 @@
 start_local_server() {
   local log=$1
   shift
+  : >"$log"  # a previous server's "listening on port" must not be read as this one's
   "$bin/server/scanprep-server" --plaintext --listen=127.0.0.1:0 "$@" >"$log" 2>&1 &
   server_pid=$!
   port=

@@ -2,7 +2,6 @@
 // and the baseline every target is a ratio to: a bare nanoflann build + k=20 kNN loop (TBB) over
 // the same points. Arguments: {points, threads}. Run through deploy/run-benchmarks.sh, which
 // prints the README table.
-#include <map>
 #include <string>
 #include <vector>
 
@@ -13,8 +12,8 @@
 
 #include "core/kdtree.h"
 #include "core/neighbourhoods.h"
-#include "core/pipeline.h"
 #include "tests/bench/bench_cloud.h"
+#include "tests/bench/pipeline_case.h"
 
 namespace scanprep::bench {
 namespace {
@@ -54,43 +53,6 @@ void BM_NeighbourGraph(benchmark::State& state) {
     });
   }
   SetCounters(state, cloud.size());
-}
-
-// The pipeline over a fresh copy of the cloud each iteration, timed by its own report:
-// `stage` empty = the whole default pipeline, else that stage alone (the stages it pulls in
-// through Require() are timed by their own cases). `workload` makes the cloud of a point count;
-// `params` overrides stage parameters.
-void RunPipelineCase(benchmark::State& state, const std::string& stage,
-                     const PointCloud& (*workload)(size_t) = ReferenceCloud,
-                     const ParamOverrides& params = {}) {
-  const PointCloud& reference = workload(state.range(0));
-  tbb::task_arena arena(static_cast<int>(state.range(1)));
-  CancelToken cancel;
-  PipelineOptions options;
-  options.params = params;
-  if (!stage.empty()) options.stages = {stage};
-  std::map<std::string, double> stage_seconds;  // per-stage breakdown of the whole pipeline
-  for (auto _ : state) {
-    PointCloud cloud = reference;
-    absl::StatusOr<PipelineReport> report;
-    arena.execute([&] { report = RunPipeline(cloud, options, cancel); });
-    if (!report.ok()) {
-      state.SkipWithError(std::string(report.status().message()).c_str());
-      return;
-    }
-    double seconds = stage.empty() ? report->total_seconds : 0;
-    for (const StageReport& s : report->stages) {
-      seconds += s.name == stage ? s.seconds : 0;
-      stage_seconds[s.name] += s.seconds;
-    }
-    state.SetIterationTime(seconds);
-  }
-  SetCounters(state, reference.size());
-  if (stage.empty()) {
-    for (const auto& [name, seconds] : stage_seconds) {
-      state.counters["s_" + name] = benchmark::Counter(seconds, benchmark::Counter::kAvgIterations);
-    }
-  }
 }
 
 BENCHMARK(BM_BareNanoflannKnn)->Apply(Sizes)->UseRealTime();

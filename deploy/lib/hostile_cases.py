@@ -1,0 +1,189 @@
+#!/usr/bin/env python3
+# The hostile-input cases of deploy/run-hostile-benchmark.sh, made from clouds `scanprep simulate`
+# generated (so every case is the ordinary workload with one thing wrong, not a new generator).
+# Usage: hostile_cases.py ORDINARY_DIR PLANE_DIR SCENE_DIR OUT_DIR
+#   ORDINARY_DIR: `simulate --scans 2 -o sim.ply` (sim_frontal.ply, sim_oblique.ply, sim.job.json)
+#   PLANE_DIR:    the same with --part plane;  SCENE_DIR: plane.ply (--part plane, one scan, half
+#   the points) and sphere.ply (--part sphere, one scan), the parts of the no-pose scene.
+# Writes each case's files under OUT_DIR/CASE/ and prints one line per case on stdout:
+#   CASE <TAB> POINTS <TAB> the `scanprep process` arguments, tab-separated (no -o, no --server).
+import json
+import math
+import os
+import struct
+import sys
+
+TYPES = {"char": "b", "int8": "b", "uchar": "B", "uint8": "B", "short": "h", "int16": "h",
+         "ushort": "H", "uint16": "H", "int": "i", "int32": "i", "uint": "I", "uint32": "I",
+         "float": "f", "float32": "f", "double": "d", "float64": "d"}
+
+
+def read_ply(path):
+    """A binary little-endian vertex-only PLY with scalar properties, as scanprep writes it:
+    (property names, list of row lists)."""
+    with open(path, "rb") as f:
+        names, fmt, count = [], "<", 0
+        while (line := f.readline().decode().strip()) != "end_header":
+            words = line.split()
+            if words[:2] == ["element", "vertex"]:
+                count = int(words[2])
+            elif words[0] == "property":
+                fmt += TYPES[words[1]]
+                names.append(words[2])
+            elif words[0] == "format" and words[1] != "binary_little_endian":
+                sys.exit(f"{path}: {words[1]} PLY, expected binary_little_endian")
+        rows = [list(r) for r in struct.iter_unpack(fmt, f.read(struct.calcsize(fmt) * count))]
+    return names, fmt, rows
+
+
+def write_ply(path, names, fmt, rows):
+    kinds = {v: k for k, v in TYPES.items() if k in ("uchar", "uint", "float", "int")}
+    with open(path, "wb") as f:
+        f.write(f"ply\nformat binary_little_endian 1.0\nelement vertex {len(rows)}\n".encode())
+        for name, code in zip(names, fmt[1:]):
+            f.write(f"property {kinds[code]} {name}\n".encode())
+        f.write(b"end_header\n")
+        pack = struct.Struct(fmt).pack
+        f.write(b"".join(pack(*r) for r in rows))
+
+
+def scale_job(job, factor):
+    """The job's lengths (positions, spacings, uncertainty) times `factor`: the same scanner
+    described in another unit."""
+    for scan in job["scans"]:
+        for key in ("cameraPosition", "projectorPosition"):
+            if key in scan:
+                scan[key] = {axis: v * factor for axis, v in scan[key].items()}
+        for key in ("scanlineSpacing", "pointSpacing", "uncertainty"):
+            if key in scan:
+                scan[key] *= factor
+    return job
+
+
+class Cases:
+    def __init__(self, ordinary_dir, out_dir):
+        self.out = out_dir
+        self.job = json.load(open(os.path.join(ordinary_dir, "sim.job.json")))
+        self.scans = {s["scanId"]: read_ply(os.path.join(ordinary_dir, s["scanId"] + ".ply"))
+                      for s in self.job["scans"]}
+
+    def emit(self, case, scans, job, extra=()):
+        """Writes `scans` ({stem: (names, fmt, rows)}) and `job` (None: no job file, so no
+        scanner metadata) under OUT/case and prints the manifest line."""
+        folder = os.path.join(self.out, case)
+        os.makedirs(folder)
+        args = []
+        for stem, (names, fmt, rows) in scans.items():
+            args.append(os.path.join(folder, stem + ".ply"))
+            write_ply(args[-1], names, fmt, rows)
+        if job is not None:
+            args += ["--job", os.path.join(folder, "job.json")]
+            json.dump(job, open(args[-1], "w"), indent=1)
+        points = sum(len(rows) for _, _, rows in scans.values())
+        print("\t".join([case, str(points), *args, *extra]))
+
+    def mapped(self, change):
+        """Every ordinary scan with change(rows, names) applied to a copy of its rows."""
+        out = {}
+        for stem, (names, fmt, rows) in self.scans.items():
+            copy = [list(r) for r in rows]
+            change(copy, names)
+            out[stem] = (names, fmt, copy)
+        return out
+
+    def far_point(self, distance):
+        # One point of the first scan copied to x = distance beside the ordinary cloud.
+        scans = self.mapped(lambda rows, names: None)  # copies
+        names, _, rows = scans[self.job["scans"][0]["scanId"]]
+        rows.append(list(rows[0]))
+        rows[-1][names.index("x")] = distance
+        self.emit(f"far_point_{distance:.0e}".replace("+0", ""), scans, self.job)
+
+    def coincident(self, percent):
+        # Every (100 / percent)-th point moved onto the scan's first point: one location holding
+        # that share of the points, the worst case for a spatial index that splits by position.
+        def collapse(rows, names):
+            xyz = [names.index(a) for a in "xyz"]
+            step = 100 / percent
+            for k in range(int(len(rows) * percent / 100)):
+                row = rows[int(k * step)]
+                for a in xyz:
+                    row[a] = rows[0][a]
+        self.emit(f"coincident_{percent}pct", self.mapped(collapse), self.job)
+
+    def line(self):
+        # All points on the x axis at the job's point spacing, in their scan order.
+        spacing = self.job["scans"][0]["pointSpacing"]
+        counter = iter(range(10**9))
+
+        def flatten(rows, names):
+            x, y, z = (names.index(a) for a in "xyz")
+            for row in rows:
+                row[x], row[y], row[z] = next(counter) * spacing, 0.0, 0.0
+        self.emit("line", self.mapped(flatten), self.job)
+
+    def unit_slips(self):
+        # Metre data sent as mm: the same scanner in metres (points and job ×1e-3), no --unit.
+        def to_metres(rows, names):
+            for row in rows:
+                for a in (names.index(a) for a in "xyz"):
+                    row[a] *= 1e-3
+        self.emit("metre_data_as_mm", self.mapped(to_metres),
+                  scale_job(json.loads(json.dumps(self.job)), 1e-3))
+        # Millimetre data sent as metres: the ordinary files and job with --unit m.
+        self.emit("mm_data_as_metres", self.scans, self.job, extra=["--unit", "m"])
+
+    def one_point_scans(self, scans):
+        """`scans` scans of one point each (points of the first scan, with its metadata), alone;
+        and the ordinary cloud in `scans` scans, all but its own of one point each. The server's
+        default max_scans_per_job is 1,000."""
+        first = self.job["scans"][0]["scanId"]
+        names, fmt, rows = self.scans[first]
+        step = len(rows) // scans
+        singles = {f"single_{n:04d}": (names, fmt, [rows[n * step]]) for n in range(scans)}
+
+        def job(stems):
+            return dict(self.job, scans=[dict(self.job["scans"][0], scanId=s) for s in stems])
+        self.emit(f"one_point_scans_{scans}", singles, job(singles))
+        extra = dict(list(singles.items())[:scans - len(self.scans)])
+        taken = {n * step for n in range(len(extra))}
+        ordinary = dict(self.scans)
+        ordinary[first] = (names, fmt, [r for i, r in enumerate(rows) if i not in taken])
+        ordinary_job = job(extra)
+        ordinary_job["scans"] = self.job["scans"] + ordinary_job["scans"]
+        self.emit(f"ordinary_in_{scans}_scans", {**ordinary, **extra}, ordinary_job)
+
+
+def no_pose_scene(scene_dir, cases, points):
+    """A generated equivalent of rs1: one unorganized scan (x y z only, no job metadata, so no
+    camera, view direction or scanlines) of a floor twenty times the plane part's size with spheres
+    standing on it, each clear of the others, together about `points` points."""
+    _, _, plane = read_ply(os.path.join(scene_dir, "plane.ply"))
+    _, _, sphere = read_ply(os.path.join(scene_dir, "sphere.ply"))
+    rows = [[20 * r[0], 20 * r[1], r[2]] for r in plane]
+    spheres = max(1, (points - len(rows)) // len(sphere))
+    side = math.ceil(math.sqrt(spheres))
+    for k in range(spheres):  # a grid of spheres 40 mm apart, 5 mm above the floor
+        dx, dy = (40 * (k % side - (side - 1) / 2), 40 * (k // side - (side - 1) / 2))
+        rows += [[r[0] + dx, r[1] + dy, r[2] + 15] for r in sphere]
+    cases.emit("no_pose_unorganized", {"scene": (["x", "y", "z"], "<fff", rows)}, None)
+
+
+def main():
+    ordinary_dir, plane_dir, scene_dir, out_dir = sys.argv[1:5]
+    cases = Cases(ordinary_dir, out_dir)
+    cases.emit("ordinary", cases.scans, cases.job)
+    cases.far_point(1e6)
+    cases.far_point(1e8)
+    cases.coincident(10)
+    cases.coincident(50)
+    cases.line()
+    plane = Cases(plane_dir, out_dir)
+    plane.emit("plane", plane.scans, plane.job)
+    cases.unit_slips()
+    no_pose_scene(scene_dir, cases, sum(len(r) for _, _, r in cases.scans.values()))
+    cases.one_point_scans(1000)
+
+
+if __name__ == "__main__":
+    main()
