@@ -59,11 +59,11 @@ mkdir -p "$work"/{ordinary,plane,scene,cases}
 "$cli" simulate --points 1000 --part sphere -o "$work/scene/sphere.ply" >/dev/null
 python3 deploy/lib/hostile_cases.py "$work"/{ordinary,plane,scene,cases} >"$work/manifest"
 
-# The numeric parameters of the registry: `info` lists each as "  NAME  [default: ...]", followed
-# by {choices} for a choice parameter.
+# The numeric parameters of the registry: `info` lists each as "  NAME  real in [...]..." or
+# "  NAME  integer in [...]..." (a choice parameter says "one of {...}").
 start_local_server "$work/server.log" --metrics_listen= --threads "$threads"
 mapfile -t parameters < <("$cli" info --server "127.0.0.1:$port" |
-  sed -nE '/\{.*\}$/d; s/^  ([a-z_0-9]+\.[a-z_0-9]+)  \[default: .*/\1/p')
+  sed -nE 's/^  ([a-z_0-9]+\.[a-z_0-9]+)  (real|integer) .*/\1/p')
 stop_local_server || true
 server_pid=
 ((${#parameters[@]})) || { echo "no parameters in scanprep info" >&2; exit 1; }
