@@ -141,7 +141,7 @@ TEST(BoundedCost, MergeRadiusOverrideIsCapped) {
   for (size_t i = first_scan; i < cloud.size(); ++i) cloud.scan[i] = 1;
   PipelineOptions options;
   options.stages = {"correction"};
-  options.params["correction.radius_mm"] = "1000000";
+  options.params["correction.radius_mm"] = "10000";  // the largest the declaration admits
   auto report = RunPipeline(cloud, options, CancelToken());
   ASSERT_TRUE(report.ok()) << report.status();
   const StageReport& correction = report->stages.back();

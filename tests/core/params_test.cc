@@ -86,10 +86,13 @@ TEST(Params, EveryNumericParameterSurvivesHostileValues) {
         EXPECT_TRUE(message.starts_with("options.params['" + spec.name + "']")) << message;
         continue;
       }
-      // A value the spec admits is used as given.
+      // A value the spec admits is used as given, unless it is a radius beyond the data's own
+      // scale: then the report has the smaller value used and counts the cap.
       ASSERT_TRUE(report.ok()) << report.status();
       const std::optional<double> used = Reported(*report, spec.name);
       ASSERT_TRUE(used.has_value());
+      const std::string stage = spec.name.substr(0, spec.name.find('.'));
+      if (Reported(*report, stage + ".radii_capped").value_or(0) > 0 && *used < value) continue;
       EXPECT_NEAR(*used, value, 1e-6 * std::abs(value));  // per-scan values are stored as float
     }
   }
