@@ -45,10 +45,10 @@ class NormalsStage : public Stage {
       mitra.c2 = ctx.Number("normals.mitra_c2");
       mitra.epsilon = ctx.Number("normals.mitra_epsilon");
       const double r_max_limit = kMaxRadiusPerGlobalRadius * nb.global_radius();
-      mitra.r_max = ctx.Recorded("normals.mitra_max_radius_mm",
-                                 ctx.CapRadius("normals.mitra_max_radius_mm",
-                                               ctx.Number("normals.mitra_max_radius_mm", r_max_limit),
-                                               r_max_limit));
+      mitra.r_max = ctx.CapRadius("normals.mitra_max_radius_mm",
+                                  ctx.Number("normals.mitra_max_radius_mm", r_max_limit),
+                                  r_max_limit);
+      ctx.Record("normals.mitra_max_radius_mm", mitra.r_max);  // the value used
     }
     const std::optional<double> sigma_override = ctx.Overridden("normals.mitra_sigma_mm");
     for (size_t s = 0; mode == "mitra" && s < cloud.scans.size(); ++s) {
