@@ -126,6 +126,7 @@ class NormalsStage : public Stage {
     ctx.Record("normals.oriented_toward_sensor", static_cast<double>(counts.toward_sensor));
     ctx.Record("normals.oriented_by_tree", static_cast<double>(counts.propagated));
     ctx.Record("normals.tree_bridges", static_cast<double>(counts.bridges));
+    ctx.Record("normals.bridge_work", static_cast<double>(counts.bridge_work));
     if (counts.propagated > 0) {
       ctx.Warn(absl::StrCat("normals: ", counts.propagated,
                             " normals oriented by spanning-tree propagation (no sensor pose); "
