@@ -5,7 +5,9 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <string>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include "core/pipeline.h"
@@ -122,6 +124,72 @@ TEST(NormalOrientation, ClutteredTableWithoutPoseIsConsistentInLinearWork) {
   }
   const uint32_t top = scene.object[seed];
   EXPECT_GE(agree[top], 0.99 * checked[top]) << "the seed's object " << top;
+}
+
+// Thousands of components: 2,940 patches of 4 × 4 points, 0.1 mm apart, each tilted its own way,
+// on a lattice 3 mm apart, so none reaches another in the 10-NN orientation graph. All must be
+// joined into one tree, with work linear in the points (at most a centroid query and 16
+// sampled-pair queries per patch here).
+TEST(NormalOrientation, ThousandsOfSmallComponentsAreJoinedInLinearWork) {
+  PointCloud cloud;
+  std::mt19937 rng(3);
+  std::normal_distribution<float> gauss;
+  size_t patches = 0;
+  for (int a = 0; a < 14; ++a) {
+    for (int b = 0; b < 14; ++b) {
+      for (int c = 0; c < 15; ++c, ++patches) {
+        const Eigen::Vector3f normal =
+            Eigen::Vector3f(gauss(rng), gauss(rng), gauss(rng)).normalized();
+        const Eigen::Vector3f u = normal.unitOrthogonal(), v = normal.cross(u);
+        for (int s = 0; s < 4; ++s) {
+          for (int t = 0; t < 4; ++t) {
+            const Eigen::Vector3f p = Eigen::Vector3f(3 * a, 3 * b, 3 * c) + 0.1f * s * u +
+                                      0.1f * t * v;
+            cloud.x.push_back(p.x());
+            cloud.y.push_back(p.y());
+            cloud.z.push_back(p.z());
+          }
+        }
+      }
+    }
+  }
+  cloud.scans.push_back(ScanMeta{.id = "patches", .uncertainty = 0.01});
+  cloud.FinishLoading();
+  const size_t n = cloud.size();
+  CancelToken cancel;
+  auto report = RunPipeline(cloud, {.stages = {"normals"}}, cancel);
+  ASSERT_TRUE(report.ok()) << report.status();
+  const auto& parameters = report->stages.back().parameters;
+  const double work = parameters.at("normals.bridge_work");
+  const double valid = n - parameters.at("normals.invalid");
+  std::printf("%zu patches, %zu points: %.0f valid normals, %.0f bridges, bridge work %.0f "
+              "(%.2f per point)\n",
+              patches, n, valid, parameters.at("normals.tree_bridges"), work, work / n);
+  EXPECT_EQ(valid, n);
+  EXPECT_EQ(parameters.at("normals.tree_bridges"), patches - 1);
+  EXPECT_EQ(parameters.at("normals.oriented_by_tree"), valid);
+  EXPECT_LE(work, 2.0 * n);
+}
+
+// One point per scan: every normal is invalid (the own scan has no neighbours), so nothing is
+// propagated or bridged, and the stage still succeeds.
+TEST(NormalOrientation, AThousandOnePointScansNeedNoBridges) {
+  PointCloud cloud;
+  for (int s = 0; s < 1000; ++s) {
+    cloud.x.push_back(0.5f * (s % 10));
+    cloud.y.push_back(0.5f * (s / 10 % 10));
+    cloud.z.push_back(0.5f * (s / 100));
+    cloud.scan.push_back(s);
+    cloud.scans.push_back(ScanMeta{.id = "s" + std::to_string(s)});
+  }
+  cloud.FinishLoading();
+  CancelToken cancel;
+  auto report = RunPipeline(cloud, {.stages = {"normals"}}, cancel);
+  ASSERT_TRUE(report.ok()) << report.status();
+  const auto& parameters = report->stages.back().parameters;
+  EXPECT_EQ(parameters.at("normals.invalid"), 1000);
+  EXPECT_EQ(parameters.at("normals.tree_bridges"), 0);
+  EXPECT_EQ(parameters.at("normals.bridge_work"), 0);
 }
 
 }  // namespace
