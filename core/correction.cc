@@ -192,12 +192,11 @@ class CorrectionStage : public Stage {
     RadiusMatches matches;
     size_t removed = 0;
     for (size_t visited = 0; visited < order.size(); ++visited) {
+      // Before the skip of removed centres: a run of them must not skip the check too.
+      if (ctx.cancel().CancelledAt(visited)) return ctx.cancel().Check();
+      if ((visited & 0xffff) == 0) ctx.Progress(double(visited) / order.size());
       const uint32_t i = order[visited];
       if (cloud.removed(i)) continue;
-      if ((visited & 0xffff) == 0) {
-        if (absl::Status s = ctx.cancel().Check(); !s.ok()) return s;
-        ctx.Progress(double(visited) / order.size());
-      }
       nb.Within(cloud, i, radius[cloud.scan[i]], matches);
       if (matches.size() < 2) continue;
       const Verdict v = Judge(cloud, quality, matches);

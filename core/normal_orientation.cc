@@ -166,7 +166,7 @@ absl::Status Bridge(const PointCloud& cloud, const std::vector<uint8_t>& member,
   if (!status.ok()) return status;
   counts.bridge_work += components * kc;
   std::erase_if(candidates, [](const Edge& e) { return !std::isfinite(e.cost); });
-  ParallelSort(candidates.begin(), candidates.end());
+  if (absl::Status s = CancellableSort(candidates, cancel); !s.ok()) return s;
   DisjointSets groups(components);
   std::vector<std::pair<uint32_t, uint32_t>> pairs;
   for (size_t e = 0; e < candidates.size(); ++e) {
@@ -284,8 +284,7 @@ absl::Status Propagate(PointCloud& cloud, const Neighbourhoods& nb, uint32_t k,
   });
   if (!status.ok()) return status;
   std::erase_if(edges, [](const Edge& e) { return !std::isfinite(e.cost); });
-  ParallelSort(edges.begin(), edges.end());
-  if (absl::Status s = cancel.Check(); !s.ok()) return s;
+  if (absl::Status s = CancellableSort(edges, cancel); !s.ok()) return s;
 
   DisjointSets sets(n);
   std::vector<Edge> tree;
