@@ -64,6 +64,9 @@ class NormalsStage : public Stage {
     std::vector<uint8_t> no_normal(n, 0);
 
     const std::span<const uint32_t> order = nb.order();
+    // A Mitra radius costs up to 5 balls of up to 5·r_g (25·k points) with a quadric fit each:
+    // smaller blocks, so that a cancel does not wait for 1024 of them.
+    const size_t grain = mode == "mitra" ? 128 : 1024;
     absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
       Scratch scratch;
       size_t local_invalid = 0;
@@ -103,13 +106,14 @@ class NormalsStage : public Stage {
         variation[i] = static_cast<float>(frame.surface_variation());
       }
       invalid += local_invalid;
-    });
+    }, grain);
     if (!status.ok()) return status;
     for (size_t i = 0; i < n; ++i) {
       cloud.flags[i] = no_normal[i] ? cloud.flags[i] | kNormalInvalid
                                     : cloud.flags[i] & static_cast<uint8_t>(~kNormalInvalid);
     }
 
+    ctx.Progress(0.5);  // the normals are fitted; orientation follows
     OrientationCounts counts;
     status = OrientNormals(cloud, nb, static_cast<uint32_t>(orientation_k), ctx.cancel(), counts);
     if (!status.ok()) return status;
