@@ -98,7 +98,8 @@ TEST(NormalOrientation, ClutteredTableWithoutPoseIsConsistentInLinearWork) {
   const auto& parameters = report->stages.back().parameters;
   const double bridges = parameters.at("normals.tree_bridges");
   const double work = parameters.at("normals.bridge_work");
-  std::printf("table-top: %zu points, %u objects, %.0f bridges, bridge work %.0f (%.3f per point)\n",
+  std::printf("table-top: %zu points, %u objects, %.0f bridges, bridge work %.0f (%.3f per "
+              "point)\n",
               n, scene.objects, bridges, work, work / n);
   // One component per object and the table, so at least that many bridges minus one.
   EXPECT_GE(bridges, scene.objects);
