@@ -95,12 +95,12 @@ std::vector<uint32_t> Stride(std::span<const uint32_t> points, size_t cap) {
 }
 
 // Joins the forest's components in one pass. A spanning tree over the components comes from
-// Kruskal on the edges to each component's nearest centroids (shortest first); groups that
-// cluster of centroids leaves apart are then each joined to the largest group at their nearest
-// centroid pair. Every chosen pair gets one bridge edge, its closest sampled point pair. The
-// work is O(C·log C) for C components plus O(n log n) for the per-component kd-trees; `work`
-// counts the neighbours asked for by all queries (at most C·(kCentroidNeighbours + 2) +
-// kBridgeQueries·(C − 1)), the bound the tests assert.
+// Kruskal on the edges to each component's nearest centroids (shortest first); groups those
+// edges leave apart (clusters of centroids far from each other) are then each joined to the
+// largest group at their nearest centroid pair. Every chosen pair gets one bridge edge, its
+// closest sampled point pair. The work is O(C·log C) for C components plus O(n log n) for the
+// per-component kd-trees; counts.bridge_work counts the neighbours asked for by all queries (at
+// most C·(kCentroidNeighbours + 2) + kBridgeQueries·(C − 1)), the bound the tests assert.
 absl::Status Bridge(const PointCloud& cloud, const std::vector<uint8_t>& member,
                     DisjointSets& sets, std::vector<Edge>& tree, const CancelToken& cancel,
                     OrientationCounts& counts) {
