@@ -177,10 +177,10 @@ absl::Status FindComponents(const std::vector<uint8_t>& member, DisjointSets& se
 
 // Candidate pairs of components to bridge where the k-NN graph does not link them (separate
 // objects, or parts of one surface split by a wide gap), from up to kSamples points of each
-// component: each sample's nearest sample of another component gives a pair. Then, if these
-// pairs leave groups apart (a cluster of objects far from the rest), each such group is paired
-// with the largest group at their nearest pair of samples, so the candidates connect all.
-// Adds the neighbours asked for to `work`.
+// component: each component with the kPartners other components whose samples come nearest to
+// its own. Then, if these pairs leave groups apart (a cluster of objects far from the rest),
+// each such group is paired with the largest group at their nearest pair of samples, so the
+// candidates connect all. Adds the neighbours asked for to `work`.
 absl::Status CandidatePairs(const PointCloud& cloud, const Neighbourhoods& nb,
                             const Components& components, DisjointSets groups,
                             const CancelToken& cancel,
@@ -312,9 +312,9 @@ absl::Status CandidatePairs(const PointCloud& cloud, const Neighbourhoods& nb,
 
 // Per pair of components its bridge: of the edges from each point of the smaller to its nearest
 // of up to kBridgeTargets points of the larger (a kd-tree per larger component), the cheapest
-// by BridgeCost. Adds the neighbours asked
-// for to `work`: each pair is among some component's kPartners and asks at most its size, so
-// at most kPartners·n in all.
+// by BridgeCost. Adds the neighbours asked for to `work`: a pair asks at most the size of the
+// component that named it (as one of its kPartners, or as its group's link), so at most
+// (kPartners + 1)·n in all.
 absl::Status PairBridges(const PointCloud& cloud, const Components& components,
                          std::vector<std::pair<uint32_t, uint32_t>> pairs,
                          const CancelToken& cancel, std::vector<Edge>& bridges, size_t& work) {
@@ -375,7 +375,7 @@ absl::Status PairBridges(const PointCloud& cloud, const Components& components,
 // graph links (NeighbourBridges), then the groups left by the cheapest (BridgeCost) of the
 // bridges (PairBridges) of the CandidatePairs. O(n·k) for the k-NN lists and O(n log n) for the
 // kd-trees; counts.bridge_work counts the neighbours asked for by kd-tree queries, at most
-// (2·kSamples + 1) per sample (kSamples a component) plus kPartners·n for the bridges.
+// 2·kSamples + 1 per sample (kSamples a component) plus (kPartners + 1)·n for the bridges.
 absl::Status Bridge(const PointCloud& cloud, const Neighbourhoods& nb,
                     const std::vector<uint8_t>& member, DisjointSets& sets,
                     std::vector<Edge>& tree, const CancelToken& cancel,
