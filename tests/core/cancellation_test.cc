@@ -8,9 +8,9 @@
 // the token for long. The delays put each cancel into the stage's main work on a 400 k-point
 // cloud; a stage that finished first is tried again with half the delay.
 #include <chrono>
-#include <ctime>
 #include <condition_variable>
 #include <cstdio>
+#include <ctime>
 #include <mutex>
 #include <optional>
 #include <string>
