@@ -2,6 +2,7 @@
 #pragma once
 
 #include <atomic>
+#include <cstddef>
 
 #include "absl/status/status.h"
 
@@ -11,6 +12,9 @@ class CancelToken {
  public:
   void Cancel() { cancelled_.store(true, std::memory_order_relaxed); }
   bool cancelled() const { return cancelled_.load(std::memory_order_relaxed); }
+  // For sequential loops: whether the token fired, looked at only every 4096th iteration `i`,
+  // which keeps the atomic load out of the loop's cost and still stops it within microseconds.
+  bool CancelledAt(size_t i) const { return (i & 4095) == 0 && cancelled(); }
   absl::Status Check() const {
     return cancelled() ? absl::CancelledError("job cancelled") : absl::OkStatus();
   }

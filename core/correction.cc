@@ -11,7 +11,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 
 #include "absl/strings/str_cat.h"
 #include "core/ball_cache.h"
@@ -187,20 +186,19 @@ class CorrectionStage : public Stage {
                                         const std::vector<float>& quality,
                                         const std::vector<float>& radius) {
     PointCloud& cloud = ctx.cloud();
-    std::vector<uint32_t> order(cloud.size());
-    std::iota(order.begin(), order.end(), 0u);
-    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-      return quality[a] != quality[b] ? quality[a] > quality[b] : a < b;
-    });
+    std::vector<uint64_t> keys(cloud.size());
+    for (uint32_t i = 0; i < cloud.size(); ++i) keys[i] = DescendingQualityKey(quality[i], i);
+    if (absl::Status s = CancellableSort(keys, ctx.cancel()); !s.ok()) return s;
+    std::vector<uint32_t> order(keys.size());
+    for (size_t v = 0; v < keys.size(); ++v) order[v] = static_cast<uint32_t>(keys[v]);
     RadiusMatches matches;
     size_t removed = 0;
     for (size_t visited = 0; visited < order.size(); ++visited) {
+      // Before the skip of removed centres: a run of them must not skip the check too.
+      if (ctx.cancel().CancelledAt(visited)) return ctx.cancel().Check();
+      if ((visited & 0xffff) == 0) ctx.Progress(double(visited) / order.size());
       const uint32_t i = order[visited];
       if (cloud.removed(i)) continue;
-      if ((visited & 0xffff) == 0) {
-        if (absl::Status s = ctx.cancel().Check(); !s.ok()) return s;
-        ctx.Progress(double(visited) / order.size());
-      }
       nb.Within(cloud, i, radius[cloud.scan[i]], matches);
       if (matches.size() < 2) continue;
       const Verdict v = Judge(cloud, quality, matches);

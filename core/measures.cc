@@ -117,7 +117,16 @@ class MeasuresStage : public Stage {
     std::vector<float> kappa;
     const bool lines = cloud.kind == ScannerKind::kLine && cloud.has_scanlines();
     if (lines) {
-      if (absl::Status s = ScanlineCurvature(cloud, window, ctx.cancel(), kappa); !s.ok()) return s;
+      ScanlineCurvatureCounts counts;
+      absl::Status s = ScanlineCurvature(cloud, window, ctx.cancel(), kappa, counts);
+      if (!s.ok()) return s;
+      ctx.Record("measures.windows_capped", static_cast<double>(counts.windows_capped));
+      if (counts.windows_capped > 0) {
+        ctx.Warn(absl::StrCat("measures: ", counts.windows_capped, " scanline windows held more "
+                              "than ", kMaxWindowSide, " points on a side and were cut to that; "
+                              "measures.window_mm may be far too large for the point spacing "
+                              "(or given in the wrong unit)"));
+      }
     }
     std::vector<float>& curvature = ctx.measures().curvature;
     curvature.assign(n, 0.f);

@@ -68,6 +68,9 @@ class NormalsStage : public Stage {
     std::vector<uint8_t> no_normal(n, 0);
 
     const std::span<const uint32_t> order = nb.order();
+    // A Mitra radius costs up to 5 balls of up to 5·r_g (25·k points) with a quadric fit each:
+    // smaller blocks, so that a cancel does not wait for 1024 of them.
+    const size_t grain = mode == "mitra" ? 128 : 1024;
     absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
       Scratch scratch;
       size_t local_invalid = 0;
@@ -107,13 +110,14 @@ class NormalsStage : public Stage {
         variation[i] = static_cast<float>(frame.surface_variation());
       }
       invalid += local_invalid;
-    });
+    }, grain);
     if (!status.ok()) return status;
     for (size_t i = 0; i < n; ++i) {
       cloud.flags[i] = no_normal[i] ? cloud.flags[i] | kNormalInvalid
                                     : cloud.flags[i] & static_cast<uint8_t>(~kNormalInvalid);
     }
 
+    ctx.Progress(0.5);  // the normals are fitted; orientation follows
     OrientationCounts counts;
     status = OrientNormals(cloud, nb, static_cast<uint32_t>(orientation_k), ctx.cancel(), counts);
     if (!status.ok()) return status;
@@ -130,6 +134,7 @@ class NormalsStage : public Stage {
     ctx.Record("normals.oriented_toward_sensor", static_cast<double>(counts.toward_sensor));
     ctx.Record("normals.oriented_by_tree", static_cast<double>(counts.propagated));
     ctx.Record("normals.tree_bridges", static_cast<double>(counts.bridges));
+    ctx.Record("normals.bridge_work", static_cast<double>(counts.bridge_work));
     if (counts.propagated > 0) {
       ctx.Warn(absl::StrCat("normals: ", counts.propagated,
                             " normals oriented by spanning-tree propagation (no sensor pose); "

@@ -1,6 +1,7 @@
 #include "core/scanline_curvature.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -65,8 +66,9 @@ float WindowCurvature(const PointCloud& cloud, const LineScratch& s, size_t cent
   return std::isfinite(kappa) ? static_cast<float>(kappa) : std::numeric_limits<float>::quiet_NaN();
 }
 
-void LineCurvature(const PointCloud& cloud, size_t begin, size_t end, double h, LineScratch& s,
-                   std::vector<float>& kappa) {
+void LineCurvature(const PointCloud& cloud, size_t begin, size_t end, double h,
+                   const CancelToken& cancel, LineScratch& s, std::vector<float>& kappa,
+                   ScanlineCurvatureCounts& counts) {
   s.idx.clear();
   for (size_t i = begin; i < end; ++i) {
     if (!cloud.removed(i)) s.idx.push_back(static_cast<uint32_t>(i));
@@ -95,13 +97,23 @@ void LineCurvature(const PointCloud& cloud, size_t begin, size_t end, double h, 
     s.prefix[t + 1] = s.prefix[t];
     s.prefix[t + 1].Add(cloud.point(s.idx[t]).cast<double>() - origin, 1.0);
   }
-  size_t lo = 0, hi = 0;
+  // The window [lo, hi] by arc length, then cut to kMaxWindowSide points a side; `reach` is
+  // the uncut upper end, kept so that both ends still move forward only.
+  size_t lo = 0, reach = 0;
   for (size_t t = 0; t < m; ++t) {
+    if (cancel.CancelledAt(t)) return;
     while (s.segment[lo] != s.segment[t] || s.arc[t] - s.arc[lo] > h) ++lo;
-    if (hi < t) hi = t;
-    while (hi + 1 < m && s.segment[hi + 1] == s.segment[t] && s.arc[hi + 1] - s.arc[t] <= h) ++hi;
-    if (t - lo < 2 || hi - t < 2) continue;  // a segment end: the caller falls back
-    kappa[s.idx[t]] = WindowCurvature(cloud, s, t, lo, hi, h);
+    if (reach < t) reach = t;
+    while (reach + 1 < m && s.segment[reach + 1] == s.segment[t] &&
+           s.arc[reach + 1] - s.arc[t] <= h) {
+      ++reach;
+    }
+    const size_t first = std::max(lo, t - std::min(t, kMaxWindowSide));
+    const size_t last = std::min(reach, t + kMaxWindowSide);
+    if (t - first < 2 || last - t < 2) continue;  // a segment end: the caller falls back
+    counts.windows_capped += first != lo || last != reach;
+    counts.window_points += last - first + 1;
+    kappa[s.idx[t]] = WindowCurvature(cloud, s, t, first, last, h);
   }
 }
 
@@ -127,16 +139,24 @@ std::vector<double> MedianScanlineSpacing(const PointCloud& cloud) {
 }
 
 absl::Status ScanlineCurvature(const PointCloud& cloud, const std::vector<double>& window,
-                               const CancelToken& cancel, std::vector<float>& kappa) {
+                               const CancelToken& cancel, std::vector<float>& kappa,
+                               ScanlineCurvatureCounts& counts) {
   kappa.assign(cloud.size(), std::numeric_limits<float>::quiet_NaN());
   const std::vector<std::pair<size_t, size_t>> runs = ScanlineRuns(cloud);
-  return ParallelFor(runs.size(), cancel, [&](size_t begin, size_t end) {
+  std::atomic<size_t> capped{0}, points{0};
+  absl::Status status = ParallelFor(runs.size(), cancel, [&](size_t begin, size_t end) {
     LineScratch scratch;
+    ScanlineCurvatureCounts local;
     for (size_t r = begin; r < end; ++r) {
       const auto [first, last] = runs[r];
-      LineCurvature(cloud, first, last, window[cloud.scan[first]], scratch, kappa);
+      LineCurvature(cloud, first, last, window[cloud.scan[first]], cancel, scratch, kappa, local);
     }
+    capped += local.windows_capped;
+    points += local.window_points;
   }, 8);
+  counts.windows_capped = capped;
+  counts.window_points = points;
+  return status;
 }
 
 }  // namespace scanprep

@@ -11,7 +11,6 @@
 #include "core/simplification.h"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <numbers>
 #include <numeric>
@@ -100,22 +99,18 @@ class Thinner {
   std::vector<uint8_t> locked_;
 };
 
-// Centres in visiting order: edge set first, then descending q̂, then index. Sorted as packed
-// keys: a comparator that looked q̂ and κ̂ up by index would miss the cache on nearly every
-// comparison of a million-point cloud.
-std::vector<uint32_t> VisitOrder(const PointCloud& cloud, const PointMeasures& m,
-                                 const Thinner& thinner) {
-  // Non-negative floats order like their bit patterns, and q̂ <= 1 fits in 30 bits.
-  constexpr uint64_t kOne = std::bit_cast<uint32_t>(1.f);
+// Centres in visiting order: edge set first, then descending q̂, then index, as packed keys.
+absl::StatusOr<std::vector<uint32_t>> VisitOrder(const PointCloud& cloud, const PointMeasures& m,
+                                                  const Thinner& thinner,
+                                                  const CancelToken& cancel) {
   std::vector<uint64_t> keys;
   keys.reserve(cloud.size());
   for (uint32_t i = 0; i < cloud.size(); ++i) {
     if (cloud.removed(i)) continue;
-    const float q = m.quality[i];
-    const uint64_t bits = q > 0 ? std::bit_cast<uint32_t>(std::min(q, 1.f)) : 0;
-    keys.push_back(uint64_t(thinner.InEdgeSet(i) ? 0 : 1) << 62 | (kOne - bits) << 32 | i);
+    keys.push_back(uint64_t(thinner.InEdgeSet(i) ? 0 : 1) << 62 |
+                   DescendingQualityKey(m.quality[i], i));
   }
-  ParallelSort(keys.begin(), keys.end());
+  if (absl::Status s = CancellableSort(keys, cancel); !s.ok()) return s;
   std::vector<uint32_t> order(keys.size());
   for (size_t v = 0; v < keys.size(); ++v) order[v] = static_cast<uint32_t>(keys[v]);
   return order;
@@ -173,8 +168,13 @@ absl::Status RunTiled(JobContext& ctx, Thinner& thinner, std::vector<uint32_t> o
     const uint64_t phase = thinner.InEdgeSet(i) ? 0 : 1;
     key[i] = phase << 63 | colour << 60 | cx << 40 | cy << 20 | cz;
   }
-  // Stable: within a cell the sequential order survives.
-  std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return key[a] < key[b]; });
+  // By key, then by position in the sequential order, which so survives within a cell.
+  std::vector<std::pair<uint64_t, uint32_t>> ranked(order.size());
+  for (size_t v = 0; v < order.size(); ++v) ranked[v] = {key[order[v]], static_cast<uint32_t>(v)};
+  if (absl::Status s = CancellableSort(ranked, ctx.cancel()); !s.ok()) return s;
+  const std::vector<uint32_t> sequential = std::move(order);
+  order.resize(ranked.size());
+  for (size_t v = 0; v < ranked.size(); ++v) order[v] = sequential[ranked[v].second];
   std::vector<size_t> cell_start;  // start of each cell's run, plus the end
   for (size_t v = 0; v < order.size(); ++v) {
     if (v == 0 || key[order[v]] != key[order[v - 1]]) cell_start.push_back(v);
@@ -260,9 +260,10 @@ class SimplificationStage : public Stage {
     const bool tiled = ctx.Choice("simplification.order") == "tiled";
 
     Thinner thinner(cloud, **nb, m, plan);
-    std::vector<uint32_t> order = VisitOrder(cloud, m, thinner);
-    absl::Status status = tiled ? RunTiled(ctx, thinner, std::move(order), 2 * plan.spacing)
-                                : RunSequential(ctx, thinner, order);
+    absl::StatusOr<std::vector<uint32_t>> order = VisitOrder(cloud, m, thinner, ctx.cancel());
+    if (!order.ok()) return order.status();
+    absl::Status status = tiled ? RunTiled(ctx, thinner, *std::move(order), 2 * plan.spacing)
+                                : RunSequential(ctx, thinner, *order);
     if (!status.ok()) return status;
     ctx.Record("simplification.removed", static_cast<double>(before - cloud.CountKept()));
     return absl::OkStatus();

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "core/pipeline.h"
+#include "core/scanline_curvature.h"
 #include "core/sim/scan_simulator.h"
 #include "tests/support/sim_checks.h"
 
@@ -142,6 +143,66 @@ TEST(Measures, ScanlineCurvatureOfACylinderIsOneOverR) {
               PartGeometry::cylinder_radius, kappa.size(), median, 1 / PartGeometry::cylinder_radius,
               Quantile(kappa, 0.1), Quantile(kappa, 0.9));
   EXPECT_NEAR(median, 1 / PartGeometry::cylinder_radius, 0.1 / PartGeometry::cylinder_radius);
+}
+
+// Five full circles of radius R = 159 mm as scanlines, 20,000 points each, 0.05 mm apart.
+PointCloud Rings() {
+  PointCloud cloud;
+  constexpr int kLines = 5, kPoints = 20000;
+  constexpr double kRadius = kPoints * 0.05 / (2 * std::numbers::pi);
+  for (int line = 0; line < kLines; ++line) {
+    for (int t = 0; t < kPoints; ++t) {
+      const double a = 2 * std::numbers::pi * t / kPoints;
+      cloud.x.push_back(static_cast<float>(kRadius * std::cos(a)));
+      cloud.y.push_back(static_cast<float>(kRadius * std::sin(a)));
+      cloud.z.push_back(0.2f * line);
+      cloud.scanline.push_back(line);
+    }
+  }
+  cloud.scans.push_back(ScanMeta{.id = "rings", .scanline_spacing = 0.2, .uncertainty = 0.01});
+  cloud.FinishLoading();
+  return cloud;
+}
+
+// A window far beyond the data (1e9 mm, as a window given in the wrong unit would be) is cut to
+// kMaxWindowSide points a side: the work stays O(n·K) instead of O(L²) per line. A 1 mm window
+// (20 points a side) is not cut, and gives κ = 1/R.
+TEST(Measures, ScanlineWindowIsBoundedWhateverItsWidth) {
+  PointCloud cloud = Rings();
+  const double radius = 20000 * 0.05 / (2 * std::numbers::pi);
+  const size_t n = cloud.size();
+  CancelToken cancel;
+  std::vector<float> kappa;
+  ScanlineCurvatureCounts huge;
+  ASSERT_TRUE(ScanlineCurvature(cloud, {1e9}, cancel, kappa, huge).ok());
+  std::printf("window 1e9 mm: %zu windows capped, %zu window points (%.1f per point)\n",
+              huge.windows_capped, huge.window_points, double(huge.window_points) / n);
+  EXPECT_LE(huge.window_points, (2 * kMaxWindowSide + 1) * n);
+  EXPECT_EQ(huge.windows_capped, n - 5 * 4);  // all but the two points at each line end
+
+  ScanlineCurvatureCounts fitting;
+  ASSERT_TRUE(ScanlineCurvature(cloud, {1.0}, cancel, kappa, fitting).ok());
+  EXPECT_EQ(fitting.windows_capped, 0u);
+  std::vector<double> relative;
+  for (size_t i = 0; i < n; ++i) {
+    if (std::isfinite(kappa[i])) relative.push_back(std::abs(kappa[i] * radius - 1));
+  }
+  std::printf("window 1 mm: κ·R − 1 median %.5f, max %.5f over %zu points\n",
+              Quantile(relative, 0.5), Quantile(relative, 1.0), relative.size());
+  EXPECT_GE(relative.size(), n - 5 * 40);  // all but 20 points at each line end
+  EXPECT_LT(Quantile(relative, 1.0), 0.02);
+}
+
+TEST(Measures, CappedScanlineWindowsAreReported) {
+  PointCloud cloud = Rings();
+  CancelToken cancel;
+  auto report = RunPipeline(
+      cloud, {.stages = {"measures"}, .params = {{"measures.window_mm", "1e9"}}}, cancel);
+  ASSERT_TRUE(report.ok()) << report.status();
+  EXPECT_GT(report->stages.back().parameters.at("measures.windows_capped"), 0);
+  bool warned = false;
+  for (const std::string& w : report->warnings) warned |= w.find("window_mm") != std::string::npos;
+  EXPECT_TRUE(warned);
 }
 
 }  // namespace
