@@ -46,8 +46,7 @@ absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const Ca
     }
   });
   if (!status.ok()) return status;
-  ParallelSort(keyed.begin(), keyed.end());
-  if (absl::Status s = cancel.Check(); !s.ok()) return s;
+  if (absl::Status s = CancellableSort(keyed, cancel); !s.ok()) return s;
 
   // first[i]: the lowest index of i's group. Within a run of equal hashes each point is
   // compared with the run's distinct points so far (one, unless 64-bit hashes collide).
