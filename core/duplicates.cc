@@ -52,7 +52,10 @@ absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const Ca
   // compared with the run's distinct points so far (one, unless 64-bit hashes collide).
   std::vector<uint32_t> first(n);
   std::vector<uint32_t> distinct;
-  for (size_t begin = 0; begin < n;) {
+  for (size_t begin = 0, runs = 0; begin < n; ++runs) {
+    if ((runs & 0xffff) == 0) {
+      if (absl::Status s = cancel.Check(); !s.ok()) return s;
+    }
     size_t end = begin + 1;
     while (end < n && keyed[end].first == keyed[begin].first) ++end;
     distinct.clear();
@@ -66,9 +69,6 @@ absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const Ca
       first[i] = group;
     }
     begin = end;
-    if ((begin & 0xffff) == 0) {
-      if (absl::Status s = cancel.Check(); !s.ok()) return s;
-    }
   }
 
   DuplicateGroups groups;
