@@ -127,9 +127,8 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
       slot.emplace(std::move(*admitted));
       continue;
     }
-    const uint64_t total = assembler.total_points();
     const uint64_t received = assembler.points_received();
-    const double fraction = total > 0 ? static_cast<double>(received) / total : 0.0;
+    const double fraction = static_cast<double>(received) / assembler.total_points();
     if (!SendProgress(stream, v1::Progress::UPLOAD, "", fraction, received)) {
       return Gone(*context, "upload");
     }

@@ -197,7 +197,7 @@ TEST(AdmissionQueue, DrainingReleasesWaitingCallsAndRefusesNewOnesButKeepsRunnin
 class HeldCall {
  public:
   explicit HeldCall(v1::ScanPrep::Stub& stub) : stream_(stub.Process(&context_)) {
-    stream_->Write(HeaderRequest(SimpleHeader()));
+    stream_->Write(HeaderRequest(SimpleHeader(), 100));
     stream_->Write(ChunkRequest(LineChunk(100)));
   }
   // True once the server acknowledged the chunk, i.e. the call holds a slot.
@@ -223,7 +223,7 @@ grpc::Status SmallJob(v1::ScanPrep::Stub& stub, std::optional<absl::Duration> ti
   grpc::ClientContext context;
   if (timeout) context.set_deadline(absl::ToChronoTime(absl::Now() + *timeout));
   auto stream = stub.Process(&context);
-  stream->Write(HeaderRequest(SimpleHeader()));
+  stream->Write(HeaderRequest(SimpleHeader(), 100));
   stream->Write(ChunkRequest(LineChunk(100)));
   stream->WritesDone();
   v1::ProcessResponse response;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "server/job_assembler.h"
@@ -34,7 +35,9 @@ v1::JobHeader InchHeader() {
 
 TEST(JobAssembler, AppliesUnitAndPoseToPointsAndScannerMetadata) {
   JobAssembler assembler(JobLimits{});
-  ASSERT_TRUE(assembler.Add(Header(InchHeader())).ok());
+  v1::JobHeader h = InchHeader();
+  h.set_total_points(3);
+  ASSERT_TRUE(assembler.Add(Header(h)).ok());
   v1::ProcessRequest chunk;
   for (float v : {1.f, 0.f, 0.f, 0.f, 1.f, std::numeric_limits<float>::infinity(), 0.f, 0.f, 2.f}) {
     chunk.mutable_points()->add_xyz(v);
@@ -73,6 +76,7 @@ TEST(JobAssembler, ScannerKindAndBudgetDefaults) {
   v1::JobHeader h;
   h.set_unit(v1::MILLIMETRE);
   h.add_scans()->set_uncertainty(0.05);
+  h.set_total_points(1);
   JobAssembler assembler(JobLimits{.default_budget_seconds = 7});
   ASSERT_TRUE(assembler.Add(Header(h)).ok());
   v1::ProcessRequest chunk;
@@ -93,6 +97,28 @@ TEST(JobAssembler, RejectsABadDirection) {
   const absl::Status s = assembler.Add(Header(h));
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(s.message(), "header.scans[0].view_direction: must be a finite non-zero vector");
+}
+
+// A stream ends at a message that fails to parse as at a half-close: only the declared count
+// shows that points are missing, so a job must declare it and match it.
+TEST(JobAssembler, RequiresTheDeclaredPointCountAndRefusesFewer) {
+  v1::JobHeader h = InchHeader();
+  const absl::Status undeclared = JobAssembler(JobLimits{}).Add(Header(h));
+  EXPECT_EQ(undeclared.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(undeclared.message(), ::testing::HasSubstr("header.total_points = 0: the number of "
+                                                         "points the upload will send must be "
+                                                         "declared"));
+
+  h.set_total_points(2);
+  JobAssembler assembler(JobLimits{});
+  ASSERT_TRUE(assembler.Add(Header(h)).ok());
+  v1::ProcessRequest chunk;
+  for (int i = 0; i < 3; ++i) chunk.mutable_points()->add_xyz(1.f);
+  ASSERT_TRUE(assembler.Add(chunk).ok());
+  const auto job = assembler.Finish();
+  EXPECT_EQ(job.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(job.status().message(),
+              ::testing::HasSubstr("header.total_points = 2 but 1 points were received"));
 }
 
 }  // namespace

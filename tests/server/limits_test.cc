@@ -49,7 +49,7 @@ TEST(Limits, CallsPerPeerCountEveryCallInProgressFromOneHost) {
   OpenCall calls[2];
   for (OpenCall& call : calls) {
     call.stream = stub->Process(&call.context);
-    ASSERT_TRUE(call.stream->Write(HeaderRequest(SimpleHeader())));
+    ASSERT_TRUE(call.stream->Write(HeaderRequest(SimpleHeader(), 100)));
     ASSERT_TRUE(call.stream->Write(ChunkRequest(LineChunk(100))));
     v1::ProcessResponse response;
     ASSERT_TRUE(call.stream->Read(&response));

@@ -42,9 +42,15 @@ class InProcessServer {
 };
 
 // Writes `requests` (stopping when the server ended the call), half-closes, reads every
-// response and returns the call's status.
-inline grpc::Status RawCall(v1::ScanPrep::Stub& stub, const std::vector<v1::ProcessRequest>& requests,
+// response and returns the call's status. Like the client library, it declares a first header's
+// total_points, when zero, as the points the requests carry.
+inline grpc::Status RawCall(v1::ScanPrep::Stub& stub, std::vector<v1::ProcessRequest> requests,
                             std::vector<v1::ProcessResponse>* responses = nullptr) {
+  if (!requests.empty() && requests[0].has_header() && requests[0].header().total_points() == 0) {
+    uint64_t points = 0;
+    for (const v1::ProcessRequest& r : requests) points += r.points().xyz_size() / 3;
+    requests[0].mutable_header()->set_total_points(points);
+  }
   grpc::ClientContext context;
   auto stream = stub.Process(&context);
   bool open = true;
@@ -63,6 +69,12 @@ inline v1::ProcessRequest HeaderRequest(const v1::JobHeader& header) {
   v1::ProcessRequest r;
   *r.mutable_header() = header;
   return r;
+}
+
+// The header with the number of points the upload will send declared.
+inline v1::ProcessRequest HeaderRequest(v1::JobHeader header, uint64_t total_points) {
+  header.set_total_points(total_points);
+  return HeaderRequest(header);
 }
 
 inline v1::ProcessRequest ChunkRequest(const v1::PointChunk& chunk) {

@@ -182,7 +182,7 @@ TEST(ServerBinary, SigtermLetsTheInFlightCallFinishThenExitsZero) {
       grpc::CreateChannel(server.target(), grpc::InsecureChannelCredentials()));
   grpc::ClientContext context;
   auto stream = stub->Process(&context);
-  ASSERT_TRUE(stream->Write(HeaderRequest(SimpleHeader())));
+  ASSERT_TRUE(stream->Write(HeaderRequest(SimpleHeader(), 500)));
   ASSERT_TRUE(stream->Write(ChunkRequest(LineChunk(500))));
   v1::ProcessResponse response;
   ASSERT_TRUE(stream->Read(&response));  // the upload is acknowledged: the call is in flight
