@@ -31,9 +31,11 @@ ABSL_FLAG(uint64_t, max_bytes_per_call, uint64_t{1} << 30,
           "RESOURCE_EXHAUSTED");
 ABSL_FLAG(uint32_t, max_scans_per_job, 1'000,
           "scans one job header may declare; more end the call with RESOURCE_EXHAUSTED");
-ABSL_FLAG(int, max_calls_per_peer, 16,
+ABSL_FLAG(int, max_calls_per_peer, 0,
           "Process calls one client host (address without port) may have in progress, queued "
-          "included; more end at once with RESOURCE_EXHAUSTED");
+          "included; more end at once with RESOURCE_EXHAUSTED. 0 = half of "
+          "--max_concurrent_jobs, at least 1; must be below max_concurrent_jobs + "
+          "max_queued_jobs, so one host cannot take every place");
 ABSL_FLAG(std::string, metrics_listen, "0.0.0.0:9464",
           "HOST:PORT of the Prometheus /metrics endpoint (port 0 = any free port; empty = off)");
 ABSL_FLAG(int, max_concurrent_jobs, 4,
@@ -122,6 +124,10 @@ int main(int argc, char** argv) {
   options.max_concurrent_jobs = absl::GetFlag(FLAGS_max_concurrent_jobs);
   options.max_queued_jobs = absl::GetFlag(FLAGS_max_queued_jobs);
   options.threads = absl::GetFlag(FLAGS_threads);
+  if (absl::Status s = scanprep::server::CheckCallsPerPeer(options); !s.ok()) {
+    std::cerr << "scanprep-server: " << s.message() << "\n";
+    return 1;
+  }
   auto server = scanprep::server::ScanPrepServer::Start(options);
   if (!server.ok()) {
     std::cerr << "scanprep-server: " << server.status().message() << "\n";

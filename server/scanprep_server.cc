@@ -1,5 +1,7 @@
 #include "server/scanprep_server.h"
 
+#include <algorithm>
+
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 
@@ -32,10 +34,24 @@ absl::StatusOr<HostPort> ParseHostPort(const std::string& text, const std::strin
 
 }  // namespace
 
+int CallsPerPeer(const ServerOptions& options) {
+  return options.max_calls_per_peer > 0 ? options.max_calls_per_peer
+                                        : std::max(1, options.max_concurrent_jobs / 2);
+}
+
+absl::Status CheckCallsPerPeer(const ServerOptions& options) {
+  const int per_peer = CallsPerPeer(options);
+  const int places = options.max_concurrent_jobs + options.max_queued_jobs;
+  if (per_peer == 1 || per_peer < places) return absl::OkStatus();
+  return absl::InvalidArgumentError(absl::StrCat(
+      "--max_calls_per_peer=", per_peer, " would let one client host take every slot and queue "
+      "place (max_concurrent_jobs + max_queued_jobs = ", places, "); it must be below ", places));
+}
+
 ScanPrepServer::ScanPrepServer(const ServerOptions& options)
     : metrics_(registry_),
       log_(options.log),
-      peers_(options.max_calls_per_peer),
+      peers_(CallsPerPeer(options)),
       admission_({.max_concurrent_jobs = options.max_concurrent_jobs,
                   .max_queued_jobs = options.max_queued_jobs},
                  metrics_),
@@ -52,8 +68,8 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
   if (options.max_queued_jobs < 0) {
     return absl::InvalidArgumentError("max_queued_jobs must be at least 0");
   }
-  if (options.max_calls_per_peer < 1) {
-    return absl::InvalidArgumentError("max_calls_per_peer must be at least 1");
+  if (options.max_calls_per_peer < 0) {
+    return absl::InvalidArgumentError("max_calls_per_peer must be at least 0 (0 = the default)");
   }
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();

@@ -79,6 +79,86 @@ TEST(Limits, PeerHostDropsOnlyThePort) {
   EXPECT_EQ(server::PeerHost("unix:/run/scanprep.sock"), "unix:/run/scanprep.sock");
 }
 
+TEST(Limits, TheDefaultPerHostLimitIsHalfTheSlotsAndNoLimitMayCoverEveryPlace) {
+  using server::CallsPerPeer;
+  using server::CheckCallsPerPeer;
+  using server::ServerOptions;
+  EXPECT_EQ(CallsPerPeer(ServerOptions{}), 2);  // 4 slots
+  EXPECT_EQ(CallsPerPeer(ServerOptions{.max_concurrent_jobs = 1}), 1);
+  EXPECT_EQ(CallsPerPeer(ServerOptions{.max_concurrent_jobs = 7}), 3);
+  EXPECT_EQ(CallsPerPeer(ServerOptions{.max_calls_per_peer = 5}), 5);
+  EXPECT_TRUE(CheckCallsPerPeer(ServerOptions{}).ok());
+  EXPECT_TRUE(CheckCallsPerPeer(ServerOptions{.max_calls_per_peer = 11}).ok());  // 4 + 8 places
+  const absl::Status every = CheckCallsPerPeer(ServerOptions{.max_calls_per_peer = 12});
+  EXPECT_EQ(every.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(every.message(),
+            "--max_calls_per_peer=12 would let one client host take every slot and queue place "
+            "(max_concurrent_jobs + max_queued_jobs = 12); it must be below 12");
+  // One slot and no queue: 1 is the only limit there is.
+  EXPECT_TRUE(
+      CheckCallsPerPeer(ServerOptions{.max_concurrent_jobs = 1, .max_queued_jobs = 0}).ok());
+}
+
+// Two client hosts on one machine: the server listens on IPv6's wildcard, so a client connecting
+// to 127.0.0.1 arrives as ipv6:[::ffff:127.0.0.1] and one connecting to [::1] as ipv6:[::1].
+TEST(Limits, OneHostCannotTakeEverySlotWhileAnotherHostsJobCompletes) {
+  server::ServerOptions options;  // 4 slots, 8 queue places, the default per-host limit
+  options.listen = "[::]:0";
+  options.threads = 2;
+  auto server = server::ScanPrepServer::Start(options);
+  ASSERT_TRUE(server.ok()) << server.status();
+  const int port = (*server)->port();
+  auto greedy = v1::ScanPrep::NewStub(grpc::CreateChannel(
+      absl::StrCat("127.0.0.1:", port), grpc::InsecureChannelCredentials()));
+
+  // The greedy host opens calls until refused; each opened call holds a slot.
+  struct OpenCall {
+    grpc::ClientContext context;
+    std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> stream;
+  };
+  std::vector<std::unique_ptr<OpenCall>> held;
+  grpc::Status refused;
+  for (int i = 0; i < 12 && refused.ok(); ++i) {
+    auto call = std::make_unique<OpenCall>();
+    // A queued call would wait for an acknowledgement that never comes.
+    call->context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+    call->stream = greedy->Process(&call->context);
+    call->stream->Write(HeaderRequest(SimpleHeader(), 100));
+    call->stream->Write(ChunkRequest(LineChunk(100)));
+    v1::ProcessResponse ack;
+    if (call->stream->Read(&ack)) {
+      held.push_back(std::move(call));
+    } else {
+      refused = call->stream->Finish();
+    }
+  }
+  EXPECT_EQ(held.size(), 2u);  // half of the 4 slots
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(refused.error_message(), HasSubstr("(max_calls_per_peer)"));
+
+  // Another host's job runs to its report while the greedy host's calls are still open.
+  auto other = client::ScanPrepClient::Connect(absl::StrCat("[::1]:", port));
+  v1::JobHeader header = SimpleHeader();
+  header.mutable_options()->add_stages("outliers");
+  PointCloud cloud;
+  for (int i = 0; i < 200; ++i) {
+    cloud.x.push_back(0.5f * (i % 20));
+    cloud.y.push_back(0.5f * (i / 20));
+    cloud.z.push_back(0.f);
+  }
+  cloud.scans.push_back(ScanMeta{.id = "plane"});
+  cloud.FinishLoading();
+  auto result = other.Process(header, cloud);
+  ASSERT_TRUE(result.ok()) << result.status();
+  EXPECT_EQ(result->report.points_received(), 200u);
+  auto info = other.GetInfo(absl::Seconds(10));
+  ASSERT_TRUE(info.ok()) << info.status();
+  EXPECT_EQ(info->limits().max_calls_per_peer(), 2u);
+
+  for (auto& call : held) call->context.TryCancel();
+  for (auto& call : held) call->stream->Finish();
+}
+
 TEST(Limits, ScansPerJobAreCheckedBeforeAnyScanIsBuilt) {
   server::ServerOptions options;
   options.limits.max_scans_per_job = 3;
@@ -117,11 +197,11 @@ TEST(Limits, MessagesAboveFourMebibytesAreRefusedByGrpcBeforeTheyAreParsed) {
 }
 
 TEST(Limits, GetInfoReportsEveryLimit) {
-  InProcessServer server;
+  InProcessServer server(server::ServerOptions{.max_calls_per_peer = 3});
   auto info = server.Client().GetInfo(absl::Seconds(10));
   ASSERT_TRUE(info.ok()) << info.status();
   EXPECT_EQ(info->limits().max_bytes_per_call(), uint64_t{1} << 30);
-  EXPECT_EQ(info->limits().max_calls_per_peer(), 16u);
+  EXPECT_EQ(info->limits().max_calls_per_peer(), 3u);
   EXPECT_EQ(info->limits().max_scans_per_job(), 1000u);
   EXPECT_EQ(info->limits().max_message_bytes(), 4u << 20);
 }
