@@ -1,12 +1,14 @@
 #include "server/scanprep_server.h"
 
 #include <algorithm>
+#include <thread>
 
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/synchronization/notification.h"
 
 namespace scanprep::server {
 namespace {
@@ -108,7 +110,18 @@ void ScanPrepServer::Shutdown(absl::Duration grace) {
   if (shut_down_) return;
   shut_down_ = true;
   Drain();
-  server_->Shutdown(absl::ToChronoTime(absl::Now() + grace));
+  // At the end of the grace period the jobs are cancelled through their tokens, so the pipeline
+  // stops without waiting for an RPC thread to notice. gRPC cancels the calls themselves once a
+  // cancelled stage has had its 0.2 s to stop, so a processing call ends with the handler's
+  // status naming the shutdown rather than gRPC's own.
+  const absl::Time end = absl::Now() + grace;
+  absl::Notification finished;
+  std::thread canceller([&] {
+    if (!finished.WaitForNotificationWithDeadline(end)) runner_.CancelAll();
+  });
+  server_->Shutdown(absl::ToChronoTime(end + absl::Milliseconds(300)));
+  finished.Notify();
+  canceller.join();
 }
 
 ScanPrepServer::~ScanPrepServer() {

@@ -31,9 +31,17 @@ absl::Time CallDeadline(const grpc::ServerContext& context) {
 // deadline timer firing first.
 constexpr absl::Duration kDeadlineSkew = absl::Milliseconds(250);
 
-// The status of a call that ended from the client's side during `phase`: its deadline passed, or
-// it was cancelled (client gone, connection lost).
-grpc::Status Gone(const grpc::ServerContext& context, std::string_view phase) {
+uint64_t ChunkPoints(const v1::PointChunk& chunk) { return chunk.xyz_size() / 3; }
+
+}  // namespace
+
+grpc::Status ScanPrepService::Gone(const grpc::ServerContext& context,
+                                   std::string_view phase) const {
+  if (runner_.cancelled_all()) {
+    return grpc::Status(grpc::StatusCode::UNAVAILABLE,
+                        absl::StrCat("the server shut down at the end of its grace period during ",
+                                     std::string(phase), "; retry on another replica"));
+  }
   if (absl::Now() + kDeadlineSkew >= CallDeadline(context)) {
     return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
                         absl::StrCat("the call's deadline passed during ", std::string(phase)));
@@ -42,10 +50,6 @@ grpc::Status Gone(const grpc::ServerContext& context, std::string_view phase) {
                       absl::StrCat("the call was cancelled by the client during ",
                                    std::string(phase)));
 }
-
-uint64_t ChunkPoints(const v1::PointChunk& chunk) { return chunk.xyz_size() / 3; }
-
-}  // namespace
 
 grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stream) {
   metrics_.RpcStarted("Process");
@@ -157,7 +161,9 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   }
   if (client_gone) return Gone(*context, "processing");
   const absl::StatusOr<PipelineReport>& result = running->result();
-  if (!result.ok()) return ToGrpc(result.status());
+  if (!result.ok()) {
+    return runner_.cancelled_all() ? Gone(*context, "processing") : ToGrpc(result.status());
+  }
   metrics_.JobProcessed(*result);
 
   // Download: the kept points (all of them with include_removed), then the report.

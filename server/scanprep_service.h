@@ -52,6 +52,9 @@ class ScanPrepService final : public v1::ScanPrep::Service {
   bool Send(Stream* stream, const v1::ProcessResponse& response);
   bool SendProgress(Stream* stream, v1::Progress::Phase phase, std::string_view stage,
                     double fraction, uint64_t points);
+  // The status of a call that ended during `phase` other than by its own fault: the server's
+  // grace period ended (UNAVAILABLE), its deadline passed, or the client cancelled it or vanished.
+  grpc::Status Gone(const grpc::ServerContext& context, std::string_view phase) const;
   // The status for a job the assembler refused, counted as a rejection.
   grpc::Status Refuse(const absl::Status& status);
 

@@ -202,6 +202,47 @@ TEST(ServerBinary, SigtermLetsTheInFlightCallFinishThenExitsZero) {
   terminate.join();
 }
 
+TEST(ServerBinary, SigtermDuringALongStageExitsWithinTheGracePeriodPlusOneSecond) {
+  ServerProcess server({"--grace_period=1s"});
+  ASSERT_GT(server.port(), 0);
+  auto stub = v1::ScanPrep::NewStub(
+      grpc::CreateChannel(server.target(), grpc::InsecureChannelCredentials()));
+  // Smoothing 100 times over 64 neighbours of 300,000 points: far longer than the grace period.
+  const GeneratedScan scan = NoisyPlaneWithSpikes(545, 0.5f);
+  v1::JobHeader header = SimpleHeader(0.5);
+  header.set_total_points(scan.cloud.size());
+  auto& params = *header.mutable_options()->mutable_params();
+  params["neighbourhoods.k"] = "64";
+  params["smoothing.iterations"] = "100";
+  grpc::ClientContext context;
+  auto stream = stub->Process(&context);
+  ASSERT_TRUE(stream->Write(HeaderRequest(header)));
+  for (size_t begin = 0; begin < scan.cloud.size(); begin += client::kDefaultChunkPoints) {
+    v1::ProcessRequest request;
+    client::RequestChunk(scan.cloud, begin,
+                         std::min(scan.cloud.size(), begin + client::kDefaultChunkPoints), false,
+                         request.mutable_points());
+    ASSERT_TRUE(stream->Write(request));
+  }
+  stream->WritesDone();
+  v1::ProcessResponse response;
+  while (stream->Read(&response) && response.progress().stage() != "smoothing") {
+  }
+  ASSERT_EQ(response.progress().stage(), "smoothing");
+
+  const auto signalled = std::chrono::steady_clock::now();
+  std::thread terminate([&] { EXPECT_EQ(server.Terminate(), 0); });
+  while (stream->Read(&response)) {
+  }
+  const grpc::Status status = stream->Finish();
+  terminate.join();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
+  EXPECT_LE(seconds, 2.0) << "exit took " << seconds << " s";  // grace 1 s + 1 s
+  // Cut short, not finished: the server was shutting down.
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAVAILABLE) << status.error_message();
+}
+
 TEST(Cli, ProcessesTwoRegisteredBunnyScans) {
   SCANPREP_REQUIRE_SHARED_DATA(data);
   const fs::path dir = data / "stanford_bunny_range_scans";
