@@ -97,6 +97,12 @@ TEST_F(ProtocolErrors, RotationNotAUnitQuaternion) {
                 "header.scans[0].to_common.rotation: must be a unit quaternion");
 }
 
+TEST_F(ProtocolErrors, AbsurdScannerMetadata) {
+  EXPECT_STATUS(Send(SimpleHeader(1e300), {LineChunk(2000)}), INVALID_ARGUMENT,
+                "header.scans[0].scanline_spacing: must be 0 or a length in [1e-06, 10000] mm, got "
+                "1e+300");
+}
+
 TEST_F(ProtocolErrors, XyzNotAMultipleOfThree) {
   v1::PointChunk bad = LineChunk(10);
   bad.add_xyz(1.f);
