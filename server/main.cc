@@ -55,6 +55,11 @@ ABSL_FLAG(std::string, stage_budgets, "",
 ABSL_FLAG(std::string, budget_config, "",
           "file of default budgets, one 'stage seconds' per line ('total seconds' for the whole "
           "pipeline, '#' comments)");
+ABSL_FLAG(absl::Duration, header_timeout, absl::Seconds(10),
+          "a Process call whose header has not arrived this long after it started is cancelled");
+ABSL_FLAG(absl::Duration, idle_timeout, absl::Seconds(30),
+          "a Process call whose next upload message has not arrived this long after the previous "
+          "one is cancelled (time queued for a slot does not count)");
 ABSL_FLAG(absl::Duration, grace_period, absl::Seconds(10),
           "on SIGINT/SIGTERM, how long in-flight calls may run before they are cancelled");
 
@@ -126,6 +131,8 @@ int main(int argc, char** argv) {
   options.max_concurrent_jobs = absl::GetFlag(FLAGS_max_concurrent_jobs);
   options.max_queued_jobs = absl::GetFlag(FLAGS_max_queued_jobs);
   options.threads = absl::GetFlag(FLAGS_threads);
+  options.timeouts = {.header = absl::GetFlag(FLAGS_header_timeout),
+                      .idle = absl::GetFlag(FLAGS_idle_timeout)};
   if (absl::Status s = scanprep::server::CheckCallsPerPeer(options); !s.ok()) {
     std::cerr << "scanprep-server: " << s.message() << "\n";
     return 1;

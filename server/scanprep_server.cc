@@ -58,7 +58,7 @@ ScanPrepServer::ScanPrepServer(const ServerOptions& options)
                   .max_queued_jobs = options.max_queued_jobs},
                  metrics_),
       runner_(options.threads, options.on_progress),
-      service_(options.limits, admission_, runner_, metrics_, peers_, log_) {
+      service_(options.limits, options.timeouts, admission_, runner_, metrics_, peers_, log_) {
   metrics_.SetDefaultBudget(options.limits.default_budget_seconds);
 }
 
@@ -69,6 +69,10 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
   }
   if (options.max_queued_jobs < 0) {
     return absl::InvalidArgumentError("max_queued_jobs must be at least 0");
+  }
+  if (options.timeouts.header <= absl::ZeroDuration() ||
+      options.timeouts.idle <= absl::ZeroDuration()) {
+    return absl::InvalidArgumentError("header_timeout and idle_timeout must be positive");
   }
   if (options.max_calls_per_peer < 0) {
     return absl::InvalidArgumentError("max_calls_per_peer must be at least 0 (0 = the default)");

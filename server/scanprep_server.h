@@ -33,6 +33,7 @@ struct ServerOptions {
   // Process calls one client host may have in progress (queued included); 0 = CallsPerPeer's
   // default.
   int max_calls_per_peer = 0;
+  StreamTimeouts timeouts;
   // The gRPC port's transport security; null = plaintext. The in-process tests keep the
   // default; scanprep-server always sets it and serves plaintext only when asked to.
   std::shared_ptr<grpc::ServerCredentials> credentials;

@@ -2,6 +2,9 @@
 // before the memory it guards is allocated: bytes per call, calls per client host, scans per
 // header, header list lengths and gRPC's message size. (Points per job and per chunk:
 // protocol_errors_test.)
+#include <sstream>
+#include <thread>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -157,6 +160,73 @@ TEST(Limits, OneHostCannotTakeEverySlotWhileAnotherHostsJobCompletes) {
 
   for (auto& call : held) call->context.TryCancel();
   for (auto& call : held) call->stream->Finish();
+}
+
+TEST(Limits, AStreamThatNeverSendsItsHeaderIsEndedByTheHeaderTimeout) {
+  server::ServerOptions options;
+  options.timeouts.header = absl::Milliseconds(300);
+  InProcessServer server(options);
+  auto stub = server.Stub();
+  grpc::ClientContext context;
+  const absl::Time start = absl::Now();
+  auto stream = stub->Process(&context);
+  v1::ProcessResponse response;
+  EXPECT_FALSE(stream->Read(&response));
+  EXPECT_EQ(stream->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  const absl::Duration held = absl::Now() - start;
+  EXPECT_GE(held, absl::Milliseconds(300));
+  EXPECT_LT(held, absl::Seconds(5));
+  auto info = server.Client().GetInfo(absl::Seconds(10));
+  ASSERT_TRUE(info.ok()) << info.status();
+  EXPECT_EQ(info->limits().header_timeout_seconds(), 0.3);
+  EXPECT_EQ(info->limits().idle_timeout_seconds(), 30);
+}
+
+// One slot: an uploader that went quiet after its first chunk holds it until the idle limit ends
+// its call, then the job queued behind it runs to its report.
+TEST(Limits, ASlowUploaderIsEndedByTheIdleTimeoutWhileAnotherClientsJobCompletes) {
+  server::ServerOptions options;
+  options.max_concurrent_jobs = 1;
+  options.max_queued_jobs = 1;
+  options.timeouts.idle = absl::Milliseconds(500);
+  std::ostringstream log;
+  options.log = &log;
+  auto server = std::make_unique<InProcessServer>(options);
+  auto stub = server->Stub();
+
+  grpc::ClientContext slow_context;
+  auto slow = stub->Process(&slow_context);
+  ASSERT_TRUE(slow->Write(HeaderRequest(SimpleHeader(), 200)));
+  ASSERT_TRUE(slow->Write(ChunkRequest(LineChunk(100))));
+  v1::ProcessResponse ack;
+  ASSERT_TRUE(slow->Read(&ack));  // acknowledged: the slow call holds the only slot
+  const absl::Time quiet_since = absl::Now();
+  absl::Time slow_ended;
+  std::thread slow_reader([&] {
+    v1::ProcessResponse response;
+    while (slow->Read(&response)) {
+    }
+    slow_ended = absl::Now();
+  });
+
+  std::vector<v1::ProcessResponse> responses;
+  const grpc::Status other =
+      RawCall(*stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))}, &responses);
+  const absl::Time other_done = absl::Now();
+  slow_reader.join();
+  EXPECT_TRUE(other.ok()) << other.error_message();
+  ASSERT_FALSE(responses.empty());
+  EXPECT_TRUE(responses.back().has_report());
+  EXPECT_EQ(slow->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  EXPECT_GE(slow_ended - quiet_since, absl::Milliseconds(500));
+  EXPECT_LT(slow_ended - quiet_since, absl::Seconds(5));
+  EXPECT_GE(other_done, slow_ended);  // it waited for the slot the slow call held
+  server.reset();  // every call logged
+  // Named with the real cause and peer, though the client only saw its call cancelled.
+  EXPECT_THAT(log.str(), HasSubstr("W process peer=ipv4:127.0.0.1:"));
+  EXPECT_THAT(log.str(), HasSubstr("DEADLINE_EXCEEDED: \"the next message after 100 points did not "
+                                   "arrive within 500ms (idle_timeout); the server ended the "
+                                   "call\""));
 }
 
 TEST(Limits, ScansPerJobAreCheckedBeforeAnyScanIsBuilt) {
