@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "server/error_details.h"
 
 namespace scanprep::server {
 namespace {
@@ -27,9 +28,11 @@ absl::Status CheckPresence(uint64_t chunk, std::string_view name, bool expected,
 absl::Status JobAssembler::Add(const v1::ProcessRequest& request) {
   bytes_ += request.ByteSizeLong();
   if (bytes_ > limits_.max_bytes_per_call) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "the call's request messages total ", bytes_, " bytes, over the server's limit of ",
-        limits_.max_bytes_per_call, " bytes per call (max_bytes_per_call)"));
+    return WithReason(absl::ResourceExhaustedError(absl::StrCat(
+                          "the call's request messages total ", bytes_,
+                          " bytes, over the server's limit of ", limits_.max_bytes_per_call,
+                          " bytes per call (max_bytes_per_call)")),
+                      "CALL_TOO_LARGE");
   }
   switch (request.kind_case()) {
     case v1::ProcessRequest::kHeader: return AddHeader(request.header());
@@ -81,18 +84,22 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
         "so that a truncated upload is refused instead of processed");
   }
   if (total_points_ > limits_.max_points_per_job) {
-    return absl::ResourceExhaustedError(
-        absl::StrCat("header.total_points = ", total_points_, " exceeds the server's limit of ",
-                     limits_.max_points_per_job, " points per job (max_points_per_job)"));
+    return WithReason(absl::ResourceExhaustedError(absl::StrCat(
+                          "header.total_points = ", total_points_,
+                          " exceeds the server's limit of ", limits_.max_points_per_job,
+                          " points per job (max_points_per_job)")),
+                      "JOB_TOO_LARGE");
   }
   return absl::OkStatus();
 }
 
 absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
   if (static_cast<uint64_t>(header.scans_size()) > limits_.max_scans_per_job) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "header.scans has ", header.scans_size(), " scans, over the server's limit of ",
-        limits_.max_scans_per_job, " scans per job (max_scans_per_job)"));
+    return WithReason(absl::ResourceExhaustedError(absl::StrCat(
+                          "header.scans has ", header.scans_size(),
+                          " scans, over the server's limit of ", limits_.max_scans_per_job,
+                          " scans per job (max_scans_per_job)")),
+                      "TOO_MANY_SCANS");
   }
   const std::pair<std::string_view, int> lists[] = {
       {"header.options.stages", header.options().stages_size()},
@@ -159,9 +166,10 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
   }
   const size_t n = chunk.xyz_size() / 3;
   if (n > limits_.max_chunk_points) {
-    return absl::ResourceExhaustedError(
-        absl::StrCat("chunk ", chunks_, ": ", n, " points exceed the limit of ",
-                     limits_.max_chunk_points, " points per chunk (max_chunk_points)"));
+    return WithReason(absl::ResourceExhaustedError(absl::StrCat(
+                          "chunk ", chunks_, ": ", n, " points exceed the limit of ",
+                          limits_.max_chunk_points, " points per chunk (max_chunk_points)")),
+                      "CHUNK_TOO_LARGE");
   }
   // The header's total is within max_points_per_job, so this also bounds the job.
   if (job_.points_received + n > total_points_) {

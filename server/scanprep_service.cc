@@ -8,16 +8,13 @@
 #include "absl/strings/str_format.h"
 #include "core/stage.h"
 #include "server/convert.h"
+#include "server/error_details.h"
 
 namespace scanprep::server {
 namespace {
 
 // How often the waiting RPC thread looks at cancellation and forwards progress.
 constexpr std::chrono::milliseconds kPollInterval(25);
-
-grpc::Status ToGrpc(const absl::Status& s) {
-  return grpc::Status(static_cast<grpc::StatusCode>(s.code()), std::string(s.message()));
-}
 
 absl::Time CallDeadline(const grpc::ServerContext& context) {
   const auto deadline = context.deadline();
