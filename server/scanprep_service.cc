@@ -129,7 +129,12 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
       watch.Pause();              // waiting for a slot is the server's time, not the client's
       auto admitted =
           admission_.Admit(CallDeadline(*context), [context] { return context->IsCancelled(); });
-      if (!admitted.ok()) return ToGrpc(admitted.status());
+      if (!admitted.ok()) {
+        // Cancelled while waiting: by the client, or by gRPC because the deadline passed.
+        return admitted.status().code() == absl::StatusCode::kCancelled
+                   ? Gone(*context, "the wait for a slot")
+                   : ToGrpc(admitted.status());
+      }
       slot.emplace(std::move(*admitted));
       watch.Expect(timeouts_.idle, "idle_timeout", "the first chunk");
       continue;

@@ -2,6 +2,7 @@
 // is exact), then through the real service with jobs held open by clients that sent a header and
 // a chunk and wait. Every wait is bounded; no sleep decides an outcome.
 #include <future>
+#include <sstream>
 #include <thread>
 
 #include <gmock/gmock.h>
@@ -284,6 +285,28 @@ TEST(Admission, ACallWhoseDeadlineIsShorterThanTheExpectedWaitFailsAtOnce) {
                    "scanprep_jobs_rejected_total{reason=\"deadline\"}"),
             1);
   EXPECT_TRUE(held.Finish().ok());
+}
+
+TEST(Admission, ADeadlineThatPassesInTheQueueIsLoggedAsSuch) {
+  std::ostringstream log;
+  server::ServerOptions options = Options(1, 1);
+  options.log = &log;
+  auto server = std::make_unique<InProcessServer>(options);
+  auto stub = server->Stub();
+  {
+    HeldCall held(*stub);
+    ASSERT_TRUE(held.WaitUntilRunning());
+    // No job has ended yet, so no expected wait refuses it up front: it waits, and its deadline
+    // passes in the queue.
+    EXPECT_EQ(SmallJob(*stub, absl::Milliseconds(300)).error_code(),
+              grpc::StatusCode::DEADLINE_EXCEEDED);
+    // The slot frees only once the server saw the waiting call go.
+    ASSERT_TRUE(WaitForSample(server->server().metrics_port(), "scanprep_jobs_queued", 0));
+    EXPECT_TRUE(held.Finish().ok());
+  }
+  server.reset();  // every call logged
+  EXPECT_THAT(log.str(), HasSubstr("deadline passed during the wait for a slot"));
+  EXPECT_THAT(log.str(), ::testing::Not(HasSubstr("CANCELLED")));
 }
 
 // grpc.health.v1.Health/Check for the whole server, by hand (no generated health stubs in
