@@ -191,6 +191,17 @@ grpc::Status BytesCall(const std::string& target, const std::vector<std::string>
   return stream->Finish();
 }
 
+TEST_F(ProtocolErrors, AHeaderThatFailsToParseIsNotCalledAnEmptyStream) {
+  v1::JobHeader header = SimpleHeader();
+  header.set_total_points(10);
+  header.set_job_id("caf\xe9");  // Latin-1, not UTF-8: proto3 strings must be UTF-8
+  EXPECT_STATUS(BytesCall(server_.target(), {HeaderRequest(header).SerializeAsString(),
+                                             ChunkRequest(LineChunk(10)).SerializeAsString()}),
+                INVALID_ARGUMENT,
+                "first message must be a header (the stream ended before a message could be "
+                "parsed)");
+}
+
 TEST_F(ProtocolErrors, AMessageThatFailsToParseMidStreamIsNeverOk) {
   v1::JobHeader header = SimpleHeader();
   header.set_total_points(30);
