@@ -37,6 +37,11 @@ int RunInfo(const ParsedArgs& args) {
                    "%d concurrent jobs\n",
                    limits.max_points_per_job(), limits.max_chunk_points(),
                    limits.recommended_chunk_points(), limits.max_concurrent_jobs())
+            << absl::StrFormat(
+                   "        %d queued, %d calls per client host; header within %gs, upload "
+                   "messages at most %gs apart\n",
+                   limits.max_queued_jobs(), limits.max_calls_per_peer(),
+                   limits.header_timeout_seconds(), limits.idle_timeout_seconds())
             << "default budget: "
             << (info->default_budget_seconds() > 0
                     ? absl::StrCat(info->default_budget_seconds(), " s")

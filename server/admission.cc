@@ -1,5 +1,7 @@
 #include "server/admission.h"
 
+#include "server/error_details.h"
+
 #include <algorithm>
 
 #include "absl/strings/str_cat.h"
@@ -42,10 +44,14 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(
   }
   if (static_cast<int>(waiting_.size()) >= options_.max_queued_jobs) {
     metrics_.Rejected(RejectReason::kQueueFull);
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "the server is running its limit of ", options_.max_concurrent_jobs,
-        " concurrent jobs (max_concurrent_jobs) and its queue of ", options_.max_queued_jobs,
-        " waiting jobs (max_queued_jobs) is full; retry later or on another replica"));
+    // Retry once the queue can be expected to have moved; at least a second, so that refused
+    // clients do not hammer a server that has not finished a job yet.
+    return WithReason(
+        absl::ResourceExhaustedError(absl::StrCat(
+            "the server is running its limit of ", options_.max_concurrent_jobs,
+            " concurrent jobs (max_concurrent_jobs) and its queue of ", options_.max_queued_jobs,
+            " waiting jobs (max_queued_jobs) is full; retry later or on another replica")),
+        "QUEUE_FULL", absl::Seconds(std::max(1.0, ExpectedWaitLocked())));
   }
   const double expected = ExpectedWaitLocked();
   const double remaining = absl::ToDoubleSeconds(deadline - arrived);

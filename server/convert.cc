@@ -16,27 +16,41 @@ absl::Status BadField(std::string_view field, std::string_view name, std::string
       absl::StrCat(std::string(field), ".", std::string(name), ": ", std::string(problem)));
 }
 
-// A non-negative finite length in job units, converted to mm.
+// A length in job units, converted to mm: 0, or within [kMinScannerLengthMm, kMaxScannerLengthMm].
 absl::StatusOr<double> Length(double value, double mm_per_unit, std::string_view field,
                               std::string_view name) {
-  if (!std::isfinite(value) || value < 0) {
-    return BadField(field, name, absl::StrCat("must be a finite length >= 0, got ", value));
+  const double mm = value * mm_per_unit;
+  if (!(mm == 0 || (mm >= kMinScannerLengthMm && mm <= kMaxScannerLengthMm))) {
+    return BadField(field, name,
+                    absl::StrCat("must be 0 or a length in [", kMinScannerLengthMm, ", ",
+                                 kMaxScannerLengthMm, "] mm, got ", value, " (", mm, " mm)"));
   }
-  return value * mm_per_unit;
+  return mm;
 }
 
 absl::StatusOr<Eigen::Vector3d> Position(const v1::Vec3& v, const ScanFrame& frame,
                                          std::string_view field, std::string_view name) {
   const Eigen::Vector3d p = FromProto(v);
   if (!Finite(p)) return BadField(field, name, "must be finite");
-  return frame.Point(p);
+  const Eigen::Vector3d mm = frame.Point(p);
+  if (!(mm.array().abs() <= kMaxCoordinateMm).all()) {
+    return BadField(field, name,
+                    absl::StrCat("must be within ", kMaxCoordinateMm, " mm of the origin in the "
+                                 "common frame"));
+  }
+  return mm;
 }
 
 absl::StatusOr<Eigen::Vector3d> Direction(const v1::Vec3& v, const ScanFrame& frame,
                                           std::string_view field, std::string_view name) {
   const Eigen::Vector3d d = FromProto(v);
-  if (!Finite(d) || d.norm() == 0) return BadField(field, name, "must be a finite non-zero vector");
-  return frame.Direction(d.normalized());
+  // stableNorm: the plain norm of components near 1e200 overflows, and normalising by infinity
+  // would turn the direction into a zero vector.
+  const double norm = Finite(d) ? d.stableNorm() : 0;
+  if (!(norm > 0 && std::isfinite(norm))) {
+    return BadField(field, name, "must be a finite non-zero vector");
+  }
+  return frame.Direction(d / norm);
 }
 
 }  // namespace

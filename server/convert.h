@@ -20,7 +20,13 @@ namespace scanprep::server {
 // Largest coordinate magnitude accepted after conversion to millimetres (1,000 km). Beyond it a
 // float keeps less than 0.1 mm of resolution, and a little further it overflows.
 inline constexpr double kMaxCoordinateMm = 1e9;
-
+// The range of a scanline spacing, uncertainty or point spacing other than 0 (= none, or the
+// default), in millimetres. The top is the bound of the stages' own length parameters: a 10 m
+// spacing is no optical scanner's, and 1e300 made the stages derive radii that swallowed the
+// whole cloud. The bottom, 1 nm, is below any optical scanner's resolution; 1e-300 underflowed
+// the derived spacings to 0, which a later stage reported as a fault of the data.
+inline constexpr double kMinScannerLengthMm = 1e-6;
+inline constexpr double kMaxScannerLengthMm = 1e4;
 
 namespace v1 = ::scanprep::v1;
 

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "server/error_details.h"
 
 namespace scanprep::server {
 namespace {
@@ -27,9 +28,11 @@ absl::Status CheckPresence(uint64_t chunk, std::string_view name, bool expected,
 absl::Status JobAssembler::Add(const v1::ProcessRequest& request) {
   bytes_ += request.ByteSizeLong();
   if (bytes_ > limits_.max_bytes_per_call) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "the call's request messages total ", bytes_, " bytes, over the server's limit of ",
-        limits_.max_bytes_per_call, " bytes per call (max_bytes_per_call)"));
+    return WithReason(absl::ResourceExhaustedError(absl::StrCat(
+                          "the call's request messages total ", bytes_,
+                          " bytes, over the server's limit of ", limits_.max_bytes_per_call,
+                          " bytes per call (max_bytes_per_call)")),
+                      "CALL_TOO_LARGE");
   }
   switch (request.kind_case()) {
     case v1::ProcessRequest::kHeader: return AddHeader(request.header());
@@ -72,20 +75,31 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
   }
   job_.cloud.kind = KindFromHeader(header);
 
+  // gRPC ends a stream at a message that fails to parse just as at the client's half-close, so
+  // only a declared count tells a truncated upload from a complete one.
   total_points_ = header.total_points();
+  if (total_points_ == 0) {
+    return absl::InvalidArgumentError(
+        "header.total_points = 0: the number of points the upload will send must be declared, "
+        "so that a truncated upload is refused instead of processed");
+  }
   if (total_points_ > limits_.max_points_per_job) {
-    return absl::ResourceExhaustedError(
-        absl::StrCat("header.total_points = ", total_points_, " exceeds the server's limit of ",
-                     limits_.max_points_per_job, " points per job (max_points_per_job)"));
+    return WithReason(absl::ResourceExhaustedError(absl::StrCat(
+                          "header.total_points = ", total_points_,
+                          " exceeds the server's limit of ", limits_.max_points_per_job,
+                          " points per job (max_points_per_job)")),
+                      "JOB_TOO_LARGE");
   }
   return absl::OkStatus();
 }
 
 absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
   if (static_cast<uint64_t>(header.scans_size()) > limits_.max_scans_per_job) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "header.scans has ", header.scans_size(), " scans, over the server's limit of ",
-        limits_.max_scans_per_job, " scans per job (max_scans_per_job)"));
+    return WithReason(absl::ResourceExhaustedError(absl::StrCat(
+                          "header.scans has ", header.scans_size(),
+                          " scans, over the server's limit of ", limits_.max_scans_per_job,
+                          " scans per job (max_scans_per_job)")),
+                      "TOO_MANY_SCANS");
   }
   const std::pair<std::string_view, int> lists[] = {
       {"header.options.stages", header.options().stages_size()},
@@ -152,16 +166,13 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
   }
   const size_t n = chunk.xyz_size() / 3;
   if (n > limits_.max_chunk_points) {
-    return absl::ResourceExhaustedError(
-        absl::StrCat("chunk ", chunks_, ": ", n, " points exceed the limit of ",
-                     limits_.max_chunk_points, " points per chunk (max_chunk_points)"));
+    return WithReason(absl::ResourceExhaustedError(absl::StrCat(
+                          "chunk ", chunks_, ": ", n, " points exceed the limit of ",
+                          limits_.max_chunk_points, " points per chunk (max_chunk_points)")),
+                      "CHUNK_TOO_LARGE");
   }
-  if (job_.points_received + n > limits_.max_points_per_job) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "chunk ", chunks_, ": the job exceeds the server's limit of ", limits_.max_points_per_job,
-        " points per job (max_points_per_job); ", job_.points_received + n, " points so far"));
-  }
-  if (total_points_ > 0 && job_.points_received + n > total_points_) {
+  // The header's total is within max_points_per_job, so this also bounds the job.
+  if (job_.points_received + n > total_points_) {
     return absl::InvalidArgumentError(
         absl::StrCat("chunk ", chunks_, ": more points than header.total_points = ", total_points_));
   }
@@ -199,15 +210,13 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
 
 absl::StatusOr<AssembledJob> JobAssembler::Finish() {
   if (!has_header_) {
-    return absl::InvalidArgumentError("first message must be a header (the stream was empty)");
+    return absl::InvalidArgumentError(
+        "first message must be a header (the stream ended before a message could be parsed)");
   }
-  if (total_points_ > 0 && job_.points_received != total_points_) {
-    return absl::InvalidArgumentError(absl::StrCat("header.total_points = ", total_points_, " but ",
-                                                   job_.points_received,
-                                                   " points were received"));
-  }
-  if (job_.points_received == 0) {
-    return absl::InvalidArgumentError("the job has no points: send PointChunks after the header");
+  if (job_.points_received != total_points_) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "header.total_points = ", total_points_, " but ", job_.points_received,
+        " points were received before the stream ended (a message that fails to parse ends it)"));
   }
   if (job_.points_invalid == job_.points_received) {
     return absl::InvalidArgumentError(absl::StrCat("the job has no valid points: all ",

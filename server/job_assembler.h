@@ -50,13 +50,13 @@ class JobAssembler {
 
   // Takes the next request message; any error ends the call with that status.
   absl::Status Add(const v1::ProcessRequest& request);
-  // After the client half-closed: the job, or an error if it is incomplete or empty.
+  // After the stream ended: the job, or an error unless exactly the declared points arrived.
   absl::StatusOr<AssembledJob> Finish();
 
   bool has_header() const { return has_header_; }
   const std::string& job_id() const { return job_.job_id; }
   uint64_t points_received() const { return job_.points_received; }
-  // The client's announced total (0 = not announced).
+  // The client's declared total (0 until a header was accepted).
   uint64_t total_points() const { return total_points_; }
 
  private:

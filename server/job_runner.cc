@@ -54,12 +54,31 @@ JobRunner::JobRunner(int threads, ProgressHook hook)
 
 std::shared_ptr<RunningJob> JobRunner::Start(PointCloud cloud, PipelineOptions options) {
   auto job = std::make_shared<RunningJob>(std::move(cloud), std::move(options), hook_);
+  {
+    std::lock_guard lock(mu_);
+    std::erase_if(jobs_, [](const std::weak_ptr<RunningJob>& j) { return j.expired(); });
+    jobs_.push_back(job);
+    if (cancelled_all_) job->Cancel();
+  }
   HappensBefore(job.get());  // TBB's queue orders this, but TSan cannot see inside libtbb
   arena_.enqueue([job] {
     HappensAfter(job.get());
     job->Run();
   });
   return job;
+}
+
+void JobRunner::CancelAll() {
+  std::lock_guard lock(mu_);
+  cancelled_all_ = true;
+  for (const std::weak_ptr<RunningJob>& j : jobs_) {
+    if (auto job = j.lock()) job->Cancel();
+  }
+}
+
+bool JobRunner::cancelled_all() const {
+  std::lock_guard lock(mu_);
+  return cancelled_all_;
 }
 
 }  // namespace scanprep::server

@@ -68,13 +68,21 @@ class JobRunner {
   // `threads` = arena concurrency; 0 = hardware concurrency.
   explicit JobRunner(int threads, ProgressHook hook = {});
 
+  // Starts the job on the arena; cancelled at once after CancelAll().
   std::shared_ptr<RunningJob> Start(PointCloud cloud, PipelineOptions options);
+  // The server's grace period ended: cancels every running job through its CancelToken, without
+  // waiting for the RPC threads that watch them to notice.
+  void CancelAll();
+  bool cancelled_all() const;
 
   int threads() const { return threads_; }
 
  private:
   int threads_;
   ProgressHook hook_;
+  mutable std::mutex mu_;
+  std::vector<std::weak_ptr<RunningJob>> jobs_;  // started, possibly finished
+  bool cancelled_all_ = false;
   // TBB caps its workers at hardware concurrency - 1 by default (the rest is kept for a master
   // thread); every job here is enqueued, so the arena needs all `threads` as workers.
   tbb::global_control workers_;

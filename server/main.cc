@@ -1,5 +1,6 @@
 // scanprep-server: the gRPC service. Stops gracefully on SIGINT/SIGTERM.
 #include <csignal>
+#include <cstdlib>
 #include <iostream>
 #include <thread>
 
@@ -9,6 +10,7 @@
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
 #include "absl/flags/usage_config.h"
+#include "absl/synchronization/notification.h"
 #include "absl/time/time.h"
 #include "server/budget_config.h"
 #include "server/scanprep_server.h"
@@ -31,9 +33,11 @@ ABSL_FLAG(uint64_t, max_bytes_per_call, uint64_t{1} << 30,
           "RESOURCE_EXHAUSTED");
 ABSL_FLAG(uint32_t, max_scans_per_job, 1'000,
           "scans one job header may declare; more end the call with RESOURCE_EXHAUSTED");
-ABSL_FLAG(int, max_calls_per_peer, 16,
+ABSL_FLAG(int, max_calls_per_peer, 0,
           "Process calls one client host (address without port) may have in progress, queued "
-          "included; more end at once with RESOURCE_EXHAUSTED");
+          "included; more end at once with RESOURCE_EXHAUSTED. 0 = half of "
+          "--max_concurrent_jobs, at least 1; must be below max_concurrent_jobs + "
+          "max_queued_jobs, so one host cannot take every place");
 ABSL_FLAG(std::string, metrics_listen, "0.0.0.0:9464",
           "HOST:PORT of the Prometheus /metrics endpoint (port 0 = any free port; empty = off)");
 ABSL_FLAG(int, max_concurrent_jobs, 4,
@@ -51,6 +55,11 @@ ABSL_FLAG(std::string, stage_budgets, "",
 ABSL_FLAG(std::string, budget_config, "",
           "file of default budgets, one 'stage seconds' per line ('total seconds' for the whole "
           "pipeline, '#' comments)");
+ABSL_FLAG(absl::Duration, header_timeout, absl::Seconds(10),
+          "a Process call whose header has not arrived this long after it started is cancelled");
+ABSL_FLAG(absl::Duration, idle_timeout, absl::Seconds(30),
+          "a Process call whose next upload message has not arrived this long after the previous "
+          "one is cancelled (time queued for a slot does not count)");
 ABSL_FLAG(absl::Duration, grace_period, absl::Seconds(10),
           "on SIGINT/SIGTERM, how long in-flight calls may run before they are cancelled");
 
@@ -122,6 +131,12 @@ int main(int argc, char** argv) {
   options.max_concurrent_jobs = absl::GetFlag(FLAGS_max_concurrent_jobs);
   options.max_queued_jobs = absl::GetFlag(FLAGS_max_queued_jobs);
   options.threads = absl::GetFlag(FLAGS_threads);
+  options.timeouts = {.header = absl::GetFlag(FLAGS_header_timeout),
+                      .idle = absl::GetFlag(FLAGS_idle_timeout)};
+  if (absl::Status s = scanprep::server::CheckCallsPerPeer(options); !s.ok()) {
+    std::cerr << "scanprep-server: " << s.message() << "\n";
+    return 1;
+  }
   auto server = scanprep::server::ScanPrepServer::Start(options);
   if (!server.ok()) {
     std::cerr << "scanprep-server: " << server.status().message() << "\n";
@@ -138,7 +153,20 @@ int main(int argc, char** argv) {
     int signal = 0;
     sigwait(&stop_signals, &signal);
     std::cout << "scanprep-server: signal " << signal << ", shutting down" << std::endl;
-    (*server)->Shutdown(absl::GetFlag(FLAGS_grace_period));
+    const absl::Duration grace = absl::GetFlag(FLAGS_grace_period);
+    // Jobs are cancelled at the end of the grace period and stop within 0.2 s; should one not,
+    // the process still ends within a second of it rather than when the job is done.
+    absl::Notification stopped;
+    std::thread last_resort([&] {
+      if (!stopped.WaitForNotificationWithTimeout(grace + absl::Milliseconds(900))) {
+        std::cerr << "scanprep-server: calls still running 0.9 s after the grace period; exiting"
+                  << std::endl;
+        std::_Exit(1);
+      }
+    });
+    (*server)->Shutdown(grace);
+    stopped.Notify();
+    last_resort.join();
   });
   (*server)->Wait();
   stopper.join();

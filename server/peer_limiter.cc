@@ -1,6 +1,7 @@
 #include "server/peer_limiter.h"
 
 #include "absl/strings/str_cat.h"
+#include "server/error_details.h"
 
 namespace scanprep::server {
 
@@ -21,9 +22,12 @@ absl::StatusOr<PeerLimiter::Lease> PeerLimiter::Acquire(const std::string& peer)
   std::lock_guard lock(mu_);
   int& calls = calls_[host];
   if (calls >= max_) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        host, " already has ", calls, " calls in progress, the server's limit of concurrent calls "
-        "per client host (max_calls_per_peer); wait for one to end"));
+    // A retry succeeds once one of the host's calls ended, which the server cannot predict.
+    return WithReason(absl::ResourceExhaustedError(absl::StrCat(
+                          host, " already has ", calls,
+                          " calls in progress, the server's limit of concurrent calls per client "
+                          "host (max_calls_per_peer); wait for one to end")),
+                      "PEER_LIMIT", absl::Seconds(1));
   }
   ++calls;
   return Lease(this, std::move(host));

@@ -1,10 +1,14 @@
 #include "server/scanprep_server.h"
 
+#include <algorithm>
+#include <thread>
+
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/synchronization/notification.h"
 
 namespace scanprep::server {
 namespace {
@@ -32,15 +36,29 @@ absl::StatusOr<HostPort> ParseHostPort(const std::string& text, const std::strin
 
 }  // namespace
 
+int CallsPerPeer(const ServerOptions& options) {
+  return options.max_calls_per_peer > 0 ? options.max_calls_per_peer
+                                        : std::max(1, options.max_concurrent_jobs / 2);
+}
+
+absl::Status CheckCallsPerPeer(const ServerOptions& options) {
+  const int per_peer = CallsPerPeer(options);
+  const int places = options.max_concurrent_jobs + options.max_queued_jobs;
+  if (per_peer == 1 || per_peer < places) return absl::OkStatus();
+  return absl::InvalidArgumentError(absl::StrCat(
+      "--max_calls_per_peer=", per_peer, " would let one client host take every slot and queue "
+      "place (max_concurrent_jobs + max_queued_jobs = ", places, "); it must be below ", places));
+}
+
 ScanPrepServer::ScanPrepServer(const ServerOptions& options)
     : metrics_(registry_),
       log_(options.log),
-      peers_(options.max_calls_per_peer),
+      peers_(CallsPerPeer(options)),
       admission_({.max_concurrent_jobs = options.max_concurrent_jobs,
                   .max_queued_jobs = options.max_queued_jobs},
                  metrics_),
       runner_(options.threads, options.on_progress),
-      service_(options.limits, admission_, runner_, metrics_, peers_, log_) {
+      service_(options.limits, options.timeouts, admission_, runner_, metrics_, peers_, log_) {
   metrics_.SetDefaultBudget(options.limits.default_budget_seconds);
 }
 
@@ -52,8 +70,12 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
   if (options.max_queued_jobs < 0) {
     return absl::InvalidArgumentError("max_queued_jobs must be at least 0");
   }
-  if (options.max_calls_per_peer < 1) {
-    return absl::InvalidArgumentError("max_calls_per_peer must be at least 1");
+  if (options.timeouts.header <= absl::ZeroDuration() ||
+      options.timeouts.idle <= absl::ZeroDuration()) {
+    return absl::InvalidArgumentError("header_timeout and idle_timeout must be positive");
+  }
+  if (options.max_calls_per_peer < 0) {
+    return absl::InvalidArgumentError("max_calls_per_peer must be at least 0 (0 = the default)");
   }
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -71,6 +93,9 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
       options.credentials != nullptr ? options.credentials : grpc::InsecureServerCredentials(),
       &server->port_);
   builder.SetMaxReceiveMessageSize(kMaxMessageBytes);
+  // gRPC sets SO_REUSEPORT by default: a second server on the same port would start silently and
+  // take half the connections. Without it the second one fails to start.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.RegisterService(&server->service_);
   server->server_ = builder.BuildAndStart();
   if (server->server_ == nullptr || server->port_ == 0) {
@@ -92,7 +117,18 @@ void ScanPrepServer::Shutdown(absl::Duration grace) {
   if (shut_down_) return;
   shut_down_ = true;
   Drain();
-  server_->Shutdown(absl::ToChronoTime(absl::Now() + grace));
+  // At the end of the grace period the jobs are cancelled through their tokens, so the pipeline
+  // stops without waiting for an RPC thread to notice. gRPC cancels the calls themselves once a
+  // cancelled stage has had its 0.2 s to stop, so a processing call ends with the handler's
+  // status naming the shutdown rather than gRPC's own.
+  const absl::Time end = absl::Now() + grace;
+  absl::Notification finished;
+  std::thread canceller([&] {
+    if (!finished.WaitForNotificationWithDeadline(end)) runner_.CancelAll();
+  });
+  server_->Shutdown(absl::ToChronoTime(end + absl::Milliseconds(300)));
+  finished.Notify();
+  canceller.join();
 }
 
 ScanPrepServer::~ScanPrepServer() {

@@ -30,14 +30,24 @@ struct ServerOptions {
   int max_concurrent_jobs = 4;
   int max_queued_jobs = 8;
   int threads = 0;  // arena threads; 0 = hardware concurrency
-  // Process calls one client host may have in progress (queued included).
-  int max_calls_per_peer = 16;
+  // Process calls one client host may have in progress (queued included); 0 = CallsPerPeer's
+  // default.
+  int max_calls_per_peer = 0;
+  StreamTimeouts timeouts;
   // The gRPC port's transport security; null = plaintext. The in-process tests keep the
   // default; scanprep-server always sets it and serves plaintext only when asked to.
   std::shared_ptr<grpc::ServerCredentials> credentials;
   std::ostream* log = nullptr;  // where CallLog writes; null = no log
   ProgressHook on_progress;     // test hook, see ProgressHook
 };
+
+// The per-host limit in force: max_calls_per_peer, or when 0 half the slots (at least 1), so
+// one host leaves slots to others.
+int CallsPerPeer(const ServerOptions& options);
+// OK unless the per-host limit lets one host take every slot and queue place (a limit of 1 is
+// always accepted: one slot and no queue leave no smaller choice). Checked by scanprep-server at
+// startup; the in-process tests, whose clients all share one address, may exceed it.
+absl::Status CheckCallsPerPeer(const ServerOptions& options);
 
 class ScanPrepServer {
  public:

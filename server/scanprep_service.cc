@@ -8,16 +8,13 @@
 #include "absl/strings/str_format.h"
 #include "core/stage.h"
 #include "server/convert.h"
+#include "server/error_details.h"
 
 namespace scanprep::server {
 namespace {
 
 // How often the waiting RPC thread looks at cancellation and forwards progress.
 constexpr std::chrono::milliseconds kPollInterval(25);
-
-grpc::Status ToGrpc(const absl::Status& s) {
-  return grpc::Status(static_cast<grpc::StatusCode>(s.code()), std::string(s.message()));
-}
 
 absl::Time CallDeadline(const grpc::ServerContext& context) {
   const auto deadline = context.deadline();
@@ -31,9 +28,17 @@ absl::Time CallDeadline(const grpc::ServerContext& context) {
 // deadline timer firing first.
 constexpr absl::Duration kDeadlineSkew = absl::Milliseconds(250);
 
-// The status of a call that ended from the client's side during `phase`: its deadline passed, or
-// it was cancelled (client gone, connection lost).
-grpc::Status Gone(const grpc::ServerContext& context, std::string_view phase) {
+uint64_t ChunkPoints(const v1::PointChunk& chunk) { return chunk.xyz_size() / 3; }
+
+}  // namespace
+
+grpc::Status ScanPrepService::Gone(const grpc::ServerContext& context,
+                                   std::string_view phase) const {
+  if (runner_.cancelled_all()) {
+    return grpc::Status(grpc::StatusCode::UNAVAILABLE,
+                        absl::StrCat("the server shut down at the end of its grace period during ",
+                                     std::string(phase), "; retry on another replica"));
+  }
   if (absl::Now() + kDeadlineSkew >= CallDeadline(context)) {
     return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
                         absl::StrCat("the call's deadline passed during ", std::string(phase)));
@@ -43,17 +48,15 @@ grpc::Status Gone(const grpc::ServerContext& context, std::string_view phase) {
                                    std::string(phase)));
 }
 
-uint64_t ChunkPoints(const v1::PointChunk& chunk) { return chunk.xyz_size() / 3; }
-
-}  // namespace
-
 grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stream) {
   metrics_.RpcStarted("Process");
   const absl::Time start = absl::Now();
   CallRecord record;
   grpc::Status status;
   // Counted before anything is read, so one host's calls cannot fill every slot and queue place.
-  if (auto lease = peers_.Acquire(context->peer()); !lease.ok()) {
+  // Read now: gRPC reports a cancelled call's peer as "unknown".
+  const std::string peer = context->peer();
+  if (auto lease = peers_.Acquire(peer); !lease.ok()) {
     status = Refuse(lease.status());
   } else {
     try {
@@ -64,11 +67,11 @@ grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stre
     }
   }
   metrics_.RpcHandled("Process", status.error_code());
-  LogCall(*context, record, status, absl::Now() - start);
+  LogCall(peer, record, status, absl::Now() - start);
   return status;
 }
 
-void ScanPrepService::LogCall(const grpc::ServerContext& context, const CallRecord& record,
+void ScanPrepService::LogCall(const std::string& peer, const CallRecord& record,
                               const grpc::Status& status, absl::Duration elapsed) {
   // A client that hangs up is routine; every other failure is worth a look.
   const bool routine = status.ok() || status.error_code() == grpc::StatusCode::CANCELLED;
@@ -78,7 +81,7 @@ void ScanPrepService::LogCall(const grpc::ServerContext& context, const CallReco
                                      static_cast<absl::StatusCode>(status.error_code())),
                                  ": ", Quoted(status.error_message(), 300));
   log_.Write(routine ? CallLog::kInfo : CallLog::kWarning,
-             absl::StrCat("process peer=", context.peer(), " job=", Quoted(record.job_id),
+             absl::StrCat("process peer=", peer, " job=", Quoted(record.job_id),
                           " points=", record.points, " ", outcome, " ",
                           absl::StrFormat("%.3fs", absl::ToDoubleSeconds(elapsed))));
 }
@@ -113,6 +116,8 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   JobAssembler assembler(limits_);
   std::optional<AdmissionQueue::Slot> slot;
   v1::ProcessRequest request;
+  IdleWatch::Call watch = idle_.Watch(context);
+  watch.Expect(timeouts_.header, "header_timeout", "the header");
   while (stream->Read(&request)) {
     metrics_.RequestReceived(request.ByteSizeLong(),
                              request.has_points() ? ChunkPoints(request.points()) : 0);
@@ -121,18 +126,33 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     record.points = assembler.points_received();
     if (!added.ok()) return Refuse(added);
     if (!slot.has_value()) {  // the assembler accepts only a header first
+      watch.Pause();              // waiting for a slot is the server's time, not the client's
       auto admitted =
           admission_.Admit(CallDeadline(*context), [context] { return context->IsCancelled(); });
-      if (!admitted.ok()) return ToGrpc(admitted.status());
+      if (!admitted.ok()) {
+        // Cancelled while waiting: by the client, or by gRPC because the deadline passed.
+        return admitted.status().code() == absl::StatusCode::kCancelled
+                   ? Gone(*context, "the wait for a slot")
+                   : ToGrpc(admitted.status());
+      }
       slot.emplace(std::move(*admitted));
+      watch.Expect(timeouts_.idle, "idle_timeout", "the first chunk");
       continue;
     }
-    const uint64_t total = assembler.total_points();
     const uint64_t received = assembler.points_received();
-    const double fraction = total > 0 ? static_cast<double>(received) / total : 0.0;
+    const double fraction = static_cast<double>(received) / assembler.total_points();
     if (!SendProgress(stream, v1::Progress::UPLOAD, "", fraction, received)) {
       return Gone(*context, "upload");
     }
+    watch.Expect(timeouts_.idle, "idle_timeout",
+                 absl::StrCat("the next message after ", received, " points"));
+  }
+  watch.Pause();
+  if (const std::string reason = watch.reason(); !reason.empty()) {
+    // The client never sees this status (the call was cancelled to free its thread); the log and
+    // the metrics do.
+    return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
+                        absl::StrCat(reason, "; the server ended the call"));
   }
   if (context->IsCancelled()) return Gone(*context, "upload");
   auto job = assembler.Finish();
@@ -158,7 +178,9 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   }
   if (client_gone) return Gone(*context, "processing");
   const absl::StatusOr<PipelineReport>& result = running->result();
-  if (!result.ok()) return ToGrpc(result.status());
+  if (!result.ok()) {
+    return runner_.cancelled_all() ? Gone(*context, "processing") : ToGrpc(result.status());
+  }
   metrics_.JobProcessed(*result);
 
   // Download: the kept points (all of them with include_removed), then the report.
@@ -205,6 +227,8 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
   limits->set_max_calls_per_peer(peers_.max_calls_per_peer());
   limits->set_max_scans_per_job(limits_.max_scans_per_job);
   limits->set_max_message_bytes(kMaxMessageBytes);
+  limits->set_header_timeout_seconds(absl::ToDoubleSeconds(timeouts_.header));
+  limits->set_idle_timeout_seconds(absl::ToDoubleSeconds(timeouts_.idle));
   const std::vector<std::string> defaults = DefaultStages();
   for (const StageInfo& stage : StageRegistry()) {
     v1::StageInfo* s = info->add_stages();

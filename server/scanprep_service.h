@@ -8,6 +8,7 @@
 #include "scanprep/v1/scanprep.grpc.pb.h"
 #include "server/admission.h"
 #include "server/call_log.h"
+#include "server/idle_watch.h"
 #include "server/job_assembler.h"
 #include "server/job_runner.h"
 #include "server/peer_limiter.h"
@@ -21,11 +22,18 @@ inline constexpr uint32_t kRecommendedChunkPoints = 32'768;
 // chunk at the default max_chunk_points with every optional array is about 2 MiB.
 inline constexpr int kMaxMessageBytes = 4 << 20;
 
+// How long a client may keep the server waiting for its next upload message.
+struct StreamTimeouts {
+  absl::Duration header = absl::Seconds(10);  // from the call's start to its header
+  absl::Duration idle = absl::Seconds(30);    // between later upload messages
+};
+
 class ScanPrepService final : public v1::ScanPrep::Service {
  public:
-  ScanPrepService(JobLimits limits, AdmissionQueue& admission, JobRunner& runner,
-                  ServiceMetrics& metrics, PeerLimiter& peers, CallLog& log)
+  ScanPrepService(JobLimits limits, StreamTimeouts timeouts, AdmissionQueue& admission,
+                  JobRunner& runner, ServiceMetrics& metrics, PeerLimiter& peers, CallLog& log)
       : limits_(std::move(limits)),
+        timeouts_(timeouts),
         admission_(admission),
         runner_(runner),
         metrics_(metrics),
@@ -46,16 +54,21 @@ class ScanPrepService final : public v1::ScanPrep::Service {
     uint64_t points = 0;
   };
   grpc::Status ProcessJob(grpc::ServerContext* context, Stream* stream, CallRecord& record);
-  void LogCall(const grpc::ServerContext& context, const CallRecord& record,
+  void LogCall(const std::string& peer, const CallRecord& record,
                const grpc::Status& status, absl::Duration elapsed);
   // Writes one response and counts it; false when the client is gone.
   bool Send(Stream* stream, const v1::ProcessResponse& response);
   bool SendProgress(Stream* stream, v1::Progress::Phase phase, std::string_view stage,
                     double fraction, uint64_t points);
+  // The status of a call that ended during `phase` other than by its own fault: the server's
+  // grace period ended (UNAVAILABLE), its deadline passed, or the client cancelled it or vanished.
+  grpc::Status Gone(const grpc::ServerContext& context, std::string_view phase) const;
   // The status for a job the assembler refused, counted as a rejection.
   grpc::Status Refuse(const absl::Status& status);
 
   JobLimits limits_;
+  StreamTimeouts timeouts_;
+  IdleWatch idle_;
   AdmissionQueue& admission_;
   JobRunner& runner_;
   ServiceMetrics& metrics_;

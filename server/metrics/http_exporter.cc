@@ -11,6 +11,12 @@ absl::StatusOr<std::unique_ptr<HttpExporter>> HttpExporter::Start(const std::str
                                                                   const Registry& registry) {
   std::unique_ptr<HttpExporter> exporter(new HttpExporter());
   exporter->server_ = std::make_unique<httplib::Server>();
+  // httplib's default sets SO_REUSEPORT, with which a second server on the same port starts
+  // silently and takes half the scrapes; SO_REUSEADDR only allows a restart over TIME_WAIT.
+  exporter->server_->set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+  });
   exporter->server_->Get("/metrics", [&registry](const httplib::Request&, httplib::Response& res) {
     res.set_content(registry.Serialize(), "text/plain; version=0.0.4; charset=utf-8");
   });

@@ -39,7 +39,11 @@ def plane(rows, cols, step=0.5, wave=0.05):
     return xyz, lines
 
 
-HEADER_ONE = 'header { unit: MILLIMETRE scans { scan_id: "a" scanline_spacing: 0.5 view_direction { z: 1 } } }'
+def header_one(total_points):
+    return ('header { unit: MILLIMETRE total_points: %d '
+            'scans { scan_id: "a" scanline_spacing: 0.5 view_direction { z: 1 } } }' % total_points)
+
+
 HEADER_TWO = ('header { unit: METRE scanner_kind: FLEXIBLE total_points: 8 '
               'scans { camera_position { z: 1 } } '
               'scans { to_common { rotation { z: 0.7071068 w: 0.7071068 } translation { x: 0.001 } } '
@@ -51,17 +55,17 @@ def main():
     OUT.mkdir(parents=True, exist_ok=True)
     xyz, lines = plane(6, 8)
     seeds = {
-        "plane_scanlines": stream(HEADER_ONE,
+        "plane_scanlines": stream(header_one(len(lines)),
                                   f"points {{ xyz: {floats(xyz)} scanline: {lines} }}"),
         "two_scans_posed": stream(HEADER_TWO,
                                   f"points {{ xyz: {floats(xyz[:12])} scan_index: [0, 0, 1, 1] }}",
                                   f"points {{ xyz: {floats(xyz[12:24])} scan_index: [1, 0, 1, 0] }}"),
-        "one_point": stream(HEADER_ONE, "points { xyz: [1, 2, 3] }"),
-        "duplicates_and_nan": stream(HEADER_ONE,
+        "one_point": stream(header_one(1), "points { xyz: [1, 2, 3] }"),
+        "duplicates_and_nan": stream(header_one(4),
                                      "points { xyz: [1, 1, 1, 1, 1, 1, 1, 1, 1, nan, 0, 0] "
                                      "quality: [1, 0.5, 0, 1] }"),
-        "header_only": stream(HEADER_ONE),
-        "points_first": stream("points { xyz: [0, 0, 0] }", HEADER_ONE),
+        "header_only": stream(header_one(1)),
+        "points_first": stream("points { xyz: [0, 0, 0] }", header_one(1)),
         "bad_scan_index": stream(HEADER_TWO, "points { xyz: [0, 0, 0] scan_index: [7] }"),
     }
     for name, data in seeds.items():

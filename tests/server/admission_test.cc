@@ -2,6 +2,7 @@
 // is exact), then through the real service with jobs held open by clients that sent a header and
 // a chunk and wait. Every wait is bounded; no sleep decides an outcome.
 #include <future>
+#include <sstream>
 #include <thread>
 
 #include <gmock/gmock.h>
@@ -197,7 +198,7 @@ TEST(AdmissionQueue, DrainingReleasesWaitingCallsAndRefusesNewOnesButKeepsRunnin
 class HeldCall {
  public:
   explicit HeldCall(v1::ScanPrep::Stub& stub) : stream_(stub.Process(&context_)) {
-    stream_->Write(HeaderRequest(SimpleHeader()));
+    stream_->Write(HeaderRequest(SimpleHeader(), 100));
     stream_->Write(ChunkRequest(LineChunk(100)));
   }
   // True once the server acknowledged the chunk, i.e. the call holds a slot.
@@ -223,7 +224,7 @@ grpc::Status SmallJob(v1::ScanPrep::Stub& stub, std::optional<absl::Duration> ti
   grpc::ClientContext context;
   if (timeout) context.set_deadline(absl::ToChronoTime(absl::Now() + *timeout));
   auto stream = stub.Process(&context);
-  stream->Write(HeaderRequest(SimpleHeader()));
+  stream->Write(HeaderRequest(SimpleHeader(), 100));
   stream->Write(ChunkRequest(LineChunk(100)));
   stream->WritesDone();
   v1::ProcessResponse response;
@@ -284,6 +285,28 @@ TEST(Admission, ACallWhoseDeadlineIsShorterThanTheExpectedWaitFailsAtOnce) {
                    "scanprep_jobs_rejected_total{reason=\"deadline\"}"),
             1);
   EXPECT_TRUE(held.Finish().ok());
+}
+
+TEST(Admission, ADeadlineThatPassesInTheQueueIsLoggedAsSuch) {
+  std::ostringstream log;
+  server::ServerOptions options = Options(1, 1);
+  options.log = &log;
+  auto server = std::make_unique<InProcessServer>(options);
+  auto stub = server->Stub();
+  {
+    HeldCall held(*stub);
+    ASSERT_TRUE(held.WaitUntilRunning());
+    // No job has ended yet, so no expected wait refuses it up front: it waits, and its deadline
+    // passes in the queue.
+    EXPECT_EQ(SmallJob(*stub, absl::Milliseconds(300)).error_code(),
+              grpc::StatusCode::DEADLINE_EXCEEDED);
+    // The slot frees only once the server saw the waiting call go.
+    ASSERT_TRUE(WaitForSample(server->server().metrics_port(), "scanprep_jobs_queued", 0));
+    EXPECT_TRUE(held.Finish().ok());
+  }
+  server.reset();  // every call logged
+  EXPECT_THAT(log.str(), HasSubstr("deadline passed during the wait for a slot"));
+  EXPECT_THAT(log.str(), ::testing::Not(HasSubstr("CANCELLED")));
 }
 
 // grpc.health.v1.Health/Check for the whole server, by hand (no generated health stubs in

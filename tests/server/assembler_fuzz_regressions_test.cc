@@ -15,6 +15,7 @@ void ExpectNoInfiniteCoordinates(v1::LengthUnit unit, double translation_x, floa
   JobAssembler assembler(JobLimits{});
   v1::ProcessRequest header;
   header.mutable_header()->set_unit(unit);
+  header.mutable_header()->set_total_points(2);
   header.mutable_header()->add_scans()->mutable_to_common()->mutable_translation()->set_x(
       translation_x);
   if (const absl::Status s = assembler.Add(header); !s.ok()) {

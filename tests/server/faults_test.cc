@@ -213,7 +213,7 @@ TEST(Faults, ADeadlineExpiringDuringUploadOrDownloadEndsWithDeadlineExceeded) {
     grpc::ClientContext context;
     context.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(300));
     auto stream = stub->Process(&context);
-    ASSERT_TRUE(stream->Write(HeaderRequest(SimpleHeader())));
+    ASSERT_TRUE(stream->Write(HeaderRequest(SimpleHeader(), 100)));
     ASSERT_TRUE(stream->Write(ChunkRequest(LineChunk(100))));
     v1::ProcessResponse response;
     while (stream->Read(&response)) {

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "server/job_assembler.h"
@@ -34,7 +35,9 @@ v1::JobHeader InchHeader() {
 
 TEST(JobAssembler, AppliesUnitAndPoseToPointsAndScannerMetadata) {
   JobAssembler assembler(JobLimits{});
-  ASSERT_TRUE(assembler.Add(Header(InchHeader())).ok());
+  v1::JobHeader h = InchHeader();
+  h.set_total_points(3);
+  ASSERT_TRUE(assembler.Add(Header(h)).ok());
   v1::ProcessRequest chunk;
   for (float v : {1.f, 0.f, 0.f, 0.f, 1.f, std::numeric_limits<float>::infinity(), 0.f, 0.f, 2.f}) {
     chunk.mutable_points()->add_xyz(v);
@@ -73,6 +76,7 @@ TEST(JobAssembler, ScannerKindAndBudgetDefaults) {
   v1::JobHeader h;
   h.set_unit(v1::MILLIMETRE);
   h.add_scans()->set_uncertainty(0.05);
+  h.set_total_points(1);
   JobAssembler assembler(JobLimits{.default_budget_seconds = 7});
   ASSERT_TRUE(assembler.Add(Header(h)).ok());
   v1::ProcessRequest chunk;
@@ -93,6 +97,102 @@ TEST(JobAssembler, RejectsABadDirection) {
   const absl::Status s = assembler.Add(Header(h));
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(s.message(), "header.scans[0].view_direction: must be a finite non-zero vector");
+}
+
+absl::Status AddScan(v1::LengthUnit unit, const v1::ScanHeader& scan) {
+  v1::JobHeader h;
+  h.set_unit(unit);
+  h.set_total_points(1);
+  *h.add_scans() = scan;
+  return JobAssembler(JobLimits{}).Add(Header(h));
+}
+
+TEST(JobAssembler, ScannerLengthsAreZeroOrFromOneNanometreToTenMetres) {
+  v1::ScanHeader scan;
+  scan.set_scanline_spacing(1e300);  // was accepted, and the job came back with 2 of 2,000 points
+  absl::Status s = AddScan(v1::MILLIMETRE, scan);
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message(), "header.scans[0].scanline_spacing: must be 0 or a length in "
+                         "[1e-06, 10000] mm, got 1e+300 (1e+300 mm)");
+
+  // The bound holds after unit conversion: 10 m is the largest, 10.001 m is not.
+  v1::ScanHeader metres;
+  metres.set_uncertainty(10);
+  EXPECT_TRUE(AddScan(v1::METRE, metres).ok());
+  metres.set_uncertainty(10.001);
+  s = AddScan(v1::METRE, metres);
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message(), "header.scans[0].uncertainty: must be 0 or a length in "
+                         "[1e-06, 10000] mm, got 10.001 (10001 mm)");
+
+  // 1 nm is the smallest; 1e-300 mm underflowed the derived spacings to 0.
+  v1::ScanHeader micrometres;
+  micrometres.set_scanline_spacing(0.001);
+  EXPECT_TRUE(AddScan(v1::MICROMETRE, micrometres).ok());
+  micrometres.set_scanline_spacing(1e-300);
+  s = AddScan(v1::MICROMETRE, micrometres);
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("scanline_spacing: must be 0 or a length in "));
+
+  for (double bad : {-0.5, std::numeric_limits<double>::quiet_NaN(),
+                     std::numeric_limits<double>::infinity()}) {
+    v1::ScanHeader point_spacing;
+    point_spacing.set_point_spacing(bad);
+    s = AddScan(v1::MILLIMETRE, point_spacing);
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << bad;
+    EXPECT_THAT(s.message(), ::testing::HasSubstr("header.scans[0].point_spacing: must be 0 or a "
+                                                  "length in [1e-06, 10000] mm"));
+  }
+}
+
+TEST(JobAssembler, ScannerPositionsAndDirectionsAreBounded) {
+  v1::ScanHeader far;
+  far.mutable_camera_position()->set_x(2e6);  // finite, but 2,000 km in metres
+  const absl::Status s = AddScan(v1::METRE, far);
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message(), "header.scans[0].camera_position: must be within 1e+09 mm of the origin "
+                         "in the common frame");
+
+  // Components whose squared norm overflows still give a unit direction, not a zero vector.
+  v1::JobHeader h;
+  h.set_unit(v1::MILLIMETRE);
+  h.set_total_points(1);
+  h.add_scans()->mutable_view_direction()->set_y(1e200);
+  JobAssembler assembler(JobLimits{});
+  ASSERT_TRUE(assembler.Add(Header(h)).ok());
+  v1::ProcessRequest chunk;
+  for (int i = 0; i < 3; ++i) chunk.mutable_points()->add_xyz(1.f);
+  ASSERT_TRUE(assembler.Add(chunk).ok());
+  auto job = assembler.Finish();
+  ASSERT_TRUE(job.ok()) << job.status();
+  EXPECT_TRUE(job->cloud.scans[0].view_direction->isApprox(Eigen::Vector3d(0, 1, 0), 1e-12));
+
+  v1::ScanHeader zero;
+  zero.mutable_projector_direction()->set_z(0);
+  EXPECT_EQ(AddScan(v1::MILLIMETRE, zero).message(),
+            "header.scans[0].projector_direction: must be a finite non-zero vector");
+}
+
+// A stream ends at a message that fails to parse as at a half-close: only the declared count
+// shows that points are missing, so a job must declare it and match it.
+TEST(JobAssembler, RequiresTheDeclaredPointCountAndRefusesFewer) {
+  v1::JobHeader h = InchHeader();
+  const absl::Status undeclared = JobAssembler(JobLimits{}).Add(Header(h));
+  EXPECT_EQ(undeclared.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(undeclared.message(), ::testing::HasSubstr("header.total_points = 0: the number of "
+                                                         "points the upload will send must be "
+                                                         "declared"));
+
+  h.set_total_points(2);
+  JobAssembler assembler(JobLimits{});
+  ASSERT_TRUE(assembler.Add(Header(h)).ok());
+  v1::ProcessRequest chunk;
+  for (int i = 0; i < 3; ++i) chunk.mutable_points()->add_xyz(1.f);
+  ASSERT_TRUE(assembler.Add(chunk).ok());
+  const auto job = assembler.Finish();
+  EXPECT_EQ(job.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(job.status().message(),
+              ::testing::HasSubstr("header.total_points = 2 but 1 points were received"));
 }
 
 }  // namespace

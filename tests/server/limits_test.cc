@@ -2,6 +2,9 @@
 // before the memory it guards is allocated: bytes per call, calls per client host, scans per
 // header, header list lengths and gRPC's message size. (Points per job and per chunk:
 // protocol_errors_test.)
+#include <sstream>
+#include <thread>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -49,7 +52,7 @@ TEST(Limits, CallsPerPeerCountEveryCallInProgressFromOneHost) {
   OpenCall calls[2];
   for (OpenCall& call : calls) {
     call.stream = stub->Process(&call.context);
-    ASSERT_TRUE(call.stream->Write(HeaderRequest(SimpleHeader())));
+    ASSERT_TRUE(call.stream->Write(HeaderRequest(SimpleHeader(), 100)));
     ASSERT_TRUE(call.stream->Write(ChunkRequest(LineChunk(100))));
     v1::ProcessResponse response;
     ASSERT_TRUE(call.stream->Read(&response));
@@ -77,6 +80,153 @@ TEST(Limits, PeerHostDropsOnlyThePort) {
   EXPECT_EQ(server::PeerHost("ipv6:[::1]:51234"), "ipv6:[::1]");
   EXPECT_EQ(server::PeerHost("ipv6:%5B::1%5D:51234"), "ipv6:%5B::1%5D");
   EXPECT_EQ(server::PeerHost("unix:/run/scanprep.sock"), "unix:/run/scanprep.sock");
+}
+
+TEST(Limits, TheDefaultPerHostLimitIsHalfTheSlotsAndNoLimitMayCoverEveryPlace) {
+  using server::CallsPerPeer;
+  using server::CheckCallsPerPeer;
+  using server::ServerOptions;
+  EXPECT_EQ(CallsPerPeer(ServerOptions{}), 2);  // 4 slots
+  EXPECT_EQ(CallsPerPeer(ServerOptions{.max_concurrent_jobs = 1}), 1);
+  EXPECT_EQ(CallsPerPeer(ServerOptions{.max_concurrent_jobs = 7}), 3);
+  EXPECT_EQ(CallsPerPeer(ServerOptions{.max_calls_per_peer = 5}), 5);
+  EXPECT_TRUE(CheckCallsPerPeer(ServerOptions{}).ok());
+  EXPECT_TRUE(CheckCallsPerPeer(ServerOptions{.max_calls_per_peer = 11}).ok());  // 4 + 8 places
+  const absl::Status every = CheckCallsPerPeer(ServerOptions{.max_calls_per_peer = 12});
+  EXPECT_EQ(every.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(every.message(),
+            "--max_calls_per_peer=12 would let one client host take every slot and queue place "
+            "(max_concurrent_jobs + max_queued_jobs = 12); it must be below 12");
+  // One slot and no queue: 1 is the only limit there is.
+  EXPECT_TRUE(
+      CheckCallsPerPeer(ServerOptions{.max_concurrent_jobs = 1, .max_queued_jobs = 0}).ok());
+}
+
+// Two client hosts on one machine: the server listens on IPv6's wildcard, so a client connecting
+// to 127.0.0.1 arrives as ipv6:[::ffff:127.0.0.1] and one connecting to [::1] as ipv6:[::1].
+TEST(Limits, OneHostCannotTakeEverySlotWhileAnotherHostsJobCompletes) {
+  server::ServerOptions options;  // 4 slots, 8 queue places, the default per-host limit
+  options.listen = "[::]:0";
+  options.threads = 2;
+  auto server = server::ScanPrepServer::Start(options);
+  ASSERT_TRUE(server.ok()) << server.status();
+  const int port = (*server)->port();
+  auto greedy = v1::ScanPrep::NewStub(grpc::CreateChannel(
+      absl::StrCat("127.0.0.1:", port), grpc::InsecureChannelCredentials()));
+
+  // The greedy host opens calls until refused; each opened call holds a slot.
+  struct OpenCall {
+    grpc::ClientContext context;
+    std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> stream;
+  };
+  std::vector<std::unique_ptr<OpenCall>> held;
+  grpc::Status refused;
+  for (int i = 0; i < 12 && refused.ok(); ++i) {
+    auto call = std::make_unique<OpenCall>();
+    // A queued call would wait for an acknowledgement that never comes.
+    call->context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+    call->stream = greedy->Process(&call->context);
+    call->stream->Write(HeaderRequest(SimpleHeader(), 100));
+    call->stream->Write(ChunkRequest(LineChunk(100)));
+    v1::ProcessResponse ack;
+    if (call->stream->Read(&ack)) {
+      held.push_back(std::move(call));
+    } else {
+      refused = call->stream->Finish();
+    }
+  }
+  EXPECT_EQ(held.size(), 2u);  // half of the 4 slots
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(refused.error_message(), HasSubstr("(max_calls_per_peer)"));
+
+  // Another host's job runs to its report while the greedy host's calls are still open.
+  auto other = client::ScanPrepClient::Connect(absl::StrCat("[::1]:", port));
+  v1::JobHeader header = SimpleHeader();
+  header.mutable_options()->add_stages("outliers");
+  PointCloud cloud;
+  for (int i = 0; i < 200; ++i) {
+    cloud.x.push_back(0.5f * (i % 20));
+    cloud.y.push_back(0.5f * (i / 20));
+    cloud.z.push_back(0.f);
+  }
+  cloud.scans.push_back(ScanMeta{.id = "plane"});
+  cloud.FinishLoading();
+  auto result = other.Process(header, cloud);
+  ASSERT_TRUE(result.ok()) << result.status();
+  EXPECT_EQ(result->report.points_received(), 200u);
+  auto info = other.GetInfo(absl::Seconds(10));
+  ASSERT_TRUE(info.ok()) << info.status();
+  EXPECT_EQ(info->limits().max_calls_per_peer(), 2u);
+
+  for (auto& call : held) call->context.TryCancel();
+  for (auto& call : held) call->stream->Finish();
+}
+
+TEST(Limits, AStreamThatNeverSendsItsHeaderIsEndedByTheHeaderTimeout) {
+  server::ServerOptions options;
+  options.timeouts.header = absl::Milliseconds(300);
+  InProcessServer server(options);
+  auto stub = server.Stub();
+  grpc::ClientContext context;
+  const absl::Time start = absl::Now();
+  auto stream = stub->Process(&context);
+  v1::ProcessResponse response;
+  EXPECT_FALSE(stream->Read(&response));
+  EXPECT_EQ(stream->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  const absl::Duration held = absl::Now() - start;
+  EXPECT_GE(held, absl::Milliseconds(300));
+  EXPECT_LT(held, absl::Seconds(5));
+  auto info = server.Client().GetInfo(absl::Seconds(10));
+  ASSERT_TRUE(info.ok()) << info.status();
+  EXPECT_EQ(info->limits().header_timeout_seconds(), 0.3);
+  EXPECT_EQ(info->limits().idle_timeout_seconds(), 30);
+}
+
+// One slot: an uploader that went quiet after its first chunk holds it until the idle limit ends
+// its call, then the job queued behind it runs to its report.
+TEST(Limits, ASlowUploaderIsEndedByTheIdleTimeoutWhileAnotherClientsJobCompletes) {
+  server::ServerOptions options;
+  options.max_concurrent_jobs = 1;
+  options.max_queued_jobs = 1;
+  options.timeouts.idle = absl::Milliseconds(500);
+  std::ostringstream log;
+  options.log = &log;
+  auto server = std::make_unique<InProcessServer>(options);
+  auto stub = server->Stub();
+
+  grpc::ClientContext slow_context;
+  auto slow = stub->Process(&slow_context);
+  ASSERT_TRUE(slow->Write(HeaderRequest(SimpleHeader(), 200)));
+  ASSERT_TRUE(slow->Write(ChunkRequest(LineChunk(100))));
+  v1::ProcessResponse ack;
+  ASSERT_TRUE(slow->Read(&ack));  // acknowledged: the slow call holds the only slot
+  const absl::Time quiet_since = absl::Now();
+  absl::Time slow_ended;
+  std::thread slow_reader([&] {
+    v1::ProcessResponse response;
+    while (slow->Read(&response)) {
+    }
+    slow_ended = absl::Now();
+  });
+
+  std::vector<v1::ProcessResponse> responses;
+  const grpc::Status other =
+      RawCall(*stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))}, &responses);
+  const absl::Time other_done = absl::Now();
+  slow_reader.join();
+  EXPECT_TRUE(other.ok()) << other.error_message();
+  ASSERT_FALSE(responses.empty());
+  EXPECT_TRUE(responses.back().has_report());
+  EXPECT_EQ(slow->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  EXPECT_GE(slow_ended - quiet_since, absl::Milliseconds(500));
+  EXPECT_LT(slow_ended - quiet_since, absl::Seconds(5));
+  EXPECT_GE(other_done, slow_ended);  // it waited for the slot the slow call held
+  server.reset();  // every call logged
+  // Named with the real cause and peer, though the client only saw its call cancelled.
+  EXPECT_THAT(log.str(), HasSubstr("W process peer=ipv4:127.0.0.1:"));
+  EXPECT_THAT(log.str(), HasSubstr("DEADLINE_EXCEEDED: \"the next message after 100 points did not "
+                                   "arrive within 500ms (idle_timeout); the server ended the "
+                                   "call\""));
 }
 
 TEST(Limits, ScansPerJobAreCheckedBeforeAnyScanIsBuilt) {
@@ -117,11 +267,11 @@ TEST(Limits, MessagesAboveFourMebibytesAreRefusedByGrpcBeforeTheyAreParsed) {
 }
 
 TEST(Limits, GetInfoReportsEveryLimit) {
-  InProcessServer server;
+  InProcessServer server(server::ServerOptions{.max_calls_per_peer = 3});
   auto info = server.Client().GetInfo(absl::Seconds(10));
   ASSERT_TRUE(info.ok()) << info.status();
   EXPECT_EQ(info->limits().max_bytes_per_call(), uint64_t{1} << 30);
-  EXPECT_EQ(info->limits().max_calls_per_peer(), 16u);
+  EXPECT_EQ(info->limits().max_calls_per_peer(), 3u);
   EXPECT_EQ(info->limits().max_scans_per_job(), 1000u);
   EXPECT_EQ(info->limits().max_message_bytes(), 4u << 20);
 }

@@ -12,6 +12,32 @@
 namespace scanprep::testing {
 namespace {
 
+using ::testing::HasSubstr;
+
+// Neither port is shared: a second instance on either fails to start, with the port in the
+// message, instead of silently taking half the traffic (SO_REUSEPORT).
+TEST(Ports, ASecondInstanceOnTheSamePortFailsToStart) {
+  server::ServerOptions first_options;
+  first_options.listen = "127.0.0.1:0";
+  first_options.metrics_listen = "127.0.0.1:0";
+  auto first = server::ScanPrepServer::Start(first_options);
+  ASSERT_TRUE(first.ok()) << first.status();
+
+  server::ServerOptions same_grpc;
+  same_grpc.listen = absl::StrCat("127.0.0.1:", (*first)->port());
+  const auto grpc_clash = server::ScanPrepServer::Start(same_grpc);
+  EXPECT_EQ(grpc_clash.status().code(), absl::StatusCode::kUnavailable);
+  EXPECT_THAT(grpc_clash.status().message(), HasSubstr("cannot listen on " + same_grpc.listen));
+
+  server::ServerOptions same_metrics;
+  same_metrics.listen = "127.0.0.1:0";
+  same_metrics.metrics_listen = absl::StrCat("127.0.0.1:", (*first)->metrics_port());
+  const auto metrics_clash = server::ScanPrepServer::Start(same_metrics);
+  EXPECT_EQ(metrics_clash.status().code(), absl::StatusCode::kUnavailable);
+  EXPECT_THAT(metrics_clash.status().message(),
+              HasSubstr("metrics: cannot listen on " + same_metrics.metrics_listen));
+}
+
 constexpr double kAlwaysMissed = 1e-9;  // no stage finishes in a nanosecond
 
 v1::JobHeader OutliersJob() {

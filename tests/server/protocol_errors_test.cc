@@ -97,6 +97,12 @@ TEST_F(ProtocolErrors, RotationNotAUnitQuaternion) {
                 "header.scans[0].to_common.rotation: must be a unit quaternion");
 }
 
+TEST_F(ProtocolErrors, AbsurdScannerMetadata) {
+  EXPECT_STATUS(Send(SimpleHeader(1e300), {LineChunk(2000)}), INVALID_ARGUMENT,
+                "header.scans[0].scanline_spacing: must be 0 or a length in [1e-06, 10000] mm, got "
+                "1e+300");
+}
+
 TEST_F(ProtocolErrors, XyzNotAMultipleOfThree) {
   v1::PointChunk bad = LineChunk(10);
   bad.add_xyz(1.f);
@@ -147,7 +153,74 @@ TEST_F(ProtocolErrors, ChunkLargerThanTheLimit) {
 }
 
 TEST_F(ProtocolErrors, ZeroPoints) {
-  EXPECT_STATUS(Send(SimpleHeader(), {}), INVALID_ARGUMENT, "the job has no points");
+  EXPECT_STATUS(Send(SimpleHeader(), {}), INVALID_ARGUMENT,
+                "header.total_points = 0: the number of points the upload will send must be "
+                "declared");
+}
+
+TEST_F(ProtocolErrors, UndeclaredPointCountIsRefusedAtTheHeader) {
+  grpc::ClientContext context;
+  auto stream = stub_->Process(&context);
+  ASSERT_TRUE(stream->Write(HeaderRequest(SimpleHeader())));
+  stream->Write(ChunkRequest(LineChunk(10)));
+  stream->WritesDone();
+  v1::ProcessResponse response;
+  EXPECT_FALSE(stream->Read(&response));  // refused before any point was acknowledged
+  EXPECT_STATUS(stream->Finish(), INVALID_ARGUMENT, "header.total_points = 0");
+}
+
+// Request messages as bytes, so a test can send what no client library would: gRPC ends the
+// server's stream at a message that fails to parse as if the client had half-closed.
+grpc::Status BytesCall(const std::string& target, const std::vector<std::string>& messages) {
+  auto channel = grpc::CreateChannel(target, grpc::InsecureChannelCredentials());
+  const grpc::internal::RpcMethod method("/scanprep.v1.ScanPrep/Process",
+                                         grpc::internal::RpcMethod::BIDI_STREAMING);
+  grpc::ClientContext context;
+  std::unique_ptr<grpc::ClientReaderWriter<grpc::ByteBuffer, grpc::ByteBuffer>> stream(
+      grpc::internal::ClientReaderWriterFactory<grpc::ByteBuffer, grpc::ByteBuffer>::Create(
+          channel.get(), method, &context));
+  for (const std::string& m : messages) {
+    const grpc::Slice slice(m);
+    grpc::ByteBuffer buffer(&slice, 1);
+    if (!stream->Write(buffer)) break;
+  }
+  stream->WritesDone();
+  grpc::ByteBuffer response;
+  while (stream->Read(&response)) {
+  }
+  return stream->Finish();
+}
+
+TEST_F(ProtocolErrors, AHeaderThatFailsToParseIsNotCalledAnEmptyStream) {
+  v1::JobHeader header = SimpleHeader();
+  header.set_total_points(10);
+  header.set_job_id("caf\xe9");  // Latin-1, not UTF-8: proto3 strings must be UTF-8
+  EXPECT_STATUS(BytesCall(server_.target(), {HeaderRequest(header).SerializeAsString(),
+                                             ChunkRequest(LineChunk(10)).SerializeAsString()}),
+                INVALID_ARGUMENT,
+                "first message must be a header (the stream ended before a message could be "
+                "parsed)");
+}
+
+TEST_F(ProtocolErrors, AMessageThatFailsToParseMidStreamIsNeverOk) {
+  v1::JobHeader header = SimpleHeader();
+  header.set_total_points(30);
+  const std::string chunk = ChunkRequest(LineChunk(10)).SerializeAsString();
+  // The control: all three chunks intact is a complete job.
+  ASSERT_TRUE(BytesCall(server_.target(), {HeaderRequest(header).SerializeAsString(), chunk,
+                                           chunk, chunk})
+                  .ok());
+  // The third chunk cut inside its length varint (after a byte with the continuation bit set),
+  // or led by a field of wire type 7, which does not exist.
+  const std::string truncated_varint = chunk.substr(0, 1) + "\xfb";
+  const std::string bad_wire_type = "\x17" + chunk;
+  for (const std::string& bad : {truncated_varint, bad_wire_type}) {
+    EXPECT_STATUS(BytesCall(server_.target(),
+                            {HeaderRequest(header).SerializeAsString(), chunk, chunk, bad}),
+                  INVALID_ARGUMENT,
+                  "header.total_points = 30 but 20 points were received before the stream "
+                  "ended");
+  }
 }
 
 TEST_F(ProtocolErrors, OnlyInvalidPoints) {
@@ -174,15 +247,15 @@ TEST(ProtocolLimits, MorePointsThanTheJobLimitEndsTheCallWhenCrossed) {
   InProcessServer server(options);
   auto stub = server.Stub();
   std::vector<v1::ProcessResponse> responses;
+  // The declared total is within the limit, so points beyond it cross the limit too.
   const grpc::Status status =
       RawCall(*stub,
-              {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(600)),
+              {HeaderRequest(SimpleHeader(), 1000), ChunkRequest(LineChunk(600)),
                ChunkRequest(LineChunk(600)), ChunkRequest(LineChunk(600))},
               &responses);
-  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_THAT(status.error_message(),
-              HasSubstr("chunk 1: the job exceeds the server's limit of 1000 points per job "
-                        "(max_points_per_job)"));
+              HasSubstr("chunk 1: more points than header.total_points = 1000"));
   // Only the first chunk was acknowledged: the call ended at the crossing chunk.
   ASSERT_EQ(responses.size(), 1u);
   EXPECT_EQ(responses[0].progress().points(), 600u);
@@ -205,7 +278,7 @@ TEST(ProtocolLimits, CallsBeyondTheConcurrencyLimitAreRefusedAtOnce) {
   // Hold the only slot: an open upload whose first chunk the server acknowledged.
   grpc::ClientContext held;
   auto stream = stub->Process(&held);
-  ASSERT_TRUE(stream->Write(HeaderRequest(SimpleHeader())));
+  ASSERT_TRUE(stream->Write(HeaderRequest(SimpleHeader(), 100)));
   ASSERT_TRUE(stream->Write(ChunkRequest(LineChunk(100))));
   v1::ProcessResponse ack;
   ASSERT_TRUE(stream->Read(&ack));

@@ -2,6 +2,7 @@
 // port, a raw-stream call for protocol tests, and a generated scan (noisy plane with spikes).
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <random>
 #include <string>
@@ -24,6 +25,11 @@ class InProcessServer {
   explicit InProcessServer(server::ServerOptions options = {}) {
     options.listen = "127.0.0.1:0";
     if (options.threads == 0) options.threads = 2;
+    // Every test client calls from 127.0.0.1, standing for many hosts: the per-host limit is off
+    // unless a test sets it.
+    if (options.max_calls_per_peer == 0) {
+      options.max_calls_per_peer = std::numeric_limits<int>::max();
+    }
     auto started = server::ScanPrepServer::Start(options);
     EXPECT_TRUE(started.ok()) << started.status();
     server_ = std::move(*started);
@@ -42,9 +48,15 @@ class InProcessServer {
 };
 
 // Writes `requests` (stopping when the server ended the call), half-closes, reads every
-// response and returns the call's status.
-inline grpc::Status RawCall(v1::ScanPrep::Stub& stub, const std::vector<v1::ProcessRequest>& requests,
+// response and returns the call's status. Like the client library, it declares a first header's
+// total_points, when zero, as the points the requests carry.
+inline grpc::Status RawCall(v1::ScanPrep::Stub& stub, std::vector<v1::ProcessRequest> requests,
                             std::vector<v1::ProcessResponse>* responses = nullptr) {
+  if (!requests.empty() && requests[0].has_header() && requests[0].header().total_points() == 0) {
+    uint64_t points = 0;
+    for (const v1::ProcessRequest& r : requests) points += r.points().xyz_size() / 3;
+    requests[0].mutable_header()->set_total_points(points);
+  }
   grpc::ClientContext context;
   auto stream = stub.Process(&context);
   bool open = true;
@@ -63,6 +75,12 @@ inline v1::ProcessRequest HeaderRequest(const v1::JobHeader& header) {
   v1::ProcessRequest r;
   *r.mutable_header() = header;
   return r;
+}
+
+// The header with the number of points the upload will send declared.
+inline v1::ProcessRequest HeaderRequest(v1::JobHeader header, uint64_t total_points) {
+  header.set_total_points(total_points);
+  return HeaderRequest(header);
 }
 
 inline v1::ProcessRequest ChunkRequest(const v1::PointChunk& chunk) {

@@ -101,7 +101,7 @@ TEST(ServerBinary, ServesTheClientLibrary) {
     EXPECT_EQ(info->limits().max_chunk_points(), 65'536u);
     EXPECT_EQ(info->limits().max_bytes_per_call(), 1u << 30);
     EXPECT_EQ(info->limits().max_scans_per_job(), 1'000u);
-    EXPECT_EQ(info->limits().max_calls_per_peer(), 16u);
+    EXPECT_EQ(info->limits().max_calls_per_peer(), 2u);  // half the slots
 
     v1::JobHeader header = SimpleHeader(0.5);
     header.mutable_options()->add_stages("outliers");
@@ -141,6 +141,11 @@ TEST(ServerBinary, BadBudgetFlagsExitOneWithTheReason) {
       RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --stage_budgets=sharpen=1");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.output, HasSubstr("--stage_budgets entry 'sharpen=1': unknown stage 'sharpen'"));
+  const CommandResult every_place = RunCommand(std::string(SCANPREP_SERVER_BINARY) +
+                                               " --plaintext --max_calls_per_peer=12");
+  EXPECT_EQ(every_place.exit_code, 1);
+  EXPECT_THAT(every_place.output,
+              HasSubstr("--max_calls_per_peer=12 would let one client host take every slot"));
   const CommandResult listen =
       RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --plaintext --metrics_listen=nowhere");
   EXPECT_EQ(listen.exit_code, 1);
@@ -182,7 +187,7 @@ TEST(ServerBinary, SigtermLetsTheInFlightCallFinishThenExitsZero) {
       grpc::CreateChannel(server.target(), grpc::InsecureChannelCredentials()));
   grpc::ClientContext context;
   auto stream = stub->Process(&context);
-  ASSERT_TRUE(stream->Write(HeaderRequest(SimpleHeader())));
+  ASSERT_TRUE(stream->Write(HeaderRequest(SimpleHeader(), 500)));
   ASSERT_TRUE(stream->Write(ChunkRequest(LineChunk(500))));
   v1::ProcessResponse response;
   ASSERT_TRUE(stream->Read(&response));  // the upload is acknowledged: the call is in flight
@@ -195,6 +200,47 @@ TEST(ServerBinary, SigtermLetsTheInFlightCallFinishThenExitsZero) {
   EXPECT_TRUE(stream->Finish().ok());
   EXPECT_TRUE(report);
   terminate.join();
+}
+
+TEST(ServerBinary, SigtermDuringALongStageExitsWithinTheGracePeriodPlusOneSecond) {
+  ServerProcess server({"--grace_period=1s"});
+  ASSERT_GT(server.port(), 0);
+  auto stub = v1::ScanPrep::NewStub(
+      grpc::CreateChannel(server.target(), grpc::InsecureChannelCredentials()));
+  // Smoothing 100 times over 64 neighbours of 300,000 points: far longer than the grace period.
+  const GeneratedScan scan = NoisyPlaneWithSpikes(545, 0.5f);
+  v1::JobHeader header = SimpleHeader(0.5);
+  header.set_total_points(scan.cloud.size());
+  auto& params = *header.mutable_options()->mutable_params();
+  params["neighbourhoods.k"] = "64";
+  params["smoothing.iterations"] = "100";
+  grpc::ClientContext context;
+  auto stream = stub->Process(&context);
+  ASSERT_TRUE(stream->Write(HeaderRequest(header)));
+  for (size_t begin = 0; begin < scan.cloud.size(); begin += client::kDefaultChunkPoints) {
+    v1::ProcessRequest request;
+    client::RequestChunk(scan.cloud, begin,
+                         std::min(scan.cloud.size(), begin + client::kDefaultChunkPoints), false,
+                         request.mutable_points());
+    ASSERT_TRUE(stream->Write(request));
+  }
+  stream->WritesDone();
+  v1::ProcessResponse response;
+  while (stream->Read(&response) && response.progress().stage() != "smoothing") {
+  }
+  ASSERT_EQ(response.progress().stage(), "smoothing");
+
+  const auto signalled = std::chrono::steady_clock::now();
+  std::thread terminate([&] { EXPECT_EQ(server.Terminate(), 0); });
+  while (stream->Read(&response)) {
+  }
+  const grpc::Status status = stream->Finish();
+  terminate.join();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
+  EXPECT_LE(seconds, 2.0) << "exit took " << seconds << " s";  // grace 1 s + 1 s
+  // Cut short, not finished: the server was shutting down.
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAVAILABLE) << status.error_message();
 }
 
 TEST(Cli, ProcessesTwoRegisteredBunnyScans) {

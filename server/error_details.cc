@@ -1,0 +1,53 @@
+#include "server/error_details.h"
+
+#include <string>
+
+#include <grpcpp/grpcpp.h>
+
+#include "google/rpc/error_details.pb.h"
+#include "google/rpc/status.pb.h"
+
+namespace scanprep::server {
+namespace {
+
+// Payload keys: private to this file, never sent as they are.
+// (absl::string_view: Debian's Abseil does not alias it to std::string_view.)
+constexpr absl::string_view kReasonPayload = "scanprep.v1/reason";
+constexpr absl::string_view kRetryPayload = "scanprep.v1/retry_after_ms";
+
+}  // namespace
+
+absl::Status WithReason(absl::Status status, std::string_view reason,
+                        std::optional<absl::Duration> retry_after) {
+  status.SetPayload(kReasonPayload, absl::Cord(std::string(reason)));
+  if (retry_after.has_value()) {
+    status.SetPayload(kRetryPayload,
+                      absl::Cord(std::to_string(absl::ToInt64Milliseconds(*retry_after))));
+  }
+  return status;
+}
+
+grpc::Status ToGrpc(const absl::Status& status) {
+  const auto code = static_cast<grpc::StatusCode>(status.code());
+  const std::string message(status.message());
+  const auto reason = status.GetPayload(kReasonPayload);
+  if (!reason.has_value()) return grpc::Status(code, message);
+
+  google::rpc::Status details;
+  details.set_code(static_cast<int>(code));
+  details.set_message(message);
+  google::rpc::ErrorInfo info;
+  info.set_reason(std::string(*reason));
+  info.set_domain(std::string(kErrorDomain));
+  details.add_details()->PackFrom(info);
+  if (const auto retry = status.GetPayload(kRetryPayload)) {
+    const int64_t ms = std::stoll(std::string(*retry));
+    google::rpc::RetryInfo retry_info;
+    retry_info.mutable_retry_delay()->set_seconds(ms / 1000);
+    retry_info.mutable_retry_delay()->set_nanos(static_cast<int32_t>(ms % 1000) * 1'000'000);
+    details.add_details()->PackFrom(retry_info);
+  }
+  return grpc::Status(code, message, details.SerializeAsString());
+}
+
+}  // namespace scanprep::server

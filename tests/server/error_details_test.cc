@@ -1,0 +1,126 @@
+// The standard error details a client program acts on: every RESOURCE_EXHAUSTED carries a
+// google.rpc.ErrorInfo with a stable reason, and a google.rpc.RetryInfo exactly when the same call
+// can succeed later. Parsed here as a client would, from the grpc-status-details-bin trailer.
+#include <optional>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "google/rpc/error_details.pb.h"
+#include "google/rpc/status.pb.h"
+#include "tests/server/service_fixtures.h"
+
+namespace scanprep::testing {
+namespace {
+
+struct Details {
+  std::string reason;
+  std::string domain;
+  std::optional<absl::Duration> retry_delay;
+};
+
+std::optional<Details> Parse(const grpc::Status& status) {
+  google::rpc::Status rpc;
+  if (status.error_details().empty() || !rpc.ParseFromString(status.error_details())) {
+    return std::nullopt;
+  }
+  EXPECT_EQ(rpc.code(), status.error_code());
+  EXPECT_EQ(rpc.message(), status.error_message());
+  Details d;
+  for (const google::protobuf::Any& any : rpc.details()) {
+    google::rpc::ErrorInfo info;
+    google::rpc::RetryInfo retry;
+    if (any.UnpackTo(&info)) {
+      d.reason = info.reason();
+      d.domain = info.domain();
+    } else if (any.UnpackTo(&retry)) {
+      d.retry_delay = absl::Seconds(retry.retry_delay().seconds()) +
+                      absl::Nanoseconds(retry.retry_delay().nanos());
+    }
+  }
+  return d;
+}
+
+// A call that holds a slot (and a per-host place) until it is destroyed.
+class HeldCall {
+ public:
+  explicit HeldCall(v1::ScanPrep::Stub& stub) : stream_(stub.Process(&context_)) {
+    EXPECT_TRUE(stream_->Write(HeaderRequest(SimpleHeader(), 100)));
+    EXPECT_TRUE(stream_->Write(ChunkRequest(LineChunk(100))));
+    v1::ProcessResponse ack;
+    EXPECT_TRUE(stream_->Read(&ack));
+  }
+  ~HeldCall() {
+    context_.TryCancel();
+    stream_->Finish();
+  }
+
+ private:
+  grpc::ClientContext context_;
+  std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> stream_;
+};
+
+grpc::Status SmallJob(v1::ScanPrep::Stub& stub) {
+  return RawCall(stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))});
+}
+
+TEST(ErrorDetails, QueueFullIsRetryable) {
+  InProcessServer server(server::ServerOptions{.max_concurrent_jobs = 1, .max_queued_jobs = 0});
+  auto stub = server.Stub();
+  HeldCall held(*stub);
+  const grpc::Status refused = SmallJob(*stub);
+  ASSERT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  const auto d = Parse(refused);
+  ASSERT_TRUE(d.has_value());
+  EXPECT_EQ(d->reason, "QUEUE_FULL");
+  EXPECT_EQ(d->domain, "scanprep.v1");
+  ASSERT_TRUE(d->retry_delay.has_value());
+  EXPECT_GE(*d->retry_delay, absl::Seconds(1));
+}
+
+TEST(ErrorDetails, PerHostLimitIsRetryable) {
+  InProcessServer server(server::ServerOptions{.max_calls_per_peer = 1});
+  auto stub = server.Stub();
+  HeldCall held(*stub);
+  const auto d = Parse(SmallJob(*stub));
+  ASSERT_TRUE(d.has_value());
+  EXPECT_EQ(d->reason, "PEER_LIMIT");
+  EXPECT_EQ(d->retry_delay, absl::Seconds(1));
+}
+
+TEST(ErrorDetails, JobsTooLargeAreNeverRetryable) {
+  server::ServerOptions options;
+  options.limits.max_points_per_job = 1000;
+  options.limits.max_scans_per_job = 1;
+  options.limits.max_chunk_points = 50;
+  InProcessServer server(options);
+  auto stub = server.Stub();
+
+  v1::JobHeader too_many_points = SimpleHeader();
+  too_many_points.set_total_points(5000);
+  v1::JobHeader two_scans = SimpleHeader();
+  two_scans.add_scans()->set_scan_id("second");
+  const std::pair<std::string, grpc::Status> cases[] = {
+      {"JOB_TOO_LARGE", RawCall(*stub, {HeaderRequest(too_many_points)})},
+      {"TOO_MANY_SCANS", RawCall(*stub, {HeaderRequest(two_scans)})},
+      {"CHUNK_TOO_LARGE", SmallJob(*stub)},
+  };
+  for (const auto& [reason, status] : cases) {
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << reason;
+    const auto d = Parse(status);
+    ASSERT_TRUE(d.has_value()) << reason;
+    EXPECT_EQ(d->reason, reason);
+    EXPECT_FALSE(d->retry_delay.has_value()) << reason;
+  }
+
+  server::ServerOptions small_calls;
+  small_calls.limits.max_bytes_per_call = 100;
+  InProcessServer bytes(small_calls);
+  const auto d = Parse(SmallJob(*bytes.Stub()));
+  ASSERT_TRUE(d.has_value());
+  EXPECT_EQ(d->reason, "CALL_TOO_LARGE");
+  EXPECT_FALSE(d->retry_delay.has_value());
+}
+
+}  // namespace
+}  // namespace scanprep::testing
