@@ -17,19 +17,7 @@ if [[ ${1:-} == --no-header ]]; then header=0; shift; fi
 sizes=("$@")
 ((${#sizes[@]})) || sizes=(1000000 4000000)
 read -ra threads <<<"${THREADS:-1 2}"
-build_dir=${BUILD_DIR:-build}
-[[ ${SKIP_BUILD:-} == 1 ]] || bash deploy/build.sh >/dev/null
-cli=$build_dir/client/scanprep
-bin=$build_dir  # for deploy/lib/local-server.sh
-source deploy/lib/local-server.sh
-
-work=$(mktemp -d)
-server_pid=
-cleanup() {
-  if [[ -n $server_pid ]]; then kill "$server_pid" 2>/dev/null || true; fi
-  rm -rf "$work"
-}
-trap cleanup EXIT
+source deploy/lib/bench-setup.sh  # cli, bin, work, server_pid, cleanup on exit
 
 # kB value of a /proc/PID/status field.
 status_kb() { awk -v f="$2:" '$1 == f {print $2}' "/proc/$1/status"; }

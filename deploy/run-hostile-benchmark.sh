@@ -25,19 +25,7 @@ cd "$(dirname "$0")/.."
 points=${1:-100000}
 threads=${THREADS:-2}
 memory_cap_kb=$((${MEMORY_CAP_MIB:-2048} * 1024))
-build_dir=${BUILD_DIR:-build}
-[[ ${SKIP_BUILD:-} == 1 ]] || bash deploy/build.sh >/dev/null
-cli=$build_dir/client/scanprep
-bin=$build_dir  # for deploy/lib/local-server.sh
-source deploy/lib/local-server.sh
-
-work=$(mktemp -d)
-server_pid=
-cleanup() {
-  if [[ -n $server_pid ]]; then kill -KILL "$server_pid" 2>/dev/null || true; fi
-  rm -rf "$work"
-}
-trap cleanup EXIT
+source deploy/lib/bench-setup.sh  # cli, bin, work, server_pid, cleanup on exit
 
 # kB value of a /proc/PID/status field, empty when the process is gone; builtins only, since it
 # is polled.
