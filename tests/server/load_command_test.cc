@@ -70,7 +70,10 @@ class LoadCommand : public ::testing::Test {
   // `input`: the job's source; by default the plane file.
   static LoadRun Load(const std::string& target, const std::string& flags,
                       const std::string& input = "") {
-    const fs::path json = fs::path(::testing::TempDir()) / "load.json";
+    // Per process: ctest runs this file's tests in parallel processes, and one removing or
+    // writing another's file made its JSON empty.
+    const fs::path json =
+        fs::path(::testing::TempDir()) / ("load_" + std::to_string(getpid()) + ".json");
     fs::remove(json);
     LoadRun run;
     run.command = RunCommand(std::string(SCANPREP_CLI_BINARY) + " load --server " + target +
