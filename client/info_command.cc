@@ -27,8 +27,7 @@ int RunInfo(const ParsedArgs& args) {
   if (!credentials.ok()) return Fail("info", std::string(credentials.status().message()));
   auto info = ScanPrepClient::Connect(server, *credentials).GetInfo(absl::Seconds(10));
   if (!info.ok()) {
-    return Fail("info", absl::StrCat(server, ": ", absl::StatusCodeToString(info.status().code()),
-                                     ": ", info.status().message()));
+    return FailCall("info", server, info.status());
   }
   const v1::Limits& limits = info->limits();
   std::cout << "scanprep server " << info->version() << " at " << server << "\n"

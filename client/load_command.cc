@@ -89,8 +89,7 @@ int RunLoadCommand(const ParsedArgs& args) {
   std::shared_ptr<grpc::Channel> channel = RoundRobinChannel(target, *credentials);
   // An unreachable or refusing server fails here, once, rather than as a flood of errors.
   if (auto info = ScanPrepClient(channel).GetInfo(absl::Seconds(10)); !info.ok()) {
-    return Fail("load", absl::StrCat(target, ": ", absl::StatusCodeToString(info.status().code()),
-                                     ": ", info.status().message()));
+    return FailCall("load", target, info.status());
   }
   const LoadReport report =
       MakeLoadReport(target, *options, *job, RunLoad(channel, *job, *options), budget);

@@ -5,6 +5,7 @@
 #include <thread>
 
 #include "absl/strings/str_cat.h"
+#include "client/call_error.h"
 #include "client/scanprep_client.h"
 
 namespace scanprep::client {
@@ -81,7 +82,7 @@ LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job
       std::lock_guard lock(mu);
       if (!r.ok()) {
         ErrorTally& tally = result.errors[absl::StatusCodeToString(r.status().code())];
-        if (tally.count++ == 0) tally.example = std::string(r.status().message());
+        if (tally.count++ == 0) tally.example = absl::StrCat(r.status().message(), DetailsText(r.status()));
         pause = options.rate <= 0;
         continue;
       }

@@ -1,13 +1,19 @@
 // `scanprep`: command-line client of the scanprep service.
 #include <iostream>
 
+#include "client/call_error.h"
 #include "client/commands.h"
 
 namespace scanprep::client {
 
 int Fail(const std::string& command, const std::string& message) {
   std::cerr << "scanprep " << command << ": " << message << "\n";
-  return 1;
+  return kExitFailure;
+}
+
+int FailCall(const std::string& command, const std::string& server, const absl::Status& status) {
+  std::cerr << "scanprep " << command << ": " << server << ": " << Describe(status) << "\n";
+  return ExitCodeFor(status);
 }
 
 namespace {
@@ -28,16 +34,16 @@ int main(int argc, char** argv) {
   using namespace scanprep::client;
   if (argc < 2) {
     PrintUsage(std::cerr);
-    return 2;
+    return kExitUsage;
   }
   const std::string name = argv[1];
   if (name == "help" || name == "--help" || name == "-h") {
     PrintUsage(std::cout);
-    return 0;
+    return kExitOk;
   }
   if (name == "--version") {
     std::cout << "scanprep " SCANPREP_VERSION "\n";
-    return 0;
+    return kExitOk;
   }
   for (const Command& command : Commands()) {
     if (command.name != name) continue;
@@ -45,11 +51,11 @@ int main(int argc, char** argv) {
     if (!args.ok()) {
       std::cerr << "scanprep " << name << ": " << args.status().message() << "\nusage: scanprep "
                 << command.synopsis << "\n" << FlagHelp(command.flags);
-      return 2;
+      return kExitUsage;
     }
     return command.run(*args);
   }
   std::cerr << "scanprep: unknown command '" << name << "'\n";
   PrintUsage(std::cerr);
-  return 2;
+  return kExitUsage;
 }

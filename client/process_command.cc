@@ -70,8 +70,7 @@ int RunProcess(const ParsedArgs& args) {
       ScanPrepClient::Connect(server, *credentials).Process(job->header, job->points, call);
   view.Done();
   if (!result.ok()) {
-    return Fail("process", absl::StrCat(server, ": ", absl::StatusCodeToString(result.status().code()),
-                                        ": ", result.status().message()));
+    return FailCall("process", server, result.status());
   }
   const std::string out = args.Get("out");
   io::PlyWriteOptions ply_options{.include_removed = job->header.options().include_removed()};

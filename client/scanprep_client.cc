@@ -3,6 +3,7 @@
 #include <thread>
 
 #include "absl/strings/str_cat.h"
+#include "client/call_error.h"
 #include "core/io/read_file.h"
 
 namespace scanprep::client {
@@ -37,10 +38,6 @@ bool CallCanceller::Attach(grpc::ClientContext* context) {
 void CallCanceller::Detach() {
   std::lock_guard lock(mu_);
   context_ = nullptr;
-}
-
-absl::Status FromGrpc(const grpc::Status& status) {
-  return absl::Status(static_cast<absl::StatusCode>(status.error_code()), status.error_message());
 }
 
 ScanPrepClient::ScanPrepClient(std::shared_ptr<grpc::Channel> channel)

@@ -90,7 +90,7 @@ class ScanPrepClient {
 
   // Runs one job. `points` are in the header's unit and in each scan's own frame; points.scan
   // indexes header.scans. header.total_points is filled in when zero. A failed call returns the
-  // server's status code and message unchanged.
+  // server's status code and message unchanged, with its error details (see call_error.h).
   absl::StatusOr<ProcessResult> Process(v1::JobHeader header, const PointCloud& points,
                                         const CallOptions& options = {});
 
@@ -110,7 +110,5 @@ void RequestChunk(const PointCloud& points, size_t begin, size_t end, bool with_
                   v1::PointChunk* out);
 // Appends a result chunk to `cloud`; DATA_LOSS when its arrays disagree.
 absl::Status AppendResultChunk(const v1::PointChunk& chunk, PointCloud& cloud);
-
-absl::Status FromGrpc(const grpc::Status& status);
 
 }  // namespace scanprep::client

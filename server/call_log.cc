@@ -9,11 +9,17 @@ namespace scanprep::server {
 
 void CallLog::Write(Level level, std::string_view text) {
   if (out_ == nullptr) return;
-  const std::string line =
-      absl::StrCat(absl::FormatTime("%Y-%m-%dT%H:%M:%E3SZ", absl::Now(), absl::UTCTimeZone()),
-                   level == kInfo ? " I " : " W ", std::string(text), "\n");
   std::lock_guard lock(mu_);
-  *out_ << line << std::flush;
+  const absl::Time now = clock_();
+  const std::optional<int64_t> dropped = limiter_.Admit(now);
+  if (!dropped) return;
+  const std::string time = absl::FormatTime("%Y-%m-%dT%H:%M:%E3SZ", now, absl::UTCTimeZone());
+  if (*dropped > 0) {
+    *out_ << absl::StrCat(time, " W log: ", *dropped, " lines suppressed (over ",
+                          limiter_.max_per_second(), "/s)\n");
+  }
+  *out_ << absl::StrCat(time, level == kInfo ? " I " : " W ", std::string(text), "\n")
+        << std::flush;
 }
 
 std::string Quoted(std::string_view text, size_t max_chars) {

@@ -5,25 +5,38 @@
 //   2024-05-01T10:00:01.456Z W process peer=ipv4:10.0.0.9:40100 job="" RESOURCE_EXHAUSTED: ...
 #pragma once
 
+#include <functional>
 #include <mutex>
 #include <ostream>
 #include <string>
 #include <string_view>
 
+#include "absl/time/clock.h"
+#include "absl/time/time.h"
+#include "server/log_rate_limiter.h"
+
 namespace scanprep::server {
 
 class CallLog {
  public:
-  // nullptr = no log.
-  explicit CallLog(std::ostream* out) : out_(out) {}
+  // Lines beyond this many per second are dropped and counted.
+  static constexpr int kMaxLinesPerSecond = 50;
+
+  // nullptr = no log. `clock` is injectable for tests.
+  explicit CallLog(std::ostream* out, int max_lines_per_second = kMaxLinesPerSecond,
+                   std::function<absl::Time()> clock = absl::Now)
+      : out_(out), limiter_(max_lines_per_second), clock_(std::move(clock)) {}
 
   enum Level { kInfo, kWarning };
-  // One line "<UTC time> <I|W> <text>"; thread-safe.
+  // One line "<UTC time> <I|W> <text>"; thread-safe. Over the rate limit the line is dropped;
+  // the next line written is preceded by "<time> W log: N lines suppressed (over M/s)".
   void Write(Level level, std::string_view text);
 
  private:
   std::ostream* out_;
   std::mutex mu_;
+  LogRateLimiter limiter_;
+  std::function<absl::Time()> clock_;
 };
 
 // `text` quoted and C-escaped, cut to `max_chars` characters first (marked with "...").

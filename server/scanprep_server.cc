@@ -52,7 +52,7 @@ absl::Status CheckCallsPerPeer(const ServerOptions& options) {
 
 ScanPrepServer::ScanPrepServer(const ServerOptions& options)
     : metrics_(registry_),
-      log_(options.log),
+      log_(options.log, options.max_log_lines_per_second),
       peers_(CallsPerPeer(options)),
       admission_({.max_concurrent_jobs = options.max_concurrent_jobs,
                   .max_queued_jobs = options.max_queued_jobs},

@@ -38,6 +38,7 @@ struct ServerOptions {
   // default; scanprep-server always sets it and serves plaintext only when asked to.
   std::shared_ptr<grpc::ServerCredentials> credentials;
   std::ostream* log = nullptr;  // where CallLog writes; null = no log
+  int max_log_lines_per_second = CallLog::kMaxLinesPerSecond;  // beyond: dropped and counted
   ProgressHook on_progress;     // test hook, see ProgressHook
 };
 

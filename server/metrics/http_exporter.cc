@@ -5,6 +5,16 @@
 #include "absl/strings/str_cat.h"
 
 namespace scanprep::metrics {
+namespace {
+
+// A scrape's request arrives in one segment and its answer is small, so a second per read or
+// write is generous; a client that sends a partial header and stops loses its worker after that.
+// More workers than httplib's default 8: eight slow-header clients held every worker for the
+// default 5 s read timeout, and every scrape waited behind them.
+constexpr int kIoTimeoutSeconds = 1;
+constexpr size_t kWorkers = 16;
+
+}  // namespace
 
 absl::StatusOr<std::unique_ptr<HttpExporter>> HttpExporter::Start(const std::string& host,
                                                                   int port,
@@ -17,6 +27,10 @@ absl::StatusOr<std::unique_ptr<HttpExporter>> HttpExporter::Start(const std::str
     int yes = 1;
     setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
   });
+  exporter->server_->set_read_timeout(kIoTimeoutSeconds, 0);
+  exporter->server_->set_write_timeout(kIoTimeoutSeconds, 0);
+  exporter->server_->set_keep_alive_timeout(kIoTimeoutSeconds);
+  exporter->server_->new_task_queue = [] { return new httplib::ThreadPool(kWorkers); };
   exporter->server_->Get("/metrics", [&registry](const httplib::Request&, httplib::Response& res) {
     res.set_content(registry.Serialize(), "text/plain; version=0.0.4; charset=utf-8");
   });

@@ -218,7 +218,7 @@ TEST_F(LoadCommand, UnreachableServerFailsAtOnce) {
   const CommandResult r =
       RunCommand(std::string(SCANPREP_CLI_BINARY) + " load --server 127.0.0.1:1 --duration 60s " +
                  scan_->string());
-  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.exit_code, 3);  // "retry later"
   EXPECT_THAT(r.output, HasSubstr("UNAVAILABLE"));
 }
 

@@ -288,12 +288,13 @@ TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {
   const std::string base = "process " + scan.string() + " -o " + (tmp / "x.ply").string() +
                            " --server " + server.target();
 
+  // Refused by the server as invalid: 4, "fix the input".
   CommandResult r = RunCli(base + " --stages sharpen");
-  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.exit_code, 4);
   EXPECT_THAT(r.output, HasSubstr("INVALID_ARGUMENT: options.stages: unknown stage 'sharpen'"));
 
   r = RunCli(base + " --param outliers.multiplier=two");
-  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.exit_code, 4);
   EXPECT_THAT(r.output, HasSubstr("'two' is not a finite number"));
 
   r = RunCli("process " + (tmp / "missing.ply").string() + " -o x.ply");
@@ -308,15 +309,16 @@ TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.output, HasSubstr("unknown flag '--frobnicate'"));
 
+  // No server: 3, "retry later".
   r = RunCli("process " + scan.string() + " -o x.ply --server 127.0.0.1:1 --timeout 5s");
-  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.exit_code, 3);
   EXPECT_THAT(r.output, HasSubstr("UNAVAILABLE"));
 
   // The job file is JobHeader's JSON form; the flags override it.
   const fs::path job = tmp / "job.json";
   std::ofstream(job) << R"({"jobId": "j1", "unit": "MILLIMETRE", "options": {"stages": ["nope"]}})";
   r = RunCli(base + " --job " + job.string());
-  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.exit_code, 4);
   EXPECT_THAT(r.output, HasSubstr("unknown stage 'nope'"));
   r = RunCli(base + " --job " + job.string() + " --stages outliers");
   EXPECT_EQ(r.exit_code, 0) << r.output;
@@ -325,6 +327,24 @@ TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {
   r = RunCli(base + " --job " + job.string());
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.output, HasSubstr("not a JobHeader in JSON"));
+}
+
+// A job over the server's size limit: the reason is printed, there is no retry delay, and the
+// exit code is 4 ("fix the input"), not 3 ("retry later").
+TEST(Cli, JobTooLargePrintsTheReasonAndExitsFour) {
+  ServerProcess server({"--max_points_per_job=20"});
+  ASSERT_GT(server.port(), 0);
+  const fs::path scan = fs::path(::testing::TempDir()) / "cli_too_large.xyz";
+  {
+    std::ofstream f(scan);
+    for (int i = 0; i < 50; ++i) f << i * 0.5 << " 0 0\n";
+  }
+  const CommandResult r = RunCli("process " + scan.string() + " -o " +
+                                 (fs::path(::testing::TempDir()) / "x.ply").string() +
+                                 " --server " + server.target());
+  EXPECT_EQ(r.exit_code, 4) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("RESOURCE_EXHAUSTED"));
+  EXPECT_THAT(r.output, HasSubstr("(reason JOB_TOO_LARGE)"));
 }
 
 TEST(Cli, InfoPrintsStagesAndLimits) {

@@ -147,8 +147,9 @@ TEST_F(MutualTls, TheCliConnectsWithTheTlsFlags) {
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
   EXPECT_THAT(ok.output, HasSubstr("20000000 points per job"));
 
+  // A refused handshake reaches the client as UNAVAILABLE, like an unreachable server: exit 3.
   const CommandResult no_cert = RunCommand(cli + ca);
-  EXPECT_EQ(no_cert.exit_code, 1);
+  EXPECT_EQ(no_cert.exit_code, 3);
   EXPECT_THAT(no_cert.output, HasSubstr("UNAVAILABLE"));
   const CommandResult half = RunCommand(cli + ca + " --tls_cert " + certs_->pem("client"));
   EXPECT_EQ(half.exit_code, 1);

@@ -1,0 +1,72 @@
+#include "client/call_error.h"
+
+#include <grpcpp/grpcpp.h>
+
+#include "absl/strings/str_cat.h"
+#include "google/rpc/error_details.pb.h"
+#include "google/rpc/status.pb.h"
+
+namespace scanprep::client {
+namespace {
+
+// (absl::string_view: Debian's Abseil does not alias it to std::string_view.)
+constexpr absl::string_view kDetailsPayload = "type.googleapis.com/google.rpc.Status";
+
+}  // namespace
+
+absl::Status FromGrpc(const grpc::Status& status) {
+  absl::Status out(static_cast<absl::StatusCode>(status.error_code()), status.error_message());
+  if (!out.ok() && !status.error_details().empty()) {
+    out.SetPayload(kDetailsPayload, absl::Cord(status.error_details()));
+  }
+  return out;
+}
+
+CallErrorDetails DetailsOf(const absl::Status& status) {
+  CallErrorDetails details;
+  const auto payload = status.GetPayload(kDetailsPayload);
+  google::rpc::Status rpc;
+  if (!payload.has_value() || !rpc.ParseFromString(std::string(*payload))) return details;
+  for (const google::protobuf::Any& any : rpc.details()) {
+    google::rpc::ErrorInfo info;
+    google::rpc::RetryInfo retry;
+    if (any.UnpackTo(&info)) {
+      details.reason = info.reason();
+    } else if (any.UnpackTo(&retry)) {
+      details.retry_delay = absl::Seconds(retry.retry_delay().seconds()) +
+                            absl::Nanoseconds(retry.retry_delay().nanos());
+    }
+  }
+  return details;
+}
+
+std::string DetailsText(const absl::Status& status) {
+  const CallErrorDetails details = DetailsOf(status);
+  if (details.reason.empty() && !details.retry_delay.has_value()) return "";
+  std::string text = " (";
+  if (!details.reason.empty()) absl::StrAppend(&text, "reason ", details.reason);
+  if (details.retry_delay.has_value()) {
+    absl::StrAppend(&text, details.reason.empty() ? "" : "; ", "retry after ",
+                    absl::FormatDuration(*details.retry_delay));
+  }
+  return text + ")";
+}
+
+std::string Describe(const absl::Status& status) {
+  return absl::StrCat(absl::StatusCodeToString(status.code()), ": ", status.message(),
+                      DetailsText(status));
+}
+
+ExitCode ExitCodeFor(const absl::Status& status) {
+  const CallErrorDetails details = DetailsOf(status);
+  if (details.retry_delay.has_value() || status.code() == absl::StatusCode::kUnavailable) {
+    return kExitRetryLater;
+  }
+  if (status.code() == absl::StatusCode::kInvalidArgument ||
+      status.code() == absl::StatusCode::kResourceExhausted) {
+    return kExitFixInput;
+  }
+  return kExitFailure;
+}
+
+}  // namespace scanprep::client

@@ -1,0 +1,46 @@
+// What a failed call's standard error details say (google.rpc.ErrorInfo reason, RetryInfo delay)
+// and what the CLI makes of them: a line to print and an exit code a script can act on.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "absl/status/status.h"
+#include "absl/time/time.h"
+
+namespace grpc {
+class Status;
+}  // namespace grpc
+
+namespace scanprep::client {
+
+// `scanprep` exit codes (documented in the README's CLI section).
+enum ExitCode : int {
+  kExitOk = 0,
+  kExitFailure = 1,     // anything not below
+  kExitUsage = 2,       // bad command line
+  kExitRetryLater = 3,  // the server said a retry can succeed (RetryInfo), or it was UNAVAILABLE
+  kExitFixInput = 4,    // INVALID_ARGUMENT, or RESOURCE_EXHAUSTED without RetryInfo (too large)
+};
+
+struct CallErrorDetails {
+  std::string reason;  // ErrorInfo.reason, e.g. "QUEUE_FULL"; empty when none was sent
+  std::optional<absl::Duration> retry_delay;  // RetryInfo.retry_delay
+};
+
+// The gRPC status as an absl::Status; its google.rpc.Status details travel as a payload.
+absl::Status FromGrpc(const grpc::Status& status);
+
+// The details FromGrpc kept (none for statuses not from the server).
+CallErrorDetails DetailsOf(const absl::Status& status);
+
+// " (reason QUEUE_FULL; retry after 1s)" with the parts that were sent; empty when none was.
+std::string DetailsText(const absl::Status& status);
+
+// "CODE: message" followed by DetailsText.
+std::string Describe(const absl::Status& status);
+
+// kExitRetryLater, kExitFixInput or kExitFailure for a failed call.
+ExitCode ExitCodeFor(const absl::Status& status);
+
+}  // namespace scanprep::client
