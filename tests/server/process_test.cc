@@ -170,8 +170,10 @@ TEST(Process, UploadProcessingAndDownloadAreTimedAndFitInTheCall) {
   EXPECT_GT(upload, 0);
   EXPECT_GT(processing, 0);
   EXPECT_GT(download, 0);
-  // The three phases follow one another within the call.
-  EXPECT_LE(upload + processing + download, wall);
+  // The three phases follow one another within the call. The upload ends when the client reads
+  // the server's confirmation, which can reach a busy client after processing began (ctest -j2
+  // saw 7 ms), so the phases may overlap by a message's delay.
+  EXPECT_LE(upload + processing + download, wall + 0.05);
 }
 
 TEST(Process, InvalidCoordinatesAreExcludedCountedAndWarned) {
