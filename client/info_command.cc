@@ -38,9 +38,10 @@ int RunInfo(const ParsedArgs& args) {
                    limits.recommended_chunk_points(), limits.max_concurrent_jobs())
             << absl::StrFormat(
                    "        %d queued, %d calls per client host; header within %gs, upload "
-                   "messages at most %gs apart\n",
+                   "messages at most %gs apart, uploads at least %g bytes/s\n",
                    limits.max_queued_jobs(), limits.max_calls_per_peer(),
-                   limits.header_timeout_seconds(), limits.idle_timeout_seconds())
+                   limits.header_timeout_seconds(), limits.idle_timeout_seconds(),
+                   limits.min_upload_bytes_per_second())
             << "default budget: "
             << (info->default_budget_seconds() > 0
                     ? absl::StrCat(info->default_budget_seconds(), " s")

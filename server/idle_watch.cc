@@ -3,8 +3,21 @@
 #include <algorithm>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 
 namespace scanprep::server {
+
+std::string IdleWatch::Entry::Expired(absl::Time now) const {
+  if (due == idle_due) {
+    return absl::StrCat(awaited, " did not arrive within ", absl::FormatDuration(limit), " (",
+                        limit_name, ")");
+  }
+  return absl::StrFormat(
+      "the upload sent %d bytes in %.1f s since it was admitted, under the minimum of %.0f "
+      "bytes/s after the first %s (%s)",
+      rate_bytes, absl::ToDoubleSeconds(now - rate_since), min_rate,
+      absl::FormatDuration(rate_grace), rate_name);
+}
 
 IdleWatch::IdleWatch() : thread_([this] { Run(); }) {}
 
@@ -32,12 +45,34 @@ void IdleWatch::Call::Expect(absl::Duration limit, std::string_view limit_name,
                              std::string awaited) {
   {
     std::lock_guard lock(watch_->mu_);
-    entry_->due = absl::Now() + limit;
-    entry_->limit = limit;
-    entry_->limit_name = std::string(limit_name);
-    entry_->awaited = std::move(awaited);
+    Entry& e = *entry_;
+    e.idle_due = absl::Now() + limit;
+    e.due = e.idle_due;
+    if (e.min_rate > 0) {
+      const absl::Time rate_due = e.rate_since + e.rate_grace +
+                                  absl::Seconds(static_cast<double>(e.rate_bytes) / e.min_rate);
+      e.due = std::min(e.due, rate_due);
+    }
+    e.limit = limit;
+    e.limit_name = std::string(limit_name);
+    e.awaited = std::move(awaited);
   }
   watch_->changed_.notify_all();
+}
+
+void IdleWatch::Call::ExpectRate(double bytes_per_second, absl::Duration grace,
+                                 std::string_view limit_name) {
+  std::lock_guard lock(watch_->mu_);
+  entry_->min_rate = bytes_per_second;
+  entry_->rate_name = std::string(limit_name);
+  entry_->rate_since = absl::Now();
+  entry_->rate_grace = grace;
+  entry_->rate_bytes = 0;
+}
+
+void IdleWatch::Call::Received(uint64_t bytes) {
+  std::lock_guard lock(watch_->mu_);
+  entry_->rate_bytes += bytes;
 }
 
 void IdleWatch::Call::Pause() {
@@ -58,8 +93,7 @@ void IdleWatch::Run() {
     for (Entry& e : entries_) {
       if (e.due <= now) {
         // Under the lock, so the entry (and its call) cannot end meanwhile.
-        e.reason = absl::StrCat(e.awaited, " did not arrive within ",
-                                absl::FormatDuration(e.limit), " (", e.limit_name, ")");
+        e.reason = e.Expired(now);
         e.due = absl::InfiniteFuture();
         e.context->TryCancel();
       }

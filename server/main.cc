@@ -60,6 +60,9 @@ ABSL_FLAG(absl::Duration, header_timeout, absl::Seconds(10),
 ABSL_FLAG(absl::Duration, idle_timeout, absl::Seconds(30),
           "a Process call whose next upload message has not arrived this long after the previous "
           "one is cancelled (time queued for a slot does not count)");
+ABSL_FLAG(double, min_upload_rate, 64 * 1024,
+          "bytes per second a Process upload must average from its admission on, after a first "
+          "--idle_timeout; a slower one is cancelled (0 = no minimum)");
 ABSL_FLAG(absl::Duration, grace_period, absl::Seconds(10),
           "on SIGINT/SIGTERM, how long in-flight calls may run before they are cancelled");
 
@@ -132,7 +135,8 @@ int main(int argc, char** argv) {
   options.max_queued_jobs = absl::GetFlag(FLAGS_max_queued_jobs);
   options.threads = absl::GetFlag(FLAGS_threads);
   options.timeouts = {.header = absl::GetFlag(FLAGS_header_timeout),
-                      .idle = absl::GetFlag(FLAGS_idle_timeout)};
+                      .idle = absl::GetFlag(FLAGS_idle_timeout),
+                      .min_upload_rate = absl::GetFlag(FLAGS_min_upload_rate)};
   if (absl::Status s = scanprep::server::CheckCallsPerPeer(options); !s.ok()) {
     std::cerr << "scanprep-server: " << s.message() << "\n";
     return 1;

@@ -74,6 +74,11 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
       options.timeouts.idle <= absl::ZeroDuration()) {
     return absl::InvalidArgumentError("header_timeout and idle_timeout must be positive");
   }
+  if (!(options.timeouts.min_upload_rate >= 0 && options.timeouts.min_upload_rate < 1e12)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "min_upload_rate must be in [0, 1e12) bytes per second, got ",
+        options.timeouts.min_upload_rate));
+  }
   if (options.max_calls_per_peer < 0) {
     return absl::InvalidArgumentError("max_calls_per_peer must be at least 0 (0 = the default)");
   }

@@ -119,8 +119,9 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   IdleWatch::Call watch = idle_.Watch(context);
   watch.Expect(timeouts_.header, "header_timeout", "the header");
   while (stream->Read(&request)) {
-    metrics_.RequestReceived(request.ByteSizeLong(),
-                             request.has_points() ? ChunkPoints(request.points()) : 0);
+    const size_t bytes = request.ByteSizeLong();
+    metrics_.RequestReceived(bytes, request.has_points() ? ChunkPoints(request.points()) : 0);
+    watch.Received(bytes);
     absl::Status added = assembler.Add(request);
     record.job_id = assembler.job_id();
     record.points = assembler.points_received();
@@ -136,6 +137,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
                    : ToGrpc(admitted.status());
       }
       slot.emplace(std::move(*admitted));
+      watch.ExpectRate(timeouts_.min_upload_rate, timeouts_.idle, "min_upload_rate");
       watch.Expect(timeouts_.idle, "idle_timeout", "the first chunk");
       continue;
     }
@@ -229,6 +231,7 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
   limits->set_max_message_bytes(kMaxMessageBytes);
   limits->set_header_timeout_seconds(absl::ToDoubleSeconds(timeouts_.header));
   limits->set_idle_timeout_seconds(absl::ToDoubleSeconds(timeouts_.idle));
+  limits->set_min_upload_bytes_per_second(timeouts_.min_upload_rate);
   const std::vector<std::string> defaults = DefaultStages();
   for (const StageInfo& stage : StageRegistry()) {
     v1::StageInfo* s = info->add_stages();

@@ -26,6 +26,8 @@ inline constexpr int kMaxMessageBytes = 4 << 20;
 struct StreamTimeouts {
   absl::Duration header = absl::Seconds(10);  // from the call's start to its header
   absl::Duration idle = absl::Seconds(30);    // between later upload messages
+  // Bytes per second the upload must average from its admission on, after a first `idle`.
+  double min_upload_rate = 64 * 1024;
 };
 
 class ScanPrepService final : public v1::ScanPrep::Service {

@@ -180,6 +180,7 @@ TEST(Limits, AStreamThatNeverSendsItsHeaderIsEndedByTheHeaderTimeout) {
   ASSERT_TRUE(info.ok()) << info.status();
   EXPECT_EQ(info->limits().header_timeout_seconds(), 0.3);
   EXPECT_EQ(info->limits().idle_timeout_seconds(), 30);
+  EXPECT_EQ(info->limits().min_upload_bytes_per_second(), 64 * 1024);
 }
 
 // One slot: an uploader that went quiet after its first chunk holds it until the idle limit ends
@@ -189,6 +190,7 @@ TEST(Limits, ASlowUploaderIsEndedByTheIdleTimeoutWhileAnotherClientsJobCompletes
   options.max_concurrent_jobs = 1;
   options.max_queued_jobs = 1;
   options.timeouts.idle = absl::Milliseconds(500);
+  options.timeouts.min_upload_rate = 0;  // the idle limit alone, not the rate, ends it
   std::ostringstream log;
   options.log = &log;
   auto server = std::make_unique<InProcessServer>(options);
@@ -230,6 +232,57 @@ TEST(Limits, ASlowUploaderIsEndedByTheIdleTimeoutWhileAnotherClientsJobCompletes
   EXPECT_THAT(log.str(), HasSubstr("DEADLINE_EXCEEDED: \"the next message after 100 points did not "
                                    "arrive within 500ms (idle_timeout); the server ended the "
                                    "call\""));
+}
+
+// An upload of 15 chunks of 10 points, one every 100 ms: every gap is well inside the idle
+// limit, and the whole upload averages about 2 kB/s.
+struct Trickle {
+  grpc::Status status;
+  absl::Duration elapsed;
+  bool report = false;
+};
+
+Trickle TrickleUpload(const server::ServerOptions& options) {
+  InProcessServer server(options);
+  auto stub = server.Stub();
+  grpc::ClientContext context;
+  auto stream = stub->Process(&context);
+  const absl::Time start = absl::Now();
+  bool sending = stream->Write(HeaderRequest(SimpleHeader(), 150));
+  for (int i = 0; i < 15 && sending; ++i) {
+    absl::SleepFor(absl::Milliseconds(100));
+    sending = stream->Write(ChunkRequest(LineChunk(10)));
+  }
+  stream->WritesDone();
+  Trickle result;
+  v1::ProcessResponse response;
+  while (stream->Read(&response)) result.report = result.report || response.has_report();
+  result.status = stream->Finish();
+  result.elapsed = absl::Now() - start;
+  return result;
+}
+
+TEST(Limits, AnUploadUnderTheMinimumRateIsEndedThoughNoGapReachesTheIdleLimit) {
+  server::ServerOptions options;
+  options.timeouts.idle = absl::Milliseconds(500);
+  options.timeouts.min_upload_rate = 0;
+  const Trickle control = TrickleUpload(options);  // no minimum: it completes
+  EXPECT_TRUE(control.status.ok()) << control.status.error_message();
+  EXPECT_TRUE(control.report);
+
+  options.timeouts.min_upload_rate = 20'000;
+  std::ostringstream log;
+  options.log = &log;
+  const Trickle slow = TrickleUpload(options);
+  EXPECT_EQ(slow.status.error_code(), grpc::StatusCode::CANCELLED);
+  EXPECT_FALSE(slow.report);
+  // Due once the first 500 ms are over and the bytes sent fall under 20 kB/s: about 0.5 s in,
+  // long before the 1.5 s the upload would take.
+  EXPECT_GE(slow.elapsed, absl::Milliseconds(500));
+  EXPECT_LT(slow.elapsed, absl::Milliseconds(1400));
+  EXPECT_THAT(log.str(), HasSubstr("DEADLINE_EXCEEDED: \"the upload sent "));
+  EXPECT_THAT(log.str(), HasSubstr("under the minimum of 20000 bytes/s after the first 500ms "
+                                   "(min_upload_rate); the server ended the call\""));
 }
 
 TEST(Limits, ScansPerJobAreCheckedBeforeAnyScanIsBuilt) {
