@@ -47,6 +47,17 @@ absl::StatusOr<LoadOptions> ParseLoadOptions(const ParsedArgs& args) {
         absl::StrCat("--arrivals: '", arrivals, "' is neither poisson nor fixed"));
   }
   options.arrivals = arrivals == "fixed" ? Arrivals::kFixed : Arrivals::kPoisson;
+  auto abort = GetNumber(args, "abort_uploads", 0, 0);
+  if (!abort.ok()) return abort.status();
+  if (*abort >= 1) return absl::InvalidArgumentError("--abort_uploads: a share in [0, 1)");
+  options.abort_uploads = *abort;
+  auto chunk = GetNumber(args, "chunk_points", kDefaultChunkPoints, 1);
+  if (!chunk.ok()) return chunk.status();
+  if (*chunk != std::floor(*chunk) || *chunk > 1e9) {
+    return absl::InvalidArgumentError("--chunk_points: a whole number from 1 (the server's "
+                                      "limit is in `scanprep info`)");
+  }
+  options.chunk_points = static_cast<size_t>(*chunk);
   return options;
 }
 
@@ -116,6 +127,10 @@ Command LoadCommand() {
        "open loop: start this many jobs/s in total (default: closed loop, calls back to back)"},
       {"arrivals", FlagSpec::kValue, "open-loop spacing: poisson (default) or fixed"},
       {"timeout", FlagSpec::kValue, "deadline of each call (default 120s)"},
+      {"chunk_points", FlagSpec::kValue, "points per upload message (default 32768)"},
+      {"abort_uploads", FlagSpec::kValue,
+       "share of calls in [0, 1), spread evenly, cancelled by the client once the server "
+       "confirmed their first chunk (default 0); the others must still succeed"},
       {"budget", FlagSpec::kValue,
        "seconds: sent as the job's budget; the run fails when latency p99 exceeds it (default: "
        "the budget the server reports for the job)"},

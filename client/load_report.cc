@@ -81,6 +81,9 @@ void PrintLoadReport(std::ostream& out, const LoadReport& r) {
       << (r.budget_seconds ? absl::StrFormat("%g s", *r.budget_seconds) : std::string("none"))
       << absl::StrFormat(", %d jobs missed it on the server (report.budget_met false)\n",
                          res.budget_misses);
+  if (o.abort_uploads > 0) {
+    out << absl::StrFormat("aborted uploads: %d (cancelled mid-upload, as asked)\n", res.aborted);
+  }
   if (o.rate > 0) {
     out << absl::StrFormat("late starts: %d (all %d workers busy at the scheduled time)\n",
                            res.late_starts, o.concurrency);
@@ -119,6 +122,7 @@ std::string LoadReportJson(const LoadReport& r) {
       r.budget_seconds ? absl::StrFormat("%g", *r.budget_seconds) : std::string("null"), ",\n",
       absl::StrFormat("  \"budget_misses\": %d,\n  \"late_starts\": %d,\n", res.budget_misses,
                       res.late_starts),
+      absl::StrFormat("  \"aborted_uploads\": %d,\n", res.aborted),
       absl::StrFormat("  \"passed\": %s\n}\n", r.failures.empty() ? "true" : "false"));
 }
 

@@ -1,5 +1,6 @@
 #include "client/load_runner.h"
 
+#include <cmath>
 #include <mutex>
 #include <random>
 #include <thread>
@@ -43,6 +44,12 @@ class Schedule {
   std::exponential_distribution<double> interval_{options_.rate > 0 ? options_.rate : 1};
 };
 
+// Whether call `index` is one of the `share` to abort: spread evenly, so every run of 1/share
+// calls holds one.
+bool AbortsUpload(uint64_t index, double share) {
+  return std::floor((index + 1) * share) > std::floor(index * share);
+}
+
 }  // namespace
 
 uint64_t LoadResult::error_count() const {
@@ -61,7 +68,7 @@ LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job
 
   auto worker = [&] {
     ScanPrepClient client(channel);
-    CallOptions call{.timeout = options.call_timeout};
+    CallOptions call{.timeout = options.call_timeout, .chunk_points = options.chunk_points};
     v1::JobHeader header = job.header;
     const std::string base_id = header.job_id().empty() ? "load" : header.job_id();
     bool pause = false;
@@ -72,14 +79,29 @@ LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job
       if (!at) break;
       absl::SleepFor(*at - absl::Now());
       const absl::Time begin = absl::Now();
+      bool abort = false;
       {
         std::lock_guard lock(mu);
+        abort = AbortsUpload(next_id, options.abort_uploads);
         header.set_job_id(absl::StrCat(base_id, "-", next_id++));
         if (options.rate > 0 && begin - *at > kLateStart) ++result.late_starts;
       }
+      CallCanceller canceller;
+      if (abort) {
+        call.canceller = &canceller;
+        call.progress = [&canceller](const v1::Progress& p) {
+          if (p.phase() == v1::Progress::UPLOAD) canceller.Cancel();
+        };
+      }
       absl::StatusOr<ProcessResult> r = client.Process(header, job.points, call);
+      call.canceller = nullptr;
+      call.progress = nullptr;
       const double seconds = absl::ToDoubleSeconds(absl::Now() - begin);
       std::lock_guard lock(mu);
+      if (abort && r.status().code() == absl::StatusCode::kCancelled) {
+        ++result.aborted;
+        continue;
+      }
       if (!r.ok()) {
         ErrorTally& tally = result.errors[absl::StatusCodeToString(r.status().code())];
         if (tally.count++ == 0) tally.example = absl::StrCat(r.status().message(), DetailsText(r.status()));

@@ -14,6 +14,7 @@
 
 #include "absl/time/time.h"
 #include "client/job_builder.h"
+#include "client/scanprep_client.h"
 
 namespace scanprep::client {
 
@@ -27,6 +28,10 @@ struct LoadOptions {
   Arrivals arrivals = Arrivals::kPoisson;
   std::optional<absl::Duration> call_timeout;
   uint64_t seed = 1;  // of the Poisson arrivals
+  // Share of calls, spread evenly, that the client cancels as soon as the server confirmed its
+  // first chunk: proves the server frees what an aborted upload held.
+  double abort_uploads = 0;
+  size_t chunk_points = kDefaultChunkPoints;  // points per upload message
 };
 
 struct ErrorTally {
@@ -42,6 +47,7 @@ struct LoadResult {
   uint64_t budget_misses = 0;                // successful calls with Report.budget_met false
   double report_budget_seconds = 0;          // largest Report.budget_seconds seen (0 = none)
   uint64_t late_starts = 0;                  // open loop: started > kLateStart after schedule
+  uint64_t aborted = 0;  // --abort_uploads calls that ended CANCELLED, as meant
 
   uint64_t error_count() const;
 };

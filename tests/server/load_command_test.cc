@@ -120,6 +120,20 @@ TEST_F(LoadCommand, ClosedLoopReportsConsistentNumbers) {
   EXPECT_TRUE(run.json.fields().at("passed").bool_value());
 }
 
+// One slot, one queue place, calls one after another: had an aborted upload kept its slot or
+// queue place, every later call would wait until its 5 s deadline and fail.
+TEST_F(LoadCommand, AbortedUploadsLeaveNoSlotBehind) {
+  InProcessServer server(server::ServerOptions{.max_concurrent_jobs = 1, .max_queued_jobs = 1});
+  const LoadRun run = Load(server.target(),
+                           "--concurrency 1 --max_jobs 40 --abort_uploads 0.5 --chunk_points 500 "
+                           "--timeout 5s");
+  ASSERT_EQ(run.command.exit_code, 0) << run.command.output;
+  EXPECT_EQ(run.Number("aborted_uploads"), 20) << run.command.output;
+  EXPECT_EQ(run.Number("jobs"), 20);
+  EXPECT_EQ(run.Number("errors"), 0);
+  EXPECT_THAT(run.command.output, HasSubstr("aborted uploads: 20"));
+}
+
 TEST_F(LoadCommand, RejectedCallsAreCountedByCodeAndFailTheRun) {
   InProcessServer server(server::ServerOptions{.max_concurrent_jobs = 1, .max_queued_jobs = 0});
   const LoadRun run = Load(server.target(), "--concurrency 4 --duration 2s");
