@@ -6,8 +6,6 @@
 #include <gtest/gtest.h>
 
 #include "absl/strings/str_cat.h"
-#include "core/io/conf.h"
-#include "core/io/ply.h"
 #include "core/kdtree.h"
 #include "core/pipeline.h"
 #include "core/sim/scan_simulator.h"
@@ -86,40 +84,13 @@ TEST(Pipeline, DefaultStagesRunOnTwoOverlappingScansWithSpikes) {
   EXPECT_EQ(report->stages.back().name, "simplification");
 }
 
-const char* const kBunnyScans[] = {"bun000", "bun045", "bun090", "bun180",   "bun270",
-                                   "bun315", "chin",   "top2",   "ear_back", "top3"};
+const std::vector<std::string> kBunnyScans = {"bun000", "bun045", "bun090", "bun180", "bun270",
+                                              "bun315", "chin",   "top2",   "ear_back", "top3"};
 
-// The ten scans in the common frame, in mm. The Cyberware looks along each scan's own z axis;
-// rows of the range grid are its scanlines, 0.82 mm apart (measured, data README).
+// The ten scans in the common frame, in mm; rows of the range grid are scanlines, 0.82 mm apart
+// (measured, data README).
 PointCloud LoadBunnyMm(const fs::path& dir) {
-  PointCloud all;
-  auto conf = io::ReadConf(dir / "bun.conf");
-  EXPECT_TRUE(conf.ok()) << conf.status();
-  if (!conf.ok()) return all;
-  for (const char* name : kBunnyScans) {
-    const std::string file = absl::StrCat(name, ".ply");
-    auto scan = io::ReadPly(dir / file);
-    EXPECT_TRUE(scan.ok()) << scan.status();
-    auto entry = std::find_if(conf->begin(), conf->end(),
-                              [&](const io::ConfEntry& e) { return e.file == file; });
-    if (!scan.ok() || entry == conf->end()) return {};
-    const uint32_t s = static_cast<uint32_t>(all.scans.size());
-    all.scans.push_back(ScanMeta{.id = name,
-                                 .view_direction = entry->pose.rotation * Eigen::Vector3d::UnitZ(),
-                                 .scanline_spacing = 0.82,
-                                 .uncertainty = 0.1});
-    for (size_t i = 0; i < scan->size(); ++i) {
-      const Eigen::Vector3d p = io::Apply(entry->pose, scan->point(i).cast<double>()) * 1000.0;
-      all.x.push_back(static_cast<float>(p.x()));
-      all.y.push_back(static_cast<float>(p.y()));
-      all.z.push_back(static_cast<float>(p.z()));
-      all.scan.push_back(s);
-      all.scanline.push_back(scan->scanline[i]);
-    }
-  }
-  all.kind = ScannerKind::kLine;
-  all.flags.assign(all.size(), 0);
-  return all;
+  return testing::LoadRangeScansMm(dir, "bun.conf", kBunnyScans, 0.82);
 }
 
 // Share of the selected points that have a point of another scan closer than their own scan's
