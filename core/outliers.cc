@@ -1,8 +1,13 @@
 // The paper's global rule: a point whose nearest-neighbour distance d_1 exceeds μ + 2σ of all
-// d_1 is an outlier. Statistics are taken per scan because sensors differ in density.
+// d_1 is an outlier. Statistics are taken per scan because sensors differ in density, and d_1 is
+// measured to the point's own scan: in the merged cloud a point where scans overlap has a
+// neighbour of another scan at a fraction of its own grid spacing, which drags μ and σ down until
+// ordinary grid points of the non-overlapping parts exceed μ + 2σ (five overlapping Happy Buddha
+// scans lost 3.8 % in one job against 0.35 % one by one).
 #include "core/outliers.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
@@ -39,16 +44,33 @@ class OutliersStage : public Stage {
     const double multiplier = ctx.Number("outliers.multiplier");
     const double floor_factor = ctx.Number("outliers.median_floor");
 
-    // d_1 (or the mean over k_o neighbours, PCL-style SOR, when k_o > 1).
+    // d_1 (or the mean over k_o neighbours, PCL-style SOR, when k_o > 1), own scan only. The
+    // k-NN list holds every scan; when fewer than k_o of its points are of i's scan, the rest are
+    // farther than its last entry, so that distance stands in for them: a lower bound, which can
+    // only keep a point (one surrounded by another scan's denser surface).
     std::vector<float> d(n);
+    std::atomic<size_t> beyond_list{0};
     absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+      size_t beyond = 0;
       for (size_t i = begin; i < end; ++i) {
+        const std::span<const uint32_t> list = nb.knn(i);
         float sum = 0;
-        for (uint32_t m = 0; m < k_o; ++m) sum += nb.knn_dist(cloud, i, m);
+        uint32_t found = 0;
+        for (uint32_t m = 0; m < list.size() && found < k_o; ++m) {
+          if (cloud.scan[list[m]] != cloud.scan[i]) continue;
+          sum += nb.knn_dist(cloud, i, m);
+          ++found;
+        }
+        if (found < k_o) {
+          sum += (k_o - found) * nb.knn_dist(cloud, i, nb.k() - 1);
+          ++beyond;
+        }
         d[i] = sum / static_cast<float>(k_o);
       }
+      beyond_list += beyond;
     });
     if (!status.ok()) return status;
+    ctx.Record("outliers.own_scan_beyond_knn", static_cast<double>(beyond_list.load()));
 
     std::vector<ScanStats> stats(std::max<size_t>(cloud.scans.size(), 1));
     for (size_t i = 0; i < n; ++i) {

@@ -1,9 +1,12 @@
 // The paper's 2σ nearest-neighbour rule on a regular grid with spikes displaced along the view.
+#include <cmath>
+#include <cstdio>
 #include <random>
 
 #include <gtest/gtest.h>
 
 #include "core/pipeline.h"
+#include "tests/support/test_data.h"
 
 namespace scanprep {
 namespace {
@@ -53,6 +56,42 @@ TEST(Outliers, RemovesSpikesAndKeepsTheGrid) {
   EXPECT_EQ(stage.points_in, cloud.size());
   EXPECT_EQ(stage.points_out, cloud.size() - true_pos - false_pos);
   EXPECT_NEAR(stage.parameters.at("outliers.mean_d_mm"), 0.2, 0.02);
+}
+
+// Share of the points the outlier stage removes from `cloud`.
+double RemovedShare(PointCloud cloud) {
+  CancelToken cancel;
+  auto report = RunPipeline(cloud, {.stages = {"outliers"}}, cancel);
+  EXPECT_TRUE(report.ok()) << report.status();
+  size_t removed = 0;
+  for (size_t i = 0; i < cloud.size(); ++i) removed += (cloud.flags[i] & kRemovedOutlier) != 0;
+  return static_cast<double>(removed) / cloud.size();
+}
+
+// Five real scans overlapping heavily (a 120° turntable sector): judged in one job, a point must
+// be judged as in its own scan alone. Measured against the share removed when each scan is
+// processed alone, the ground truth of what each scan's own statistics call an outlier.
+TEST(Outliers, OverlappingScansLoseNoMoreThanEachScanAlone) {
+  SCANPREP_REQUIRE_SHARED_DATA(data);
+  const std::vector<std::string> names = {"happyStandRight_264", "happyStandRight_288",
+                                          "happyStandRight_312", "happyStandRight_336",
+                                          "happyStandRight_24"};
+  const auto dir = data / "stanford_happy_stand_range_scans";
+  // Neighbour spacing about 0.38 mm along and between rows (data README).
+  const PointCloud all = testing::LoadRangeScansMm(dir, "happyStandRight.conf", names, 0.38);
+  ASSERT_EQ(all.size(), 366'479u);
+  size_t alone_removed = 0;
+  for (const std::string& name : names) {
+    const PointCloud one = testing::LoadRangeScansMm(dir, "happyStandRight.conf", {name}, 0.38);
+    alone_removed += static_cast<size_t>(std::lround(RemovedShare(one) * one.size()));
+  }
+  const double alone = static_cast<double>(alone_removed) / all.size();
+  const double together = RemovedShare(all);
+  std::printf("removed as outliers: %.3f %% one scan at a time, %.3f %% in one job\n",
+              100 * alone, 100 * together);
+  EXPECT_GT(alone, 0.001);  // the scans have real outliers to find
+  EXPECT_LE(together, 1.5 * alone);
+  EXPECT_GE(together, alone / 1.5);
 }
 
 TEST(Outliers, CancelledJobStops) {
