@@ -58,6 +58,49 @@ TEST(Outliers, RemovesSpikesAndKeepsTheGrid) {
   EXPECT_NEAR(stage.parameters.at("outliers.mean_d_mm"), 0.2, 0.02);
 }
 
+// Two scans of one 100×100 grid at 0.2 mm (the second offset by half a cell), and 50 spikes 2-10
+// mm above it, each recorded twice by the first scan and once by the second at the same spot: a
+// re-sent point, and the same stray reflection seen by both sensors. Neither copy may vouch for
+// the other.
+TEST(Outliers, DuplicatedSpikesAreCaught) {
+  PointCloud cloud;
+  cloud.scans.push_back(ScanMeta{.id = "a", .scanline_spacing = 0.2});
+  cloud.scans.push_back(ScanMeta{.id = "b", .scanline_spacing = 0.2});
+  std::vector<bool> is_spike;
+  auto add = [&](float x, float y, float z, uint32_t scan, bool spike) {
+    cloud.x.push_back(x);
+    cloud.y.push_back(y);
+    cloud.z.push_back(z);
+    cloud.scan.push_back(scan);
+    is_spike.push_back(spike);
+  };
+  for (uint32_t scan = 0; scan < 2; ++scan) {
+    for (int row = 0; row < 100; ++row) {
+      for (int col = 0; col < 100; ++col) add((col + 0.5f * scan) * 0.2f, row * 0.2f, 0, scan, false);
+    }
+  }
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> height(2.f, 10.f), pos(0.f, 20.f);
+  for (int s = 0; s < 50; ++s) {
+    const float x = pos(rng), y = pos(rng), z = height(rng);
+    add(x, y, z, 0, true);
+    add(x, y, z, 0, true);
+    add(x, y, z, 1, true);
+  }
+  cloud.FinishLoading();
+  CancelToken cancel;
+  auto report = RunPipeline(cloud, {.stages = {"outliers"}}, cancel);
+  ASSERT_TRUE(report.ok()) << report.status();
+  size_t spikes_kept = 0, grid_removed = 0;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const bool removed = (cloud.flags[i] & kRemovedOutlier) != 0;
+    spikes_kept += is_spike[i] && !removed;
+    grid_removed += !is_spike[i] && removed;
+  }
+  EXPECT_EQ(spikes_kept, 0u);
+  EXPECT_EQ(grid_removed, 0u);
+}
+
 // Share of the points the outlier stage removes from `cloud`.
 double RemovedShare(PointCloud cloud) {
   CancelToken cancel;
