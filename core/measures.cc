@@ -47,6 +47,31 @@ double NoiseWindow(double sigma, double spacing, double scale) {
   return std::pow(1215.0 * sigma * sigma * spacing / (scale * scale), 0.2);
 }
 
+bool HasNormal(const PointCloud& cloud, size_t i) {
+  return !cloud.removed(i) && !(cloud.flags[i] & kNormalInvalid);
+}
+
+// Points the stage could not measure (`unknown`) take the median of the measured points of their
+// scan: a neutral value, neither the best weight (q̂ = 1, κ̂ = 0 would let a point without a normal
+// win every merge and pull every smoothing) nor the worst. 0.5 when the scan has no measured point.
+template <typename Unknown>
+void AssignScanMedians(const PointCloud& cloud, Unknown unknown, std::vector<float>& values) {
+  std::vector<std::vector<float>> measured(cloud.scans.size());
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (!cloud.removed(i) && !unknown(i)) measured[cloud.scan[i]].push_back(values[i]);
+  }
+  std::vector<float> median(cloud.scans.size(), 0.5f);
+  for (size_t s = 0; s < median.size(); ++s) {
+    std::vector<float>& v = measured[s];
+    if (v.empty()) continue;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    median[s] = v[v.size() / 2];
+  }
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (!cloud.removed(i) && unknown(i)) values[i] = median[cloud.scan[i]];
+  }
+}
+
 class MeasuresStage : public Stage {
  public:
   absl::Status Run(JobContext& ctx) override {
@@ -78,10 +103,9 @@ class MeasuresStage : public Stage {
                               "per-point quality; its viewing quality is set to 1"));
       }
     }
-    // Points without a valid normal have no viewing angle; they keep the neutral 1.
-    return ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+    absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
       for (size_t i = begin; i < end; ++i) {
-        if (cloud.removed(i) || (cloud.flags[i] & kNormalInvalid)) continue;
+        if (!HasNormal(cloud, i)) continue;
         const ScanMeta& scan = cloud.scans[cloud.scan[i]];
         const Eigen::Vector3d p = cloud.point(i).cast<double>();
         const Eigen::Vector3d normal = cloud.normal(i).cast<double>();
@@ -94,6 +118,10 @@ class MeasuresStage : public Stage {
         quality[i] = static_cast<float>(1.0 - q / (std::numbers::pi / 2));  // Eq. (7)
       }
     });
+    if (!status.ok()) return status;
+    // Points without a valid normal have no viewing angle.
+    AssignScanMedians(cloud, [&](size_t i) { return !HasNormal(cloud, i); }, quality);
+    return absl::OkStatus();
   }
 
   static absl::Status Curvature(JobContext& ctx) {
@@ -131,11 +159,14 @@ class MeasuresStage : public Stage {
     std::vector<float>& curvature = ctx.measures().curvature;
     curvature.assign(n, 0.f);
     const std::vector<float>& variation = ctx.measures().surface_variation;
-    std::atomic<size_t> edges{0}, fallback{0};
+    std::atomic<size_t> fallback{0};
+    // Neither a scanline window nor a normal fit: no curvature at all.
+    auto unknown = [&](size_t i) {
+      return !(lines && std::isfinite(kappa[i])) && !HasNormal(cloud, i);
+    };
     absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
-      size_t local_edges = 0, local_fallback = 0;
+      size_t local_fallback = 0;
       for (size_t i = begin; i < end; ++i) {
-        cloud.flags[i] &= static_cast<uint8_t>(~kEdge);
         if (cloud.removed(i)) continue;
         double value;
         if (lines && std::isfinite(kappa[i])) {
@@ -145,15 +176,19 @@ class MeasuresStage : public Stage {
           ++local_fallback;
         }
         curvature[i] = static_cast<float>(std::min(value, 1.0));  // Eq. (7)
-        if (curvature[i] >= threshold) {
-          cloud.flags[i] |= kEdge;
-          ++local_edges;
-        }
       }
-      edges += local_edges;
       fallback += local_fallback;
     });
     if (!status.ok()) return status;
+    AssignScanMedians(cloud, unknown, curvature);
+    size_t edges = 0;
+    for (size_t i = 0; i < n; ++i) {
+      cloud.flags[i] &= static_cast<uint8_t>(~kEdge);
+      if (!cloud.removed(i) && curvature[i] >= threshold) {
+        cloud.flags[i] |= kEdge;
+        ++edges;
+      }
+    }
     ctx.Record("measures.edges", static_cast<double>(edges));
     ctx.Record("measures.curvature_from_variation", static_cast<double>(fallback));
     return absl::OkStatus();

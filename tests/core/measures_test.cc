@@ -77,6 +77,43 @@ TEST(Measures, WithoutPosesQualityIsOneAndWarns) {
   EXPECT_EQ(m.quality[1], 0.25f);
 }
 
+// A point whose normal could not be fitted has neither a viewing angle nor a surface variation:
+// it gets its scan's median q̂ and κ̂, not the best weight (q̂ = 1, κ̂ = 0) that would let it win
+// every merge. No scanlines here, so κ̂ comes from the normal fit too.
+TEST(Measures, PointsWithoutANormalGetTheirScansMedianNotTheBestWeight) {
+  auto sensors = FrontalSensor(Part::kPlane);
+  const Eigen::AngleAxisd rot(-40 * std::numbers::pi / 180, Eigen::Vector3d::UnitX());
+  sensors[0].laser_position = rot * sensors[0].laser_position;
+  sensors[0].camera_position = rot * sensors[0].camera_position;
+  SimulatedCloud sim = Simulate(Part::kPlane, sensors, 23);
+  PointCloud& cloud = sim.cloud;
+  cloud.scanline.clear();
+  CancelToken cancel;
+  ParamOverrides none;
+  JobContext ctx(cloud, none, cancel, {});
+  ASSERT_TRUE(ctx.Require("normals").ok());
+  std::vector<size_t> lost;
+  for (size_t i = 0; i < cloud.size(); i += 97) {
+    cloud.flags[i] |= kNormalInvalid;
+    lost.push_back(i);
+  }
+  ASSERT_TRUE(ctx.Require("measures").ok());
+  const PointMeasures& m = ctx.measures();
+  std::vector<double> quality, curvature;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (cloud.flags[i] & kNormalInvalid) continue;
+    quality.push_back(m.quality[i]);
+    curvature.push_back(m.curvature[i]);
+  }
+  const double q_median = Quantile(quality, 0.5), k_median = Quantile(curvature, 0.5);
+  ASSERT_LT(q_median, 0.8);  // a tilted view: q̂ = 1 would stand out
+  ASSERT_GT(k_median, 0);    // noise gives a flat plane some surface variation
+  for (size_t i : lost) {
+    EXPECT_NEAR(m.quality[i], q_median, 1e-3) << i;
+    EXPECT_NEAR(m.curvature[i], k_median, 1e-3) << i;
+  }
+}
+
 TEST(Measures, PlaneIsFlatAndSpacingIsMeasured) {
   SimulatedCloud sim = Simulate(Part::kPlane, FrontalSensor(Part::kPlane), 23);
   PointMeasures m;
