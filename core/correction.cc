@@ -103,12 +103,11 @@ class CorrectionStage : public Stage {
       const double ds = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
       const double r_c = std::sqrt(ds * ds + scan.uncertainty * scan.uncertainty +
                                    spacing[s] * spacing[s]);  // Eq. (11)
-      const std::string suffix = cloud.scans.size() > 1 ? absl::StrCat(".scan", s) : "";
       radius.push_back(static_cast<float>(
           ctx.CapRadius(absl::StrCat("the merge radius r_c (Eq. 11) of scan '", scan.id, "'"),
                         forced.value_or(scale * r_c),
                         kMaxMergeRadiusPerGlobalRadius * nb.global_radius())));
-      ctx.Record(absl::StrCat("correction.radius_mm", suffix), radius.back());
+      ctx.RecordForScan("correction.radius_mm", s, radius.back());
     }
     return radius;
   }

@@ -92,6 +92,11 @@ uint64_t JobContext::KeptInputPoints() const {
   return kept;
 }
 
+void JobContext::RecordForScan(std::string_view name, size_t scan, double value) {
+  const std::string base(name);
+  Record(cloud_.scans.size() > 1 ? absl::StrCat(base, ".scan", scan) : base, value);
+}
+
 double JobContext::Recorded(std::string_view name, double value) {
   Record(name, value);
   return value;

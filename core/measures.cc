@@ -16,10 +16,6 @@
 namespace scanprep {
 namespace {
 
-std::string ScanSuffix(const PointCloud& cloud, size_t s) {
-  return cloud.scans.size() > 1 ? absl::StrCat(".scan", s) : "";
-}
-
 std::optional<Eigen::Vector3d> TowardCamera(const ScanMeta& scan, const Eigen::Vector3d& p) {
   if (scan.camera_position) return *scan.camera_position - p;
   if (scan.view_direction) return *scan.view_direction;
@@ -138,8 +134,8 @@ class MeasuresStage : public Stage {
       const double u = cloud.scans[s].uncertainty;
       window[s] = forced.value_or(
           std::max({3 * spacing[s], 2 * u, NoiseWindow(u, spacing[s], scale)}));
-      ctx.Record(absl::StrCat("measures.point_spacing_mm", ScanSuffix(cloud, s)), spacing[s]);
-      ctx.Record(absl::StrCat("measures.window_mm", ScanSuffix(cloud, s)), window[s]);
+      ctx.RecordForScan("measures.point_spacing_mm", s, spacing[s]);
+      ctx.RecordForScan("measures.window_mm", s, window[s]);
     }
 
     std::vector<float> kappa;

@@ -52,8 +52,8 @@ class NormalsStage : public Stage {
     }
     const std::optional<double> sigma_override = ctx.Overridden("normals.mitra_sigma_mm");
     for (size_t s = 0; mode == "mitra" && s < cloud.scans.size(); ++s) {
-      ctx.Record(absl::StrCat("normals.mitra_sigma_mm", per_scan ? absl::StrCat(".scan", s) : ""),
-                 sigma_override.value_or(cloud.scans[s].uncertainty));
+      ctx.RecordForScan("normals.mitra_sigma_mm", s,
+                        sigma_override.value_or(cloud.scans[s].uncertainty));
     }
 
     cloud.nx.assign(n, 0.f);

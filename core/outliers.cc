@@ -96,11 +96,10 @@ class OutliersStage : public Stage {
       std::nth_element(st.values.begin(), mid, st.values.end());
       // A regular scan grid has σ ≈ 0; the median floor keeps its slightly wider gaps.
       threshold[s] = std::max(mean + multiplier * sigma, floor_factor * *mid);
-      const std::string suffix = stats.size() > 1 ? absl::StrCat(".scan", s) : "";
-      ctx.Record(absl::StrCat("outliers.mean_d_mm", suffix), mean);
-      ctx.Record(absl::StrCat("outliers.sigma_d_mm", suffix), sigma);
+      ctx.RecordForScan("outliers.mean_d_mm", s, mean);
+      ctx.RecordForScan("outliers.sigma_d_mm", s, sigma);
       threshold[s] = forced.value_or(threshold[s]);
-      ctx.Record(absl::StrCat("outliers.threshold_mm", suffix), threshold[s]);
+      ctx.RecordForScan("outliers.threshold_mm", s, threshold[s]);
     }
 
     size_t removed = 0;

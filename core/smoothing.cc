@@ -112,8 +112,7 @@ class SmoothingStage : public Stage {
       // δ = u: a move within the measuring uncertainty cannot be told apart from noise.
       const double u = scan < cloud.scans.size() ? cloud.scans[scan].uncertainty : 0.1;
       s.tolerance.push_back(static_cast<float>(forced.value_or(u)));
-      const std::string suffix = cloud.scans.size() > 1 ? absl::StrCat(".scan", scan) : "";
-      ctx.Record(absl::StrCat("smoothing.tolerance_mm", suffix), s.tolerance.back());
+      ctx.RecordForScan("smoothing.tolerance_mm", scan, s.tolerance.back());
     }
     return s;
   }
