@@ -46,9 +46,9 @@ double QuadricCurvature(const PointCloud& cloud, size_t i, const RadiusMatches& 
 float MitraRadius(const PointCloud& cloud, const Neighbourhoods& nb, size_t i, double sigma,
                   const MitraOptions& options, RadiusMatches& scratch) {
   const uint32_t k = nb.k();
-  if (k == 0) return static_cast<float>(nb.min_radius());
+  if (k == 0) return nb.min_radius(i);
   const double r_floor = std::max(
-      nb.min_radius(), double(nb.knn_dist(cloud, i, std::min(options.min_points, k) - 1)));
+      double(nb.min_radius(i)), double(nb.knn_dist(cloud, i, std::min(options.min_points, k) - 1)));
   const double r_ceiling = std::max(r_floor, options.r_max);
   double r = nb.knn_dist(cloud, i, std::min<uint32_t>(15, k) - 1);
   for (int it = 0; it < options.max_iterations; ++it) {

@@ -45,6 +45,7 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
   const size_t n = cloud.size();
   nb->k_ = static_cast<uint32_t>(std::min<size_t>(options.k, n > 0 ? n - 1 : 0));
   nb->min_radius_ = options.min_radius;
+  nb->scan_ = cloud.scan;
   const uint32_t k = nb->k_;
   if (absl::Status s = nb->grid_.Build(cloud, 0.f, cancel); !s.ok()) return s;
   if (k == 0) return nb;
@@ -79,7 +80,7 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
   // r_g only sets defaults, r_max = 5·r_g among them (algorithms.md §2). A minimum radius far
   // beyond it — a scanline spacing stated in the wrong unit, or a cluster of coincident points
   // with d_k = 0 — would make every ball hold most of the cloud and each stage quadratic.
-  nb->min_radius_ = std::min(nb->min_radius_, kMaxRadiusPerGlobalRadius * nb->global_radius_);
+  for (double& r : nb->min_radius_) r = std::min(r, kMaxRadiusPerGlobalRadius * nb->global_radius_);
   return nb;
 }
 

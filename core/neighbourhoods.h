@@ -20,8 +20,10 @@
 namespace scanprep {
 
 struct NeighbourhoodOptions {
-  uint32_t k = 20;          // graph degree, also k_g for the global radius
-  double min_radius = 0.0;  // r_min of Eq. (2); 0 = no lower bound
+  uint32_t k = 20;  // graph degree, also k_g for the global radius
+  // r_min of Eq. (2) per scan, indexed like cloud.scans (a mixed job's finer sensor gets its own
+  // smaller one); missing entries and 0 = no lower bound.
+  std::vector<double> min_radius;
 };
 
 // The minimum radius is capped at this multiple of the global radius r_g.
@@ -60,10 +62,14 @@ class Neighbourhoods {
   double global_radius() const { return global_radius_; }
   // ρ_g = k / (π r_g²), points per mm² assuming a locally planar surface.
   double density() const { return density_; }
-  // r_min as used: the requested one, capped at kMaxRadiusPerGlobalRadius·r_g.
-  double min_radius() const { return min_radius_; }
+  // r_min of scan s as used: the requested one, capped at kMaxRadiusPerGlobalRadius·r_g.
+  double scan_min_radius(size_t s) const { return s < min_radius_.size() ? min_radius_[s] : 0; }
+  // r_min of point i's scan.
+  float min_radius(size_t i) const {
+    return static_cast<float>(scan_min_radius(scan_.empty() ? 0 : scan_[i]));
+  }
   // r_p = max(r_min, d_k(p)): the adaptive radius used by normals and smoothing.
-  float adaptive_radius(size_t i) const { return std::max(static_cast<float>(min_radius_), dk(i)); }
+  float adaptive_radius(size_t i) const { return std::max(min_radius(i), dk(i)); }
 
   // Unremoved points within `radius` of point i (i itself included), as (index, squared
   // distance), at most max_ball_points() of them: a fuller ball keeps its nearest (ties to the
@@ -93,7 +99,9 @@ class Neighbourhoods {
   uint32_t k_ = 0;
   std::vector<uint32_t> index_;
   std::vector<float> dk_;
-  double global_radius_ = 0, density_ = 0, min_radius_ = 0;
+  double global_radius_ = 0, density_ = 0;
+  std::vector<double> min_radius_;     // per scan
+  std::span<const uint32_t> scan_;     // the cloud's scan index per point
   bool moved_ = false;  // points moved since the graph was built
   mutable std::atomic<uint64_t> capped_balls_{0}, capped_points_{0};
 };

@@ -14,30 +14,37 @@ class NeighbourhoodsStage : public Stage {
  public:
   absl::Status Run(JobContext& ctx) override {
     const PointCloud& cloud = ctx.cloud();
-    double spacing = 0, uncertainty = 0;
-    for (const ScanMeta& scan : cloud.scans) {
-      spacing = std::max(spacing, cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0);
-      uncertainty = std::max(uncertainty, scan.uncertainty);
-    }
     NeighbourhoodOptions options;
     options.k = static_cast<uint32_t>(ctx.Integer("neighbourhoods.k"));
-    const double epsilon_u = ctx.Number("neighbourhoods.epsilon_u_mm", uncertainty);
-    // Flexible scanners have no fixed spacing: r_min = ε_u and r_p = max(r_min, d_k) grows the
-    // ball until it holds k points (algorithms.md §4).
-    options.min_radius =
-        ctx.Number("neighbourhoods.min_radius_mm", MinRadiusFromScanlineSpacing(spacing, epsilon_u));
+    // Per scan: a job mixing sensors would otherwise give the finer one the coarser one's r_min.
+    const std::optional<double> forced_epsilon = ctx.Overridden("neighbourhoods.epsilon_u_mm");
+    const std::optional<double> forced_radius = ctx.Overridden("neighbourhoods.min_radius_mm");
+    for (size_t s = 0; s < cloud.scans.size(); ++s) {
+      const ScanMeta& scan = cloud.scans[s];
+      const double spacing = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
+      const double epsilon_u = forced_epsilon.value_or(scan.uncertainty);
+      // Flexible scanners have no fixed spacing: r_min = ε_u and r_p = max(r_min, d_k) grows
+      // the ball until it holds k points (algorithms.md §4).
+      options.min_radius.push_back(
+          forced_radius.value_or(MinRadiusFromScanlineSpacing(spacing, epsilon_u)));
+      ctx.RecordForScan("neighbourhoods.epsilon_u_mm", s, epsilon_u);
+      ctx.RecordForScan("neighbourhoods.min_radius_mm", s, options.min_radius.back());
+    }
     auto nb = Neighbourhoods::Build(cloud, options, ctx.cancel());
     if (!nb.ok()) return nb.status();
-    // Build() already held r_min to kMaxRadiusPerGlobalRadius·r_g; this reports it.
-    ctx.CapRadius("the minimum radius r_min (Eq. 2, from scanline spacing and uncertainty)",
-                  options.min_radius, (*nb)->min_radius());
+    for (size_t s = 0; s < cloud.scans.size(); ++s) {
+      // Build() already held r_min to kMaxRadiusPerGlobalRadius·r_g; this reports it.
+      ctx.CapRadius(absl::StrCat("the minimum radius r_min (Eq. 2, from scanline spacing and "
+                                 "uncertainty) of scan '", cloud.scans[s].id, "'"),
+                    options.min_radius[s], (*nb)->scan_min_radius(s));
+      ctx.RecordForScan("neighbourhoods.min_radius_used_mm", s, (*nb)->scan_min_radius(s));
+    }
     if (const size_t collapsed = ctx.duplicates_collapsed(); collapsed > 0) {
       ctx.Warn(absl::StrCat("neighbourhoods: ", collapsed, " points coincide exactly with another "
                             "point of their scan; each group was processed once and every "
                             "point of it returned with that result"));
     }
     ctx.Record("neighbourhoods.duplicates_collapsed", static_cast<double>(ctx.duplicates_collapsed()));
-    ctx.Record("neighbourhoods.min_radius_used_mm", (*nb)->min_radius());
     ctx.Record("neighbourhoods.global_radius_mm", (*nb)->global_radius());
     ctx.Record("neighbourhoods.density_per_mm2", (*nb)->density());
     ctx.SetNeighbourhoods(*std::move(nb));
@@ -56,9 +63,9 @@ StageInfo NeighbourhoodsStageInfo() {
               IntegerParam("neighbourhoods.k", "neighbours per point in the shared graph (k_g)",
                            20, Closed(3, 64)),
               DerivedRealParam("neighbourhoods.epsilon_u_mm", "ε_u of Eq. (2), uncertainty margin",
-                               "largest scan uncertainty", Closed(0, 1e4)),
+                               "the scan's uncertainty u", Closed(0, 1e4)),
               DerivedRealParam("neighbourhoods.min_radius_mm", "r_min of Eq. (2): √3·Δs + ε_u",
-                               "from scanline spacing; ε_u for flexible scanners",
+                               "per scan from its scanline spacing; ε_u for flexible scanners",
                                Closed(0, 1e4)),
           },
       .make = [] { return std::make_unique<NeighbourhoodsStage>(); },

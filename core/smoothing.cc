@@ -8,7 +8,6 @@
 #include <cmath>
 #include <optional>
 
-#include "absl/strings/str_cat.h"
 #include "core/parallel.h"
 
 namespace scanprep {

@@ -11,6 +11,7 @@
 
 #include "core/kdtree.h"
 #include "core/neighbourhoods.h"
+#include "core/stage.h"
 #include "core/sim/scan_simulator.h"
 
 namespace scanprep {
@@ -152,6 +153,42 @@ TEST(Neighbourhoods, WithinStaysExactAfterPointsMove) {
     std::sort(got.begin(), got.end());
     ASSERT_EQ(got, expected) << "point " << i;
   }
+}
+
+// A job mixing a fine line sensor (Δs = 0.1 mm) and a coarse one (Δs = 1 mm) side by side: each
+// scan's r_min follows Eq. (2) from its own spacing and uncertainty, r_min = √3·Δs + u, so the
+// fine sensor's balls are not blown up to the coarse one's.
+TEST(Neighbourhoods, MinimumRadiusIsPerScan) {
+  PointCloud cloud;
+  cloud.kind = ScannerKind::kLine;
+  cloud.scans = {ScanMeta{.id = "fine", .scanline_spacing = 0.1, .uncertainty = 0.1},
+                 ScanMeta{.id = "coarse", .scanline_spacing = 1.0, .uncertainty = 0.6}};
+  for (uint32_t s = 0; s < 2; ++s) {
+    const float step = s == 0 ? 0.1f : 1.f;
+    for (int row = 0; row < 60; ++row) {
+      for (int col = 0; col < 60; ++col) {
+        cloud.x.push_back(col * step + (s == 0 ? 0.f : 100.f));
+        cloud.y.push_back(row * step);
+        cloud.z.push_back(0);
+        cloud.scan.push_back(s);
+        cloud.scanline.push_back(row);
+      }
+    }
+  }
+  cloud.FinishLoading();
+  CancelToken cancel;
+  ParamOverrides none;
+  JobContext ctx(cloud, none, cancel, {});
+  ASSERT_TRUE(ctx.Require("neighbourhoods").ok());
+  const auto& p = ctx.report().stages.back().parameters;
+  EXPECT_NEAR(p.at("neighbourhoods.min_radius_mm.scan0"), std::sqrt(3.0) * 0.1 + 0.1, 1e-9);
+  EXPECT_NEAR(p.at("neighbourhoods.min_radius_mm.scan1"), std::sqrt(3.0) * 1.0 + 0.6, 1e-9);
+  EXPECT_NEAR(p.at("neighbourhoods.epsilon_u_mm.scan1"), 0.6, 1e-12);
+  const Neighbourhoods& nb = **ctx.neighbourhoods();
+  // Mid-grid points: d_k (k = 20 on a square grid: √5·step) is below r_min for both.
+  const size_t fine = 30 * 60 + 30, coarse = 3600 + 30 * 60 + 30;
+  EXPECT_NEAR(nb.adaptive_radius(fine), std::sqrt(3.0) * 0.1 + 0.1, 1e-6);
+  EXPECT_NEAR(nb.adaptive_radius(coarse), std::sqrt(3.0) * 1.0 + 0.6, 1e-6);
 }
 
 }  // namespace
