@@ -4,7 +4,7 @@ FROM debian:bookworm AS build
 RUN apt-get update \
  && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \
       cmake ninja-build g++ pkg-config libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev \
-      libabsl-dev libeigen3-dev libnanoflann-dev libtbb-dev libcpp-httplib-dev \
+      libabsl-dev libeigen3-dev libnanoflann-dev libtbb-dev libcpp-httplib-dev zlib1g-dev \
  && rm -rf /var/lib/apt/lists/*
 WORKDIR /src
 COPY CMakeLists.txt ./

@@ -59,7 +59,8 @@ std::string Describe(const absl::Status& status) {
 
 ExitCode ExitCodeFor(const absl::Status& status) {
   const CallErrorDetails details = DetailsOf(status);
-  if (details.retry_delay.has_value() || status.code() == absl::StatusCode::kUnavailable) {
+  if (details.retry_delay.has_value() || status.code() == absl::StatusCode::kUnavailable ||
+      status.code() == absl::StatusCode::kDataLoss) {
     return kExitRetryLater;
   }
   if (status.code() == absl::StatusCode::kInvalidArgument ||

@@ -19,7 +19,9 @@ enum ExitCode : int {
   kExitOk = 0,
   kExitFailure = 1,     // anything not below
   kExitUsage = 2,       // bad command line
-  kExitRetryLater = 3,  // the server said a retry can succeed (RetryInfo), or it was UNAVAILABLE
+  // The server said a retry can succeed (RetryInfo), or it was UNAVAILABLE, or the transfer was
+  // corrupted (DATA_LOSS: a count or checksum mismatch on the way up or down).
+  kExitRetryLater = 3,
   kExitFixInput = 4,    // INVALID_ARGUMENT, or RESOURCE_EXHAUSTED without RetryInfo (too large)
 };
 

@@ -13,14 +13,6 @@ void SetDeadline(grpc::ClientContext& context, const std::optional<absl::Duratio
   if (timeout) context.set_deadline(absl::ToChronoTime(absl::Now() + *timeout));
 }
 
-// A present optional array must have one value per point.
-bool Fits(int size, size_t n) { return size == 0 || static_cast<size_t>(size) == n; }
-
-template <class T, class Repeated>
-void Append(const Repeated& from, std::vector<T>& to) {
-  to.insert(to.end(), from.begin(), from.end());
-}
-
 }  // namespace
 
 void CallCanceller::Cancel() {
@@ -108,36 +100,6 @@ void RequestChunk(const PointCloud& points, size_t begin, size_t end, bool with_
   copy(points.intensity, out->mutable_intensity());
 }
 
-absl::Status AppendResultChunk(const v1::PointChunk& chunk, PointCloud& cloud) {
-  const size_t n = chunk.xyz_size() / 3;
-  if (chunk.xyz_size() % 3 != 0 || !Fits(chunk.scan_index_size(), n) ||
-      !Fits(chunk.scanline_size(), n) || !Fits(chunk.quality_size(), n) ||
-      !Fits(chunk.intensity_size(), n) || !Fits(chunk.normal_size(), 3 * n) ||
-      chunk.flags().size() != n) {
-    return absl::DataLossError("the server sent a result chunk whose arrays disagree in length");
-  }
-  for (size_t i = 0; i < n; ++i) {
-    cloud.x.push_back(chunk.xyz(3 * i));
-    cloud.y.push_back(chunk.xyz(3 * i + 1));
-    cloud.z.push_back(chunk.xyz(3 * i + 2));
-    if (chunk.normal_size() > 0) {
-      cloud.nx.push_back(chunk.normal(3 * i));
-      cloud.ny.push_back(chunk.normal(3 * i + 1));
-      cloud.nz.push_back(chunk.normal(3 * i + 2));
-    }
-  }
-  if (chunk.scan_index_size() > 0) {
-    Append(chunk.scan_index(), cloud.scan);
-  } else {
-    cloud.scan.resize(cloud.scan.size() + n, 0);
-  }
-  Append(chunk.scanline(), cloud.scanline);
-  Append(chunk.quality(), cloud.quality);
-  Append(chunk.intensity(), cloud.intensity);
-  cloud.flags.insert(cloud.flags.end(), chunk.flags().begin(), chunk.flags().end());
-  return absl::OkStatus();
-}
-
 absl::StatusOr<ProcessResult> ScanPrepClient::Process(v1::JobHeader header,
                                                       const PointCloud& points,
                                                       const CallOptions& options) {
@@ -154,10 +116,8 @@ absl::StatusOr<ProcessResult> ScanPrepClient::Process(v1::JobHeader header,
       stub_->Process(&context);
 
   // Responses are read on their own thread so progress flows while this thread uploads.
-  ProcessResult result;
-  for (const v1::ScanHeader& scan : header.scans()) result.cloud.scans.push_back({.id = scan.scan_id()});
-  bool has_report = false;
-  absl::Status read_error;
+  ResultReceiver receiver(header);
+  TransferSeconds transfer;
   // gRPC's Write returns once the transport took the message, which can be megabytes before the
   // server read it; the server's UPLOAD progress for the last point says it decoded them all.
   const uint64_t total_points = header.total_points();
@@ -173,22 +133,20 @@ absl::StatusOr<ProcessResult> ScanPrepClient::Process(v1::JobHeader header,
             upload_acked = absl::Now();
           }
           if (options.progress) options.progress(response.progress());
-          break;
+          continue;
         case v1::ProcessResponse::kPoints:
           if (!download_start) download_start = absl::Now();
-          if (read_error.ok()) read_error = AppendResultChunk(response.points(), result.cloud);
           break;
         case v1::ProcessResponse::kReport:
-          result.report = std::move(*response.mutable_report());
-          has_report = true;
           // No points come back when every point was removed; that download took no time.
           if (download_start) {
-            result.transfer.download = absl::ToDoubleSeconds(absl::Now() - *download_start);
+            transfer.download = absl::ToDoubleSeconds(absl::Now() - *download_start);
           }
           break;
         default:
           break;
       }
+      receiver.Add(response);
     }
   });
 
@@ -197,22 +155,27 @@ absl::StatusOr<ProcessResult> ScanPrepClient::Process(v1::JobHeader header,
   // A failed write means the server already ended the call; Finish() tells why.
   bool writing = stream->Write(request);
   const absl::Time upload_start = absl::Now();
+  StreamChecksum sent;
   for (size_t begin = 0; writing && begin < points.size(); begin += chunk_points) {
     request.Clear();
     RequestChunk(points, begin, std::min(points.size(), begin + chunk_points), with_scan_index,
                  request.mutable_points());
+    sent.Add(request.points());
     writing = stream->Write(request);
   }
-  if (writing) stream->WritesDone();
+  if (writing) {
+    *request.mutable_end() = sent.End();
+    if (stream->Write(request)) stream->WritesDone();
+  }
   const absl::Time half_closed = absl::Now();
   reader.join();
-  result.transfer.upload = absl::ToDoubleSeconds(upload_acked.value_or(half_closed) - upload_start);
+  transfer.upload = absl::ToDoubleSeconds(upload_acked.value_or(half_closed) - upload_start);
   grpc::Status status = stream->Finish();
   if (options.canceller != nullptr) options.canceller->Detach();
 
   if (!status.ok()) return FromGrpc(status);
-  if (!read_error.ok()) return read_error;
-  if (!has_report) return absl::DataLossError("the server ended the call without a report");
+  auto result = std::move(receiver).Finish();
+  if (result.ok()) result->transfer = transfer;
   return result;
 }
 

@@ -1,5 +1,6 @@
 // Client library for the ScanPrep service, used by the `scanprep` CLI and the tests: streams a
-// job (header, then chunks), relays progress, and returns the result cloud and the report.
+// job (header, chunks, end message), relays progress, and returns the result cloud and the report
+// once the result's end message confirmed them.
 #pragma once
 
 #include <cstddef>
@@ -13,6 +14,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
+#include "client/result_receiver.h"
 #include "core/point_cloud.h"
 #include "scanprep/v1/scanprep.grpc.pb.h"
 
@@ -21,22 +23,6 @@ namespace scanprep::client {
 namespace v1 = ::scanprep::v1;
 
 inline constexpr size_t kDefaultChunkPoints = 32'768;
-
-// The call's transfer phases on the client's clock (the processing time is the server's
-// report.processing_seconds).
-struct TransferSeconds {
-  // First point chunk written → the server's progress for the last point (the half-close when
-  // the server sent none).
-  double upload = 0;
-  double download = 0;  // first result chunk received → the report received
-};
-
-struct ProcessResult {
-  // In the job's unit and the common frame; `scans` carries the header's scan ids.
-  PointCloud cloud;
-  v1::Report report;
-  TransferSeconds transfer;
-};
 
 // Called on the call's reader thread for every Progress event.
 using ProgressCallback = std::function<void(const v1::Progress&)>;
@@ -90,7 +76,8 @@ class ScanPrepClient {
 
   // Runs one job. `points` are in the header's unit and in each scan's own frame; points.scan
   // indexes header.scans. header.total_points is filled in when zero. A failed call returns the
-  // server's status code and message unchanged, with its error details (see call_error.h).
+  // server's status code and message unchanged, with its error details (see call_error.h); a
+  // result whose end message does not match its points is DATA_LOSS (see ResultReceiver).
   absl::StatusOr<ProcessResult> Process(v1::JobHeader header, const PointCloud& points,
                                         const CallOptions& options = {});
 
@@ -108,7 +95,5 @@ std::shared_ptr<grpc::Channel> RoundRobinChannel(
 // The request chunk for points [begin, end); scan_index only when `with_scan_index`.
 void RequestChunk(const PointCloud& points, size_t begin, size_t end, bool with_scan_index,
                   v1::PointChunk* out);
-// Appends a result chunk to `cloud`; DATA_LOSS when its arrays disagree.
-absl::Status AppendResultChunk(const v1::PointChunk& chunk, PointCloud& cloud);
 
 }  // namespace scanprep::client

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "server/error_details.h"
 
 namespace scanprep::server {
@@ -34,9 +35,15 @@ absl::Status JobAssembler::Add(const v1::ProcessRequest& request) {
                           " bytes per call (max_bytes_per_call)")),
                       "CALL_TOO_LARGE");
   }
+  if (ended_) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "a message after the end message (which declared ", job_.points_received,
+        " points); the end message must be the upload's last"));
+  }
   switch (request.kind_case()) {
     case v1::ProcessRequest::kHeader: return AddHeader(request.header());
     case v1::ProcessRequest::kPoints: return AddChunk(request.points());
+    case v1::ProcessRequest::kEnd: return AddEnd(request.end());
     default:
       return absl::InvalidArgumentError(
           has_header_ ? absl::StrCat("chunk ", chunks_, ": empty request message")
@@ -75,13 +82,10 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
   }
   job_.cloud.kind = KindFromHeader(header);
 
-  // gRPC ends a stream at a message that fails to parse just as at the client's half-close, so
-  // only a declared count tells a truncated upload from a complete one.
   total_points_ = header.total_points();
   if (total_points_ == 0) {
     return absl::InvalidArgumentError(
-        "header.total_points = 0: the number of points the upload will send must be declared, "
-        "so that a truncated upload is refused instead of processed");
+        "header.total_points = 0: the number of points the upload will send must be declared");
   }
   if (total_points_ > limits_.max_points_per_job) {
     return WithReason(absl::ResourceExhaustedError(absl::StrCat(
@@ -177,6 +181,7 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
         absl::StrCat("chunk ", chunks_, ": more points than header.total_points = ", total_points_));
   }
   if (absl::Status s = CheckChunk(chunk, n); !s.ok()) return s;
+  checksum_.Add(chunk);
   ++chunks_;
   if (n == 0) return absl::OkStatus();
   if (!layout_known_) {
@@ -208,15 +213,43 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
   return absl::OkStatus();
 }
 
+absl::Status JobAssembler::AddEnd(const v1::StreamEnd& end) {
+  if (!has_header_) {
+    return absl::InvalidArgumentError("first message must be a header (got the end message)");
+  }
+  if (end.points() != job_.points_received || end.points() != total_points_) {
+    return WithReason(
+        absl::InvalidArgumentError(absl::StrCat(
+            "end.points = ", end.points(), " but ", job_.points_received,
+            " points were received and header.total_points = ", total_points_,
+            "; the three must agree")),
+        "POINT_COUNT_MISMATCH");
+  }
+  if (end.crc32() != checksum_.crc32()) {
+    // Corrupted on the way: the same upload can succeed again.
+    return WithReason(absl::DataLossError(absl::StrFormat(
+                          "end.crc32 = 0x%08x but the %d points received have CRC-32 0x%08x: "
+                          "the upload was corrupted in transfer",
+                          end.crc32(), job_.points_received, checksum_.crc32())),
+                      "CHECKSUM_MISMATCH", absl::ZeroDuration());
+  }
+  ended_ = true;
+  return absl::OkStatus();
+}
+
 absl::StatusOr<AssembledJob> JobAssembler::Finish() {
   if (!has_header_) {
     return absl::InvalidArgumentError(
         "first message must be a header (the stream ended before a message could be parsed)");
   }
-  if (job_.points_received != total_points_) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "header.total_points = ", total_points_, " but ", job_.points_received,
-        " points were received before the stream ended (a message that fails to parse ends it)"));
+  // gRPC ends a stream at a message that fails to parse just as at the client's half-close, so
+  // only the end message tells a cut upload from a complete one.
+  if (!ended_) {
+    return WithReason(absl::InvalidArgumentError(absl::StrCat(
+                          "the upload ended without its end message after ",
+                          job_.points_received, " of header.total_points = ", total_points_,
+                          " points: the stream was cut")),
+                      "UPLOAD_INCOMPLETE");
   }
   if (job_.points_invalid == job_.points_received) {
     return absl::InvalidArgumentError(absl::StrCat("the job has no valid points: all ",

@@ -12,6 +12,7 @@
 #include "absl/status/statusor.h"
 #include "core/pipeline.h"
 #include "core/point_cloud.h"
+#include "proto/stream_checksum.h"
 #include "scanprep/v1/scanprep.pb.h"
 #include "server/convert.h"
 
@@ -50,7 +51,7 @@ class JobAssembler {
 
   // Takes the next request message; any error ends the call with that status.
   absl::Status Add(const v1::ProcessRequest& request);
-  // After the stream ended: the job, or an error unless exactly the declared points arrived.
+  // After the stream ended: the job, or an error unless the upload ended with its StreamEnd.
   absl::StatusOr<AssembledJob> Finish();
 
   bool has_header() const { return has_header_; }
@@ -65,6 +66,8 @@ class JobAssembler {
   absl::Status CheckHeaderSize(const v1::JobHeader& header) const;
   absl::Status AddChunk(const v1::PointChunk& chunk);
   absl::Status CheckChunk(const v1::PointChunk& chunk, size_t n) const;
+  // The client's count and CRC-32 against the header's total and the chunks received.
+  absl::Status AddEnd(const v1::StreamEnd& end);
 
   JobLimits limits_;
   AssembledJob job_;
@@ -73,6 +76,8 @@ class JobAssembler {
   uint64_t total_points_ = 0;
   uint64_t chunks_ = 0;
   uint64_t bytes_ = 0;  // serialized size of the messages so far
+  StreamChecksum checksum_;  // over the accepted chunks
+  bool ended_ = false;       // the StreamEnd arrived and matched
   // Which optional arrays the first non-empty chunk carried; later chunks must agree.
   bool layout_known_ = false;
   bool has_scanline_ = false, has_quality_ = false, has_intensity_ = false;

@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/stage.h"
+#include "proto/stream_checksum.h"
 #include "server/convert.h"
 #include "server/error_details.h"
 
@@ -185,17 +186,20 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   }
   metrics_.JobProcessed(*result);
 
-  // Download: the kept points (all of them with include_removed), then the report.
+  // Download: the kept points (all of them with include_removed), the report, then the end
+  // message with the points' count and CRC-32.
   const PointCloud& cloud = running->cloud();
   std::vector<uint32_t> indices;
   indices.reserve(cloud.size());
   for (uint32_t i = 0; i < cloud.size(); ++i) {
     if (job->include_removed || !cloud.removed(i)) indices.push_back(i);
   }
+  StreamChecksum sent;
   for (size_t begin = 0; begin < indices.size(); begin += kRecommendedChunkPoints) {
     const size_t end = std::min(indices.size(), begin + kRecommendedChunkPoints);
     v1::ProcessResponse response;
     ResultChunk(cloud, indices, begin, end, job->mm_per_unit, response.mutable_points());
+    sent.Add(response.points());
     if (!Send(stream, response) ||
         !SendProgress(stream, v1::Progress::DOWNLOAD, "",
                       static_cast<double>(end) / indices.size(), end)) {
@@ -211,6 +215,9 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   report->set_points_returned(indices.size());
   for (const std::string& w : job->warnings) report->add_warnings(w);
   ReportToProto(*result, report);
+  if (!Send(stream, response)) return Gone(*context, "download");
+  response.Clear();
+  *response.mutable_end() = sent.End();
   if (!Send(stream, response)) return Gone(*context, "download");
   return grpc::Status::OK;
 }

@@ -4,7 +4,9 @@
 // collinear points) reach the stages this way.
 //
 // Input: a sequence of pieces, each a 2-byte little-endian length followed by that many bytes of
-// a serialized ProcessRequest; a piece that does not parse ends the stream.
+// a serialized ProcessRequest; a piece that does not parse ends the stream. An end message whose
+// crc32 is 0 gets the CRC-32 of the chunks before it, so that mutated points still reach the
+// pipeline; any other crc32 is checked as sent.
 #include <cstddef>
 #include <cstdint>
 
@@ -34,6 +36,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // Small limits so the limit checks are reachable with small inputs.
   scanprep::server::JobAssembler assembler(
       scanprep::server::JobLimits{.max_points_per_job = 4096, .max_chunk_points = 1024});
+  scanprep::StreamChecksum sent;
   size_t pos = 0;
   for (int m = 0; m < kMaxMessages && pos + 2 <= size; ++m) {
     const size_t length = data[pos] | (static_cast<size_t>(data[pos + 1]) << 8);
@@ -42,7 +45,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     scanprep::v1::ProcessRequest request;
     if (!request.ParseFromArray(data + pos, static_cast<int>(length))) break;
     pos += length;
+    if (request.has_end() && request.end().crc32() == 0) {
+      request.mutable_end()->set_crc32(sent.crc32());
+    }
     if (!assembler.Add(request).ok()) return 0;  // the service ends the call here
+    if (request.has_points()) sent.Add(request.points());
   }
   auto job = assembler.Finish();
   if (!job.ok()) return 0;

@@ -207,6 +207,7 @@ class HeldCall {
     return stream_->Read(&ack) && ack.progress().phase() == v1::Progress::UPLOAD;
   }
   grpc::Status Finish() {
+    stream_->Write(EndRequest({ChunkRequest(LineChunk(100))}));
     stream_->WritesDone();
     v1::ProcessResponse response;
     while (stream_->Read(&response)) has_report_ |= response.has_report();
@@ -226,6 +227,7 @@ grpc::Status SmallJob(v1::ScanPrep::Stub& stub, std::optional<absl::Duration> ti
   auto stream = stub.Process(&context);
   stream->Write(HeaderRequest(SimpleHeader(), 100));
   stream->Write(ChunkRequest(LineChunk(100)));
+  stream->Write(EndRequest({ChunkRequest(LineChunk(100))}));
   stream->WritesDone();
   v1::ProcessResponse response;
   while (stream->Read(&response)) {

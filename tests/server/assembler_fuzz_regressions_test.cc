@@ -25,7 +25,12 @@ void ExpectNoInfiniteCoordinates(v1::LengthUnit unit, double translation_x, floa
   }
   v1::ProcessRequest chunk;
   for (float v : {x, 0.f, 0.f, 1.f, 2.f, 3.f}) chunk.mutable_points()->add_xyz(v);
-  const absl::Status added = assembler.Add(chunk);
+  StreamChecksum checksum;
+  checksum.Add(chunk.points());
+  v1::ProcessRequest end;
+  *end.mutable_end() = checksum.End();
+  absl::Status added = assembler.Add(chunk);
+  if (added.ok()) added = assembler.Add(end);
   absl::StatusOr<AssembledJob> job =
       added.ok() ? assembler.Finish() : absl::StatusOr<AssembledJob>(added);
   if (!job.ok()) {

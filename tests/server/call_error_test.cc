@@ -80,8 +80,12 @@ TEST(CallError, UnreachableServerSaysRetryLater) {
   EXPECT_EQ(client::ExitCodeFor(refused.status()), client::kExitRetryLater);
 }
 
+TEST(CallError, ACorruptedTransferSaysRetryLater) {
+  // A checksum or count mismatch, on the upload (the server's) or the result (the client's).
+  EXPECT_EQ(client::ExitCodeFor(absl::DataLossError("bad chunk")), client::kExitRetryLater);
+}
+
 TEST(CallError, OtherFailuresAreGeneric) {
-  EXPECT_EQ(client::ExitCodeFor(absl::DataLossError("bad chunk")), client::kExitFailure);
   EXPECT_EQ(client::ExitCodeFor(absl::CancelledError("cancelled")), client::kExitFailure);
   EXPECT_EQ(client::Describe(absl::DataLossError("bad chunk")), "DATA_LOSS: bad chunk");
 }

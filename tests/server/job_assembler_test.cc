@@ -1,11 +1,12 @@
 // The request-to-job translation without gRPC: units, poses applied to points and scanner
-// metadata, defaults, and invalid coordinates.
+// metadata, defaults, invalid coordinates, and the end message's count and checksum.
 #include <cmath>
 #include <limits>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "absl/strings/str_format.h"
 #include "server/job_assembler.h"
 
 namespace scanprep::server {
@@ -14,6 +15,15 @@ namespace {
 v1::ProcessRequest Header(const v1::JobHeader& h) {
   v1::ProcessRequest r;
   *r.mutable_header() = h;
+  return r;
+}
+
+// The end message for `chunks`, as a client computes it.
+v1::ProcessRequest End(std::initializer_list<v1::ProcessRequest> chunks) {
+  StreamChecksum checksum;
+  for (const v1::ProcessRequest& chunk : chunks) checksum.Add(chunk.points());
+  v1::ProcessRequest r;
+  *r.mutable_end() = checksum.End();
   return r;
 }
 
@@ -43,6 +53,7 @@ TEST(JobAssembler, AppliesUnitAndPoseToPointsAndScannerMetadata) {
     chunk.mutable_points()->add_xyz(v);
   }
   ASSERT_TRUE(assembler.Add(chunk).ok());
+  ASSERT_TRUE(assembler.Add(End({chunk})).ok());
   auto job = assembler.Finish();
   ASSERT_TRUE(job.ok()) << job.status();
 
@@ -82,6 +93,7 @@ TEST(JobAssembler, ScannerKindAndBudgetDefaults) {
   v1::ProcessRequest chunk;
   for (int i = 0; i < 3; ++i) chunk.mutable_points()->add_xyz(1.f);
   ASSERT_TRUE(assembler.Add(chunk).ok());
+  ASSERT_TRUE(assembler.Add(End({chunk})).ok());
   auto job = assembler.Finish();
   ASSERT_TRUE(job.ok()) << job.status();
   EXPECT_EQ(job->cloud.kind, ScannerKind::kFlexible);  // no scanline spacing anywhere
@@ -163,6 +175,7 @@ TEST(JobAssembler, ScannerPositionsAndDirectionsAreBounded) {
   v1::ProcessRequest chunk;
   for (int i = 0; i < 3; ++i) chunk.mutable_points()->add_xyz(1.f);
   ASSERT_TRUE(assembler.Add(chunk).ok());
+  ASSERT_TRUE(assembler.Add(End({chunk})).ok());
   auto job = assembler.Finish();
   ASSERT_TRUE(job.ok()) << job.status();
   EXPECT_TRUE(job->cloud.scans[0].view_direction->isApprox(Eigen::Vector3d(0, 1, 0), 1e-12));
@@ -173,26 +186,79 @@ TEST(JobAssembler, ScannerPositionsAndDirectionsAreBounded) {
             "header.scans[0].projector_direction: must be a finite non-zero vector");
 }
 
-// A stream ends at a message that fails to parse as at a half-close: only the declared count
-// shows that points are missing, so a job must declare it and match it.
-TEST(JobAssembler, RequiresTheDeclaredPointCountAndRefusesFewer) {
-  v1::JobHeader h = InchHeader();
-  const absl::Status undeclared = JobAssembler(JobLimits{}).Add(Header(h));
+TEST(JobAssembler, RequiresTheDeclaredPointCount) {
+  const absl::Status undeclared = JobAssembler(JobLimits{}).Add(Header(InchHeader()));
   EXPECT_EQ(undeclared.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(undeclared.message(), ::testing::HasSubstr("header.total_points = 0: the number of "
                                                          "points the upload will send must be "
                                                          "declared"));
+}
 
-  h.set_total_points(2);
-  JobAssembler assembler(JobLimits{});
-  ASSERT_TRUE(assembler.Add(Header(h)).ok());
+// One point in one chunk, after a header that declares `total_points`.
+struct OnePointUpload {
+  explicit OnePointUpload(uint64_t total_points = 1) {
+    v1::JobHeader h = InchHeader();
+    h.set_total_points(total_points);
+    EXPECT_TRUE(assembler.Add(Header(h)).ok());
+    for (int i = 0; i < 3; ++i) chunk.mutable_points()->add_xyz(1.f);
+    EXPECT_TRUE(assembler.Add(chunk).ok());
+  }
+  JobAssembler assembler{JobLimits{}};
   v1::ProcessRequest chunk;
-  for (int i = 0; i < 3; ++i) chunk.mutable_points()->add_xyz(1.f);
-  ASSERT_TRUE(assembler.Add(chunk).ok());
-  const auto job = assembler.Finish();
+};
+
+// A stream ends at a message that fails to parse as at a half-close: only the end message shows
+// that the upload is whole, even when every declared point arrived.
+TEST(JobAssembler, AnUploadWithoutItsEndMessageIsRefused) {
+  OnePointUpload upload;
+  const auto job = upload.assembler.Finish();
   EXPECT_EQ(job.status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_THAT(job.status().message(),
-              ::testing::HasSubstr("header.total_points = 2 but 1 points were received"));
+  EXPECT_EQ(job.status().message(),
+            "the upload ended without its end message after 1 of header.total_points = 1 points: "
+            "the stream was cut");
+}
+
+TEST(JobAssembler, TheEndMessagesCountMustMatchTheReceivedAndTheDeclaredCount) {
+  OnePointUpload fewer(2);  // declared 2, sent 1, end says 1
+  absl::Status s = fewer.assembler.Add(End({fewer.chunk}));
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message(), "end.points = 1 but 1 points were received and header.total_points = 2; "
+                         "the three must agree");
+
+  OnePointUpload miscounted;
+  v1::ProcessRequest end = End({miscounted.chunk});
+  end.mutable_end()->set_points(2);
+  s = miscounted.assembler.Add(end);
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message(), "end.points = 2 but 1 points were received and header.total_points = 1; "
+                         "the three must agree");
+}
+
+TEST(JobAssembler, AChecksumMismatchIsDataLossNamingBothValues) {
+  OnePointUpload upload;
+  v1::ProcessRequest end = End({upload.chunk});
+  const uint32_t right = end.end().crc32();
+  end.mutable_end()->set_crc32(right ^ 1);
+  const absl::Status s = upload.assembler.Add(end);
+  EXPECT_EQ(s.code(), absl::StatusCode::kDataLoss);
+  EXPECT_EQ(s.message(), absl::StrFormat("end.crc32 = 0x%08x but the 1 points received have "
+                                         "CRC-32 0x%08x: the upload was corrupted in transfer",
+                                         right ^ 1, right));
+}
+
+TEST(JobAssembler, TheEndMessageIsLast) {
+  OnePointUpload upload(2);
+  ASSERT_TRUE(upload.assembler.Add(upload.chunk).ok());
+  ASSERT_TRUE(upload.assembler.Add(End({upload.chunk, upload.chunk})).ok());
+  for (const v1::ProcessRequest& late : {upload.chunk, End({upload.chunk, upload.chunk})}) {
+    const absl::Status s = upload.assembler.Add(late);
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_EQ(s.message(), "a message after the end message (which declared 2 points); the end "
+                           "message must be the upload's last");
+  }
+
+  const absl::Status first = JobAssembler(JobLimits{}).Add(End({}));
+  EXPECT_EQ(first.message(), "first message must be a header (got the end message)");
 }
 
 }  // namespace

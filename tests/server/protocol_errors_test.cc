@@ -205,21 +205,25 @@ TEST_F(ProtocolErrors, AHeaderThatFailsToParseIsNotCalledAnEmptyStream) {
 TEST_F(ProtocolErrors, AMessageThatFailsToParseMidStreamIsNeverOk) {
   v1::JobHeader header = SimpleHeader();
   header.set_total_points(30);
-  const std::string chunk = ChunkRequest(LineChunk(10)).SerializeAsString();
-  // The control: all three chunks intact is a complete job.
+  const v1::ProcessRequest chunk_request = ChunkRequest(LineChunk(10));
+  const std::string chunk = chunk_request.SerializeAsString();
+  const std::string end =
+      EndRequest({chunk_request, chunk_request, chunk_request}).SerializeAsString();
+  // The control: all three chunks intact and the end message is a complete job.
   ASSERT_TRUE(BytesCall(server_.target(), {HeaderRequest(header).SerializeAsString(), chunk,
-                                           chunk, chunk})
+                                           chunk, chunk, end})
                   .ok());
   // The third chunk cut inside its length varint (after a byte with the continuation bit set),
-  // or led by a field of wire type 7, which does not exist.
+  // or led by a field of wire type 7, which does not exist: the stream ends there, and the end
+  // message the client sent after it never arrives.
   const std::string truncated_varint = chunk.substr(0, 1) + "\xfb";
   const std::string bad_wire_type = "\x17" + chunk;
   for (const std::string& bad : {truncated_varint, bad_wire_type}) {
     EXPECT_STATUS(BytesCall(server_.target(),
-                            {HeaderRequest(header).SerializeAsString(), chunk, chunk, bad}),
+                            {HeaderRequest(header).SerializeAsString(), chunk, chunk, bad, end}),
                   INVALID_ARGUMENT,
-                  "header.total_points = 30 but 20 points were received before the stream "
-                  "ended");
+                  "the upload ended without its end message after 20 of header.total_points = 30 "
+                  "points: the stream was cut");
   }
 }
 
@@ -238,7 +242,7 @@ TEST_F(ProtocolErrors, TotalPointsMismatch) {
   v1::JobHeader header = SimpleHeader();
   header.set_total_points(30);
   EXPECT_STATUS(Send(header, {LineChunk(10)}), INVALID_ARGUMENT,
-                "header.total_points = 30 but 10 points were received");
+                "end.points = 10 but 10 points were received and header.total_points = 30");
 }
 
 TEST(ProtocolLimits, MorePointsThanTheJobLimitEndsTheCallWhenCrossed) {
@@ -289,6 +293,7 @@ TEST(ProtocolLimits, CallsBeyondTheConcurrencyLimitAreRefusedAtOnce) {
   EXPECT_THAT(refused.error_message(), HasSubstr("limit of 1 concurrent jobs (max_concurrent_jobs)"));
 
   // The held call completes normally, and frees its slot.
+  ASSERT_TRUE(stream->Write(EndRequest({ChunkRequest(LineChunk(100))})));
   stream->WritesDone();
   while (stream->Read(&ack)) {
   }

@@ -2,6 +2,7 @@
 // port, a raw-stream call for protocol tests, and a generated scan (noisy plane with spikes).
 #pragma once
 
+#include <algorithm>
 #include <limits>
 #include <memory>
 #include <random>
@@ -14,6 +15,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/scanprep_client.h"
 #include "core/point_cloud.h"
+#include "proto/stream_checksum.h"
 #include "server/scanprep_server.h"
 
 namespace scanprep::testing {
@@ -47,15 +49,39 @@ class InProcessServer {
   std::string target_;
 };
 
+// Whether RawCall ends an upload that starts with a header the way the client library does.
+enum class Upload {
+  kEnded,  // a StreamEnd with the chunks' count and CRC-32 appended, unless the requests have one
+  kCut,    // the requests as they are: the half-close comes without an end message
+};
+
+// The end message for `requests`: the count and CRC-32 of their chunks.
+inline v1::ProcessRequest EndRequest(const std::vector<v1::ProcessRequest>& requests) {
+  StreamChecksum checksum;
+  for (const v1::ProcessRequest& r : requests) {
+    if (r.has_points()) checksum.Add(r.points());
+  }
+  v1::ProcessRequest end;
+  *end.mutable_end() = checksum.End();
+  return end;
+}
+
 // Writes `requests` (stopping when the server ended the call), half-closes, reads every
 // response and returns the call's status. Like the client library, it declares a first header's
-// total_points, when zero, as the points the requests carry.
+// total_points, when zero, as the points the requests carry, and (with Upload::kEnded) ends the
+// upload with its end message.
 inline grpc::Status RawCall(v1::ScanPrep::Stub& stub, std::vector<v1::ProcessRequest> requests,
-                            std::vector<v1::ProcessResponse>* responses = nullptr) {
-  if (!requests.empty() && requests[0].has_header() && requests[0].header().total_points() == 0) {
-    uint64_t points = 0;
-    for (const v1::ProcessRequest& r : requests) points += r.points().xyz_size() / 3;
-    requests[0].mutable_header()->set_total_points(points);
+                            std::vector<v1::ProcessResponse>* responses = nullptr,
+                            Upload upload = Upload::kEnded) {
+  if (!requests.empty() && requests[0].has_header()) {
+    if (requests[0].header().total_points() == 0) {
+      uint64_t points = 0;
+      for (const v1::ProcessRequest& r : requests) points += r.points().xyz_size() / 3;
+      requests[0].mutable_header()->set_total_points(points);
+    }
+    const bool has_end = std::any_of(requests.begin(), requests.end(),
+                                     [](const v1::ProcessRequest& r) { return r.has_end(); });
+    if (upload == Upload::kEnded && !has_end) requests.push_back(EndRequest(requests));
   }
   grpc::ClientContext context;
   auto stream = stub.Process(&context);

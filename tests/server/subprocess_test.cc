@@ -194,6 +194,7 @@ TEST(ServerBinary, SigtermLetsTheInFlightCallFinishThenExitsZero) {
 
   std::thread terminate([&] { EXPECT_EQ(server.Terminate(), 0); });
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  ASSERT_TRUE(stream->Write(EndRequest({ChunkRequest(LineChunk(500))})));
   stream->WritesDone();
   bool report = false;
   while (stream->Read(&response)) report |= response.has_report();
@@ -217,13 +218,18 @@ TEST(ServerBinary, SigtermDuringALongStageExitsWithinTheGracePeriodPlusOneSecond
   grpc::ClientContext context;
   auto stream = stub->Process(&context);
   ASSERT_TRUE(stream->Write(HeaderRequest(header)));
+  StreamChecksum sent;
   for (size_t begin = 0; begin < scan.cloud.size(); begin += client::kDefaultChunkPoints) {
     v1::ProcessRequest request;
     client::RequestChunk(scan.cloud, begin,
                          std::min(scan.cloud.size(), begin + client::kDefaultChunkPoints), false,
                          request.mutable_points());
+    sent.Add(request.points());
     ASSERT_TRUE(stream->Write(request));
   }
+  v1::ProcessRequest end;
+  *end.mutable_end() = sent.End();
+  ASSERT_TRUE(stream->Write(end));
   stream->WritesDone();
   v1::ProcessResponse response;
   while (stream->Read(&response) && response.progress().stage() != "smoothing") {

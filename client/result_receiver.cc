@@ -1,0 +1,102 @@
+#include "client/result_receiver.h"
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+
+namespace scanprep::client {
+namespace {
+
+// A present optional array must have one value per point.
+bool Fits(int size, size_t n) { return size == 0 || static_cast<size_t>(size) == n; }
+
+template <class T, class Repeated>
+void Append(const Repeated& from, std::vector<T>& to) {
+  to.insert(to.end(), from.begin(), from.end());
+}
+
+}  // namespace
+
+absl::Status AppendResultChunk(const v1::PointChunk& chunk, PointCloud& cloud) {
+  const size_t n = chunk.xyz_size() / 3;
+  if (chunk.xyz_size() % 3 != 0 || !Fits(chunk.scan_index_size(), n) ||
+      !Fits(chunk.scanline_size(), n) || !Fits(chunk.quality_size(), n) ||
+      !Fits(chunk.intensity_size(), n) || !Fits(chunk.normal_size(), 3 * n) ||
+      chunk.flags().size() != n) {
+    return absl::DataLossError("the server sent a result chunk whose arrays disagree in length");
+  }
+  for (size_t i = 0; i < n; ++i) {
+    cloud.x.push_back(chunk.xyz(3 * i));
+    cloud.y.push_back(chunk.xyz(3 * i + 1));
+    cloud.z.push_back(chunk.xyz(3 * i + 2));
+    if (chunk.normal_size() > 0) {
+      cloud.nx.push_back(chunk.normal(3 * i));
+      cloud.ny.push_back(chunk.normal(3 * i + 1));
+      cloud.nz.push_back(chunk.normal(3 * i + 2));
+    }
+  }
+  if (chunk.scan_index_size() > 0) {
+    Append(chunk.scan_index(), cloud.scan);
+  } else {
+    cloud.scan.resize(cloud.scan.size() + n, 0);
+  }
+  Append(chunk.scanline(), cloud.scanline);
+  Append(chunk.quality(), cloud.quality);
+  Append(chunk.intensity(), cloud.intensity);
+  cloud.flags.insert(cloud.flags.end(), chunk.flags().begin(), chunk.flags().end());
+  return absl::OkStatus();
+}
+
+ResultReceiver::ResultReceiver(const v1::JobHeader& header) {
+  for (const v1::ScanHeader& scan : header.scans()) {
+    result_.cloud.scans.push_back({.id = scan.scan_id()});
+  }
+}
+
+void ResultReceiver::Add(v1::ProcessResponse& response) {
+  if (error_.ok()) error_ = AddMessage(response);
+}
+
+absl::Status ResultReceiver::AddMessage(v1::ProcessResponse& response) {
+  if (has_end_) {
+    return absl::DataLossError("the server sent a message after the result's end message");
+  }
+  switch (response.kind_case()) {
+    case v1::ProcessResponse::kPoints:
+      received_.Add(response.points());
+      return AppendResultChunk(response.points(), result_.cloud);
+    case v1::ProcessResponse::kReport:
+      result_.report = std::move(*response.mutable_report());
+      has_report_ = true;
+      return absl::OkStatus();
+    case v1::ProcessResponse::kEnd:
+      end_ = response.end();
+      has_end_ = true;
+      return absl::OkStatus();
+    default:
+      return absl::OkStatus();
+  }
+}
+
+absl::StatusOr<ProcessResult> ResultReceiver::Finish() && {
+  if (!error_.ok()) return error_;
+  if (!has_report_) return absl::DataLossError("the server ended the call without a report");
+  if (!has_end_) {
+    return absl::DataLossError(absl::StrCat("the result ended without its end message after ",
+                                            received_.points(), " points: the stream was cut"));
+  }
+  if (end_.points() != received_.points() ||
+      end_.points() != result_.report.points_returned()) {
+    return absl::DataLossError(absl::StrCat(
+        "the result's end message declares ", end_.points(), " points and the report ",
+        result_.report.points_returned(), ", but ", received_.points(), " arrived"));
+  }
+  if (end_.crc32() != received_.crc32()) {
+    return absl::DataLossError(absl::StrFormat(
+        "the result's end message has CRC-32 0x%08x but the %d points received have 0x%08x: "
+        "the result was corrupted in transfer",
+        end_.crc32(), received_.points(), received_.crc32()));
+  }
+  return std::move(result_);
+}
+
+}  // namespace scanprep::client
