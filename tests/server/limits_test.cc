@@ -249,11 +249,14 @@ Trickle TrickleUpload(const server::ServerOptions& options) {
   grpc::ClientContext context;
   auto stream = stub->Process(&context);
   const absl::Time start = absl::Now();
-  bool sending = stream->Write(HeaderRequest(SimpleHeader(), 150));
+  std::vector<v1::ProcessRequest> sent = {HeaderRequest(SimpleHeader(), 150)};
+  bool sending = stream->Write(sent.back());
   for (int i = 0; i < 15 && sending; ++i) {
     absl::SleepFor(absl::Milliseconds(100));
-    sending = stream->Write(ChunkRequest(LineChunk(10)));
+    sent.push_back(ChunkRequest(LineChunk(10)));
+    sending = stream->Write(sent.back());
   }
+  if (sending) stream->Write(EndRequest(sent));
   stream->WritesDone();
   Trickle result;
   v1::ProcessResponse response;
