@@ -8,19 +8,35 @@
 namespace scanprep::server {
 namespace {
 
+// INVALID_CHUNK "chunk <index>: <problem>", naming points[<index>].<array> (the index-th
+// PointChunk message; no array when the message as a whole is at fault).
+absl::Status BadChunk(uint64_t chunk, std::string_view array, std::string_view problem) {
+  return WithFieldViolation(
+      absl::InvalidArgumentError(absl::StrCat("chunk ", chunk, ": ", std::string(problem))),
+      "INVALID_CHUNK",
+      absl::StrCat("points[", chunk, "]", array.empty() ? "" : ".", std::string(array)));
+}
+
+absl::Status BadHeader(std::string_view field, std::string message) {
+  return WithFieldViolation(absl::InvalidArgumentError(std::move(message)), "INVALID_HEADER",
+                            field);
+}
+
 // Checks that an optional per-point array is absent or has one value per point.
 absl::Status CheckLength(uint64_t chunk, std::string_view name, int size, size_t n) {
   if (size == 0 || static_cast<size_t>(size) == n) return absl::OkStatus();
-  return absl::InvalidArgumentError(absl::StrCat("chunk ", chunk, ": ", std::string(name), " has ",
-                                                 size, " values but xyz has ", n, " points"));
+  return BadChunk(chunk, name,
+                  absl::StrCat(std::string(name), " has ", size, " values but xyz has ", n,
+                               " points"));
 }
 
 absl::Status CheckPresence(uint64_t chunk, std::string_view name, bool expected, bool present) {
   if (expected == present) return absl::OkStatus();
-  return absl::InvalidArgumentError(
-      absl::StrCat("chunk ", chunk, ": ", std::string(name), " is ",
-                   present ? "present" : "missing", " but earlier chunks ",
-                   expected ? "carried it" : "did not; an array must be in every chunk or none"));
+  return BadChunk(chunk, name,
+                  absl::StrCat(std::string(name), " is ", present ? "present" : "missing",
+                               " but earlier chunks ",
+                               expected ? "carried it"
+                                        : "did not; an array must be in every chunk or none"));
 }
 
 }  // namespace
@@ -38,30 +54,31 @@ absl::Status JobAssembler::Add(const v1::ProcessRequest& request) {
     case v1::ProcessRequest::kHeader: return AddHeader(request.header());
     case v1::ProcessRequest::kPoints: return AddChunk(request.points());
     default:
-      return absl::InvalidArgumentError(
-          has_header_ ? absl::StrCat("chunk ", chunks_, ": empty request message")
-                      : "first message must be a header (got an empty request message)");
+      return has_header_ ? BadChunk(chunks_, "", "empty request message")
+                         : BadHeader("header",
+                                     "first message must be a header (got an empty request "
+                                     "message)");
   }
 }
 
 absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
   if (has_header_) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("a second header after ", chunks_, " chunks; a job has exactly one header"));
+    return BadHeader("header", absl::StrCat("a second header after ", chunks_,
+                                            " chunks; a job has exactly one header"));
   }
   has_header_ = true;
   if (absl::Status s = CheckHeaderSize(header); !s.ok()) return s;
   auto mm = MillimetresPerUnit(header.unit());
   if (!mm.ok()) return mm.status();
   if (header.scans().empty()) {
-    return absl::InvalidArgumentError("header.scans: a job needs at least one scan");
+    return BadHeader("header.scans", "header.scans: a job needs at least one scan");
   }
   job_.job_id = header.job_id();
   job_.mm_per_unit = *mm;
   job_.include_removed = header.options().include_removed();
   job_.options = OptionsFromHeader(header, limits_.default_budget_seconds,
                                    limits_.default_stage_budget_seconds);
-  if (absl::Status s = ValidateOptions(job_.options); !s.ok()) return s;
+  if (absl::Status s = ValidateOptions(job_.options); !s.ok()) return OptionsError(s);
 
   for (int s = 0; s < header.scans_size(); ++s) {
     const std::string field = absl::StrCat("header.scans[", s, "]");
@@ -79,9 +96,9 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
   // only a declared count tells a truncated upload from a complete one.
   total_points_ = header.total_points();
   if (total_points_ == 0) {
-    return absl::InvalidArgumentError(
-        "header.total_points = 0: the number of points the upload will send must be declared, "
-        "so that a truncated upload is refused instead of processed");
+    return BadHeader("header.total_points",
+                     "header.total_points = 0: the number of points the upload will send must be "
+                     "declared, so that a truncated upload is refused instead of processed");
   }
   if (total_points_ > limits_.max_points_per_job) {
     return WithReason(absl::ResourceExhaustedError(absl::StrCat(
@@ -107,9 +124,8 @@ absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
       {"header.budget.stage_seconds", header.budget().stage_seconds_size()}};
   for (const auto& [field, size] : lists) {
     if (size > kMaxHeaderListEntries) {
-      return absl::InvalidArgumentError(absl::StrCat(std::string(field), " has ", size,
-                                                     " entries; at most ",
-                                                     kMaxHeaderListEntries, " are accepted"));
+      return BadHeader(field, absl::StrCat(std::string(field), " has ", size, " entries; at most ",
+                                           kMaxHeaderListEntries, " are accepted"));
     }
   }
   return absl::OkStatus();
@@ -122,25 +138,26 @@ absl::Status JobAssembler::CheckChunk(const v1::PointChunk& chunk, size_t n) con
   if (absl::Status s = CheckLength(id, "quality", chunk.quality_size(), n); !s.ok()) return s;
   if (absl::Status s = CheckLength(id, "intensity", chunk.intensity_size(), n); !s.ok()) return s;
   if (chunk.normal_size() > 0 || !chunk.flags().empty()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("chunk ", id, ": normal and flags are result-only fields"));
+    return BadChunk(id, chunk.normal_size() > 0 ? "normal" : "flags",
+                    "normal and flags are result-only fields");
   }
   const size_t scans = job_.cloud.scans.size();
   if (n > 0 && chunk.scan_index_size() == 0 && scans > 1) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "chunk ", id, ": scan_index is required because the header declares ", scans, " scans"));
+    return BadChunk(id, "scan_index",
+                    absl::StrCat("scan_index is required because the header declares ", scans,
+                                 " scans"));
   }
   for (int i = 0; i < chunk.scan_index_size(); ++i) {
     if (chunk.scan_index(i) >= scans) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("chunk ", id, ": scan_index[", i, "] = ", chunk.scan_index(i),
-                       " is not a scan declared in the header (", scans, " scans)"));
+      return BadChunk(id, absl::StrCat("scan_index[", i, "]"),
+                      absl::StrCat("scan_index[", i, "] = ", chunk.scan_index(i),
+                                   " is not a scan declared in the header (", scans, " scans)"));
     }
   }
   for (int i = 0; i < chunk.quality_size(); ++i) {
     if (!(chunk.quality(i) >= 0.f && chunk.quality(i) <= 1.f)) {
-      return absl::InvalidArgumentError(absl::StrCat("chunk ", id, ": quality[", i, "] = ",
-                                                     chunk.quality(i), " is outside [0, 1]"));
+      return BadChunk(id, absl::StrCat("quality[", i, "]"),
+                      absl::StrCat("quality[", i, "] = ", chunk.quality(i), " is outside [0, 1]"));
     }
   }
   if (n > 0 && layout_known_) {
@@ -157,12 +174,11 @@ absl::Status JobAssembler::CheckChunk(const v1::PointChunk& chunk, size_t n) con
 
 absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
   if (!has_header_) {
-    return absl::InvalidArgumentError("first message must be a header (got points)");
+    return BadHeader("header", "first message must be a header (got points)");
   }
   if (chunk.xyz_size() % 3 != 0) {
-    return absl::InvalidArgumentError(absl::StrCat("chunk ", chunks_, ": xyz has ",
-                                                   chunk.xyz_size(),
-                                                   " floats, not a multiple of 3"));
+    return BadChunk(chunks_, "xyz",
+                    absl::StrCat("xyz has ", chunk.xyz_size(), " floats, not a multiple of 3"));
   }
   const size_t n = chunk.xyz_size() / 3;
   if (n > limits_.max_chunk_points) {
@@ -173,8 +189,8 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
   }
   // The header's total is within max_points_per_job, so this also bounds the job.
   if (job_.points_received + n > total_points_) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("chunk ", chunks_, ": more points than header.total_points = ", total_points_));
+    return BadChunk(chunks_, "xyz",
+                    absl::StrCat("more points than header.total_points = ", total_points_));
   }
   if (absl::Status s = CheckChunk(chunk, n); !s.ok()) return s;
   ++chunks_;
@@ -210,19 +226,26 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
 
 absl::StatusOr<AssembledJob> JobAssembler::Finish() {
   if (!has_header_) {
-    return absl::InvalidArgumentError(
-        "first message must be a header (the stream ended before a message could be parsed)");
+    return WithFieldViolation(
+        absl::InvalidArgumentError(
+            "first message must be a header (the stream ended before a message could be parsed)"),
+        "INCOMPLETE_UPLOAD", "header");
   }
   if (job_.points_received != total_points_) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "header.total_points = ", total_points_, " but ", job_.points_received,
-        " points were received before the stream ended (a message that fails to parse ends it)"));
+    return WithFieldViolation(
+        absl::InvalidArgumentError(absl::StrCat(
+            "header.total_points = ", total_points_, " but ", job_.points_received,
+            " points were received before the stream ended (a message that fails to parse ends "
+            "it)")),
+        "INCOMPLETE_UPLOAD", "header.total_points");
   }
   if (job_.points_invalid == job_.points_received) {
-    return absl::InvalidArgumentError(absl::StrCat("the job has no valid points: all ",
-                                                   job_.points_received,
-                                                   " have NaN, infinite or out-of-range (> ",
-                                                   kMaxCoordinateMm, " mm) coordinates"));
+    return WithFieldViolation(
+        absl::InvalidArgumentError(absl::StrCat("the job has no valid points: all ",
+                                                job_.points_received,
+                                                " have NaN, infinite or out-of-range (> ",
+                                                kMaxCoordinateMm, " mm) coordinates")),
+        "INVALID_CHUNK", "points");
   }
   if (job_.points_invalid > 0) {
     job_.warnings.push_back(absl::StrCat(job_.points_invalid, " of ", job_.points_received,

@@ -73,7 +73,7 @@ TEST_F(ProtocolErrors, UnknownParameter) {
   v1::JobHeader header = SimpleHeader();
   (*header.mutable_options()->mutable_params())["outliers.sigma"] = "2";
   EXPECT_STATUS(Send(header, {LineChunk(10)}), INVALID_ARGUMENT,
-                "unknown parameter 'outliers.sigma'");
+                "options.params['outliers.sigma']: unknown parameter");
 }
 
 TEST_F(ProtocolErrors, ParameterNotANumber) {
