@@ -50,25 +50,6 @@ std::optional<Details> Parse(const grpc::Status& status) {
   return d;
 }
 
-// A call that holds a slot (and a per-host place) until it is destroyed.
-class HeldCall {
- public:
-  explicit HeldCall(v1::ScanPrep::Stub& stub) : stream_(stub.Process(&context_)) {
-    EXPECT_TRUE(stream_->Write(HeaderRequest(SimpleHeader(), 100)));
-    EXPECT_TRUE(stream_->Write(ChunkRequest(LineChunk(100))));
-    v1::ProcessResponse ack;
-    EXPECT_TRUE(stream_->Read(&ack));
-  }
-  ~HeldCall() {
-    context_.TryCancel();
-    stream_->Finish();
-  }
-
- private:
-  grpc::ClientContext context_;
-  std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> stream_;
-};
-
 grpc::Status SmallJob(v1::ScanPrep::Stub& stub) {
   return RawCall(stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))});
 }
