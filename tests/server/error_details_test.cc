@@ -1,6 +1,7 @@
 // The standard error details a client program acts on: every RESOURCE_EXHAUSTED carries a
 // google.rpc.ErrorInfo with a stable reason, and a google.rpc.RetryInfo exactly when the same call
-// can succeed later; every INVALID_ARGUMENT a reason and a google.rpc.BadRequest naming the field. Parsed here as a client would, from the grpc-status-details-bin trailer.
+// can succeed later; every INVALID_ARGUMENT a reason and a google.rpc.BadRequest naming the field.
+// Parsed here from the grpc-status-details-bin trailer, independently of the client's code.
 #include <cmath>
 #include <optional>
 #include <string>
