@@ -17,9 +17,24 @@ absl::Status BadChunk(uint64_t chunk, std::string_view array, std::string_view p
       absl::StrCat("points[", chunk, "]", array.empty() ? "" : ".", std::string(array)));
 }
 
+// gRPC ends the server's stream at a request message that fails to parse exactly as at the
+// client's half-close, without saying which; protobuf refuses a proto3 string that is not UTF-8.
+// (absl::string_view: Debian's Abseil does not alias it to std::string_view.)
+constexpr absl::string_view kUnparsed =
+    "a message could not be parsed: a malformed encoding, or invalid UTF-8 in a string field "
+    "such as job_id or scan_id";
+
 absl::Status BadHeader(std::string_view field, std::string message) {
   return WithFieldViolation(absl::InvalidArgumentError(std::move(message)), "INVALID_HEADER",
                             field);
+}
+
+// A header string within kMaxHeaderStringBytes; `field` names it without echoing it.
+absl::Status CheckString(std::string_view field, std::string_view what, const std::string& text) {
+  if (text.size() <= kMaxHeaderStringBytes) return absl::OkStatus();
+  return BadHeader(field, absl::StrCat(std::string(field), ": ", std::string(what), " is ",
+                                       text.size(), " bytes long; at most ",
+                                       kMaxHeaderStringBytes, " are accepted"));
 }
 
 // Checks that an optional per-point array is absent or has one value per point.
@@ -128,6 +143,31 @@ absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
                                            kMaxHeaderListEntries, " are accepted"));
     }
   }
+  if (auto s = CheckString("header.job_id", "the job id", header.job_id()); !s.ok()) return s;
+  for (int i = 0; i < header.scans_size(); ++i) {
+    if (auto s = CheckString(absl::StrCat("header.scans[", i, "].scan_id"), "the scan id",
+                             header.scans(i).scan_id());
+        !s.ok())
+      return s;
+  }
+  for (int i = 0; i < header.options().stages_size(); ++i) {
+    if (auto s = CheckString(absl::StrCat("header.options.stages[", i, "]"), "the stage name",
+                             header.options().stages(i));
+        !s.ok())
+      return s;
+  }
+  // A long name is refused without naming its entry, which would echo it.
+  for (const auto& [name, value] : header.options().params()) {
+    if (auto s = CheckString("header.options.params", "a parameter name", name); !s.ok()) return s;
+    if (auto s = CheckString(absl::StrCat("header.options.params['", name, "']"), "the value",
+                             value);
+        !s.ok())
+      return s;
+  }
+  for (const auto& [name, seconds] : header.budget().stage_seconds()) {
+    if (auto s = CheckString("header.budget.stage_seconds", "a stage name", name); !s.ok())
+      return s;
+  }
   return absl::OkStatus();
 }
 
@@ -227,16 +267,17 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
 absl::StatusOr<AssembledJob> JobAssembler::Finish() {
   if (!has_header_) {
     return WithFieldViolation(
-        absl::InvalidArgumentError(
-            "first message must be a header (the stream ended before a message could be parsed)"),
+        absl::InvalidArgumentError(absl::StrCat(
+            "first message must be a header (the stream ended before one arrived: none was sent, "
+            "or ", kUnparsed, ")")),
         "INCOMPLETE_UPLOAD", "header");
   }
   if (job_.points_received != total_points_) {
     return WithFieldViolation(
         absl::InvalidArgumentError(absl::StrCat(
             "header.total_points = ", total_points_, " but ", job_.points_received,
-            " points were received before the stream ended (a message that fails to parse ends "
-            "it)")),
+            " points were received before the stream ended (the client half-closed early, or ",
+            kUnparsed, ")")),
         "INCOMPLETE_UPLOAD", "header.total_points");
   }
   if (job_.points_invalid == job_.points_received) {
