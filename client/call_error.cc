@@ -3,6 +3,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
 
@@ -30,11 +31,16 @@ CallErrorDetails DetailsOf(const absl::Status& status) {
   for (const google::protobuf::Any& any : rpc.details()) {
     google::rpc::ErrorInfo info;
     google::rpc::RetryInfo retry;
+    google::rpc::BadRequest bad_request;
     if (any.UnpackTo(&info)) {
       details.reason = info.reason();
     } else if (any.UnpackTo(&retry)) {
       details.retry_delay = absl::Seconds(retry.retry_delay().seconds()) +
                             absl::Nanoseconds(retry.retry_delay().nanos());
+    } else if (any.UnpackTo(&bad_request)) {
+      for (const auto& violation : bad_request.field_violations()) {
+        details.field_violations.push_back({violation.field(), violation.description()});
+      }
     }
   }
   return details;
@@ -42,14 +48,15 @@ CallErrorDetails DetailsOf(const absl::Status& status) {
 
 std::string DetailsText(const absl::Status& status) {
   const CallErrorDetails details = DetailsOf(status);
-  if (details.reason.empty() && !details.retry_delay.has_value()) return "";
-  std::string text = " (";
-  if (!details.reason.empty()) absl::StrAppend(&text, "reason ", details.reason);
+  std::vector<std::string> parts;
+  if (!details.reason.empty()) parts.push_back("reason " + details.reason);
   if (details.retry_delay.has_value()) {
-    absl::StrAppend(&text, details.reason.empty() ? "" : "; ", "retry after ",
-                    absl::FormatDuration(*details.retry_delay));
+    parts.push_back("retry after " + absl::FormatDuration(*details.retry_delay));
   }
-  return text + ")";
+  for (const FieldViolation& violation : details.field_violations) {
+    parts.push_back("field " + violation.field);
+  }
+  return parts.empty() ? "" : absl::StrCat(" (", absl::StrJoin(parts, "; "), ")");
 }
 
 std::string Describe(const absl::Status& status) {

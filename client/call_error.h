@@ -1,9 +1,10 @@
-// What a failed call's standard error details say (google.rpc.ErrorInfo reason, RetryInfo delay)
-// and what the CLI makes of them: a line to print and an exit code a script can act on.
+// What a failed call's standard error details say (google.rpc.ErrorInfo reason, RetryInfo delay,
+// BadRequest field violations) and what the CLI makes of them: a line to print and an exit code a script can act on.
 #pragma once
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/time/time.h"
@@ -25,9 +26,15 @@ enum ExitCode : int {
   kExitFixInput = 4,    // INVALID_ARGUMENT, or RESOURCE_EXHAUSTED without RetryInfo (too large)
 };
 
+struct FieldViolation {
+  std::string field;  // a path in the request, e.g. "header.scans[1].scanline_spacing"
+  std::string description;
+};
+
 struct CallErrorDetails {
   std::string reason;  // ErrorInfo.reason, e.g. "QUEUE_FULL"; empty when none was sent
   std::optional<absl::Duration> retry_delay;  // RetryInfo.retry_delay
+  std::vector<FieldViolation> field_violations;  // BadRequest.field_violations
 };
 
 // The gRPC status as an absl::Status; its google.rpc.Status details travel as a payload.
@@ -36,7 +43,8 @@ absl::Status FromGrpc(const grpc::Status& status);
 // The details FromGrpc kept (none for statuses not from the server).
 CallErrorDetails DetailsOf(const absl::Status& status);
 
-// " (reason QUEUE_FULL; retry after 1s)" with the parts that were sent; empty when none was.
+// " (reason QUEUE_FULL; retry after 1s)" or " (reason INVALID_CHUNK; field points[3].xyz)" with
+// the parts that were sent; empty when none was. (A violation's description is the message.)
 std::string DetailsText(const absl::Status& status);
 
 // "CODE: message" followed by DetailsText.

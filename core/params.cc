@@ -7,6 +7,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "core/field_error.h"
 
 namespace scanprep {
 namespace {
@@ -28,23 +29,19 @@ const ParamSpec* Find(const std::vector<ParamSpec>& specs, std::string_view name
   return spec == specs.end() ? nullptr : &*spec;
 }
 
-std::string Prefix(const std::string& name) {
-  return absl::StrCat("options.params['", name, "']: ");
-}
+std::string Field(const std::string& name) { return absl::StrCat("options.params['", name, "']"); }
 
 // A numeric override against its own spec: finite, whole for an integer, in range.
 absl::Status CheckNumber(const ParamSpec& spec, const std::string& text, double& value) {
   if (!absl::SimpleAtod(text, &value) || !std::isfinite(value)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(Prefix(spec.name), "'", text, "' is not a finite number"));
+    return FieldError(Field(spec.name), absl::StrCat("'", text, "' is not a finite number"));
   }
   if (spec.kind == ParamKind::kInteger && std::trunc(value) != value) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(Prefix(spec.name), FormatNumber(value), " is not an integer"));
+    return FieldError(Field(spec.name), absl::StrCat(FormatNumber(value), " is not an integer"));
   }
   if (!spec.range.Contains(value)) {
-    return absl::InvalidArgumentError(absl::StrCat(Prefix(spec.name), FormatNumber(value),
-                                                   " is outside ", spec.range.ToString()));
+    return FieldError(Field(spec.name),
+                      absl::StrCat(FormatNumber(value), " is outside ", spec.range.ToString()));
   }
   return absl::OkStatus();
 }
@@ -126,16 +123,15 @@ absl::Status ValidateOverrides(const ParamOverrides& overrides, const std::vecto
     const std::string& text = override.second;
     const ParamSpec* spec = Find(specs, name);
     if (spec == nullptr) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("options.params: unknown parameter '", name, "'"));
+      return FieldError(Field(name), "unknown parameter");
     }
     if (spec->kind != ParamKind::kChoice) {
       double value = 0;
       if (absl::Status s = CheckNumber(*spec, text, value); !s.ok()) return s;
     } else if (std::find(spec->choices.begin(), spec->choices.end(), text) ==
                spec->choices.end()) {
-      return absl::InvalidArgumentError(absl::StrCat(Prefix(name), "'", text, "' is not one of ",
-                                                     absl::StrJoin(spec->choices, ", ")));
+      return FieldError(Field(name), absl::StrCat("'", text, "' is not one of ",
+                                                  absl::StrJoin(spec->choices, ", ")));
     }
   }
   // Every override is valid on its own; now the bounds one parameter sets another.
@@ -145,9 +141,8 @@ absl::Status ValidateOverrides(const ParamOverrides& overrides, const std::vecto
     const std::optional<double> value = Effective(overrides, spec);
     const std::optional<double> bound = Effective(overrides, *bound_spec);
     if (value && bound && *value > *bound) {
-      return absl::InvalidArgumentError(absl::StrCat(Prefix(spec.name), FormatNumber(*value),
-                                                     " is above ", spec.at_most, " = ",
-                                                     FormatNumber(*bound)));
+      return FieldError(Field(spec.name), absl::StrCat(FormatNumber(*value), " is above ",
+                                                       spec.at_most, " = ", FormatNumber(*bound)));
     }
   }
   return absl::OkStatus();

@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "core/duplicates.h"
+#include "core/field_error.h"
 
 namespace scanprep {
 
@@ -20,27 +21,20 @@ absl::Status ValidateOptions(const PipelineOptions& options) {
     if (FindStage(name) == nullptr) {
       std::vector<std::string> known;
       for (const StageInfo& s : StageRegistry()) known.push_back(s.name);
-      return absl::InvalidArgumentError(absl::StrCat("options.stages: unknown stage '", name,
-                                                     "' (known: ", absl::StrJoin(known, ", "),
-                                                     ")"));
+      return FieldError("options.stages", absl::StrCat("unknown stage '", name, "' (known: ",
+                                                       absl::StrJoin(known, ", "), ")"));
     }
     if (!seen.insert(name).second) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("options.stages: stage '", name, "' is listed twice"));
+      return FieldError("options.stages", absl::StrCat("stage '", name, "' is listed twice"));
     }
   }
   for (const auto& [name, seconds] : options.stage_budget_seconds) {
-    if (FindStage(name) == nullptr) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("budget.stage_seconds: unknown stage '", name, "'"));
-    }
-    if (!(seconds >= 0)) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("budget.stage_seconds['", name, "']: must be >= 0"));
-    }
+    const std::string field = absl::StrCat("budget.stage_seconds['", name, "']");
+    if (FindStage(name) == nullptr) return FieldError(field, "unknown stage");
+    if (!(seconds >= 0)) return FieldError(field, "must be >= 0");
   }
   if (!(options.budget_seconds >= 0)) {
-    return absl::InvalidArgumentError("budget.total_seconds: must be >= 0");
+    return FieldError("budget.total_seconds", "must be >= 0");
   }
   return ValidateOverrides(options.params, AllParamSpecs());
 }

@@ -17,6 +17,7 @@
 
 
 #include "absl/strings/str_cat.h"
+#include "core/field_error.h"
 #include "core/parallel.h"
 #include "core/measures.h"
 
@@ -251,8 +252,8 @@ class SimplificationStage : public Stage {
         "the thinning spacing r_s", spacing, kMaxSpacingPerGlobalRadius * (*nb)->global_radius()));
     ctx.Record("simplification.spacing_mm", plan.spacing);
     if (!(plan.spacing > 0)) {
-      return absl::InvalidArgumentError(
-          "simplification.spacing_mm: must be > 0 (no spacing could be derived from the data)");
+      return FieldError("options.params['simplification.spacing_mm']",
+                        "must be > 0 (no spacing could be derived from the data)");
     }
     plan.edge_threshold = static_cast<float>(ctx.Number("simplification.edge_threshold"));
     plan.curvature_floor = static_cast<float>(ctx.Number("simplification.curvature_floor"));

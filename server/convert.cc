@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "server/error_details.h"
 
 namespace scanprep::server {
 namespace {
@@ -11,9 +12,12 @@ Eigen::Vector3d FromProto(const v1::Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
 bool Finite(const Eigen::Vector3d& v) { return v.allFinite(); }
 
+// INVALID_METADATA "<scan>.<name>: <problem>", naming the field.
 absl::Status BadField(std::string_view field, std::string_view name, std::string_view problem) {
-  return absl::InvalidArgumentError(
-      absl::StrCat(std::string(field), ".", std::string(name), ": ", std::string(problem)));
+  const std::string path = absl::StrCat(std::string(field), ".", std::string(name));
+  return WithFieldViolation(
+      absl::InvalidArgumentError(absl::StrCat(path, ": ", std::string(problem))),
+      "INVALID_METADATA", path);
 }
 
 // A length in job units, converted to mm: 0, or within [kMinScannerLengthMm, kMaxScannerLengthMm].
@@ -62,8 +66,10 @@ absl::StatusOr<double> MillimetresPerUnit(v1::LengthUnit unit) {
     case v1::MICROMETRE: return 0.001;
     case v1::INCH: return 25.4;
     default:
-      return absl::InvalidArgumentError(
-          "header.unit: the length unit must be stated (MILLIMETRE, METRE, MICROMETRE or INCH)");
+      return WithFieldViolation(
+          absl::InvalidArgumentError("header.unit: the length unit must be stated (MILLIMETRE, "
+                                     "METRE, MICROMETRE or INCH)"),
+          "INVALID_HEADER", "header.unit");
   }
 }
 

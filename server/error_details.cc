@@ -4,6 +4,8 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include "absl/strings/str_cat.h"
+#include "core/field_error.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
 
@@ -14,6 +16,7 @@ namespace {
 // (absl::string_view: Debian's Abseil does not alias it to std::string_view.)
 constexpr absl::string_view kReasonPayload = "scanprep.v1/reason";
 constexpr absl::string_view kRetryPayload = "scanprep.v1/retry_after_ms";
+constexpr absl::string_view kFieldPayload = "scanprep.v1/field";
 
 }  // namespace
 
@@ -25,6 +28,19 @@ absl::Status WithReason(absl::Status status, std::string_view reason,
                       absl::Cord(std::to_string(absl::ToInt64Milliseconds(*retry_after))));
   }
   return status;
+}
+
+absl::Status WithFieldViolation(absl::Status status, std::string_view reason,
+                                std::string_view field) {
+  status.SetPayload(kFieldPayload, absl::Cord(std::string(field)));
+  return WithReason(std::move(status), reason);
+}
+
+absl::Status OptionsError(absl::Status status) {
+  if (status.code() != absl::StatusCode::kInvalidArgument) return status;
+  const std::string field = ErrorField(status);
+  return WithFieldViolation(std::move(status), "INVALID_PARAMETER",
+                            field.empty() ? "header.options" : absl::StrCat("header.", field));
 }
 
 grpc::Status ToGrpc(const absl::Status& status) {
@@ -46,6 +62,13 @@ grpc::Status ToGrpc(const absl::Status& status) {
     retry_info.mutable_retry_delay()->set_seconds(ms / 1000);
     retry_info.mutable_retry_delay()->set_nanos(static_cast<int32_t>(ms % 1000) * 1'000'000);
     details.add_details()->PackFrom(retry_info);
+  }
+  if (const auto field = status.GetPayload(kFieldPayload)) {
+    google::rpc::BadRequest bad_request;
+    google::rpc::BadRequest::FieldViolation* violation = bad_request.add_field_violations();
+    violation->set_field(std::string(*field));
+    violation->set_description(message);
+    details.add_details()->PackFrom(bad_request);
   }
   return grpc::Status(code, message, details.SerializeAsString());
 }

@@ -3,6 +3,10 @@
 // succeed later. RESOURCE_EXHAUSTED means both "queue full, retry" (QUEUE_FULL, with RetryInfo)
 // and "job too large, never retry" (JOB_TOO_LARGE, without); only the details say which.
 //
+// An INVALID_ARGUMENT also names the request field at fault (google.rpc.BadRequest), as a path
+// in the request: "header.scans[1].scanline_spacing", "header.options.params['smoothing.lambda']",
+// "points[3].xyz" (the fourth PointChunk message of the upload).
+//
 // A refusal is tagged where it arises, as payloads of its absl::Status, and ToGrpc turns them
 // into the trailer gRPC sends (grpc-status-details-bin, a serialized google.rpc.Status).
 #pragma once
@@ -25,7 +29,15 @@ inline constexpr std::string_view kErrorDomain = "scanprep.v1";
 absl::Status WithReason(absl::Status status, std::string_view reason,
                         std::optional<absl::Duration> retry_after = std::nullopt);
 
-// The gRPC status, with ErrorInfo and RetryInfo details when `status` was tagged.
+// `status` with the reason and a field violation naming `field`, described by the message.
+absl::Status WithFieldViolation(absl::Status status, std::string_view reason,
+                                std::string_view field);
+
+// A refused PipelineOptions (core's FieldError, or a stage's), tagged INVALID_PARAMETER with
+// the field it names as a path in the request ("header." + the option's path).
+absl::Status OptionsError(absl::Status status);
+
+// The gRPC status, with ErrorInfo, RetryInfo and BadRequest details when `status` was tagged.
 grpc::Status ToGrpc(const absl::Status& status);
 
 }  // namespace scanprep::server

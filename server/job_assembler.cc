@@ -9,19 +9,50 @@
 namespace scanprep::server {
 namespace {
 
+// INVALID_CHUNK "chunk <index>: <problem>", naming points[<index>].<array> (the index-th
+// PointChunk message; no array when the message as a whole is at fault).
+absl::Status BadChunk(uint64_t chunk, std::string_view array, std::string_view problem) {
+  return WithFieldViolation(
+      absl::InvalidArgumentError(absl::StrCat("chunk ", chunk, ": ", std::string(problem))),
+      "INVALID_CHUNK",
+      absl::StrCat("points[", chunk, "]", array.empty() ? "" : ".", std::string(array)));
+}
+
+// gRPC ends the server's stream at a request message that fails to parse exactly as at the
+// client's half-close, without saying which; protobuf refuses a proto3 string that is not UTF-8.
+// (absl::string_view: Debian's Abseil does not alias it to std::string_view.)
+constexpr absl::string_view kUnparsed =
+    "a message could not be parsed: a malformed encoding, or invalid UTF-8 in a string field "
+    "such as job_id or scan_id";
+
+absl::Status BadHeader(std::string_view field, std::string message) {
+  return WithFieldViolation(absl::InvalidArgumentError(std::move(message)), "INVALID_HEADER",
+                            field);
+}
+
+// A header string within kMaxHeaderStringBytes; `field` names it without echoing it.
+absl::Status CheckString(std::string_view field, std::string_view what, const std::string& text) {
+  if (text.size() <= kMaxHeaderStringBytes) return absl::OkStatus();
+  return BadHeader(field, absl::StrCat(std::string(field), ": ", std::string(what), " is ",
+                                       text.size(), " bytes long; at most ",
+                                       kMaxHeaderStringBytes, " are accepted"));
+}
+
 // Checks that an optional per-point array is absent or has one value per point.
 absl::Status CheckLength(uint64_t chunk, std::string_view name, int size, size_t n) {
   if (size == 0 || static_cast<size_t>(size) == n) return absl::OkStatus();
-  return absl::InvalidArgumentError(absl::StrCat("chunk ", chunk, ": ", std::string(name), " has ",
-                                                 size, " values but xyz has ", n, " points"));
+  return BadChunk(chunk, name,
+                  absl::StrCat(std::string(name), " has ", size, " values but xyz has ", n,
+                               " points"));
 }
 
 absl::Status CheckPresence(uint64_t chunk, std::string_view name, bool expected, bool present) {
   if (expected == present) return absl::OkStatus();
-  return absl::InvalidArgumentError(
-      absl::StrCat("chunk ", chunk, ": ", std::string(name), " is ",
-                   present ? "present" : "missing", " but earlier chunks ",
-                   expected ? "carried it" : "did not; an array must be in every chunk or none"));
+  return BadChunk(chunk, name,
+                  absl::StrCat(std::string(name), " is ", present ? "present" : "missing",
+                               " but earlier chunks ",
+                               expected ? "carried it"
+                                        : "did not; an array must be in every chunk or none"));
 }
 
 }  // namespace
@@ -36,39 +67,42 @@ absl::Status JobAssembler::Add(const v1::ProcessRequest& request) {
                       "CALL_TOO_LARGE");
   }
   if (ended_) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "a message after the end message (which declared ", job_.points_received,
-        " points); the end message must be the upload's last"));
+    return WithFieldViolation(
+        absl::InvalidArgumentError(absl::StrCat(
+            "a message after the end message (which declared ", job_.points_received,
+            " points); the end message must be the upload's last")),
+        "INVALID_CHUNK", "end");
   }
   switch (request.kind_case()) {
     case v1::ProcessRequest::kHeader: return AddHeader(request.header());
     case v1::ProcessRequest::kPoints: return AddChunk(request.points());
     case v1::ProcessRequest::kEnd: return AddEnd(request.end());
     default:
-      return absl::InvalidArgumentError(
-          has_header_ ? absl::StrCat("chunk ", chunks_, ": empty request message")
-                      : "first message must be a header (got an empty request message)");
+      return has_header_ ? BadChunk(chunks_, "", "empty request message")
+                         : BadHeader("header",
+                                     "first message must be a header (got an empty request "
+                                     "message)");
   }
 }
 
 absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
   if (has_header_) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("a second header after ", chunks_, " chunks; a job has exactly one header"));
+    return BadHeader("header", absl::StrCat("a second header after ", chunks_,
+                                            " chunks; a job has exactly one header"));
   }
   has_header_ = true;
   if (absl::Status s = CheckHeaderSize(header); !s.ok()) return s;
   auto mm = MillimetresPerUnit(header.unit());
   if (!mm.ok()) return mm.status();
   if (header.scans().empty()) {
-    return absl::InvalidArgumentError("header.scans: a job needs at least one scan");
+    return BadHeader("header.scans", "header.scans: a job needs at least one scan");
   }
   job_.job_id = header.job_id();
   job_.mm_per_unit = *mm;
   job_.include_removed = header.options().include_removed();
   job_.options = OptionsFromHeader(header, limits_.default_budget_seconds,
                                    limits_.default_stage_budget_seconds);
-  if (absl::Status s = ValidateOptions(job_.options); !s.ok()) return s;
+  if (absl::Status s = ValidateOptions(job_.options); !s.ok()) return OptionsError(s);
 
   for (int s = 0; s < header.scans_size(); ++s) {
     const std::string field = absl::StrCat("header.scans[", s, "]");
@@ -84,8 +118,9 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
 
   total_points_ = header.total_points();
   if (total_points_ == 0) {
-    return absl::InvalidArgumentError(
-        "header.total_points = 0: the number of points the upload will send must be declared");
+    return BadHeader("header.total_points",
+                     "header.total_points = 0: the number of points the upload will send must be "
+                     "declared, so that a truncated upload is refused instead of processed");
   }
   if (total_points_ > limits_.max_points_per_job) {
     return WithReason(absl::ResourceExhaustedError(absl::StrCat(
@@ -111,10 +146,34 @@ absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
       {"header.budget.stage_seconds", header.budget().stage_seconds_size()}};
   for (const auto& [field, size] : lists) {
     if (size > kMaxHeaderListEntries) {
-      return absl::InvalidArgumentError(absl::StrCat(std::string(field), " has ", size,
-                                                     " entries; at most ",
-                                                     kMaxHeaderListEntries, " are accepted"));
+      return BadHeader(field, absl::StrCat(std::string(field), " has ", size, " entries; at most ",
+                                           kMaxHeaderListEntries, " are accepted"));
     }
+  }
+  if (auto s = CheckString("header.job_id", "the job id", header.job_id()); !s.ok()) return s;
+  for (int i = 0; i < header.scans_size(); ++i) {
+    if (auto s = CheckString(absl::StrCat("header.scans[", i, "].scan_id"), "the scan id",
+                             header.scans(i).scan_id());
+        !s.ok())
+      return s;
+  }
+  for (int i = 0; i < header.options().stages_size(); ++i) {
+    if (auto s = CheckString(absl::StrCat("header.options.stages[", i, "]"), "the stage name",
+                             header.options().stages(i));
+        !s.ok())
+      return s;
+  }
+  // A long name is refused without naming its entry, which would echo it.
+  for (const auto& [name, value] : header.options().params()) {
+    if (auto s = CheckString("header.options.params", "a parameter name", name); !s.ok()) return s;
+    if (auto s = CheckString(absl::StrCat("header.options.params['", name, "']"), "the value",
+                             value);
+        !s.ok())
+      return s;
+  }
+  for (const auto& [name, seconds] : header.budget().stage_seconds()) {
+    if (auto s = CheckString("header.budget.stage_seconds", "a stage name", name); !s.ok())
+      return s;
   }
   return absl::OkStatus();
 }
@@ -126,25 +185,26 @@ absl::Status JobAssembler::CheckChunk(const v1::PointChunk& chunk, size_t n) con
   if (absl::Status s = CheckLength(id, "quality", chunk.quality_size(), n); !s.ok()) return s;
   if (absl::Status s = CheckLength(id, "intensity", chunk.intensity_size(), n); !s.ok()) return s;
   if (chunk.normal_size() > 0 || !chunk.flags().empty()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("chunk ", id, ": normal and flags are result-only fields"));
+    return BadChunk(id, chunk.normal_size() > 0 ? "normal" : "flags",
+                    "normal and flags are result-only fields");
   }
   const size_t scans = job_.cloud.scans.size();
   if (n > 0 && chunk.scan_index_size() == 0 && scans > 1) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "chunk ", id, ": scan_index is required because the header declares ", scans, " scans"));
+    return BadChunk(id, "scan_index",
+                    absl::StrCat("scan_index is required because the header declares ", scans,
+                                 " scans"));
   }
   for (int i = 0; i < chunk.scan_index_size(); ++i) {
     if (chunk.scan_index(i) >= scans) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("chunk ", id, ": scan_index[", i, "] = ", chunk.scan_index(i),
-                       " is not a scan declared in the header (", scans, " scans)"));
+      return BadChunk(id, absl::StrCat("scan_index[", i, "]"),
+                      absl::StrCat("scan_index[", i, "] = ", chunk.scan_index(i),
+                                   " is not a scan declared in the header (", scans, " scans)"));
     }
   }
   for (int i = 0; i < chunk.quality_size(); ++i) {
     if (!(chunk.quality(i) >= 0.f && chunk.quality(i) <= 1.f)) {
-      return absl::InvalidArgumentError(absl::StrCat("chunk ", id, ": quality[", i, "] = ",
-                                                     chunk.quality(i), " is outside [0, 1]"));
+      return BadChunk(id, absl::StrCat("quality[", i, "]"),
+                      absl::StrCat("quality[", i, "] = ", chunk.quality(i), " is outside [0, 1]"));
     }
   }
   if (n > 0 && layout_known_) {
@@ -161,12 +221,11 @@ absl::Status JobAssembler::CheckChunk(const v1::PointChunk& chunk, size_t n) con
 
 absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
   if (!has_header_) {
-    return absl::InvalidArgumentError("first message must be a header (got points)");
+    return BadHeader("header", "first message must be a header (got points)");
   }
   if (chunk.xyz_size() % 3 != 0) {
-    return absl::InvalidArgumentError(absl::StrCat("chunk ", chunks_, ": xyz has ",
-                                                   chunk.xyz_size(),
-                                                   " floats, not a multiple of 3"));
+    return BadChunk(chunks_, "xyz",
+                    absl::StrCat("xyz has ", chunk.xyz_size(), " floats, not a multiple of 3"));
   }
   const size_t n = chunk.xyz_size() / 3;
   if (n > limits_.max_chunk_points) {
@@ -177,8 +236,8 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
   }
   // The header's total is within max_points_per_job, so this also bounds the job.
   if (job_.points_received + n > total_points_) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("chunk ", chunks_, ": more points than header.total_points = ", total_points_));
+    return BadChunk(chunks_, "xyz",
+                    absl::StrCat("more points than header.total_points = ", total_points_));
   }
   if (absl::Status s = CheckChunk(chunk, n); !s.ok()) return s;
   checksum_.Add(chunk);
@@ -215,15 +274,15 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
 
 absl::Status JobAssembler::AddEnd(const v1::StreamEnd& end) {
   if (!has_header_) {
-    return absl::InvalidArgumentError("first message must be a header (got the end message)");
+    return BadHeader("header", "first message must be a header (got the end message)");
   }
   if (end.points() != job_.points_received || end.points() != total_points_) {
-    return WithReason(
+    return WithFieldViolation(
         absl::InvalidArgumentError(absl::StrCat(
             "end.points = ", end.points(), " but ", job_.points_received,
             " points were received and header.total_points = ", total_points_,
             "; the three must agree")),
-        "POINT_COUNT_MISMATCH");
+        "POINT_COUNT_MISMATCH", "end.points");
   }
   if (end.crc32() != checksum_.crc32()) {
     // Corrupted on the way: the same upload can succeed again.
@@ -239,23 +298,29 @@ absl::Status JobAssembler::AddEnd(const v1::StreamEnd& end) {
 
 absl::StatusOr<AssembledJob> JobAssembler::Finish() {
   if (!has_header_) {
-    return absl::InvalidArgumentError(
-        "first message must be a header (the stream ended before a message could be parsed)");
+    return WithFieldViolation(
+        absl::InvalidArgumentError(absl::StrCat(
+            "first message must be a header (the stream ended before one arrived: none was sent, "
+            "or ", kUnparsed, ")")),
+        "INCOMPLETE_UPLOAD", "header");
   }
   // gRPC ends a stream at a message that fails to parse just as at the client's half-close, so
   // only the end message tells a cut upload from a complete one.
   if (!ended_) {
-    return WithReason(absl::InvalidArgumentError(absl::StrCat(
-                          "the upload ended without its end message after ",
-                          job_.points_received, " of header.total_points = ", total_points_,
-                          " points: the stream was cut")),
-                      "UPLOAD_INCOMPLETE");
+    return WithFieldViolation(
+        absl::InvalidArgumentError(absl::StrCat(
+            "the upload ended without its end message after ", job_.points_received,
+            " of header.total_points = ", total_points_, " points: the stream was cut (the client "
+            "half-closed early, or ", kUnparsed, ")")),
+        "INCOMPLETE_UPLOAD", "end");
   }
   if (job_.points_invalid == job_.points_received) {
-    return absl::InvalidArgumentError(absl::StrCat("the job has no valid points: all ",
-                                                   job_.points_received,
-                                                   " have NaN, infinite or out-of-range (> ",
-                                                   kMaxCoordinateMm, " mm) coordinates"));
+    return WithFieldViolation(
+        absl::InvalidArgumentError(absl::StrCat("the job has no valid points: all ",
+                                                job_.points_received,
+                                                " have NaN, infinite or out-of-range (> ",
+                                                kMaxCoordinateMm, " mm) coordinates")),
+        "INVALID_CHUNK", "points");
   }
   if (job_.points_invalid > 0) {
     job_.warnings.push_back(absl::StrCat(job_.points_invalid, " of ", job_.points_received,

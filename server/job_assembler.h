@@ -21,6 +21,11 @@ namespace scanprep::server {
 // Header lists (stages, parameters, stage budgets) longer than this are refused before they are
 // copied: far more than the registry's stages and parameters, far less than a hostile 4 MiB header.
 inline constexpr int kMaxHeaderListEntries = 256;
+// Header strings (job and scan ids, stage and parameter names, parameter values) longer than this
+// are refused: the report and error messages echo them, and with every list and string at its
+// limit a report still fits far within gRPC's 4 MiB message limit (a 4 MB job_id made a report
+// the client could not receive).
+inline constexpr size_t kMaxHeaderStringBytes = 256;
 
 struct JobLimits {
   uint64_t max_points_per_job = 20'000'000;
@@ -62,7 +67,7 @@ class JobAssembler {
 
  private:
   absl::Status AddHeader(const v1::JobHeader& header);
-  // The header's list lengths against the limits, before anything is copied from it.
+  // The header's list and string lengths against the limits, before anything is copied from it.
   absl::Status CheckHeaderSize(const v1::JobHeader& header) const;
   absl::Status AddChunk(const v1::PointChunk& chunk);
   absl::Status CheckChunk(const v1::PointChunk& chunk, size_t n) const;

@@ -182,7 +182,8 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   if (client_gone) return Gone(*context, "processing");
   const absl::StatusOr<PipelineReport>& result = running->result();
   if (!result.ok()) {
-    return runner_.cancelled_all() ? Gone(*context, "processing") : ToGrpc(result.status());
+    return runner_.cancelled_all() ? Gone(*context, "processing")
+                                   : ToGrpc(OptionsError(result.status()));
   }
   metrics_.JobProcessed(*result);
 

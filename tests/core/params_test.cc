@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/field_error.h"
 #include "core/pipeline.h"
 #include "core/sim/scan_simulator.h"
 
@@ -102,47 +103,38 @@ TEST(Params, EveryNumericParameterSurvivesHostileValues) {
 TEST(Params, IntegerOverflowIsRefusedWithTheRange) {
   const PipelineOptions rounds{.params = {{"correction.rounds", "1e30"}}};
   EXPECT_EQ(ValidateOptions(rounds),
-            absl::InvalidArgumentError(
-                "options.params['correction.rounds']: 1e+30 is outside [1, 1000]"));
+            FieldError("options.params['correction.rounds']", "1e+30 is outside [1, 1000]"));
   const PipelineOptions orientation{.params = {{"normals.orientation_k", "1e30"}}};
   EXPECT_EQ(ValidateOptions(orientation),
-            absl::InvalidArgumentError(
-                "options.params['normals.orientation_k']: 1e+30 is outside [1, 64]"));
+            FieldError("options.params['normals.orientation_k']", "1e+30 is outside [1, 64]"));
   const PipelineOptions wrapped{.params = {{"smoothing.iterations", "4294967297"}}};
   EXPECT_EQ(ValidateOptions(wrapped),
-            absl::InvalidArgumentError(
-                "options.params['smoothing.iterations']: 4294967297 is outside [0, 100]"));
+            FieldError("options.params['smoothing.iterations']", "4294967297 is outside [0, 100]"));
 }
 
 TEST(Params, IntegersMustBeWholeAndFinite) {
   EXPECT_EQ(ValidateOptions({.params = {{"correction.rounds", "2.5"}}}),
-            absl::InvalidArgumentError(
-                "options.params['correction.rounds']: 2.5 is not an integer"));
+            FieldError("options.params['correction.rounds']", "2.5 is not an integer"));
   EXPECT_EQ(ValidateOptions({.params = {{"neighbourhoods.k", "nan"}}}),
-            absl::InvalidArgumentError(
-                "options.params['neighbourhoods.k']: 'nan' is not a finite number"));
+            FieldError("options.params['neighbourhoods.k']", "'nan' is not a finite number"));
   EXPECT_TRUE(ValidateOptions({.params = {{"correction.rounds", "1000"}}}).ok());
   EXPECT_TRUE(ValidateOptions({.params = {{"correction.rounds", "1e3"}}}).ok());
 }
 
 TEST(Params, OpenEndsAreExcluded) {
   EXPECT_EQ(ValidateOptions({.params = {{"normals.mitra_epsilon", "1"}}}),
-            absl::InvalidArgumentError(
-                "options.params['normals.mitra_epsilon']: 1 is outside (0, 1)"));
+            FieldError("options.params['normals.mitra_epsilon']", "1 is outside (0, 1)"));
   EXPECT_EQ(ValidateOptions({.params = {{"correction.radius_mm", "0"}}}),
-            absl::InvalidArgumentError(
-                "options.params['correction.radius_mm']: 0 is outside (0, 10000]"));
+            FieldError("options.params['correction.radius_mm']", "0 is outside (0, 10000]"));
   EXPECT_TRUE(ValidateOptions({.params = {{"smoothing.tolerance_mm", "0"}}}).ok());
 }
 
 // outliers.k reads the shared graph: it may not exceed neighbourhoods.k, given or default (20).
 TEST(Params, SubsetsOfTheGraphAreBoundedByItsK) {
   EXPECT_EQ(ValidateOptions({.params = {{"outliers.k", "30"}}}),
-            absl::InvalidArgumentError(
-                "options.params['outliers.k']: 30 is above neighbourhoods.k = 20"));
+            FieldError("options.params['outliers.k']", "30 is above neighbourhoods.k = 20"));
   EXPECT_EQ(ValidateOptions({.params = {{"neighbourhoods.k", "8"}, {"outliers.loop_k", "9"}}}),
-            absl::InvalidArgumentError(
-                "options.params['outliers.loop_k']: 9 is above neighbourhoods.k = 8"));
+            FieldError("options.params['outliers.loop_k']", "9 is above neighbourhoods.k = 8"));
   EXPECT_TRUE(ValidateOptions({.params = {{"neighbourhoods.k", "32"}, {"outliers.k", "30"}}}).ok());
 }
 
@@ -157,8 +149,8 @@ TEST(Params, AWrongValueStopsTheJobBeforeAnyStage) {
       {.stages = {"outliers", "normals", "measures", "correction", "smoothing"},
        .params = {{"smoothing.lambda", "1.5"}}},
       cancel, [&](std::string_view stage, double) { started.emplace_back(stage); });
-  EXPECT_EQ(report.status(), absl::InvalidArgumentError(
-                                 "options.params['smoothing.lambda']: 1.5 is outside [0, 1]"));
+  EXPECT_EQ(report.status(),
+            FieldError("options.params['smoothing.lambda']", "1.5 is outside [0, 1]"));
   EXPECT_TRUE(started.empty()) << started.front();
   EXPECT_EQ(cloud.x, before.x);
   EXPECT_EQ(cloud.flags, before.flags);

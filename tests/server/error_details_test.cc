@@ -1,8 +1,11 @@
 // The standard error details a client program acts on: every RESOURCE_EXHAUSTED carries a
 // google.rpc.ErrorInfo with a stable reason, and a google.rpc.RetryInfo exactly when the same call
-// can succeed later. Parsed here as a client would, from the grpc-status-details-bin trailer.
+// can succeed later; every INVALID_ARGUMENT a reason and a google.rpc.BadRequest naming the field.
+// Parsed here from the grpc-status-details-bin trailer, independently of the client's code.
+#include <cmath>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -17,6 +20,7 @@ struct Details {
   std::string reason;
   std::string domain;
   std::optional<absl::Duration> retry_delay;
+  std::vector<std::string> fields;  // BadRequest field violations
 };
 
 std::optional<Details> Parse(const grpc::Status& status) {
@@ -30,7 +34,13 @@ std::optional<Details> Parse(const grpc::Status& status) {
   for (const google::protobuf::Any& any : rpc.details()) {
     google::rpc::ErrorInfo info;
     google::rpc::RetryInfo retry;
-    if (any.UnpackTo(&info)) {
+    google::rpc::BadRequest bad_request;
+    if (any.UnpackTo(&bad_request)) {
+      for (const auto& violation : bad_request.field_violations()) {
+        d.fields.push_back(violation.field());
+        EXPECT_EQ(violation.description(), status.error_message());
+      }
+    } else if (any.UnpackTo(&info)) {
       d.reason = info.reason();
       d.domain = info.domain();
     } else if (any.UnpackTo(&retry)) {
@@ -40,25 +50,6 @@ std::optional<Details> Parse(const grpc::Status& status) {
   }
   return d;
 }
-
-// A call that holds a slot (and a per-host place) until it is destroyed.
-class HeldCall {
- public:
-  explicit HeldCall(v1::ScanPrep::Stub& stub) : stream_(stub.Process(&context_)) {
-    EXPECT_TRUE(stream_->Write(HeaderRequest(SimpleHeader(), 100)));
-    EXPECT_TRUE(stream_->Write(ChunkRequest(LineChunk(100))));
-    v1::ProcessResponse ack;
-    EXPECT_TRUE(stream_->Read(&ack));
-  }
-  ~HeldCall() {
-    context_.TryCancel();
-    stream_->Finish();
-  }
-
- private:
-  grpc::ClientContext context_;
-  std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> stream_;
-};
 
 grpc::Status SmallJob(v1::ScanPrep::Stub& stub) {
   return RawCall(stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))});
@@ -120,6 +111,83 @@ TEST(ErrorDetails, JobsTooLargeAreNeverRetryable) {
   ASSERT_TRUE(d.has_value());
   EXPECT_EQ(d->reason, "CALL_TOO_LARGE");
   EXPECT_FALSE(d->retry_delay.has_value());
+}
+
+// Each invalid input names its field as a path in the request: the header's fields by name, the
+// PointChunk messages by their index in the upload.
+TEST(ErrorDetails, InvalidInputNamesTheFieldAtFault) {
+  InProcessServer server;
+  auto stub = server.Stub();
+  struct Case {
+    std::string reason;
+    std::string field;
+    std::vector<v1::ProcessRequest> requests;
+  };
+  std::vector<Case> cases;
+  {
+    v1::JobHeader header = SimpleHeader();
+    header.add_scans()->set_scanline_spacing(1e300);
+    cases.push_back({"INVALID_METADATA", "header.scans[1].scanline_spacing",
+                     {HeaderRequest(header, 10)}});
+  }
+  {
+    v1::JobHeader header = SimpleHeader();
+    (*header.mutable_options()->mutable_params())["smoothing.lambda"] = "1.5";
+    cases.push_back({"INVALID_PARAMETER", "header.options.params['smoothing.lambda']",
+                     {HeaderRequest(header, 10)}});
+  }
+  {
+    v1::JobHeader header = SimpleHeader();
+    header.mutable_options()->add_stages("sharpen");
+    cases.push_back({"INVALID_PARAMETER", "header.options.stages", {HeaderRequest(header, 10)}});
+  }
+  {
+    v1::JobHeader header = SimpleHeader();
+    (*header.mutable_budget()->mutable_stage_seconds())["outliers"] = -1;
+    cases.push_back({"INVALID_PARAMETER", "header.budget.stage_seconds['outliers']",
+                     {HeaderRequest(header, 10)}});
+  }
+  {
+    v1::JobHeader header = SimpleHeader();
+    header.clear_unit();
+    cases.push_back({"INVALID_HEADER", "header.unit", {HeaderRequest(header, 10)}});
+  }
+  cases.push_back({"INVALID_HEADER", "header", {ChunkRequest(LineChunk(10))}});
+  {
+    v1::PointChunk ragged = LineChunk(1);
+    ragged.add_xyz(1.f);
+    cases.push_back({"INVALID_CHUNK", "points[1].xyz",
+                     {HeaderRequest(SimpleHeader(), 20), ChunkRequest(LineChunk(10)),
+                      ChunkRequest(ragged)}});
+  }
+  {
+    v1::PointChunk chunk = LineChunk(10);
+    for (int i = 0; i < 10; ++i) chunk.add_quality(i == 3 ? 2.f : 0.5f);
+    cases.push_back({"INVALID_CHUNK", "points[0].quality[3]",
+                     {HeaderRequest(SimpleHeader(), 10), ChunkRequest(chunk)}});
+  }
+  {
+    v1::PointChunk nan = LineChunk(10);
+    for (int i = 0; i < nan.xyz_size(); ++i) nan.set_xyz(i, std::nanf(""));
+    cases.push_back({"INVALID_CHUNK", "points", {HeaderRequest(SimpleHeader(), 10),
+                                                 ChunkRequest(nan)}});
+  }
+  std::vector<v1::ProcessRequest> miscounted = {HeaderRequest(SimpleHeader(), 30),
+                                                ChunkRequest(LineChunk(30))};
+  miscounted.push_back(EndRequest(miscounted));
+  miscounted.back().mutable_end()->set_points(20);
+  cases.push_back({"POINT_COUNT_MISMATCH", "end.points", miscounted});
+
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.field);
+    const grpc::Status status = RawCall(*stub, c.requests);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+    const auto d = Parse(status);
+    ASSERT_TRUE(d.has_value());
+    EXPECT_EQ(d->reason, c.reason);
+    EXPECT_FALSE(d->retry_delay.has_value());
+    EXPECT_EQ(d->fields, std::vector<std::string>{c.field});
+  }
 }
 
 }  // namespace

@@ -213,9 +213,9 @@ TEST(JobAssembler, AnUploadWithoutItsEndMessageIsRefused) {
   OnePointUpload upload;
   const auto job = upload.assembler.Finish();
   EXPECT_EQ(job.status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(job.status().message(),
-            "the upload ended without its end message after 1 of header.total_points = 1 points: "
-            "the stream was cut");
+  EXPECT_THAT(std::string(job.status().message()),
+              ::testing::StartsWith("the upload ended without its end message after 1 of "
+                                    "header.total_points = 1 points: the stream was cut"));
 }
 
 TEST(JobAssembler, TheEndMessagesCountMustMatchTheReceivedAndTheDeclaredCount) {

@@ -2,12 +2,14 @@
 // before the memory it guards is allocated: bytes per call, calls per client host, scans per
 // header, header list lengths and gRPC's message size. (Points per job and per chunk:
 // protocol_errors_test.)
+#include <cstdio>
 #include <sstream>
 #include <thread>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "core/stage.h"
 #include "server/peer_limiter.h"
 #include "tests/server/service_fixtures.h"
 
@@ -312,6 +314,75 @@ TEST(Limits, LongHeaderListsAreRefusedBeforeTheyAreCopied) {
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_THAT(status.error_message(),
               HasSubstr("header.options.stages has 257 entries; at most 256 are accepted"));
+}
+
+// A 4 MB job_id made a 4.4 MB report that the client could not receive while the server logged
+// OK; now every header string is bounded and refused, with a message that does not echo it.
+TEST(Limits, LongHeaderStringsAreRefusedWithoutBeingEchoed) {
+  InProcessServer server;
+  auto stub = server.Stub();
+  v1::JobHeader header = SimpleHeader();
+  header.set_job_id(std::string(server::kMaxHeaderStringBytes, 'j'));
+  EXPECT_TRUE(RawCall(*stub, {HeaderRequest(header), ChunkRequest(LineChunk(100))}).ok());
+  for (const size_t length : {server::kMaxHeaderStringBytes + 1, size_t{4'000'000}}) {
+    header.set_job_id(std::string(length, 'j'));
+    const grpc::Status status = RawCall(*stub, {HeaderRequest(header, 100)});
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_EQ(status.error_message(),
+              absl::StrCat("header.job_id: the job id is ", length,
+                           " bytes long; at most 256 are accepted"));
+  }
+  v1::JobHeader long_scan_id = SimpleHeader();
+  long_scan_id.add_scans()->set_scan_id(std::string(1000, 's'));
+  EXPECT_THAT(RawCall(*stub, {HeaderRequest(long_scan_id, 100)}).error_message(),
+              HasSubstr("header.scans[1].scan_id: the scan id is 1000 bytes long"));
+  v1::JobHeader long_value = SimpleHeader();
+  (*long_value.mutable_options()->mutable_params())["smoothing.lambda"] = std::string(300, '1');
+  EXPECT_THAT(RawCall(*stub, {HeaderRequest(long_value, 100)}).error_message(),
+              HasSubstr("header.options.params['smoothing.lambda']: the value is 300 bytes long"));
+}
+
+// Every string and list of the header at its limit, 1,000 scans (each with per-scan warnings and
+// parameters in the report), every stage: the report reaches the client through its default
+// 4 MiB receive limit.
+TEST(Limits, AReportForAHeaderAtEveryLimitFitsTheClientsReceiveLimit) {
+  InProcessServer server;
+  const size_t scans = server::JobLimits{}.max_scans_per_job;
+  v1::JobHeader header;
+  header.set_job_id(std::string(server::kMaxHeaderStringBytes, 'j'));
+  header.set_unit(v1::MILLIMETRE);
+  PointCloud cloud;
+  for (size_t s = 0; s < scans; ++s) {
+    std::string id = absl::StrCat(s, "-");
+    id.resize(server::kMaxHeaderStringBytes, 's');
+    v1::ScanHeader* scan = header.add_scans();
+    scan->set_scan_id(id);
+    scan->set_scanline_spacing(0.5);
+    for (int i = 0; i < 3; ++i) {
+      cloud.x.push_back(10.f * s + 0.5f * (i % 2));
+      cloud.y.push_back(0.5f * (i / 2));
+      cloud.z.push_back(0.f);
+      cloud.scan.push_back(static_cast<uint32_t>(s));
+    }
+    cloud.scans.push_back(ScanMeta{.id = id});
+  }
+  cloud.FinishLoading();
+  for (const StageInfo& stage : StageRegistry()) header.mutable_options()->add_stages(stage.name);
+  // Every parameter with a plain default, given as its default padded to the longest value.
+  for (const ParamSpec& spec : AllParamSpecs()) {
+    if (!spec.default_value.has_value()) continue;
+    std::string text = FormatNumber(*spec.default_value);
+    if (text.find('e') != std::string::npos) continue;
+    if (text.find('.') == std::string::npos) text += '.';
+    text.resize(server::kMaxHeaderStringBytes, '0');
+    (*header.mutable_options()->mutable_params())[spec.name] = text;
+  }
+  auto result = server.Client().Process(header, cloud, {.timeout = absl::Seconds(120)});
+  ASSERT_TRUE(result.ok()) << result.status();
+  const size_t bytes = result->report.ByteSizeLong();
+  std::printf("report of %zu bytes, %d warnings\n", bytes, result->report.warnings_size());
+  EXPECT_EQ(result->report.job_id(), header.job_id());
+  EXPECT_LT(bytes, size_t{server::kMaxMessageBytes});
 }
 
 TEST(Limits, MessagesAboveFourMebibytesAreRefusedByGrpcBeforeTheyAreParsed) {

@@ -73,7 +73,7 @@ TEST_F(ProtocolErrors, UnknownParameter) {
   v1::JobHeader header = SimpleHeader();
   (*header.mutable_options()->mutable_params())["outliers.sigma"] = "2";
   EXPECT_STATUS(Send(header, {LineChunk(10)}), INVALID_ARGUMENT,
-                "unknown parameter 'outliers.sigma'");
+                "options.params['outliers.sigma']: unknown parameter");
 }
 
 TEST_F(ProtocolErrors, ParameterNotANumber) {
@@ -198,8 +198,9 @@ TEST_F(ProtocolErrors, AHeaderThatFailsToParseIsNotCalledAnEmptyStream) {
   EXPECT_STATUS(BytesCall(server_.target(), {HeaderRequest(header).SerializeAsString(),
                                              ChunkRequest(LineChunk(10)).SerializeAsString()}),
                 INVALID_ARGUMENT,
-                "first message must be a header (the stream ended before a message could be "
-                "parsed)");
+                "first message must be a header (the stream ended before one arrived: none was "
+                "sent, or a message could not be parsed: a malformed encoding, or invalid UTF-8 "
+                "in a string field such as job_id or scan_id)");
 }
 
 TEST_F(ProtocolErrors, AMessageThatFailsToParseMidStreamIsNeverOk) {

@@ -137,6 +137,25 @@ inline v1::PointChunk LineChunk(size_t n) {
   return chunk;
 }
 
+// A call that holds a slot (and a per-host place) until it is destroyed.
+class HeldCall {
+ public:
+  explicit HeldCall(v1::ScanPrep::Stub& stub) : stream_(stub.Process(&context_)) {
+    EXPECT_TRUE(stream_->Write(HeaderRequest(SimpleHeader(), 100)));
+    EXPECT_TRUE(stream_->Write(ChunkRequest(LineChunk(100))));
+    v1::ProcessResponse ack;
+    EXPECT_TRUE(stream_->Read(&ack));
+  }
+  ~HeldCall() {
+    context_.TryCancel();
+    stream_->Finish();
+  }
+
+ private:
+  grpc::ClientContext context_;
+  std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> stream_;
+};
+
 struct GeneratedScan {
   PointCloud cloud;         // one scan, millimetres, scanlines = grid rows
   std::vector<bool> spike;  // ground truth per point
