@@ -4,6 +4,8 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
 
@@ -14,6 +16,7 @@ namespace {
 // (absl::string_view: Debian's Abseil does not alias it to std::string_view.)
 constexpr absl::string_view kReasonPayload = "scanprep.v1/reason";
 constexpr absl::string_view kRetryPayload = "scanprep.v1/retry_after_ms";
+constexpr absl::string_view kMetadataPayloadPrefix = "scanprep.v1/metadata/";
 
 }  // namespace
 
@@ -24,6 +27,12 @@ absl::Status WithReason(absl::Status status, std::string_view reason,
     status.SetPayload(kRetryPayload,
                       absl::Cord(std::to_string(absl::ToInt64Milliseconds(*retry_after))));
   }
+  return status;
+}
+
+absl::Status WithMetadata(absl::Status status, std::string_view key, std::string_view value) {
+  status.SetPayload(absl::StrCat(kMetadataPayloadPrefix, std::string(key)),
+                    absl::Cord(std::string(value)));
   return status;
 }
 
@@ -39,6 +48,12 @@ grpc::Status ToGrpc(const absl::Status& status) {
   google::rpc::ErrorInfo info;
   info.set_reason(std::string(*reason));
   info.set_domain(std::string(kErrorDomain));
+  status.ForEachPayload([&](absl::string_view type_url, const absl::Cord& value) {
+    if (absl::StartsWith(type_url, kMetadataPayloadPrefix)) {
+      (*info.mutable_metadata())[std::string(type_url.substr(kMetadataPayloadPrefix.size()))] =
+          std::string(value);
+    }
+  });
   details.add_details()->PackFrom(info);
   if (const auto retry = status.GetPayload(kRetryPayload)) {
     const int64_t ms = std::stoll(std::string(*retry));
