@@ -41,8 +41,8 @@ uint64_t BytesPerPoint(const ParamOverrides& params) {
     double value = 0;
     if (absl::SimpleAtod(it->second, &value)) k = static_cast<int>(value);
   }
-  return kBytesPerPoint +
-         kBytesPerPointPerExtraNeighbour * static_cast<uint64_t>(std::max(0, k - kDefaultNeighbours));
+  return kBytesPerPoint + kBytesPerPointPerExtraNeighbour *
+                              static_cast<uint64_t>(std::max(0, k - kDefaultNeighbours));
 }
 
 uint64_t EstimateJobBytes(uint64_t points, const ParamOverrides& params) {
@@ -50,9 +50,10 @@ uint64_t EstimateJobBytes(uint64_t points, const ParamOverrides& params) {
 }
 
 std::optional<uint64_t> ParseCgroupLimit(std::string_view text) {
+  const absl::string_view trimmed =
+      absl::StripAsciiWhitespace(absl::string_view(text.data(), text.size()));
   uint64_t bytes = 0;
-  if (!absl::SimpleAtoi(absl::StripAsciiWhitespace(absl::string_view(text.data(), text.size())),
-                        &bytes)) return std::nullopt;
+  if (!absl::SimpleAtoi(trimmed, &bytes)) return std::nullopt;
   return bytes;
 }
 
@@ -62,10 +63,10 @@ absl::StatusOr<MemoryBudget> AutoMemoryBudget(std::optional<uint64_t> container_
   // no limit either.
   if (container_limit.has_value() && (mem_total == 0 || *container_limit < mem_total)) {
     if (*container_limit <= kServerReserveBytes) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          "the container's memory limit of ", MiB(*container_limit),
-          " leaves nothing for jobs after the server's own ", MiB(kServerReserveBytes),
-          "; raise the limit or set --memory_budget"));
+      return absl::FailedPreconditionError(
+          absl::StrCat("the container's memory limit of ", MiB(*container_limit),
+                       " leaves nothing for jobs after the server's own ", MiB(kServerReserveBytes),
+                       "; raise the limit or set --memory_budget"));
     }
     return MemoryBudget{
         .bytes = *container_limit - kServerReserveBytes,
@@ -77,16 +78,15 @@ absl::StatusOr<MemoryBudget> AutoMemoryBudget(std::optional<uint64_t> container_
         "neither a container memory limit nor /proc/meminfo's MemTotal could be read; set "
         "--memory_budget");
   }
-  return MemoryBudget{
-      .bytes = static_cast<uint64_t>(kShareOfRam * static_cast<double>(mem_total)),
-      .source = absl::StrCat(kShareOfRam * 100, " % of the machine's ", MiB(mem_total),
-                             " (no container memory limit)")};
+  return MemoryBudget{.bytes = static_cast<uint64_t>(kShareOfRam * static_cast<double>(mem_total)),
+                      .source = absl::StrCat(kShareOfRam * 100, " % of the machine's ",
+                                             MiB(mem_total), " (no container memory limit)")};
 }
 
 absl::StatusOr<MemoryBudget> DetectMemoryBudget() {
   std::optional<uint64_t> limit;
-  for (const char* path : {"/sys/fs/cgroup/memory.max",
-                           "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
+  for (const char* path :
+       {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
     if (const auto text = ReadFile(path)) {
       limit = ParseCgroupLimit(*text);  // "max" (v2, no limit) stays nullopt
       break;
@@ -96,8 +96,7 @@ absl::StatusOr<MemoryBudget> DetectMemoryBudget() {
 }
 
 uint64_t LargestJobPoints(uint64_t budget_bytes) {
-  return budget_bytes > kJobOverheadBytes ? (budget_bytes - kJobOverheadBytes) / kBytesPerPoint
-                                          : 0;
+  return budget_bytes > kJobOverheadBytes ? (budget_bytes - kJobOverheadBytes) / kBytesPerPoint : 0;
 }
 
 absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t budget_flag, uint64_t max_points_flag) {

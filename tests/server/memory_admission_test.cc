@@ -48,7 +48,9 @@ ErrorInfo ParseErrorInfo(const grpc::Status& status) {
 grpc::Status HeaderOnly(const InProcessServer& server, uint64_t points,
                         const std::map<std::string, std::string>& params = {}) {
   v1::JobHeader header = SimpleHeader();
-  for (const auto& [name, value] : params) (*header.mutable_options()->mutable_params())[name] = value;
+  for (const auto& [name, value] : params) {
+    (*header.mutable_options()->mutable_params())[name] = value;
+  }
   return RawCall(*server.Stub(), {HeaderRequest(header, points)});
 }
 

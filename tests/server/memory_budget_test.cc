@@ -18,8 +18,7 @@ TEST(MemoryEstimate, IsTheFixedOverheadPlusTheBytesPerPointOfItsK) {
   EXPECT_EQ(EstimateJobBytes(1'000'000, {}), 16 * kMiB + 768'000'000);
   // k = 64: 44 neighbours above the default at 28 B each.
   EXPECT_EQ(BytesPerPoint({{"neighbourhoods.k", "64"}}), 768u + 44 * 28);
-  EXPECT_EQ(EstimateJobBytes(1'000'000, {{"neighbourhoods.k", "64"}}),
-            16 * kMiB + 2'000'000'000);
+  EXPECT_EQ(EstimateJobBytes(1'000'000, {{"neighbourhoods.k", "64"}}), 16 * kMiB + 2'000'000'000);
   // A smaller k is estimated like the default, never below it.
   EXPECT_EQ(BytesPerPoint({{"neighbourhoods.k", "3"}}), 768u);
   EXPECT_EQ(BytesPerPoint({{"outliers.multiplier", "2.5"}}), 768u);

@@ -360,6 +360,7 @@ TEST(Cli, InfoPrintsStagesAndLimits) {
   const CommandResult r = RunCli("info --server " + server.target());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("1000000 points per job"));
+  EXPECT_THAT(r.output, HasSubstr("a job estimated at 768 B/point"));
   EXPECT_THAT(r.output, HasSubstr("outliers"));
   EXPECT_THAT(r.output, HasSubstr("outliers.multiplier"));
 }
