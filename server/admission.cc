@@ -1,6 +1,7 @@
 #include "server/admission.h"
 
 #include "server/error_details.h"
+#include "server/memory_budget.h"
 
 #include <algorithm>
 
@@ -15,8 +16,6 @@ constexpr std::chrono::milliseconds kPollInterval(25);
 
 const absl::Status kDrainingError = absl::UnavailableError(
     "the server is shutting down (draining) and takes no new jobs; retry on another replica");
-
-std::string MiB(uint64_t bytes) { return absl::StrFormat("%.0f MiB", bytes / 1048576.0); }
 
 }  // namespace
 
@@ -43,9 +42,9 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(
     metrics_.Rejected(RejectReason::kMemory);
     absl::Status refused = WithReason(
         absl::ResourceExhaustedError(absl::StrCat(
-            "the job's estimated memory of ", MiB(bytes), " (", bytes,
+            "the job's estimated memory of ", FormatMiB(bytes), " (", bytes,
             " bytes, from header.total_points) exceeds the server's whole memory budget of ",
-            MiB(options_.memory_budget_bytes), " (", options_.memory_budget_bytes,
+            FormatMiB(options_.memory_budget_bytes), " (", options_.memory_budget_bytes,
             " bytes, memory_budget), so it could never run here; send fewer points per job or "
             "raise the server's --memory_budget")),
         "JOB_EXCEEDS_MEMORY");
@@ -66,8 +65,14 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(
     // clients do not hammer a server that has not finished a job yet.
     return WithReason(
         absl::ResourceExhaustedError(absl::StrCat(
-            "the server is running its limit of ", options_.max_concurrent_jobs,
-            " concurrent jobs (max_concurrent_jobs) and its queue of ", options_.max_queued_jobs,
+            in_flight_ >= options_.max_concurrent_jobs
+                ? absl::StrCat("the server is running its limit of ", options_.max_concurrent_jobs,
+                               " concurrent jobs (max_concurrent_jobs)")
+                : absl::StrCat("the server's ", in_flight_, " running jobs hold ",
+                               FormatMiB(reserved_bytes_), " of its ",
+                               FormatMiB(options_.memory_budget_bytes),
+                               " memory budget (memory_budget)"),
+            " and its queue of ", options_.max_queued_jobs,
             " waiting jobs (max_queued_jobs) is full; retry later or on another replica")),
         "QUEUE_FULL", absl::Seconds(std::max(1.0, ExpectedWaitLocked())));
   }

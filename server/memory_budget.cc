@@ -12,8 +12,6 @@
 namespace scanprep::server {
 namespace {
 
-std::string MiB(uint64_t bytes) { return absl::StrFormat("%.0f MiB", bytes / 1048576.0); }
-
 std::optional<std::string> ReadFile(const std::string& path) {
   std::ifstream in(path);
   if (!in) return std::nullopt;
@@ -34,6 +32,8 @@ uint64_t MemTotal() {
 }
 
 }  // namespace
+
+std::string FormatMiB(double bytes) { return absl::StrFormat("%.0f MiB", bytes / 1048576.0); }
 
 uint64_t BytesPerPoint(const ParamOverrides& params) {
   int k = kDefaultNeighbours;
@@ -64,14 +64,14 @@ absl::StatusOr<MemoryBudget> AutoMemoryBudget(std::optional<uint64_t> container_
   if (container_limit.has_value() && (mem_total == 0 || *container_limit < mem_total)) {
     if (*container_limit <= kServerReserveBytes) {
       return absl::FailedPreconditionError(
-          absl::StrCat("the container's memory limit of ", MiB(*container_limit),
-                       " leaves nothing for jobs after the server's own ", MiB(kServerReserveBytes),
-                       "; raise the limit or set --memory_budget"));
+          absl::StrCat("the container's memory limit of ", FormatMiB(*container_limit),
+                       " leaves nothing for jobs after the server's own ",
+                       FormatMiB(kServerReserveBytes), "; raise the limit or set --memory_budget"));
     }
     return MemoryBudget{
         .bytes = *container_limit - kServerReserveBytes,
-        .source = absl::StrCat("the container's memory limit ", MiB(*container_limit), " minus ",
-                               MiB(kServerReserveBytes), " for the server")};
+        .source = absl::StrCat("the container's memory limit ", FormatMiB(*container_limit),
+                               " minus ", FormatMiB(kServerReserveBytes), " for the server")};
   }
   if (mem_total == 0) {
     return absl::FailedPreconditionError(
@@ -80,7 +80,7 @@ absl::StatusOr<MemoryBudget> AutoMemoryBudget(std::optional<uint64_t> container_
   }
   return MemoryBudget{.bytes = static_cast<uint64_t>(kShareOfRam * static_cast<double>(mem_total)),
                       .source = absl::StrCat(kShareOfRam * 100, " % of the machine's ",
-                                             MiB(mem_total), " (no container memory limit)")};
+                                             FormatMiB(mem_total), " (no container memory limit)")};
 }
 
 absl::StatusOr<MemoryBudget> DetectMemoryBudget() {
@@ -106,9 +106,10 @@ absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t budget_flag, uint64_t 
   if (!budget.ok()) return budget.status();
   const uint64_t largest = LargestJobPoints(budget->bytes);
   if (largest == 0) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "the memory budget of ", budget->bytes, " bytes (", budget->source,
-        ") leaves no room for a job's fixed ", MiB(kJobOverheadBytes), "; raise --memory_budget"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("the memory budget of ", budget->bytes, " bytes (", budget->source,
+                     ") leaves no room for a job's fixed ", FormatMiB(kJobOverheadBytes),
+                     "; raise --memory_budget"));
   }
   if (max_points_flag == 0) {
     return MemoryLimits{.budget = *budget,
@@ -117,8 +118,9 @@ absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t budget_flag, uint64_t 
   if (max_points_flag > largest) {
     return absl::InvalidArgumentError(absl::StrCat(
         "--max_points_per_job=", max_points_flag, " needs an estimated ",
-        MiB(EstimateJobBytes(max_points_flag, {})), " (", MiB(kJobOverheadBytes), " + ",
-        kBytesPerPoint, " B/point), more than the memory budget of ", MiB(budget->bytes), " (",
+        FormatMiB(kJobOverheadBytes + static_cast<double>(max_points_flag) * kBytesPerPoint), " (",
+        FormatMiB(kJobOverheadBytes), " + ", kBytesPerPoint,
+        " B/point), more than the memory budget of ", FormatMiB(budget->bytes), " (",
         budget->source, "): such a job could never run; lower --max_points_per_job to at most ",
         largest, " or raise --memory_budget"));
   }

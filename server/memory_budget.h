@@ -16,8 +16,9 @@
 // flat in the point count. That saturated cost is the worst a job can reach; it grows by about
 // 20 B per neighbour (the graph's 4 B and four cached ball entries per neighbour). A linear fit
 // of the default rows has a fixed part below zero: the per-job overhead (thread-local buffers,
-// one 4 MiB gRPC message) is bounded by kJobOverheadBytes. The upload alone (the assembled
-// cloud, one chunk message at a time) stays far below the pipeline's peak.
+// one 4 MiB gRPC message) is bounded by kJobOverheadBytes. The upload holds the assembled arrays
+// (xyz, scan, optional scanline, quality, intensity: 16-28 B/point, three times that for the
+// moment a vector grows) and one chunk message (at most 4 MiB) at a time, far below the peak.
 #pragma once
 
 #include <cstdint>
@@ -41,6 +42,9 @@ inline constexpr uint64_t kJobOverheadBytes = uint64_t{16} << 20;
 inline constexpr uint64_t kServerReserveBytes = uint64_t{128} << 20;
 // Without a container limit, the share of the machine's RAM the jobs may take.
 inline constexpr double kShareOfRam = 0.5;
+
+// "93 MiB", for messages.
+std::string FormatMiB(double bytes);
 
 // Bytes one job's points cost at the peak, for `params`' neighbourhoods.k (validated already).
 uint64_t BytesPerPoint(const ParamOverrides& params);

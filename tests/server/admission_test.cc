@@ -310,6 +310,13 @@ TEST(AdmissionQueue, ALargeJobAtTheHeadIsNotOvertakenBySmallOnesThatWouldFit) {
   // 600 + 100 would fit, but the 800-byte call came first.
   auto small = q.AdmitQueued(100);
   EXPECT_EQ(q.queue().queued(), 2);
+  // The queue (4 places) fills behind them: the refusal names the memory, not the slots.
+  auto third = q.AdmitQueued(100);
+  auto fourth = q.AdmitQueued(100);
+  EXPECT_THAT(q.AdmitNow(100).status().message(),
+              HasSubstr("the server's 1 running jobs hold 0 MiB of its 0 MiB memory budget "
+                        "(memory_budget) and its queue of 4 waiting jobs (max_queued_jobs) is "
+                        "full"));
   EXPECT_EQ(q.queue().in_flight(), 1);
   EXPECT_FALSE(Ready(small));
 
@@ -317,8 +324,10 @@ TEST(AdmissionQueue, ALargeJobAtTheHeadIsNotOvertakenBySmallOnesThatWouldFit) {
   // Both fit now (800 + 100), in arrival order.
   auto large_slot = large.get();
   auto small_slot = small.get();
-  ASSERT_TRUE(large_slot.ok() && small_slot.ok());
-  EXPECT_EQ(q.queue().memory_reserved_bytes(), 900u);
+  auto third_slot = third.get();
+  ASSERT_TRUE(large_slot.ok() && small_slot.ok() && third_slot.ok());
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 1'000u);
+  EXPECT_EQ(q.queue().queued(), 1);  // the fourth waits for 100 more bytes
 }
 
 TEST(AdmissionQueue, WhenTheHeadOfTheQueueLeavesTheCallsBehindItThatFitAreAdmitted) {

@@ -383,8 +383,9 @@ uint64_t PeakRssOfTwelveConcurrentJobs(uint64_t memory_budget) {
                         "--max_points_per_job=300000", "--max_concurrent_jobs=12",
                         "--max_queued_jobs=12", "--max_calls_per_peer=12", "--threads=12"});
   EXPECT_GT(server.port(), 0);
-  const CommandResult r = RunCli("load --server " + server.target() +
-                                 " --simulate 250000 --scans 2 --concurrency 12 --max_jobs 12");
+  const CommandResult r =
+      RunCli("load --server " + server.target() +
+             " --simulate 250000 --scans 2 --concurrency 12 --max_jobs 12 --timeout 300s");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("errors: 0"));
   return PeakRss(server.pid());
