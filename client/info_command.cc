@@ -42,6 +42,10 @@ int RunInfo(const ParsedArgs& args) {
                    limits.max_queued_jobs(), limits.max_calls_per_peer(),
                    limits.header_timeout_seconds(), limits.idle_timeout_seconds(),
                    limits.min_upload_bytes_per_second())
+            << absl::StrFormat("        memory budget %.0f MiB for the running jobs, a job "
+                               "estimated at %d B/point\n",
+                               limits.memory_budget_bytes() / 1048576.0,
+                               limits.bytes_per_point())
             << "default budget: "
             << (info->default_budget_seconds() > 0
                     ? absl::StrCat(info->default_budget_seconds(), " s")

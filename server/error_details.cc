@@ -4,6 +4,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "core/field_error.h"
 #include "google/rpc/error_details.pb.h"
@@ -17,6 +18,7 @@ namespace {
 constexpr absl::string_view kReasonPayload = "scanprep.v1/reason";
 constexpr absl::string_view kRetryPayload = "scanprep.v1/retry_after_ms";
 constexpr absl::string_view kFieldPayload = "scanprep.v1/field";
+constexpr absl::string_view kMetadataPayloadPrefix = "scanprep.v1/metadata/";
 
 }  // namespace
 
@@ -43,6 +45,12 @@ absl::Status OptionsError(absl::Status status) {
                             field.empty() ? "header.options" : absl::StrCat("header.", field));
 }
 
+absl::Status WithMetadata(absl::Status status, std::string_view key, std::string_view value) {
+  status.SetPayload(absl::StrCat(kMetadataPayloadPrefix, std::string(key)),
+                    absl::Cord(std::string(value)));
+  return status;
+}
+
 grpc::Status ToGrpc(const absl::Status& status) {
   const auto code = static_cast<grpc::StatusCode>(status.code());
   const std::string message(status.message());
@@ -55,6 +63,12 @@ grpc::Status ToGrpc(const absl::Status& status) {
   google::rpc::ErrorInfo info;
   info.set_reason(std::string(*reason));
   info.set_domain(std::string(kErrorDomain));
+  status.ForEachPayload([&](absl::string_view type_url, const absl::Cord& value) {
+    if (absl::StartsWith(type_url, kMetadataPayloadPrefix)) {
+      (*info.mutable_metadata())[std::string(type_url.substr(kMetadataPayloadPrefix.size()))] =
+          std::string(value);
+    }
+  });
   details.add_details()->PackFrom(info);
   if (const auto retry = status.GetPayload(kRetryPayload)) {
     const int64_t ms = std::stoll(std::string(*retry));

@@ -29,6 +29,9 @@ inline constexpr std::string_view kErrorDomain = "scanprep.v1";
 absl::Status WithReason(absl::Status status, std::string_view reason,
                         std::optional<absl::Duration> retry_after = std::nullopt);
 
+// `status` with one more ErrorInfo metadata entry (e.g. the numbers behind a refusal).
+absl::Status WithMetadata(absl::Status status, std::string_view key, std::string_view value);
+
 // `status` with the reason and a field violation naming `field`, described by the message.
 absl::Status WithFieldViolation(absl::Status status, std::string_view reason,
                                 std::string_view field);

@@ -64,6 +64,8 @@ class JobAssembler {
   uint64_t points_received() const { return job_.points_received; }
   // The client's declared total (0 until a header was accepted).
   uint64_t total_points() const { return total_points_; }
+  // The pipeline options of the accepted header.
+  const PipelineOptions& options() const { return job_.options; }
 
  private:
   absl::Status AddHeader(const v1::JobHeader& header);

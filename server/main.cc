@@ -13,6 +13,7 @@
 #include "absl/synchronization/notification.h"
 #include "absl/time/time.h"
 #include "server/budget_config.h"
+#include "server/memory_budget.h"
 #include "server/scanprep_server.h"
 #include "server/transport_security.h"
 
@@ -24,8 +25,10 @@ ABSL_FLAG(std::string, tls_client_ca, "",
 ABSL_FLAG(bool, plaintext, false,
           "serve the gRPC port unencrypted and unauthenticated; without it the server needs the "
           "TLS flags and refuses to start");
-ABSL_FLAG(uint64_t, max_points_per_job, 20'000'000,
-          "largest job in points; larger jobs end with RESOURCE_EXHAUSTED");
+ABSL_FLAG(uint64_t, max_points_per_job, 0,
+          "largest job in points; larger jobs end with RESOURCE_EXHAUSTED. 0 = 20,000,000 or the "
+          "largest job whose estimated memory fits --memory_budget, whichever is smaller; a "
+          "larger explicit value than fits is refused at startup");
 ABSL_FLAG(uint64_t, max_chunk_points, 65'536,
           "largest request chunk in points; larger chunks end the call with RESOURCE_EXHAUSTED");
 ABSL_FLAG(uint64_t, max_bytes_per_call, uint64_t{1} << 30,
@@ -45,6 +48,10 @@ ABSL_FLAG(int, max_concurrent_jobs, 4,
 ABSL_FLAG(int, max_queued_jobs, 8,
           "calls that may wait for a slot; beyond that a call ends at once with "
           "RESOURCE_EXHAUSTED");
+ABSL_FLAG(uint64_t, memory_budget, 0,
+          "bytes the running jobs' estimated memory may take together (README \"Admission "
+          "control\"); a call waits until its job fits, a job that never can is refused. 0 = the "
+          "container's memory limit (cgroup) minus 128 MiB for the server, else half the RAM");
 ABSL_FLAG(int, threads, 0, "threads of the shared processing arena (0 = hardware concurrency)");
 ABSL_FLAG(double, default_budget_seconds, 0,
           "total time budget for jobs that state none (0 = no budget); reported and counted in "
@@ -124,7 +131,6 @@ int main(int argc, char** argv) {
   options.log = &std::cerr;
   options.listen = absl::GetFlag(FLAGS_listen);
   options.metrics_listen = absl::GetFlag(FLAGS_metrics_listen);
-  options.limits.max_points_per_job = absl::GetFlag(FLAGS_max_points_per_job);
   options.limits.max_chunk_points = absl::GetFlag(FLAGS_max_chunk_points);
   options.limits.max_bytes_per_call = absl::GetFlag(FLAGS_max_bytes_per_call);
   options.limits.max_scans_per_job = absl::GetFlag(FLAGS_max_scans_per_job);
@@ -141,6 +147,14 @@ int main(int argc, char** argv) {
     std::cerr << "scanprep-server: " << s.message() << "\n";
     return 1;
   }
+  auto memory = scanprep::server::ResolveMemoryLimits(absl::GetFlag(FLAGS_memory_budget),
+                                                      absl::GetFlag(FLAGS_max_points_per_job));
+  if (!memory.ok()) {
+    std::cerr << "scanprep-server: " << memory.status().message() << "\n";
+    return 1;
+  }
+  options.memory_budget_bytes = memory->budget.bytes;
+  options.limits.max_points_per_job = memory->max_points_per_job;
   auto server = scanprep::server::ScanPrepServer::Start(options);
   if (!server.ok()) {
     std::cerr << "scanprep-server: " << server.status().message() << "\n";
@@ -149,6 +163,10 @@ int main(int argc, char** argv) {
   // The actual ports, for callers that asked for port 0.
   std::cout << "scanprep-server " SCANPREP_VERSION " listening on port " << (*server)->port()
             << " (" << transport->description << ")" << std::endl;
+  std::cout << "scanprep-server: memory budget " << memory->budget.bytes << " bytes ("
+            << memory->budget.source << "), " << scanprep::server::kBytesPerPoint
+            << " B/point estimated, max_points_per_job " << memory->max_points_per_job
+            << std::endl;
   if ((*server)->metrics_port() != 0) {
     std::cout << "scanprep-server: metrics on port " << (*server)->metrics_port() << std::endl;
   }

@@ -9,6 +9,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/synchronization/notification.h"
+#include "server/memory_budget.h"
 
 namespace scanprep::server {
 namespace {
@@ -55,7 +56,8 @@ ScanPrepServer::ScanPrepServer(const ServerOptions& options)
       log_(options.log, options.max_log_lines_per_second),
       peers_(CallsPerPeer(options)),
       admission_({.max_concurrent_jobs = options.max_concurrent_jobs,
-                  .max_queued_jobs = options.max_queued_jobs},
+                  .max_queued_jobs = options.max_queued_jobs,
+                  .memory_budget_bytes = options.memory_budget_bytes},
                  metrics_),
       runner_(options.threads, options.on_progress),
       service_(options.limits, options.timeouts, admission_, runner_, metrics_, peers_, log_) {
@@ -82,9 +84,15 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
   if (options.max_calls_per_peer < 0) {
     return absl::InvalidArgumentError("max_calls_per_peer must be at least 0 (0 = the default)");
   }
+  ServerOptions resolved = options;
+  if (resolved.memory_budget_bytes == 0) {
+    auto budget = DetectMemoryBudget();
+    if (!budget.ok()) return budget.status();
+    resolved.memory_budget_bytes = budget->bytes;
+  }
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
-  std::unique_ptr<ScanPrepServer> server(new ScanPrepServer(options));
+  std::unique_ptr<ScanPrepServer> server(new ScanPrepServer(resolved));
   if (!options.metrics_listen.empty()) {
     auto address = ParseHostPort(options.metrics_listen, "metrics_listen");
     if (!address.ok()) return address.status();

@@ -29,6 +29,8 @@ struct ServerOptions {
   JobLimits limits;
   int max_concurrent_jobs = 4;
   int max_queued_jobs = 8;
+  // What the jobs holding a slot may reserve together (memory_budget.h); 0 = DetectMemoryBudget().
+  uint64_t memory_budget_bytes = 0;
   int threads = 0;  // arena threads; 0 = hardware concurrency
   // Process calls one client host may have in progress (queued included); 0 = CallsPerPeer's
   // default.
@@ -67,6 +69,7 @@ class ScanPrepServer {
   void Wait() { server_->Wait(); }
 
  private:
+  // `options` with the memory budget resolved.
   explicit ScanPrepServer(const ServerOptions& options);
 
   metrics::Registry registry_;

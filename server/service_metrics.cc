@@ -15,13 +15,14 @@ const char* ReasonLabel(RejectReason reason) {
     case RejectReason::kDraining: return "draining";
     case RejectReason::kLimit: return "limit";
     case RejectReason::kInvalid: return "invalid";
+    case RejectReason::kMemory: return "memory";
   }
   return "unknown";
 }
 
 constexpr RejectReason kAllReasons[] = {RejectReason::kQueueFull, RejectReason::kDeadline,
                                         RejectReason::kDraining, RejectReason::kLimit,
-                                        RejectReason::kInvalid};
+                                        RejectReason::kInvalid, RejectReason::kMemory};
 
 }  // namespace
 
@@ -60,6 +61,12 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r)
       budget_(r.AddGauge("scanprep_budget_seconds",
                          "The server's default total cycle-time budget per job; 0 = none.")
                   .WithLabels({})),
+      memory_budget_(r.AddGauge("scanprep_memory_budget_bytes",
+                                "Memory the running jobs' estimates may reserve (memory_budget).")
+                         .WithLabels({})),
+      memory_reserved_(r.AddGauge("scanprep_memory_reserved_bytes",
+                                  "Estimated memory of the jobs holding a slot.")
+                           .WithLabels({})),
       job_duration_(r.AddHistogram("scanprep_job_duration_seconds",
                                    "Pipeline wall time of a processed job (all stages).",
                                    SecondsBuckets())
@@ -78,6 +85,14 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r)
 }
 
 void ServiceMetrics::SetQueueCapacity(int max_queued_jobs) { queue_capacity_.Set(max_queued_jobs); }
+
+void ServiceMetrics::SetMemoryBudget(uint64_t bytes) {
+  memory_budget_.Set(static_cast<double>(bytes));
+}
+
+void ServiceMetrics::SetMemoryReserved(uint64_t bytes) {
+  memory_reserved_.Set(static_cast<double>(bytes));
+}
 
 void ServiceMetrics::SetDefaultBudget(double seconds) { budget_.Set(seconds); }
 

@@ -13,7 +13,7 @@
 namespace scanprep::server {
 
 // Why a call was refused; the `reason` label of scanprep_jobs_rejected_total.
-enum class RejectReason { kQueueFull, kDeadline, kDraining, kLimit, kInvalid };
+enum class RejectReason { kQueueFull, kDeadline, kDraining, kLimit, kInvalid, kMemory };
 
 class ServiceMetrics {
  public:
@@ -24,6 +24,7 @@ class ServiceMetrics {
   // Configuration, exported so alerts can compare against it.
   void SetQueueCapacity(int max_queued_jobs);
   void SetDefaultBudget(double seconds);
+  void SetMemoryBudget(uint64_t bytes);
 
   void RpcStarted(const std::string& method);
   void RpcHandled(const std::string& method, grpc::StatusCode code);
@@ -31,6 +32,8 @@ class ServiceMetrics {
 
   // Admission: the current numbers of jobs holding a slot and waiting for one.
   void SetAdmissionState(int in_flight, int queued);
+  // The estimated bytes the jobs holding a slot reserved from the memory budget.
+  void SetMemoryReserved(uint64_t bytes);
   void QueueWait(double seconds);
 
   void RequestReceived(uint64_t bytes, uint64_t points);
@@ -51,6 +54,8 @@ class ServiceMetrics {
   metrics::Gauge& queued_;
   metrics::Gauge& queue_capacity_;
   metrics::Gauge& budget_;
+  metrics::Gauge& memory_budget_;
+  metrics::Gauge& memory_reserved_;
   metrics::Histogram& job_duration_;
   metrics::Family<metrics::Histogram>& stage_duration_;
   metrics::Histogram& queue_wait_;

@@ -33,9 +33,11 @@ bool Eventually(Fn condition) {
 // An AdmissionQueue with its own metrics and a clock the test moves by hand.
 class QueueUnderTest {
  public:
-  QueueUnderTest(int max_concurrent, int max_queued)
+  QueueUnderTest(int max_concurrent, int max_queued,
+                 uint64_t memory_budget = std::numeric_limits<uint64_t>::max())
       : queue_({.max_concurrent_jobs = max_concurrent,
                 .max_queued_jobs = max_queued,
+                .memory_budget_bytes = memory_budget,
                 .now = [this] { return now(); }},
                metrics_) {}
 
@@ -48,15 +50,28 @@ class QueueUnderTest {
     std::lock_guard lock(mu_);
     now_ += d;
   }
-  absl::StatusOr<AdmissionQueue::Slot> AdmitNow() {
-    return queue_.Admit(absl::InfiniteFuture(), [] { return false; });
+  absl::StatusOr<AdmissionQueue::Slot> AdmitNow(uint64_t bytes = 0) {
+    return queue_.Admit(bytes, absl::InfiniteFuture(), [] { return false; });
   }
   // Admit on another thread; the future resolves when the call got a slot or failed.
   std::future<absl::StatusOr<AdmissionQueue::Slot>> AdmitAsync(
-      absl::Time deadline = absl::InfiniteFuture(), std::atomic<bool>* cancelled = nullptr) {
-    return std::async(std::launch::async, [this, deadline, cancelled] {
-      return queue_.Admit(deadline, [cancelled] { return cancelled != nullptr && cancelled->load(); });
+      absl::Time deadline = absl::InfiniteFuture(), std::atomic<bool>* cancelled = nullptr,
+      uint64_t bytes = 0) {
+    return std::async(std::launch::async, [this, deadline, cancelled, bytes] {
+      return queue_.Admit(bytes, deadline,
+                          [cancelled] { return cancelled != nullptr && cancelled->load(); });
     });
+  }
+  // Admit `bytes` on another thread and wait until the call is queued (or already decided).
+  std::future<absl::StatusOr<AdmissionQueue::Slot>> AdmitQueued(
+      uint64_t bytes, std::atomic<bool>* cancelled = nullptr) {
+    const int before = queue_.queued();
+    auto f = AdmitAsync(absl::InfiniteFuture(), cancelled, bytes);
+    EXPECT_TRUE(Eventually([&] {
+      return queue_.queued() > before ||
+             f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+    }));
+    return f;
   }
   double Metric(const std::string& key) {
     const auto samples = ParseSamples(registry_.Serialize());
@@ -160,7 +175,7 @@ TEST(AdmissionQueue, FailsFastWhenTheExpectedWaitExceedsTheDeadline) {
   auto running = q.AdmitNow();
   ASSERT_TRUE(running.ok());
 
-  auto refused = q.queue().Admit(q.now() + absl::Seconds(5), [] { return false; });
+  auto refused = q.queue().Admit(0, q.now() + absl::Seconds(5), [] { return false; });
   EXPECT_EQ(refused.status().code(), absl::StatusCode::kDeadlineExceeded);
   EXPECT_THAT(refused.status().message(), HasSubstr("expected wait 10 s exceeds the deadline 5 s"));
   EXPECT_EQ(q.Metric("scanprep_jobs_rejected_total{reason=\"deadline\"}"), 1);
@@ -241,6 +256,95 @@ server::ServerOptions Options(int max_concurrent, int max_queued) {
   options.max_queued_jobs = max_queued;
   options.metrics_listen = "127.0.0.1:0";
   return options;
+}
+
+TEST(AdmissionQueue, AJobLargerThanTheWholeMemoryBudgetIsRefusedAtOnce) {
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
+  // Refused even on an idle server: waiting could never make it fit.
+  auto refused = q.AdmitNow(1'001);
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(refused.status().message(),
+              HasSubstr("estimated memory of 0 MiB (1001 bytes, from header.total_points) "
+                        "exceeds the server's whole memory budget of 0 MiB (1000 bytes, "
+                        "memory_budget)"));
+  EXPECT_THAT(refused.status().message(), HasSubstr("--memory_budget"));
+  EXPECT_EQ(q.Metric("scanprep_jobs_rejected_total{reason=\"memory\"}"), 1);
+  EXPECT_EQ(q.queue().in_flight(), 0);
+  // Exactly the budget fits.
+  EXPECT_TRUE(q.AdmitNow(1'000).ok());
+}
+
+TEST(AdmissionQueue, ACallWaitsUntilItsBytesAreFreeAndTheReservationsNeverExceedTheBudget) {
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
+  EXPECT_EQ(q.Metric("scanprep_memory_budget_bytes"), 1'000);
+  auto a = q.AdmitNow(600);
+  auto b = q.AdmitNow(300);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 900u);
+  EXPECT_EQ(q.Metric("scanprep_memory_reserved_bytes"), 900);
+
+  // Two slots are free but 500 bytes are not: the call queues.
+  auto c = q.AdmitQueued(500);
+  EXPECT_FALSE(Ready(c));
+  EXPECT_EQ(q.queue().in_flight(), 2);
+
+  { auto release = std::move(*b); }  // 400 free: still 100 short
+  EXPECT_EQ(q.queue().queued(), 1);  // a grant would have taken it off the queue already
+  EXPECT_FALSE(Ready(c));
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 600u);
+
+  { auto release = std::move(*a); }
+  auto granted = c.get();
+  ASSERT_TRUE(granted.ok()) << granted.status();
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 500u);
+  EXPECT_EQ(q.Metric("scanprep_memory_reserved_bytes"), 500);
+  EXPECT_EQ(q.queue().in_flight(), 1);
+  { auto release = std::move(*granted); }
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 0u);
+  EXPECT_EQ(q.queue().in_flight(), 0);
+}
+
+TEST(AdmissionQueue, ALargeJobAtTheHeadIsNotOvertakenBySmallOnesThatWouldFit) {
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
+  auto running = q.AdmitNow(600);
+  ASSERT_TRUE(running.ok());
+  auto large = q.AdmitQueued(800);
+  // 600 + 100 would fit, but the 800-byte call came first.
+  auto small = q.AdmitQueued(100);
+  EXPECT_EQ(q.queue().queued(), 2);
+  // The queue (4 places) fills behind them: the refusal names the memory, not the slots.
+  auto third = q.AdmitQueued(100);
+  auto fourth = q.AdmitQueued(100);
+  EXPECT_THAT(q.AdmitNow(100).status().message(),
+              HasSubstr("the server's 1 running jobs hold 0 MiB of its 0 MiB memory budget "
+                        "(memory_budget) and its queue of 4 waiting jobs (max_queued_jobs) is "
+                        "full"));
+  EXPECT_EQ(q.queue().in_flight(), 1);
+  EXPECT_FALSE(Ready(small));
+
+  { auto release = std::move(*running); }
+  // Both fit now (800 + 100), in arrival order.
+  auto large_slot = large.get();
+  auto small_slot = small.get();
+  auto third_slot = third.get();
+  ASSERT_TRUE(large_slot.ok() && small_slot.ok() && third_slot.ok());
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 1'000u);
+  EXPECT_EQ(q.queue().queued(), 1);  // the fourth waits for 100 more bytes
+}
+
+TEST(AdmissionQueue, WhenTheHeadOfTheQueueLeavesTheCallsBehindItThatFitAreAdmitted) {
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
+  auto running = q.AdmitNow(600);
+  ASSERT_TRUE(running.ok());
+  std::atomic<bool> cancel_large{false};
+  auto large = q.AdmitQueued(800, &cancel_large);
+  auto small = q.AdmitQueued(100);
+  EXPECT_FALSE(Ready(small));
+  cancel_large = true;
+  EXPECT_EQ(large.get().status().code(), absl::StatusCode::kCancelled);
+  auto small_slot = small.get();
+  ASSERT_TRUE(small_slot.ok()) << small_slot.status();
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 700u);
 }
 
 TEST(Admission, AQueuedCallWaitsBeforeItsUploadAndRunsWhenTheSlotFrees) {

@@ -130,6 +130,7 @@ TEST(CallError, EveryReasonIsParsedByTheClient) {
   small.limits.max_chunk_points = 50;
   small.limits.max_bytes_per_call = 2000;
   InProcessServer limited(small);
+  InProcessServer tight_memory(server::ServerOptions{.memory_budget_bytes = 64 << 20});
   auto busy_stub = busy.Stub();
   auto per_host_stub = per_host.Stub();
   auto stub = limited.Stub();
@@ -163,6 +164,8 @@ TEST(CallError, EveryReasonIsParsedByTheClient) {
       {"QUEUE_FULL", RawCall(*busy_stub, small_job), ""},
       {"PEER_LIMIT", RawCall(*per_host_stub, small_job), ""},
       {"JOB_TOO_LARGE", RawCall(*stub, {HeaderRequest(SimpleHeader(), 5000)}), ""},
+      {"JOB_EXCEEDS_MEMORY",
+       RawCall(*tight_memory.Stub(), {HeaderRequest(SimpleHeader(), 100'000)}), ""},
       {"TOO_MANY_SCANS", RawCall(*stub, {HeaderRequest(two_scans, 10)}), ""},
       {"CHUNK_TOO_LARGE",
        RawCall(*stub, {HeaderRequest(SimpleHeader(), 100), ChunkRequest(LineChunk(100))}), ""},

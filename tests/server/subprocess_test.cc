@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <sstream>
 #include <thread>
 
@@ -13,6 +14,7 @@
 #include <unistd.h>
 
 #include "core/io/ply.h"
+#include "server/memory_budget.h"
 #include "tests/server/service_fixtures.h"
 #include "tests/server/metrics_scrape.h"
 #include "tests/support/run_command.h"
@@ -66,6 +68,7 @@ class ServerProcess {
   }
   std::string target() const { return "127.0.0.1:" + std::to_string(port_); }
   int port() const { return port_; }
+  pid_t pid() const { return pid_; }
   int metrics_port() const { return metrics_port_; }
   // SIGTERM, then the exit code (-1 when it did not exit normally).
   int Terminate() {
@@ -96,7 +99,11 @@ TEST(ServerBinary, ServesTheClientLibrary) {
     auto client = client::ScanPrepClient::Connect(server.target());
     auto info = client.GetInfo(absl::Seconds(10));
     ASSERT_TRUE(info.ok()) << info.status();
-    EXPECT_EQ(info->limits().max_points_per_job(), 20'000'000u);
+    // 20 M points, or fewer when the memory budget (half the RAM here) cannot hold such a job.
+    EXPECT_GT(info->limits().memory_budget_bytes(), 0u);
+    EXPECT_EQ(info->limits().max_points_per_job(),
+              std::min<uint64_t>(20'000'000,
+                                 server::LargestJobPoints(info->limits().memory_budget_bytes())));
     EXPECT_EQ(info->limits().max_concurrent_jobs(), 4u);
     EXPECT_EQ(info->limits().max_chunk_points(), 65'536u);
     EXPECT_EQ(info->limits().max_bytes_per_call(), 1u << 30);
@@ -354,13 +361,56 @@ TEST(Cli, JobTooLargePrintsTheReasonAndExitsFour) {
 }
 
 TEST(Cli, InfoPrintsStagesAndLimits) {
-  ServerProcess server;
+  ServerProcess server({"--max_points_per_job=1000000"});
   ASSERT_GT(server.port(), 0);
   const CommandResult r = RunCli("info --server " + server.target());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_THAT(r.output, HasSubstr("20000000 points per job"));
+  EXPECT_THAT(r.output, HasSubstr("1000000 points per job"));
+  EXPECT_THAT(r.output, HasSubstr("a job estimated at 768 B/point"));
   EXPECT_THAT(r.output, HasSubstr("outliers"));
   EXPECT_THAT(r.output, HasSubstr("outliers.multiplier"));
+}
+
+// Peak resident memory of a live process (VmHWM), in bytes; 0 when unreadable.
+uint64_t PeakRss(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stoull(line.substr(6)) * 1024;
+  }
+  return 0;
+}
+
+// The server's peak RSS over twelve 250,000-point jobs sent at once (`scanprep load`, twelve
+// workers) to a server with `memory_budget` and room for all twelve to run together: twelve
+// slots and twelve arena threads (with fewer threads the jobs would take turns in the arena and
+// their peaks would not add up).
+uint64_t PeakRssOfTwelveConcurrentJobs(uint64_t memory_budget) {
+  ServerProcess server({"--memory_budget=" + std::to_string(memory_budget),
+                        "--max_points_per_job=300000", "--max_concurrent_jobs=12",
+                        "--max_queued_jobs=12", "--max_calls_per_peer=12", "--threads=12"});
+  EXPECT_GT(server.port(), 0);
+  const CommandResult r =
+      RunCli("load --server " + server.target() +
+             " --simulate 250000 --scans 2 --concurrency 12 --max_jobs 12 --timeout 300s");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("errors: 0"));
+  return PeakRss(server.pid());
+}
+
+// Each job is estimated at 16 MiB + 250,051 x 768 B = 208.8 MB, so a 450 MB budget runs two at a
+// time and a 4 GB one all twelve. Measured on 2 cores: 623 MB peak with 4 GB, 238 MB with 450 MB.
+TEST(ServerBinary, ConcurrentJobsStayWithinTheMemoryBudget) {
+  constexpr uint64_t kBudget = 450'000'000;
+  // The control: with room for all twelve the same jobs overlap and take more than the budget,
+  // so the bounded run cannot pass by accident.
+  const uint64_t unbounded = PeakRssOfTwelveConcurrentJobs(4'000'000'000);
+  EXPECT_GT(unbounded, kBudget);
+  const uint64_t bounded = PeakRssOfTwelveConcurrentJobs(kBudget);
+  EXPECT_GT(bounded, 0u);
+  EXPECT_LT(bounded, kBudget);
+  std::cout << "peak RSS of 12 x 250,000-point jobs: " << unbounded / 1e6
+            << " MB with a 4 GB budget, " << bounded / 1e6 << " MB with a " << kBudget / 1e6
+            << " MB budget\n";
 }
 
 }  // namespace

@@ -1,0 +1,130 @@
+#include "server/memory_budget.h"
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+
+namespace scanprep::server {
+namespace {
+
+std::optional<std::string> ReadFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return std::nullopt;
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// MemTotal of /proc/meminfo in bytes; 0 when unreadable.
+uint64_t MemTotal() {
+  std::ifstream in("/proc/meminfo");
+  std::string key, unit;
+  uint64_t kib = 0;
+  while (in >> key >> kib >> unit) {
+    if (key == "MemTotal:") return kib * 1024;
+  }
+  return 0;
+}
+
+}  // namespace
+
+std::string FormatMiB(double bytes) { return absl::StrFormat("%.0f MiB", bytes / 1048576.0); }
+
+uint64_t BytesPerPoint(const ParamOverrides& params) {
+  int k = kDefaultNeighbours;
+  if (const auto it = params.find("neighbourhoods.k"); it != params.end()) {
+    double value = 0;
+    if (absl::SimpleAtod(it->second, &value)) k = static_cast<int>(value);
+  }
+  return kBytesPerPoint + kBytesPerPointPerExtraNeighbour *
+                              static_cast<uint64_t>(std::max(0, k - kDefaultNeighbours));
+}
+
+uint64_t EstimateJobBytes(uint64_t points, const ParamOverrides& params) {
+  return kJobOverheadBytes + points * BytesPerPoint(params);
+}
+
+std::optional<uint64_t> ParseCgroupLimit(std::string_view text) {
+  const absl::string_view trimmed =
+      absl::StripAsciiWhitespace(absl::string_view(text.data(), text.size()));
+  uint64_t bytes = 0;
+  if (!absl::SimpleAtoi(trimmed, &bytes)) return std::nullopt;
+  return bytes;
+}
+
+absl::StatusOr<MemoryBudget> AutoMemoryBudget(std::optional<uint64_t> container_limit,
+                                              uint64_t mem_total) {
+  // cgroup v1 writes "no limit" as a huge page-aligned number; any limit not below the RAM is
+  // no limit either.
+  if (container_limit.has_value() && (mem_total == 0 || *container_limit < mem_total)) {
+    if (*container_limit <= kServerReserveBytes) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("the container's memory limit of ", FormatMiB(*container_limit),
+                       " leaves nothing for jobs after the server's own ",
+                       FormatMiB(kServerReserveBytes), "; raise the limit or set --memory_budget"));
+    }
+    return MemoryBudget{
+        .bytes = *container_limit - kServerReserveBytes,
+        .source = absl::StrCat("the container's memory limit ", FormatMiB(*container_limit),
+                               " minus ", FormatMiB(kServerReserveBytes), " for the server")};
+  }
+  if (mem_total == 0) {
+    return absl::FailedPreconditionError(
+        "neither a container memory limit nor /proc/meminfo's MemTotal could be read; set "
+        "--memory_budget");
+  }
+  return MemoryBudget{.bytes = static_cast<uint64_t>(kShareOfRam * static_cast<double>(mem_total)),
+                      .source = absl::StrCat(kShareOfRam * 100, " % of the machine's ",
+                                             FormatMiB(mem_total), " (no container memory limit)")};
+}
+
+absl::StatusOr<MemoryBudget> DetectMemoryBudget() {
+  std::optional<uint64_t> limit;
+  for (const char* path :
+       {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
+    if (const auto text = ReadFile(path)) {
+      limit = ParseCgroupLimit(*text);  // "max" (v2, no limit) stays nullopt
+      break;
+    }
+  }
+  return AutoMemoryBudget(limit, MemTotal());
+}
+
+uint64_t LargestJobPoints(uint64_t budget_bytes) {
+  return budget_bytes > kJobOverheadBytes ? (budget_bytes - kJobOverheadBytes) / kBytesPerPoint : 0;
+}
+
+absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t budget_flag, uint64_t max_points_flag) {
+  absl::StatusOr<MemoryBudget> budget =
+      budget_flag > 0 ? MemoryBudget{.bytes = budget_flag, .source = "--memory_budget"}
+                      : DetectMemoryBudget();
+  if (!budget.ok()) return budget.status();
+  const uint64_t largest = LargestJobPoints(budget->bytes);
+  if (largest == 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("the memory budget of ", budget->bytes, " bytes (", budget->source,
+                     ") leaves no room for a job's fixed ", FormatMiB(kJobOverheadBytes),
+                     "; raise --memory_budget"));
+  }
+  if (max_points_flag == 0) {
+    return MemoryLimits{.budget = *budget,
+                        .max_points_per_job = std::min(kDefaultMaxPointsPerJob, largest)};
+  }
+  if (max_points_flag > largest) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--max_points_per_job=", max_points_flag, " needs an estimated ",
+        FormatMiB(kJobOverheadBytes + static_cast<double>(max_points_flag) * kBytesPerPoint), " (",
+        FormatMiB(kJobOverheadBytes), " + ", kBytesPerPoint,
+        " B/point), more than the memory budget of ", FormatMiB(budget->bytes), " (",
+        budget->source, "): such a job could never run; lower --max_points_per_job to at most ",
+        largest, " or raise --memory_budget"));
+  }
+  return MemoryLimits{.budget = *budget, .max_points_per_job = max_points_flag};
+}
+
+}  // namespace scanprep::server

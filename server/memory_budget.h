@@ -1,0 +1,86 @@
+// Memory-aware admission's arithmetic: a job's memory estimated from its declared point count
+// before any point arrives, and the budget the running jobs' estimates must fit in.
+//
+// Measured (2026-11-23, Release, 2 arena threads, `scanprep simulate --scans 2` clouds: a box
+// with a bore seen by two overlapping line scanners; one job per fresh server; peak VmHWM minus
+// the idle server's VmRSS of 19.6 MiB, upload and download included), in bytes per point:
+//   points      default   k = 64   correction.radius_scale = 100   both
+//   250,000       240       415                558
+//   1,000,000     262       398                554                  1449
+//   2,000,000                                  569
+//   4,000,000     379       499
+// The peak is in correction, which caches each overlapping point's ball of radius r_c. r_c is
+// capped at 2 r_g (r_g about the k-th neighbour's distance), so a ball holds at most about 4k
+// points however dense the scan: the default rows grow with density (the 4 M cloud is the same
+// part sampled 3.3x denser) towards the radius_scale = 100 rows, where every ball is at its cap,
+// flat in the point count. That saturated cost is the worst a job can reach; it grows by about
+// 20 B per neighbour (the graph's 4 B and four cached ball entries per neighbour). A linear fit
+// of the default rows has a fixed part below zero: the per-job overhead (thread-local buffers,
+// one 4 MiB gRPC message) is bounded by kJobOverheadBytes. The upload holds the assembled arrays
+// (xyz, scan, optional scanline, quality, intensity: 16-28 B/point, three times that for the
+// moment a vector grows) and one chunk message (at most 4 MiB) at a time, far below the peak.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "core/params.h"
+
+namespace scanprep::server {
+
+// k = 20: the worst measured, 569 B/point (balls at their cap), with a 35 % margin.
+inline constexpr uint64_t kBytesPerPoint = 768;
+// Each neighbour above k = 20: measured 20 B, with a 40 % margin (k = 64 at the cap: 2,000 B
+// estimated, 1,449 measured). A smaller k is estimated as k = 20.
+inline constexpr uint64_t kBytesPerPointPerExtraNeighbour = 28;
+inline constexpr int kDefaultNeighbours = 20;
+inline constexpr uint64_t kJobOverheadBytes = uint64_t{16} << 20;
+// The server's own memory outside any job: the idle process (19.6 MiB), gRPC's buffers of the
+// queued calls' headers (4 MiB each at most) and the metrics endpoint.
+inline constexpr uint64_t kServerReserveBytes = uint64_t{128} << 20;
+// Without a container limit, the share of the machine's RAM the jobs may take.
+inline constexpr double kShareOfRam = 0.5;
+
+// "93 MiB", for messages.
+std::string FormatMiB(double bytes);
+
+// Bytes one job's points cost at the peak, for `params`' neighbourhoods.k (validated already).
+uint64_t BytesPerPoint(const ParamOverrides& params);
+// The memory a job of `points` points reserves while it holds a slot.
+uint64_t EstimateJobBytes(uint64_t points, const ParamOverrides& params);
+
+struct MemoryBudget {
+  uint64_t bytes = 0;
+  std::string source;  // how it was derived, for the startup log
+};
+
+// The automatic budget: the container's memory limit minus kServerReserveBytes, or without one
+// (absent, "max", or not below MemTotal) kShareOfRam of `mem_total`. Fails when the limit leaves
+// nothing after the reserve.
+absl::StatusOr<MemoryBudget> AutoMemoryBudget(std::optional<uint64_t> container_limit,
+                                              uint64_t mem_total);
+// AutoMemoryBudget from cgroup v2 memory.max (or v1 memory.limit_in_bytes) and /proc/meminfo.
+absl::StatusOr<MemoryBudget> DetectMemoryBudget();
+// Contents of a cgroup limit file: a byte count, or nullopt for "max" / unreadable text.
+std::optional<uint64_t> ParseCgroupLimit(std::string_view text);
+
+// The largest job --max_points_per_job defaults to: also bounded by the memory budget.
+inline constexpr uint64_t kDefaultMaxPointsPerJob = 20'000'000;
+
+// Points of the largest job (default parameters) whose estimate fits in `budget_bytes`.
+uint64_t LargestJobPoints(uint64_t budget_bytes);
+
+struct MemoryLimits {
+  MemoryBudget budget;
+  uint64_t max_points_per_job = 0;
+};
+
+// The limits in force from the flags: the budget is `budget_flag` bytes, or when 0
+// DetectMemoryBudget(); `max_points_flag` is the largest job, or when 0 kDefaultMaxPointsPerJob
+// or LargestJobPoints, whichever is smaller. Fails when a job at an explicit `max_points_flag`
+// (default parameters) could never fit the budget, a limit the server could not meet.
+absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t budget_flag, uint64_t max_points_flag);
+
+}  // namespace scanprep::server

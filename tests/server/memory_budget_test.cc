@@ -1,0 +1,95 @@
+// The memory-aware admission's arithmetic: a job's estimate from its point count and k, the
+// automatic budget from a container limit or the RAM, and the startup check of
+// --max_points_per_job against it. Expected values are worked out by hand from the constants.
+#include "server/memory_budget.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+namespace scanprep::server {
+namespace {
+
+using ::testing::HasSubstr;
+
+constexpr uint64_t kMiB = uint64_t{1} << 20;
+constexpr uint64_t kGiB = uint64_t{1} << 30;
+
+TEST(MemoryEstimate, IsTheFixedOverheadPlusTheBytesPerPointOfItsK) {
+  EXPECT_EQ(EstimateJobBytes(1'000'000, {}), 16 * kMiB + 768'000'000);
+  // k = 64: 44 neighbours above the default at 28 B each.
+  EXPECT_EQ(BytesPerPoint({{"neighbourhoods.k", "64"}}), 768u + 44 * 28);
+  EXPECT_EQ(EstimateJobBytes(1'000'000, {{"neighbourhoods.k", "64"}}), 16 * kMiB + 2'000'000'000);
+  // A smaller k is estimated like the default, never below it.
+  EXPECT_EQ(BytesPerPoint({{"neighbourhoods.k", "3"}}), 768u);
+  EXPECT_EQ(BytesPerPoint({{"outliers.multiplier", "2.5"}}), 768u);
+}
+
+TEST(MemoryEstimate, CoversTheWorstMeasuredPeaksWithAMargin) {
+  // The measurements in memory_budget.h (B/point above the idle server): the worst default-k run
+  // (balls at their cap) and the worst k = 64 run.
+  EXPECT_GE(BytesPerPoint({}), 569 * 1.3);
+  EXPECT_GE(BytesPerPoint({{"neighbourhoods.k", "64"}}), 1449 * 1.3);
+}
+
+TEST(AutoMemoryBudget, IsTheContainerLimitMinusTheServersReserve) {
+  auto budget = AutoMemoryBudget(2 * kGiB, 24 * kGiB);
+  ASSERT_TRUE(budget.ok()) << budget.status();
+  EXPECT_EQ(budget->bytes, 2 * kGiB - 128 * kMiB);
+  EXPECT_THAT(budget->source, HasSubstr("container's memory limit 2048 MiB minus 128 MiB"));
+}
+
+TEST(AutoMemoryBudget, WithoutAContainerLimitIsHalfTheRam) {
+  auto budget = AutoMemoryBudget(std::nullopt, 24 * kGiB);
+  ASSERT_TRUE(budget.ok()) << budget.status();
+  EXPECT_EQ(budget->bytes, 12 * kGiB);
+  EXPECT_THAT(budget->source, HasSubstr("no container memory limit"));
+  // cgroup v1 states "no limit" as a huge number: a limit not below the RAM is none.
+  budget = AutoMemoryBudget(uint64_t{9223372036854771712u}, 24 * kGiB);
+  ASSERT_TRUE(budget.ok());
+  EXPECT_EQ(budget->bytes, 12 * kGiB);
+}
+
+TEST(AutoMemoryBudget, FailsWhenTheLimitLeavesNothingAfterTheReserve) {
+  auto budget = AutoMemoryBudget(100 * kMiB, 24 * kGiB);
+  EXPECT_EQ(budget.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(budget.status().message(), HasSubstr("limit of 100 MiB leaves nothing"));
+  EXPECT_FALSE(AutoMemoryBudget(std::nullopt, 0).ok());
+}
+
+TEST(ParseCgroupLimit, ReadsBytesAndTreatsMaxAsNoLimit) {
+  EXPECT_EQ(ParseCgroupLimit("2147483648\n"), 2147483648u);
+  EXPECT_EQ(ParseCgroupLimit("max\n"), std::nullopt);
+  EXPECT_EQ(ParseCgroupLimit(""), std::nullopt);
+}
+
+TEST(ResolveMemoryLimits, DefaultsTheLargestJobToWhatFitsTheBudget) {
+  // The shipped pod: a 2 GiB limit gives 1920 MiB; one job of (1920 - 16) MiB / 768 B.
+  auto limits = ResolveMemoryLimits(2 * kGiB - 128 * kMiB, 0);
+  ASSERT_TRUE(limits.ok()) << limits.status();
+  EXPECT_EQ(limits->max_points_per_job, (1904 * kMiB) / 768);
+  EXPECT_EQ(limits->budget.source, "--memory_budget");
+  // A large budget keeps the 20 M default.
+  limits = ResolveMemoryLimits(64 * kGiB, 0);
+  ASSERT_TRUE(limits.ok());
+  EXPECT_EQ(limits->max_points_per_job, 20'000'000u);
+  // An explicit limit that fits stays.
+  limits = ResolveMemoryLimits(kGiB, 1'000'000);
+  ASSERT_TRUE(limits.ok());
+  EXPECT_EQ(limits->max_points_per_job, 1'000'000u);
+}
+
+TEST(ResolveMemoryLimits, RefusesAJobLimitTheBudgetCannotMeet) {
+  auto limits = ResolveMemoryLimits(kGiB, 20'000'000);
+  EXPECT_EQ(limits.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(limits.status().message(),
+              HasSubstr("--max_points_per_job=20000000 needs an estimated 14664 MiB (16 MiB + "
+                        "768 B/point), more than the memory budget of 1024 MiB (--memory_budget)"));
+  EXPECT_THAT(limits.status().message(),
+              HasSubstr("at most " + std::to_string((kGiB - 16 * kMiB) / 768)));
+  limits = ResolveMemoryLimits(kMiB, 0);
+  EXPECT_EQ(limits.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(limits.status().message(), HasSubstr("leaves no room for a job"));
+}
+
+}  // namespace
+}  // namespace scanprep::server
