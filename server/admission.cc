@@ -14,8 +14,11 @@ namespace {
 // How often a waiting call looks at its cancellation (client gone or deadline passed).
 constexpr std::chrono::milliseconds kPollInterval(25);
 
-const absl::Status kDrainingError = absl::UnavailableError(
-    "the server is shutting down (draining) and takes no new jobs; retry on another replica");
+absl::Status DrainingError() {
+  return WithReason(absl::UnavailableError("the server is shutting down (draining) and takes no "
+                                           "new jobs; retry on another replica"),
+                    "SHUTTING_DOWN", kRetryOnAnotherReplica);
+}
 
 }  // namespace
 
@@ -36,7 +39,7 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(
   std::unique_lock lock(mu_);
   if (draining_) {
     metrics_.Rejected(RejectReason::kDraining);
-    return kDrainingError;
+    return DrainingError();
   }
   if (bytes > options_.memory_budget_bytes) {
     metrics_.Rejected(RejectReason::kMemory);
@@ -102,7 +105,7 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(
   PublishLocked();
   if (draining_) {
     metrics_.Rejected(RejectReason::kDraining);
-    return kDrainingError;
+    return DrainingError();
   }
   return absl::CancelledError("the call was cancelled or its deadline passed while queued");
 }

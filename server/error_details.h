@@ -25,6 +25,10 @@ namespace scanprep::server {
 
 inline constexpr std::string_view kErrorDomain = "scanprep.v1";
 
+// A replica that is shutting down (SHUTTING_DOWN) asks for a retry after this: the service
+// address then reaches another replica, or this one restarted.
+inline constexpr absl::Duration kRetryOnAnotherReplica = absl::Seconds(1);
+
 // `status` with the reason and, when a retry can succeed, the delay to wait first.
 absl::Status WithReason(absl::Status status, std::string_view reason,
                         std::optional<absl::Duration> retry_after = std::nullopt);

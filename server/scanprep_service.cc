@@ -52,9 +52,11 @@ class ReturnFreedMemoryOnExit {
 grpc::Status ScanPrepService::Gone(const grpc::ServerContext& context,
                                    std::string_view phase) const {
   if (runner_.cancelled_all()) {
-    return grpc::Status(grpc::StatusCode::UNAVAILABLE,
-                        absl::StrCat("the server shut down at the end of its grace period during ",
-                                     std::string(phase), "; retry on another replica"));
+    return ToGrpc(WithReason(
+        absl::UnavailableError(absl::StrCat("the server shut down at the end of its grace period "
+                                            "during ", std::string(phase),
+                                            "; retry on another replica")),
+        "SHUTTING_DOWN", kRetryOnAnotherReplica));
   }
   if (absl::Now() + kDeadlineSkew >= CallDeadline(context)) {
     return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,

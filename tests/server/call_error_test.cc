@@ -131,6 +131,8 @@ TEST(CallError, EveryReasonIsParsedByTheClient) {
   small.limits.max_bytes_per_call = 2000;
   InProcessServer limited(small);
   InProcessServer tight_memory(server::ServerOptions{.memory_budget_bytes = 64 << 20});
+  InProcessServer draining;
+  draining.server().Drain();
   auto busy_stub = busy.Stub();
   auto per_host_stub = per_host.Stub();
   auto stub = limited.Stub();
@@ -164,6 +166,7 @@ TEST(CallError, EveryReasonIsParsedByTheClient) {
       {"QUEUE_FULL", RawCall(*busy_stub, small_job), ""},
       {"PEER_LIMIT", RawCall(*per_host_stub, small_job), ""},
       {"JOB_TOO_LARGE", RawCall(*stub, {HeaderRequest(SimpleHeader(), 5000)}), ""},
+      {"SHUTTING_DOWN", RawCall(*draining.Stub(), small_job), ""},
       {"JOB_EXCEEDS_MEMORY",
        RawCall(*tight_memory.Stub(), {HeaderRequest(SimpleHeader(), 100'000)}), ""},
       {"TOO_MANY_SCANS", RawCall(*stub, {HeaderRequest(two_scans, 10)}), ""},
@@ -191,7 +194,8 @@ TEST(CallError, EveryReasonIsParsedByTheClient) {
     const client::CallErrorDetails details = client::DetailsOf(status);
     EXPECT_EQ(details.reason, c.reason) << status;
     const bool retryable =
-        c.reason == "QUEUE_FULL" || c.reason == "PEER_LIMIT" || c.reason == "CHECKSUM_MISMATCH";
+        c.reason == "QUEUE_FULL" || c.reason == "PEER_LIMIT" || c.reason == "CHECKSUM_MISMATCH" ||
+        c.reason == "SHUTTING_DOWN";
     EXPECT_EQ(details.retry_delay.has_value(), retryable);
     EXPECT_EQ(client::ExitCodeFor(status),
               retryable ? client::kExitRetryLater : client::kExitFixInput);
@@ -201,8 +205,10 @@ TEST(CallError, EveryReasonIsParsedByTheClient) {
       EXPECT_EQ(details.field_violations[0].description, status.message());
       EXPECT_THAT(client::Describe(status), HasSubstr("; field " + c.field + ")"));
     } else {
-      EXPECT_EQ(status.code(), c.reason == "CHECKSUM_MISMATCH" ? absl::StatusCode::kDataLoss
-                                                               : absl::StatusCode::kResourceExhausted);
+      const absl::StatusCode code = c.reason == "CHECKSUM_MISMATCH" ? absl::StatusCode::kDataLoss
+                                    : c.reason == "SHUTTING_DOWN"   ? absl::StatusCode::kUnavailable
+                                                                    : absl::StatusCode::kResourceExhausted;
+      EXPECT_EQ(status.code(), code);
       EXPECT_TRUE(details.field_violations.empty());
     }
     tested.insert(c.reason);
