@@ -258,6 +258,7 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
   limits->set_max_calls_per_peer(peers_.max_calls_per_peer());
   limits->set_max_scans_per_job(limits_.max_scans_per_job);
   limits->set_max_message_bytes(kMaxMessageBytes);
+  limits->set_max_header_string_bytes(kMaxHeaderStringBytes);
   limits->set_header_timeout_seconds(absl::ToDoubleSeconds(timeouts_.header));
   limits->set_idle_timeout_seconds(absl::ToDoubleSeconds(timeouts_.idle));
   limits->set_min_upload_bytes_per_second(timeouts_.min_upload_rate);

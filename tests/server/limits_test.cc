@@ -405,6 +405,7 @@ TEST(Limits, GetInfoReportsEveryLimit) {
   EXPECT_EQ(info->limits().max_calls_per_peer(), 3u);
   EXPECT_EQ(info->limits().max_scans_per_job(), 1000u);
   EXPECT_EQ(info->limits().max_message_bytes(), 4u << 20);
+  EXPECT_EQ(info->limits().max_header_string_bytes(), 256u);
 }
 
 }  // namespace
