@@ -58,6 +58,16 @@ bool ShouldGo(const PointCloud& cloud, const std::vector<float>& quality, const 
   return v.overlap && cloud.scan[j] != v.best_scan && quality[j] < v.mean_quality;
 }
 
+bool UniformQuality(const PointCloud& cloud, const std::vector<float>& quality) {
+  std::optional<float> first;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (cloud.removed(i)) continue;
+    if (!first) first = quality[i];
+    if (quality[i] != *first) return false;
+  }
+  return true;
+}
+
 class CorrectionStage : public Stage {
  public:
   absl::Status Run(JobContext& ctx) override {
@@ -70,6 +80,17 @@ class CorrectionStage : public Stage {
     const std::vector<float>& quality = ctx.measures().quality;
     if (quality.size() != cloud.size()) {
       return absl::InternalError("correction: the measures stage left no viewing quality");
+    }
+    // Without sensor poses or a scanner quality every q̂ is the same, no point is below its
+    // neighbourhood's mean, and the merge would run to no effect: say so instead.
+    const bool uniform = UniformQuality(cloud, quality);
+    ctx.Record("correction.without_quality", uniform ? 1 : 0);
+    if (uniform) {
+      ctx.Record("correction.removed", 0);
+      ctx.Warn("correction: every point has the same viewing quality (no scan has sensor poses "
+               "or a per-point quality), so overlapping scans cannot be told apart and were not "
+               "merged; give view or camera/projector directions, or quality per point");
+      return absl::OkStatus();
     }
     auto nb_or = ctx.neighbourhoods();
     if (!nb_or.ok()) return nb_or.status();

@@ -129,6 +129,35 @@ TEST(Correction, SingleScanIsUntouched) {
   EXPECT_EQ(sim.cloud.CountKept(), sim.cloud.size());
 }
 
+// Two overlapping scans without poses or quality: every q̂ is 1, so no overlap can be resolved.
+// The stage must say so (warning and report flag), not return as if it had merged; the same
+// scans with their poses are the control.
+TEST(Correction, WithoutQualityTheMergeSaysItDidNothing) {
+  auto sim = sim::Simulate(Part::kSphere, sim::TwoOverlappingSensors(Part::kSphere), 25);
+  PointCloud posed = sim.cloud;
+  for (ScanMeta& scan : sim.cloud.scans) {
+    scan.camera_position.reset();
+    scan.projector_direction.reset();
+    scan.view_direction.reset();
+    scan.projector_position.reset();
+  }
+  CancelToken cancel;
+  auto report = RunPipeline(sim.cloud, {.stages = {"correction"}}, cancel);
+  ASSERT_TRUE(report.ok()) << report.status();
+  EXPECT_EQ(report->stages.back().parameters.at("correction.without_quality"), 1);
+  EXPECT_EQ(sim.cloud.CountKept(), sim.cloud.size());
+  bool warned = false;
+  for (const std::string& w : report->warnings) {
+    warned = warned || w.find("were not merged") != std::string::npos;
+  }
+  EXPECT_TRUE(warned);
+
+  auto control = RunPipeline(posed, {.stages = {"correction"}}, cancel);
+  ASSERT_TRUE(control.ok()) << control.status();
+  EXPECT_EQ(control->stages.back().parameters.at("correction.without_quality"), 0);
+  EXPECT_LT(posed.CountKept(), posed.size());
+}
+
 TEST(Correction, RadiusScaleWidensTheMergeRadius) {
   auto sim = sim::Simulate(Part::kPlane, sim::TwoOverlappingSensors(Part::kPlane), 23);
   CancelToken cancel;
