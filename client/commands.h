@@ -28,6 +28,9 @@ Command SimulateCommand();
 // Prints "scanprep <command>: <message>" and returns exit code 1.
 int Fail(const std::string& command, const std::string& message);
 
+// Prints "scanprep <command>: <message>" and returns exit code 2 (a bad command line).
+int FailUsage(const std::string& command, const std::string& message);
+
 // A failed call to `server`: prints "scanprep <command>: <server>: " and the status with its
 // error details, and returns the exit code that tells a script what to do (call_error.h).
 int FailCall(const std::string& command, const std::string& server, const absl::Status& status);

@@ -11,6 +11,11 @@ int Fail(const std::string& command, const std::string& message) {
   return kExitFailure;
 }
 
+int FailUsage(const std::string& command, const std::string& message) {
+  std::cerr << "scanprep " << command << ": " << message << "\n";
+  return kExitUsage;
+}
+
 int FailCall(const std::string& command, const std::string& server, const absl::Status& status) {
   std::cerr << "scanprep " << command << ": " << server << ": " << Describe(status) << "\n";
   return ExitCodeFor(status);

@@ -6,6 +6,8 @@
 #include <google/protobuf/util/json_util.h>
 #include <unistd.h>
 
+#include "absl/status/statusor.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
 #include "client/commands.h"
@@ -22,12 +24,16 @@ double SecondsSince(absl::Time start) { return absl::ToDoubleSeconds(absl::Now()
 
 // The report's JSON with the client's phase timings added as "phases" (the report message
 // itself carries only the server's side).
-std::string ReportJson(const v1::Report& report, const PhaseSeconds& phases) {
+absl::StatusOr<std::string> ReportJson(const v1::Report& report, const PhaseSeconds& phases) {
   namespace pb = google::protobuf;
   std::string json;
   pb::Struct root;
-  (void)pb::util::MessageToJsonString(report, &json);
-  (void)pb::util::JsonStringToMessage(json, &root);
+  if (auto s = pb::util::MessageToJsonString(report, &json); !s.ok()) {
+    return absl::InternalError(absl::StrCat("the report cannot be written as JSON: ", s.ToString()));
+  }
+  if (auto s = pb::util::JsonStringToMessage(json, &root); !s.ok()) {
+    return absl::InternalError(absl::StrCat("the report's JSON cannot be read back: ", s.ToString()));
+  }
   pb::Struct& out = *(*root.mutable_fields())["phases"].mutable_struct_value();
   const std::pair<const char*, double> values[] = {
       {"readSeconds", phases.read},
@@ -41,12 +47,31 @@ std::string ReportJson(const v1::Report& report, const PhaseSeconds& phases) {
   pb::util::JsonPrintOptions options;
   options.add_whitespace = true;
   json.clear();
-  (void)pb::util::MessageToJsonString(root, &json, options);
+  if (auto s = pb::util::MessageToJsonString(root, &json, options); !s.ok()) {
+    return absl::InternalError(absl::StrCat("the report cannot be written as JSON: ", s.ToString()));
+  }
   return json;
 }
 
+// The output is a PLY file (its header says what it holds); any other name would get PLY
+// content under a misleading extension, and "-" is not (yet) standard output.
+absl::Status CheckOutputName(const std::string& out) {
+  if (out == "-") {
+    return absl::InvalidArgumentError("-o -: writing to standard output is not supported; give "
+                                      "a file name ending in .ply");
+  }
+  if (!absl::EndsWithIgnoreCase(out, ".ply")) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "-o ", out, ": the result is written as PLY only; give a file name ending in .ply"));
+  }
+  return absl::OkStatus();
+}
+
 int RunProcess(const ParsedArgs& args) {
-  if (!args.Has("out")) return Fail("process", "-o OUT.ply is required");
+  if (!args.Has("out")) return FailUsage("process", "-o OUT.ply is required");
+  if (absl::Status s = CheckOutputName(args.Get("out")); !s.ok()) {
+    return FailUsage("process", std::string(s.message()));
+  }
   const absl::Time start = absl::Now();
   PhaseSeconds phases;
   auto job = BuildJob(args);
@@ -84,7 +109,15 @@ int RunProcess(const ParsedArgs& args) {
   phases.processing = result->report.processing_seconds();
   phases.download = result->transfer.download;
   if (args.Has("report_json")) {
-    std::ofstream(args.Get("report_json")) << ReportJson(result->report, phases);
+    auto json = ReportJson(result->report, phases);
+    if (!json.ok()) return Fail("process", std::string(json.status().message()));
+    std::ofstream file(args.Get("report_json"));
+    file << *json;
+    file.close();
+    if (!file) {
+      return Fail("process", absl::StrCat("wrote ", out, " but cannot write the report to ",
+                                          args.Get("report_json")));
+    }
   }
   PrintSummary(std::cout, result->report);
   PrintPhases(std::cout, phases);

@@ -322,6 +322,21 @@ TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.output, HasSubstr("unknown flag '--frobnicate'"));
 
+  // The output: required, PLY only (a usage error, 2), and a report that cannot be written fails
+  // the command.
+  r = RunCli("process " + scan.string() + " --server " + server.target());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.output, HasSubstr("-o OUT.ply is required"));
+  r = RunCli("process " + scan.string() + " -o " + (tmp / "x.xyz").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.output, HasSubstr("the result is written as PLY only"));
+  r = RunCli("process " + scan.string() + " -o -");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.output, HasSubstr("standard output is not supported"));
+  r = RunCli(base + " --report_json " + (tmp / "no_such_dir" / "r.json").string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.output, HasSubstr("cannot write the report to"));
+
   // No server: 3, "retry later".
   r = RunCli("process " + scan.string() + " -o x.ply --server 127.0.0.1:1 --timeout 5s");
   EXPECT_EQ(r.exit_code, 3);
