@@ -33,12 +33,32 @@ void AppendOptional(bool keep, const std::vector<T>& from, std::vector<T>& to) {
   if (keep) to.insert(to.end(), from.begin(), from.end());
 }
 
-absl::Status ApplyConf(const std::string& conf_path, const std::vector<std::string>& files,
+// The scans of one file: a per-point scan column (PLY `scan`, `scan_id`, `scan_index`) with
+// several values makes one scan per value, in order of first appearance; else the file is one.
+struct FileScans {
+  std::vector<uint32_t> values;     // the column's values, one per scan
+  std::vector<uint32_t> of_point;   // index into `values` per point; empty = all scan 0
+};
+
+FileScans SplitByScanColumn(const PointCloud& cloud) {
+  FileScans f;
+  std::map<uint32_t, uint32_t> index;
+  for (uint32_t v : cloud.scan) {
+    if (index.emplace(v, static_cast<uint32_t>(f.values.size())).second) f.values.push_back(v);
+  }
+  if (f.values.size() <= 1) return {};
+  f.of_point.reserve(cloud.scan.size());
+  for (uint32_t v : cloud.scan) f.of_point.push_back(index[v]);
+  return f;
+}
+
+// `scan_files[s]`: the file scan s came from; every scan of a file gets the file's pose.
+absl::Status ApplyConf(const std::string& conf_path, const std::vector<std::string>& scan_files,
                        v1::JobHeader& header) {
   auto entries = io::ReadConf(conf_path);
   if (!entries.ok()) return entries.status();
-  for (size_t s = 0; s < files.size(); ++s) {
-    const std::string name = fs::path(files[s]).filename().string();
+  for (size_t s = 0; s < scan_files.size(); ++s) {
+    const std::string name = fs::path(scan_files[s]).filename().string();
     auto entry = std::find_if(entries->begin(), entries->end(),
                               [&](const io::ConfEntry& e) { return e.file == name; });
     if (entry == entries->end()) {
@@ -156,23 +176,38 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
     job.header = std::move(*header);
   }
 
-  // One scan per file, in command-line order; a job-file scan with the file's stem as its
-  // scan_id supplies that scan's metadata.
+  // One scan per file, in command-line order, or one per value of its scan column (named
+  // STEM#VALUE); a job-file scan with that name as its scan_id supplies the scan's metadata.
   std::vector<v1::ScanHeader> from_job(job.header.scans().begin(), job.header.scans().end());
   job.header.clear_scans();
   std::vector<PointCloud> clouds;
+  std::vector<FileScans> split;
+  std::vector<uint32_t> first_scan;      // per file: its first scan's index in the header
+  std::vector<std::string> scan_files;  // per scan: the file it came from
   for (const std::string& file : files) {
     auto cloud = io::ReadScanFile(file);
     if (!cloud.ok()) return cloud.status();
     const std::string stem = fs::path(file).stem().string();
-    auto match = std::find_if(from_job.begin(), from_job.end(),
-                              [&](const v1::ScanHeader& s) { return s.scan_id() == stem; });
-    v1::ScanHeader* scan = job.header.add_scans();
-    if (match != from_job.end()) {
-      *scan = *match;
-      from_job.erase(match);
+    split.push_back(SplitByScanColumn(*cloud));
+    first_scan.push_back(static_cast<uint32_t>(job.header.scans_size()));
+    std::vector<std::string> ids = {stem};
+    if (!split.back().values.empty()) {
+      ids.clear();
+      for (uint32_t v : split.back().values) ids.push_back(absl::StrCat(stem, "#", v));
+      job.notes.push_back(absl::StrCat(file, ": its scan column holds ", ids.size(),
+                                       " scans, sent as ", ids.front(), " … ", ids.back()));
     }
-    scan->set_scan_id(stem);
+    for (const std::string& id : ids) {
+      auto match = std::find_if(from_job.begin(), from_job.end(),
+                                [&](const v1::ScanHeader& s) { return s.scan_id() == id; });
+      v1::ScanHeader* scan = job.header.add_scans();
+      if (match != from_job.end()) {
+        *scan = *match;
+        from_job.erase(match);
+      }
+      scan->set_scan_id(id);
+      scan_files.push_back(file);
+    }
     clouds.push_back(std::move(*cloud));
   }
   if (!from_job.empty()) {
@@ -181,7 +216,7 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
                                                    "' but no scan file has that stem"));
   }
   if (args.Has("conf")) {
-    if (absl::Status s = ApplyConf(args.Get("conf"), files, job.header); !s.ok()) return s;
+    if (absl::Status s = ApplyConf(args.Get("conf"), scan_files, job.header); !s.ok()) return s;
   }
   if (absl::Status s = ApplyOptionFlags(args, job.header); !s.ok()) return s;
 
@@ -202,7 +237,11 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
     all.x.insert(all.x.end(), c.x.begin(), c.x.end());
     all.y.insert(all.y.end(), c.y.begin(), c.y.end());
     all.z.insert(all.z.end(), c.z.begin(), c.z.end());
-    all.scan.resize(all.x.size(), static_cast<uint32_t>(s));
+    if (split[s].of_point.empty()) {
+      all.scan.resize(all.x.size(), first_scan[s]);
+    } else {
+      for (uint32_t k : split[s].of_point) all.scan.push_back(first_scan[s] + k);
+    }
     AppendOptional(scanlines, c.scanline, all.scanline);
     AppendOptional(quality, c.quality, all.quality);
     AppendOptional(intensity, c.intensity, all.intensity);

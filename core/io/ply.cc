@@ -183,8 +183,8 @@ Slot VertexSlot(std::string_view name) {
   if (name == "nz") return Slot::kNz;
   if (name == "intensity") return Slot::kIntensity;
   if (name == "confidence" || name == "quality") return Slot::kQuality;
-  if (name == "scan" || name == "scan_index") return Slot::kScan;
-  if (name == "scanline") return Slot::kScanline;
+  if (name == "scan" || name == "scan_index" || name == "scan_id") return Slot::kScan;
+  if (name == "scanline" || name == "scanline_id" || name == "row") return Slot::kScanline;
   if (name == "flags") return Slot::kFlags;
   return Slot::kSkip;
 }

@@ -160,6 +160,22 @@ TEST(Ply, AsciiWithMixedTypesExtraPropertiesAndFaces) {
   EXPECT_FALSE(cloud->has_normals());
 }
 
+// The per-point metadata names other tools write: scan_id for the scan, scanline_id or row for the
+// scanline. A column under a name the reader does not know would be dropped without a word.
+TEST(Ply, ScanAndScanlineColumnsUnderTheirCommonNames) {
+  for (const char* scanline : {"scanline", "scanline_id", "row"}) {
+    SCOPED_TRACE(scanline);
+    const std::string text = absl::StrCat(
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+        "property float z\nproperty uint scan_id\nproperty uint ", scanline, "\nend_header\n"
+        "0 0 0 0 4\n1 0 0 1 5\n2 0 0 1 6\n");
+    absl::StatusOr<PointCloud> cloud = ParseText(text);
+    ASSERT_TRUE(cloud.ok()) << cloud.status();
+    EXPECT_EQ(cloud->scan, (std::vector<uint32_t>{0, 1, 1}));
+    EXPECT_EQ(cloud->scanline, (std::vector<uint32_t>{4, 5, 6}));
+  }
+}
+
 TEST(Ply, BigEndianDoublesWithListElementBeforeVertices) {
   std::string bytes =
       "ply\nformat binary_big_endian 1.0\n"

@@ -289,6 +289,33 @@ TEST(Cli, ProcessesTwoRegisteredBunnyScans) {
   EXPECT_EQ(server.Terminate(), 0);
 }
 
+// A PLY whose points carry a scan column (as scanprep's own output does) holds several scans:
+// each value becomes its own scan, named STEM#VALUE, instead of the column being dropped.
+TEST(Cli, APerPointScanColumnSplitsTheFileIntoScans) {
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  const fs::path tmp = ::testing::TempDir();
+  PointCloud two;
+  for (int i = 0; i < 400; ++i) {
+    two.x.push_back(static_cast<float>(i % 20));
+    two.y.push_back(static_cast<float>(i / 20));
+    two.z.push_back(i < 200 ? 0.f : 0.05f);
+    two.scan.push_back(i < 200 ? 3 : 7);
+  }
+  two.flags.assign(two.size(), 0);
+  const fs::path in = tmp / "two_scans.ply", out = tmp / "two_scans_out.ply";
+  ASSERT_TRUE(io::WritePly(in, two).ok());
+  const CommandResult r = RunCli("process " + in.string() + " --stages outliers -o " +
+                                 out.string() + " --server " + server.target());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("its scan column holds 2 scans, sent as two_scans#3 … "
+                                  "two_scans#7"));
+  auto result = io::ReadPly(out);
+  ASSERT_TRUE(result.ok()) << result.status();
+  std::set<uint32_t> scans(result->scan.begin(), result->scan.end());
+  EXPECT_EQ(scans, (std::set<uint32_t>{0, 1}));
+}
+
 TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {
   ServerProcess server;
   ASSERT_GT(server.port(), 0);
