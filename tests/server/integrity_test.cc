@@ -122,13 +122,8 @@ class ResultIntegrity : public Integrity {
     header.mutable_options()->add_stages("outliers");
     header.mutable_options()->add_stages("normals");
     header_ = header;
-    std::vector<v1::ProcessRequest> requests = {HeaderRequest(header)};
-    for (size_t begin = 0; begin < scan.cloud.size(); begin += 30'000) {
-      v1::ProcessRequest r;
-      client::RequestChunk(scan.cloud, begin, std::min(scan.cloud.size(), begin + 30'000), false,
-                           r.mutable_points());
-      requests.push_back(r);
-    }
+    const std::vector<v1::ProcessRequest> requests =
+        JobRequests(header, scan.cloud, 30'000);
     std::vector<v1::ProcessResponse> responses;
     ASSERT_TRUE(RawCall(*stub_, requests, &responses).ok());
     for (v1::ProcessResponse& r : responses) {

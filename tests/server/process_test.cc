@@ -90,13 +90,8 @@ TEST(Process, KeptPointsOnlyComeInChunksOfAtMost32768) {
   InProcessServer server;
   const GeneratedScan scan = NoisyPlaneWithSpikes(300, 0.5f);  // 90,000 + spikes
   auto stub = server.Stub();
-  std::vector<v1::ProcessRequest> requests = {HeaderRequest(OutliersJob(v1::MILLIMETRE, 0.5))};
-  for (size_t begin = 0; begin < scan.cloud.size(); begin += 30'000) {
-    v1::ProcessRequest r;
-    client::RequestChunk(scan.cloud, begin, std::min(scan.cloud.size(), begin + 30'000), false,
-                         r.mutable_points());
-    requests.push_back(r);
-  }
+  const std::vector<v1::ProcessRequest> requests =
+      JobRequests(OutliersJob(v1::MILLIMETRE, 0.5), scan.cloud, 30'000);
   std::vector<v1::ProcessResponse> responses;
   ASSERT_TRUE(RawCall(*stub, requests, &responses).ok());
   size_t points = 0, chunks = 0;

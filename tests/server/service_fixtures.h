@@ -109,6 +109,19 @@ inline v1::ProcessRequest HeaderRequest(v1::JobHeader header, uint64_t total_poi
   return HeaderRequest(header);
 }
 
+// `header` followed by `cloud` in chunks of `chunk_points` (single-scan: no scan_index).
+inline std::vector<v1::ProcessRequest> JobRequests(const v1::JobHeader& header,
+                                                   const PointCloud& cloud, size_t chunk_points) {
+  std::vector<v1::ProcessRequest> requests(1);
+  *requests[0].mutable_header() = header;
+  for (size_t begin = 0; begin < cloud.size(); begin += chunk_points) {
+    v1::ProcessRequest& r = requests.emplace_back();
+    client::RequestChunk(cloud, begin, std::min(cloud.size(), begin + chunk_points), false,
+                         r.mutable_points());
+  }
+  return requests;
+}
+
 inline v1::ProcessRequest ChunkRequest(const v1::PointChunk& chunk) {
   v1::ProcessRequest r;
   *r.mutable_points() = chunk;
