@@ -61,6 +61,8 @@ class NormalsStage : public Stage {
     cloud.nz.assign(n, 0.f);
     std::vector<float>& variation = ctx.measures().surface_variation;
     variation.assign(n, 0.f);
+    std::vector<float>& fit_rms = ctx.measures().fit_rms;
+    fit_rms.assign(n, 0.f);
     std::vector<float> radius(n, 0.f);
     std::atomic<size_t> invalid{0};
     // Flags are applied after the loop: other blocks read flags[j] of their neighbours
@@ -108,6 +110,7 @@ class NormalsStage : public Stage {
         cloud.ny[i] = static_cast<float>(normal.y());
         cloud.nz[i] = static_cast<float>(normal.z());
         variation[i] = static_cast<float>(frame.surface_variation());
+        fit_rms[i] = static_cast<float>(std::sqrt(frame.eigenvalues[0]));
       }
       invalid += local_invalid;
     }, grain);

@@ -1,38 +1,44 @@
-// Each point moves to the weighted mean of its adaptive neighbourhood N_{r_p}(p) (Eq. 8). Weights
-// combine viewing quality and flatness (Eq. 6) with a distance fall-off (Eq. 9 and Fig. 3), and a
-// move longer than the scan's uncertainty δ is rejected (Eq. 10): at a sharp edge the mean lies
-// far off the surface, so edges keep their points while noise-level moves on flat parts pass.
+// Edge-preserving smoothing (paper §3.1, Eqs. 6-10; algorithms.md §11; docs/algorithms.md for the
+// deviation). Every point's weights combine viewing quality and flatness (Eq. 6) with a distance
+// fall-off (Eq. 9). By default each point is projected onto the plane of its own side of the
+// surface, fitted to the neighbours within a few noise σ of it, and σ is measured from the data
+// (the normals' fit residuals), not taken from the scanner's stated u: with an honest u the paper's
+// rule δ = u rejects most noise-sized moves, and with an inflated one it lets edges round off.
+// The paper's weighted mean with δ = u (Eqs. 8, 10) is `smoothing.method = mean`.
 #include "core/smoothing.h"
 
 #include <algorithm>
 #include <cmath>
 #include <optional>
 
+#include "absl/strings/str_cat.h"
 #include "core/parallel.h"
+#include "core/smoothing_kernels.h"
 
 namespace scanprep {
 namespace {
 
-enum class Influence { kCubic, kGauss, kAverage };
-enum Outcome : uint8_t { kKept = 0, kMoved, kClamped, kRejected };
+// Fewer valid normal fits than this in a scan: its noise is not measured, u stands in.
+constexpr size_t kMinNoiseSamples = 32;
 
-// Φ(x) of Fig. 3: 20 % (cubic) and 13.5 % (Gaussian) weight at the rim of the neighbourhood.
-float InfluenceAt(Influence kind, float x) {
-  switch (kind) {
-    case Influence::kCubic: return 1.f - 0.8f * x * x * x;
-    case Influence::kGauss: return std::exp(-2.f * x * x);
-    case Influence::kAverage: return 1.f;
+// σ̂ per scan: the median residual of the normal fits of its points (an edge or a spike moves a
+// few fits, not the median).
+std::vector<std::optional<double>> MeasuredNoise(const PointCloud& cloud, const PointMeasures& m,
+                                                 size_t scans) {
+  std::vector<std::vector<float>> residuals(scans);
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (cloud.removed(i) || cloud.flags[i] & kNormalInvalid) continue;
+    residuals[cloud.scan[i]].push_back(m.fit_rms[i]);
   }
-  return 1.f;
+  std::vector<std::optional<double>> noise(scans);
+  for (size_t s = 0; s < scans; ++s) {
+    std::vector<float>& r = residuals[s];
+    if (r.size() < kMinNoiseSamples) continue;
+    std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+    if (r[r.size() / 2] > 0) noise[s] = r[r.size() / 2];
+  }
+  return noise;
 }
-
-struct Settings {
-  float lambda = 0.5f;
-  Influence influence = Influence::kCubic;
-  bool blend = false;  // scale each point's own displacement by its weight w_p
-  bool clamp = false;  // shorten a long move to δ instead of rejecting it
-  std::vector<float> tolerance;  // δ per scan
-};
 
 class SmoothingStage : public Stage {
  public:
@@ -41,63 +47,62 @@ class SmoothingStage : public Stage {
     PointCloud& cloud = ctx.cloud();
     const PointMeasures& m = ctx.measures();
     const size_t n = cloud.size();
-    if (m.quality.size() != n || m.curvature.size() != n) {
-      return absl::InternalError("smoothing: the measures stage left no quality/curvature");
+    if (m.quality.size() != n || m.curvature.size() != n || m.fit_rms.size() != n) {
+      return absl::InternalError("smoothing: the measures stage left no quality/curvature/fit");
     }
-    absl::StatusOr<Settings> settings = ReadSettings(ctx);
-    if (!settings.ok()) return settings.status();
+    const SmoothingSettings settings = ReadSettings(ctx);
     const int iterations = static_cast<int>(ctx.Integer("smoothing.iterations"));
 
-    std::vector<float> nx(n), ny(n), nz(n);
+    std::vector<Eigen::Vector3f> next(n);
     std::vector<uint8_t> outcome(n);
     std::vector<uint8_t> moved_ever(n, 0);
-    size_t moved = 0, clamped = 0, rejected = 0;
+    size_t counts[5] = {};
     double shift_sum = 0;
     for (int it = 0; it < iterations; ++it) {
       auto nb = ctx.neighbourhoods();
       if (!nb.ok()) return nb.status();
+      const SmoothingInputs in{cloud, **nb, m, settings};
       const std::span<const uint32_t> order = (*nb)->order();
       absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
-        RadiusMatches matches;
+        SmoothingScratch scratch;
         for (size_t v = begin; v < end; ++v) {
           const size_t i = order[v];
-          outcome[i] = SmoothPoint(cloud, **nb, m, *settings, i, matches, nx[i], ny[i], nz[i]);
+          outcome[i] = SmoothPoint(in, i, scratch, next[i]);
         }
       });
       if (!status.ok()) return status;
       float max_shift = 0;
       for (size_t i = 0; i < n; ++i) {
-        if (outcome[i] == kMoved || outcome[i] == kClamped) {
-          moved_ever[i] = 1;
-          const float shift = (cloud.point(i) - Eigen::Vector3f(nx[i], ny[i], nz[i])).norm();
-          shift_sum += shift;
-          max_shift = std::max(max_shift, shift);
-        }
-        moved += outcome[i] == kMoved;
-        clamped += outcome[i] == kClamped;
-        rejected += outcome[i] == kRejected;
+        ++counts[outcome[i]];
+        if (outcome[i] != kMoved && outcome[i] != kClamped) continue;
+        moved_ever[i] = 1;
+        const float shift = (cloud.point(i) - next[i]).norm();
+        shift_sum += shift;
+        max_shift = std::max(max_shift, shift);
       }
       // Jacobi update: every new position came from the pre-pass positions.
-      cloud.x.swap(nx);
-      cloud.y.swap(ny);
-      cloud.z.swap(nz);
+      for (size_t i = 0; i < n; ++i) {
+        cloud.x[i] = next[i].x(), cloud.y[i] = next[i].y(), cloud.z[i] = next[i].z();
+      }
       if (absl::Status s = ctx.PointsMoved(max_shift); !s.ok()) return s;
       ctx.Progress((it + 1.0) / iterations);
     }
     for (size_t i = 0; i < n; ++i) {
       if (moved_ever[i]) cloud.flags[i] |= kSmoothed;
     }
-    ctx.Record("smoothing.moved", static_cast<double>(moved));
-    ctx.Record("smoothing.clamped", static_cast<double>(clamped));
-    ctx.Record("smoothing.rejected", static_cast<double>(rejected));
-    ctx.Record("smoothing.mean_shift_mm",
-               moved + clamped > 0 ? shift_sum / static_cast<double>(moved + clamped) : 0.0);
+    const size_t shifted = counts[kMoved] + counts[kClamped];
+    ctx.Record("smoothing.moved", static_cast<double>(counts[kMoved]));
+    ctx.Record("smoothing.clamped", static_cast<double>(counts[kClamped]));
+    ctx.Record("smoothing.rejected", static_cast<double>(counts[kRejected]));
+    ctx.Record("smoothing.unfitted", static_cast<double>(counts[kUnfitted]));
+    ctx.Record("smoothing.mean_shift_mm", shifted > 0 ? shift_sum / double(shifted) : 0.0);
     return absl::OkStatus();
   }
 
  private:
-  static absl::StatusOr<Settings> ReadSettings(JobContext& ctx) {
-    Settings s;
+  static SmoothingSettings ReadSettings(JobContext& ctx) {
+    SmoothingSettings s;
+    s.own_side = ctx.Choice("smoothing.method") == "own_side";
     s.lambda = static_cast<float>(ctx.Number("smoothing.lambda"));
     const std::string influence = ctx.Choice("smoothing.influence");
     s.influence = influence == "gauss"     ? Influence::kGauss
@@ -106,55 +111,30 @@ class SmoothingStage : public Stage {
     s.blend = ctx.Choice("smoothing.mode") == "blend";
     s.clamp = ctx.Choice("smoothing.tolerance") == "clamp";
     const PointCloud& cloud = ctx.cloud();
+    const size_t scans = std::max<size_t>(cloud.scans.size(), 1);
     const std::optional<double> forced = ctx.Overridden("smoothing.tolerance_mm");
-    for (size_t scan = 0; scan < std::max<size_t>(cloud.scans.size(), 1); ++scan) {
-      // δ = u: a move within the measuring uncertainty cannot be told apart from noise.
+    const std::optional<double> forced_noise = ctx.Overridden("smoothing.noise_mm");
+    s.fixed_tolerance = forced.has_value() || !s.own_side;
+    const std::vector<std::optional<double>> measured = MeasuredNoise(cloud, ctx.measures(), scans);
+    for (size_t scan = 0; scan < scans; ++scan) {
       const double u = scan < cloud.scans.size() ? cloud.scans[scan].uncertainty : 0.1;
-      s.tolerance.push_back(static_cast<float>(forced.value_or(u)));
+      double noise = forced_noise.value_or(measured[scan].value_or(u));
+      if (s.own_side && !forced_noise && !measured[scan]) {
+        ctx.Warn(absl::StrCat("smoothing: scan ", scan, " has too few normal fits to measure its "
+                              "noise; its stated uncertainty u = ", u, " mm stands in"));
+      }
+      if (s.own_side && !forced_noise && measured[scan] && noise > 3 * u) {
+        ctx.Warn(absl::StrCat("smoothing: scan ", scan, " is noisier (σ̂ = ", noise,
+                              " mm) than three times its stated uncertainty u = ", u,
+                              " mm: is the unit or u right?"));
+      }
+      s.noise.push_back(static_cast<float>(noise));
+      // δ = u (the paper), or kMoveSigmas·σ̂ at the scan's typical noise (own side).
+      s.tolerance.push_back(static_cast<float>(forced.value_or(s.own_side ? kMoveSigmas * noise : u)));
+      if (s.own_side) ctx.RecordForScan("smoothing.noise_mm", scan, noise);
       ctx.RecordForScan("smoothing.tolerance_mm", scan, s.tolerance.back());
     }
     return s;
-  }
-
-  // Writes the new position of point i to (ox, oy, oz) and says what happened to it.
-  static Outcome SmoothPoint(const PointCloud& cloud, const Neighbourhoods& nb,
-                             const PointMeasures& m, const Settings& s, size_t i,
-                             RadiusMatches& matches, float& ox, float& oy, float& oz) {
-    const Eigen::Vector3f p = cloud.point(i);
-    ox = p.x(), oy = p.y(), oz = p.z();
-    if (cloud.removed(i)) return kKept;
-    const float r_p = nb.adaptive_radius(i);
-    if (!(r_p > 0)) return kKept;
-    nb.Within(cloud, i, r_p, matches);  // includes i itself (x = 0, Φ = 1)
-    auto weight = [&](uint32_t j) {      // Eq. (6): 1 = well viewed and flat
-      return s.lambda * m.quality[j] + (1.f - s.lambda) * (1.f - m.curvature[j]);
-    };
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    double total = 0;
-    for (const auto& [j, d2] : matches) {
-      const float x = std::min(1.f, std::sqrt(d2) / r_p);  // Eq. (9)
-      const double w = double(weight(j)) * InfluenceAt(s.influence, x);
-      sum += w * cloud.point(j).cast<double>();
-      total += w;
-    }
-    if (total < 1e-12) return kKept;
-    Eigen::Vector3d target = sum / total;  // Eq. (8)
-    const Eigen::Vector3d p0 = p.cast<double>();
-    if (s.blend) target = p0 + double(weight(static_cast<uint32_t>(i))) * (target - p0);
-    Eigen::Vector3d step = target - p0;
-    const double len = step.norm();
-    const double delta = s.tolerance[cloud.scan[i]];
-    Outcome outcome = kMoved;
-    if (len > delta) {  // Eq. (10)
-      if (!s.clamp) return kRejected;
-      step *= delta / len;
-      outcome = kClamped;
-    }
-    if (len == 0) return kKept;
-    ox = static_cast<float>(p0.x() + step.x());
-    oy = static_cast<float>(p0.y() + step.y());
-    oz = static_cast<float>(p0.z() + step.z());
-    return outcome;
   }
 };
 
@@ -163,24 +143,36 @@ class SmoothingStage : public Stage {
 StageInfo SmoothingStageInfo() {
   return {
       .name = "smoothing",
-      .summary = "edge-preserving smoothing: quality/curvature-weighted mean of N_{r_p}(p), moves "
-                 "longer than the uncertainty rejected (Eqs. 6-10)",
+      .summary = "edge-sharpening smoothing: each point projected onto its own side's plane, "
+                 "fitted with the weights of Eqs. 6 and 9 within 3 measured σ; or the paper's "
+                 "weighted mean with moves longer than u rejected (Eqs. 6-10)",
       .params =
           {
+              ChoiceParam("smoothing.method",
+                          "own_side: projection onto the plane of the point's own side, δ = 3σ "
+                          "from the data; mean: the paper's Eq. (8) with δ = u",
+                          {"own_side", "mean"}),
               RealParam("smoothing.lambda",
                         "λ of Eq. (6): share of viewing quality vs. flatness in w_j", 0.5,
                         Closed(0, 1)),
               ChoiceParam("smoothing.influence", "distance fall-off Φ: 1-0.8x³, e^{-2x²} or none",
                           {"cubic", "gauss", "average"}),
               ChoiceParam("smoothing.mode",
-                          "mean: p' of Eq. (8); blend: p + w_p·(p' - p), each point's move "
-                          "scaled by its own weight",
+                          "mean method: p' of Eq. (8), or blend: p + w_p·(p' - p), each point's "
+                          "move scaled by its own weight",
                           {"mean", "blend"}),
               ChoiceParam("smoothing.tolerance",
                           "a move longer than δ is rejected (Eq. 10) or clamped to δ",
                           {"reject", "clamp"}),
+              DerivedRealParam("smoothing.noise_mm",
+                               "own_side: the noise σ the gates and δ are set in",
+                               "per scan, the median RMS residual of its normal fits (u when "
+                               "fewer than 32 fits)",
+                               LeftOpen(0, 1e4)),
               DerivedRealParam("smoothing.tolerance_mm", "δ of Eq. (10)",
-                               "the scan's measuring uncertainty u", Closed(0, 1e4)),
+                               "own_side: 3σ per point, σ its fit residual within [σ̂, 2σ̂] of "
+                               "its scan; mean: the scan's uncertainty u",
+                               Closed(0, 1e4)),
               IntegerParam("smoothing.iterations",
                            "Jacobi passes, each from the previous pass's positions", 1,
                            Closed(0, 100)),
