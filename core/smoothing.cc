@@ -13,32 +13,11 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/parallel.h"
+#include "core/scan_noise.h"
 #include "core/smoothing_kernels.h"
 
 namespace scanprep {
 namespace {
-
-// Fewer valid normal fits than this in a scan: its noise is not measured, u stands in.
-constexpr size_t kMinNoiseSamples = 32;
-
-// σ̂ per scan: the median residual of the normal fits of its points (an edge or a spike moves a
-// few fits, not the median).
-std::vector<std::optional<double>> MeasuredNoise(const PointCloud& cloud, const PointMeasures& m,
-                                                 size_t scans) {
-  std::vector<std::vector<float>> residuals(scans);
-  for (size_t i = 0; i < cloud.size(); ++i) {
-    if (cloud.removed(i) || cloud.flags[i] & kNormalInvalid) continue;
-    residuals[cloud.scan[i]].push_back(m.fit_rms[i]);
-  }
-  std::vector<std::optional<double>> noise(scans);
-  for (size_t s = 0; s < scans; ++s) {
-    std::vector<float>& r = residuals[s];
-    if (r.size() < kMinNoiseSamples) continue;
-    std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
-    if (r[r.size() / 2] > 0) noise[s] = r[r.size() / 2];
-  }
-  return noise;
-}
 
 class SmoothingStage : public Stage {
  public:
@@ -115,7 +94,8 @@ class SmoothingStage : public Stage {
     const std::optional<double> forced = ctx.Overridden("smoothing.tolerance_mm");
     const std::optional<double> forced_noise = ctx.Overridden("smoothing.noise_mm");
     s.fixed_tolerance = forced.has_value() || !s.own_side;
-    const std::vector<std::optional<double>> measured = MeasuredNoise(cloud, ctx.measures(), scans);
+    const std::vector<std::optional<double>> measured =
+        MeasuredScanNoise(cloud, ctx.measures(), scans);
     for (size_t scan = 0; scan < scans; ++scan) {
       const double u = scan < cloud.scans.size() ? cloud.scans[scan].uncertainty : 0.1;
       double noise = forced_noise.value_or(measured[scan].value_or(u));
@@ -130,7 +110,8 @@ class SmoothingStage : public Stage {
       }
       s.noise.push_back(static_cast<float>(noise));
       // δ = u (the paper), or kMoveSigmas·σ̂ at the scan's typical noise (own side).
-      s.tolerance.push_back(static_cast<float>(forced.value_or(s.own_side ? kMoveSigmas * noise : u)));
+      s.tolerance.push_back(
+          static_cast<float>(forced.value_or(s.own_side ? kMoveSigmas * noise : u)));
       if (s.own_side) ctx.RecordForScan("smoothing.noise_mm", scan, noise);
       ctx.RecordForScan("smoothing.tolerance_mm", scan, s.tolerance.back());
     }

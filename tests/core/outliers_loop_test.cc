@@ -25,10 +25,15 @@ Score Evaluate(const PointCloud& cloud, const std::vector<uint8_t>& is_outlier) 
   return {double(tp) / std::max<size_t>(total, 1), double(tp) / std::max<size_t>(tp + fp, 1)};
 }
 
-Score RunOutliers(PointCloud& cloud, const std::vector<uint8_t>& truth, const std::string& method) {
+// The distance rule of `method` alone (no surface test), or with the surface test.
+Score RunOutliers(PointCloud& cloud, const std::vector<uint8_t>& truth, const std::string& method,
+                  const std::string& surface_sigmas = "0") {
   CancelToken cancel;
-  auto report =
-      RunPipeline(cloud, {.stages = {"outliers"}, .params = {{"outliers.method", method}}}, cancel);
+  auto report = RunPipeline(cloud,
+                            {.stages = {"outliers"},
+                             .params = {{"outliers.method", method},
+                                        {"outliers.surface_sigmas", surface_sigmas}}},
+                            cancel);
   EXPECT_TRUE(report.ok()) << report.status();
   return Evaluate(cloud, truth);
 }

@@ -18,7 +18,8 @@
 namespace scanprep::testing {
 namespace {
 
-const std::vector<std::string> kAllStages = {"neighbourhoods", "outliers",  "normals",
+// In the order they ran: the outliers stage's surface test pulls in the normals first.
+const std::vector<std::string> kAllStages = {"neighbourhoods", "normals",    "outliers",
                                              "measures",       "correction", "smoothing",
                                              "simplification"};
 

@@ -116,7 +116,8 @@ TEST(ServerBinary, ServesTheClientLibrary) {
     auto result = client.Process(header, scan.cloud);
     ASSERT_TRUE(result.ok()) << result.status();
     EXPECT_EQ(result->report.points_received(), scan.cloud.size());
-    EXPECT_EQ(result->cloud.size(), result->report.stages(1).points_out());
+    EXPECT_EQ(result->report.stages(2).name(), "outliers");  // after neighbourhoods, normals
+    EXPECT_EQ(result->cloud.size(), result->report.stages(2).points_out());
     EXPECT_LT(result->cloud.size(), scan.cloud.size());
   }
   EXPECT_EQ(server.Terminate(), 0);

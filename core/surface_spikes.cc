@@ -1,0 +1,154 @@
+#include "core/surface_spikes.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+
+#include "core/local_moments.h"
+#include "core/parallel.h"
+
+namespace scanprep {
+namespace {
+
+// Candidate planes per point: those of its flattest neighbours.
+constexpr size_t kCandidates = 8;
+// A plane counts when this share of the point's neighbours (and at least kMinSupport) lie within
+// the gate of it: a face beside an edge may hold only a few of the ball's points.
+constexpr double kMinSupportShare = 0.1;
+constexpr size_t kMinSupport = 4;
+// The local σ may exceed the scan's by this factor (oblique views), no more (an edge's fits).
+constexpr float kLocalNoiseCap = 4.f;
+// Supporters lie within this many of the largest local σ allowed, kLocalNoiseCap·σ̂.
+constexpr float kGateSigmas = 3.f;
+// A point within the gate of a plane that holds at least this share of its neighbours lies on
+// the surface; with fewer, near a plane but not surrounded by it.
+constexpr double kSurroundedShare = 0.5;
+// |cos| of the angle between the point's own normal and the plane's for the plane to judge it
+// (30°).
+constexpr double kMinNormalAgreement = 0.866;
+
+struct Scratch {
+  RadiusMatches matches;
+  std::vector<std::pair<float, uint32_t>> candidates;  // (surface variation, index)
+};
+
+struct Plane {
+  Eigen::Vector3f origin, normal;
+  float Offset(const Eigen::Vector3f& q) const { return std::abs((q - origin).dot(normal)); }
+};
+
+struct Judged {
+  float offset;  // of the point from the refitted plane
+  float sigma;   // RMS offset of the plane's supporters from it
+  float share;   // of the point's neighbours that support it
+};
+
+// The nearest plane (to point i) that its neighbours support, refitted to its supporters; nothing
+// when no candidate is supported or the plane is not the point's side of the surface.
+std::optional<Judged> NearestSupportedPlane(const PointCloud& cloud, size_t i, float gate,
+                                            const Scratch& scratch) {
+  const Eigen::Vector3f p = cloud.point(i);
+  const size_t support_needed =
+      std::max(kMinSupport, static_cast<size_t>(kMinSupportShare * scratch.matches.size()));
+  std::optional<Plane> nearest;
+  float nearest_offset = 0;
+  for (const auto& [variation, j] : scratch.candidates) {
+    const Plane plane{cloud.point(j), cloud.normal(j)};
+    const float offset = plane.Offset(p);
+    if (nearest && offset >= nearest_offset) continue;
+    size_t support = 0;
+    for (const auto& [k, d2] : scratch.matches) support += plane.Offset(cloud.point(k)) <= gate;
+    if (support < support_needed) continue;
+    nearest = plane;
+    nearest_offset = offset;
+  }
+  if (!nearest) return std::nullopt;
+  // Refit to the supporters: a single neighbour's position carries its own noise.
+  MomentAccumulator moments;
+  for (const auto& [k, d2] : scratch.matches) {
+    const Eigen::Vector3f q = cloud.point(k);
+    if (nearest->Offset(q) <= gate) moments.Add((q - p).cast<double>(), 1.0);
+  }
+  const LocalFrame frame = moments.Solve();
+  if (!frame.valid) return std::nullopt;
+  // Beside an edge only the other face may have enough supporters; the point, on its own
+  // sparser face, is off that plane without being off the surface. Its own normal tells: a
+  // spike's fit is dominated by the surface below it, an edge point's leans to its face.
+  const Eigen::Vector3d n = frame.normal();
+  if (std::abs(n.dot(cloud.normal(i).cast<double>())) < kMinNormalAgreement) return std::nullopt;
+  const double across = frame.centroid.dot(n);
+  return Judged{static_cast<float>(std::abs(across)),
+                static_cast<float>(std::sqrt(frame.eigenvalues[0])),
+                static_cast<float>(moments.count()) / static_cast<float>(scratch.matches.size())};
+}
+
+// The neighbours of i's own scan within `radius`, without i: a spike must not support its own
+// plane, nor be judged by another scan's (possibly misregistered) layer.
+void OwnScanNeighbours(const PointCloud& cloud, const Neighbourhoods& nb, size_t i, float radius,
+                       RadiusMatches& matches) {
+  nb.Within(cloud, i, radius, matches);
+  std::erase_if(matches, [&](const auto& match) {
+    return match.first == i || cloud.scan[match.first] != cloud.scan[i];
+  });
+}
+
+}  // namespace
+
+absl::Status JudgeBySurface(const PointCloud& cloud, const Neighbourhoods& nb,
+                            const PointMeasures& m,
+                            const std::vector<std::optional<double>>& noise, double sigmas,
+                            const CancelToken& cancel, std::vector<uint8_t>& verdict,
+                            SurfaceSpikeCounts& counts) {
+  const size_t n = cloud.size();
+  verdict.assign(n, kNotJudged);
+  std::atomic<size_t> off_surface{0}, not_judged{0};
+  absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
+    Scratch scratch;
+    size_t local_off = 0, local_not_judged = 0;
+    for (size_t i = begin; i < end; ++i) {
+      const uint32_t scan = cloud.scan[i];
+      if (cloud.removed(i) || cloud.flags[i] & kNormalInvalid || !noise[scan]) continue;
+      // Where scans overlap the ball is widened once to hold about k of i's own scan, as for
+      // the normals.
+      float radius = nb.adaptive_radius(i);
+      OwnScanNeighbours(cloud, nb, i, radius, scratch.matches);
+      if (scratch.matches.size() < nb.k()) {
+        radius *= std::sqrt(static_cast<float>(nb.k()) /
+                            std::max<size_t>(scratch.matches.size(), 1));
+        OwnScanNeighbours(cloud, nb, i, radius, scratch.matches);
+      }
+      scratch.candidates.clear();
+      for (const auto& [j, d2] : scratch.matches) {
+        if (!(cloud.flags[j] & kNormalInvalid)) {
+          scratch.candidates.emplace_back(m.surface_variation[j], j);
+        }
+      }
+      const size_t take = std::min(kCandidates, scratch.candidates.size());
+      std::partial_sort(scratch.candidates.begin(), scratch.candidates.begin() + take,
+                        scratch.candidates.end());
+      scratch.candidates.resize(take);
+      const float scan_sigma = static_cast<float>(*noise[scan]);
+      const std::optional<Judged> judged = NearestSupportedPlane(
+          cloud, i, kGateSigmas * kLocalNoiseCap * scan_sigma, scratch);
+      if (!judged) {
+        ++local_not_judged;
+        continue;
+      }
+      // σ of the supporters, not of i's own fit or its neighbours' (a spike is in those).
+      const float sigma = std::clamp(judged->sigma, scan_sigma, kLocalNoiseCap * scan_sigma);
+      if (judged->offset > sigmas * sigma) {
+        verdict[i] = kOffSurface;
+        ++local_off;
+      } else {
+        verdict[i] = judged->share >= kSurroundedShare ? kOnSurface : kNearSurface;
+      }
+    }
+    off_surface += local_off;
+    not_judged += local_not_judged;
+  });
+  counts.off_surface = off_surface;
+  counts.not_judged = not_judged;
+  return status;
+}
+
+}  // namespace scanprep
