@@ -25,9 +25,6 @@
 namespace scanprep {
 namespace {
 
-// d above this multiple of the threshold: isolated, an outlier whatever plane it lies in.
-constexpr double kIsolated = 2;
-
 struct ScanStats {
   double sum = 0, sum_sq = 0;
   size_t count = 0;
@@ -127,14 +124,13 @@ class OutliersStage : public Stage {
     }
 
     for (size_t i = 0; i < n; ++i) {
-      const double t = threshold[cloud.scan[i]];
-      far[i] = cloud.removed(i) ? 0 : d[i] > kIsolated * t ? 2 : d[i] > t ? 1 : 0;
+      far[i] = !cloud.removed(i) && d[i] > threshold[cloud.scan[i]];
     }
     return absl::OkStatus();
   }
 
-  // Removes the points `far` names (1: beyond the threshold, 2: beyond kIsolated times it) unless
-  // they lie on a plane their neighbours support (a sparse sample of a real surface, not an
+  // Removes the points `far` names (beyond the d threshold) unless they lie on a plane their
+  // neighbours support (a sparse sample of a real surface, not an
   // outlier), and every point farther than
   // outliers.surface_sigmas local σ off such planes. The normals are fitted first, with the far
   // candidates still in: a point far off the surface lies in no other point's ball.
@@ -163,16 +159,14 @@ class OutliersStage : public Stage {
       if (!status.ok()) return status;
       ctx.Record("outliers.surface_not_judged", static_cast<double>(counts.not_judged));
     }
-    // Only a point just beyond the threshold can be a sparse sample that a plane vouches for; an
-    // isolated one goes whatever plane it happens to lie in. Without the surface test nothing is
-    // judged and the paper's threshold decides alone.
+    // Without the surface test nothing is judged and the paper's threshold decides alone.
     size_t removed_far = 0, kept_on_surface = 0, spikes = 0;
     for (size_t i = 0; i < n; ++i) {
       if (cloud.removed(i)) continue;
       const bool on_a_plane = verdict[i] == kOnSurface || verdict[i] == kNearSurface;
-      if (far[i] == 1 && on_a_plane) {
+      if (far[i] && on_a_plane) {
         ++kept_on_surface;
-      } else if (far[i] > 0 || verdict[i] == kOffSurface) {
+      } else if (far[i] || verdict[i] == kOffSurface) {
         cloud.flags[i] |= kRemovedOutlier;
         ++(far[i] ? removed_far : spikes);
       }

@@ -23,9 +23,6 @@ constexpr float kGateSigmas = 3.f;
 // A point within the gate of a plane that holds at least this share of its neighbours lies on
 // the surface; with fewer, near a plane but not surrounded by it.
 constexpr double kSurroundedShare = 0.5;
-// |cos| of the angle between the point's own normal and the plane's for the plane to judge it
-// (30°).
-constexpr double kMinNormalAgreement = 0.866;
 
 struct Scratch {
   RadiusMatches matches;
@@ -43,8 +40,27 @@ struct Judged {
   float share;   // of the point's neighbours that support it
 };
 
-// The nearest plane (to point i) that its neighbours support, refitted to its supporters; nothing
-// when no candidate is supported or the plane is not the point's side of the surface.
+// The plane fitted to the matches that lie within `gate` of `plane` (or, `inside` false, to those
+// that do not), with the offset of p from it.
+std::optional<Judged> Refit(const PointCloud& cloud, const Eigen::Vector3f& p, const Plane& plane,
+                            float gate, bool inside, const Scratch& scratch) {
+  MomentAccumulator moments;
+  for (const auto& [k, d2] : scratch.matches) {
+    const Eigen::Vector3f q = cloud.point(k);
+    if ((plane.Offset(q) <= gate) == inside) moments.Add((q - p).cast<double>(), 1.0);
+  }
+  if (moments.count() < kMinSupport) return std::nullopt;
+  const LocalFrame frame = moments.Solve();
+  if (!frame.valid) return std::nullopt;
+  return Judged{static_cast<float>(std::abs(frame.centroid.dot(frame.normal()))),
+                static_cast<float>(std::sqrt(frame.eigenvalues[0])),
+                static_cast<float>(moments.count()) / static_cast<float>(scratch.matches.size())};
+}
+
+// The nearest plane (to point i) that its neighbours support, refitted to its supporters; and,
+// when p lies off it, the plane of the rest of the neighbours if p lies nearer that one: beside an
+// edge the flattest neighbours may all be of the other face, and p, on its own sparser face, is
+// off their plane without being off the surface. Nothing when no candidate is supported.
 std::optional<Judged> NearestSupportedPlane(const PointCloud& cloud, size_t i, float gate,
                                             const Scratch& scratch) {
   const Eigen::Vector3f p = cloud.point(i);
@@ -63,23 +79,12 @@ std::optional<Judged> NearestSupportedPlane(const PointCloud& cloud, size_t i, f
     nearest_offset = offset;
   }
   if (!nearest) return std::nullopt;
-  // Refit to the supporters: a single neighbour's position carries its own noise.
-  MomentAccumulator moments;
-  for (const auto& [k, d2] : scratch.matches) {
-    const Eigen::Vector3f q = cloud.point(k);
-    if (nearest->Offset(q) <= gate) moments.Add((q - p).cast<double>(), 1.0);
-  }
-  const LocalFrame frame = moments.Solve();
-  if (!frame.valid) return std::nullopt;
-  // Beside an edge only the other face may have enough supporters; the point, on its own
-  // sparser face, is off that plane without being off the surface. Its own normal tells: a
-  // spike's fit is dominated by the surface below it, an edge point's leans to its face.
-  const Eigen::Vector3d n = frame.normal();
-  if (std::abs(n.dot(cloud.normal(i).cast<double>())) < kMinNormalAgreement) return std::nullopt;
-  const double across = frame.centroid.dot(n);
-  return Judged{static_cast<float>(std::abs(across)),
-                static_cast<float>(std::sqrt(frame.eigenvalues[0])),
-                static_cast<float>(moments.count()) / static_cast<float>(scratch.matches.size())};
+  const std::optional<Judged> own = Refit(cloud, p, *nearest, gate, true, scratch);
+  if (!own || own->offset <= gate) return own;
+  // The rest are a surface only if they lie as close to their plane as a supporter may.
+  const std::optional<Judged> rest = Refit(cloud, p, *nearest, gate, false, scratch);
+  const bool surface = rest && rest->sigma <= gate / kGateSigmas;
+  return surface && rest->offset < own->offset ? rest : own;
 }
 
 // The neighbours of i's own scan within `radius`, without i: a spike must not support its own
@@ -107,7 +112,7 @@ absl::Status JudgeBySurface(const PointCloud& cloud, const Neighbourhoods& nb,
     size_t local_off = 0, local_not_judged = 0;
     for (size_t i = begin; i < end; ++i) {
       const uint32_t scan = cloud.scan[i];
-      if (cloud.removed(i) || cloud.flags[i] & kNormalInvalid || !noise[scan]) continue;
+      if (cloud.removed(i) || !noise[scan]) continue;
       // Where scans overlap the ball is widened once to hold about k of i's own scan, as for
       // the normals.
       float radius = nb.adaptive_radius(i);
