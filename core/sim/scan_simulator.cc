@@ -8,6 +8,9 @@
 #include <optional>
 #include <random>
 
+#include "core/sim/geometry.h"
+#include "core/sim/stepped_block.h"
+
 namespace scanprep::sim {
 namespace {
 
@@ -22,8 +25,10 @@ struct Hit {
   Vector3d normal;
 };
 
+bool IsBlock(Part part) { return part == Part::kBoxWithBore || part == Part::kSteppedBlock; }
+
 Vector3d PartCentre(Part part) {
-  return part == Part::kBoxWithBore ? Vector3d(0, 0, G::box_height / 2) : Vector3d::Zero();
+  return IsBlock(part) ? Vector3d(0, 0, G::box_height / 2) : Vector3d::Zero();
 }
 
 double BoundingRadius(Part part) {
@@ -32,6 +37,7 @@ double BoundingRadius(Part part) {
     case Part::kSphere: return G::sphere_radius;
     case Part::kCylinder: return std::hypot(G::cylinder_radius, G::cylinder_half_length);
     case Part::kBoxWithBore:
+    case Part::kSteppedBlock:
       return Vector3d(G::box_half_x, G::box_half_y, G::box_height / 2).norm();
   }
   return 0;
@@ -81,25 +87,10 @@ std::optional<Hit> IntersectCylinder(const Vector3d& o, const Vector3d& d) {
 // The solid is the box minus the infinite bore cylinder: the ray enters it where it enters the
 // box outside the bore, or where it leaves the bore while still inside the box.
 std::optional<Hit> IntersectBoxWithBore(const Vector3d& o, const Vector3d& d) {
-  const Vector3d lo(-G::box_half_x, -G::box_half_y, 0), hi(G::box_half_x, G::box_half_y,
-                                                          G::box_height);
-  double enter = -kInf, exit = kInf;
-  Vector3d enter_normal = Vector3d::Zero();
-  for (int a = 0; a < 3; ++a) {
-    if (std::abs(d[a]) < 1e-15) {
-      if (o[a] < lo[a] || o[a] > hi[a]) return std::nullopt;
-      continue;
-    }
-    double t1 = (lo[a] - o[a]) / d[a], t2 = (hi[a] - o[a]) / d[a];
-    if (t1 > t2) std::swap(t1, t2);
-    if (t1 > enter) {
-      enter = t1;
-      enter_normal = Vector3d::Zero();
-      enter_normal[a] = d[a] > 0 ? -1 : 1;
-    }
-    exit = std::min(exit, t2);
-  }
-  if (enter > exit || enter <= kEps) return std::nullopt;
+  const auto box = LineThroughBox(o, d, {-G::box_half_x, -G::box_half_y, 0},
+                                  {G::box_half_x, G::box_half_y, G::box_height});
+  if (!box || box->enter <= kEps) return std::nullopt;
+  const double enter = box->enter, exit = box->exit;
 
   const double rb = G::bore_radius;
   double bore_in = kInf, bore_out = -kInf;  // empty interval
@@ -111,7 +102,7 @@ std::optional<Hit> IntersectBoxWithBore(const Vector3d& o, const Vector3d& d) {
     bore_in = roots->first;
     bore_out = roots->second;
   }
-  if (!(enter > bore_in && enter < bore_out)) return Hit{enter, enter_normal};
+  if (!(enter > bore_in && enter < bore_out)) return Hit{enter, box->enter_normal};
   if (bore_out < exit) {
     const Vector3d p = o + bore_out * d;
     return Hit{bore_out, -Vector3d(p.x(), p.y(), 0) / rb};
@@ -125,6 +116,9 @@ std::optional<Hit> Intersect(Part part, const Vector3d& o, const Vector3d& d) {
     case Part::kSphere: return IntersectSphere(o, d);
     case Part::kCylinder: return IntersectCylinder(o, d);
     case Part::kBoxWithBore: return IntersectBoxWithBore(o, d);
+    case Part::kSteppedBlock:
+      if (auto hit = stepped_block::Intersect(o, d)) return Hit{hit->t, hit->normal};
+      return std::nullopt;
   }
   return std::nullopt;
 }
@@ -184,19 +178,17 @@ Closest ClosestOnSurface(Part part, const Vector3d& p) {
       return {G::cylinder_radius * n + Vector3d(0, y, 0), n};
     }
     case Part::kBoxWithBore: return ClosestOnBox(p);
+    case Part::kSteppedBlock: {
+      const auto c = stepped_block::Closest(p);
+      return {c.point, c.normal};
+    }
   }
   return {p, Vector3d::UnitZ()};
 }
 
-double DistanceToSegment(const Vector3d& p, const Vector3d& a, const Vector3d& b) {
-  const Vector3d ab = b - a;
-  const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
-  return (p - (a + t * ab)).norm();
-}
-
-// Distance to the nearest sharp edge: the 12 box edges and the two rims of the bore.
-double EdgeDistance(Part part, const Vector3d& p) {
-  if (part != Part::kBoxWithBore) return kInf;
+// Distance to the nearest sharp edge of the box with bore, all convex: the 12 box edges and the
+// two rims of the bore.
+double BoxWithBoreEdgeDistance(const Vector3d& p) {
   const double hx = G::box_half_x, hy = G::box_half_y, h = G::box_height;
   double best = kInf;
   auto corner = [&](int i) {
@@ -210,6 +202,17 @@ double EdgeDistance(Part part, const Vector3d& p) {
   const double rho_off = std::hypot(p.x(), p.y()) - G::bore_radius;
   for (double z : {0.0, h}) best = std::min(best, std::hypot(rho_off, p.z() - z));
   return best;
+}
+
+EdgeDistances Edges(Part part, const Vector3d& p) {
+  switch (part) {
+    case Part::kBoxWithBore: return {BoxWithBoreEdgeDistance(p), kInf};
+    case Part::kSteppedBlock: return stepped_block::Edges(p);
+    case Part::kPlane:
+    case Part::kSphere:
+    case Part::kCylinder: return {};
+  }
+  return {};
 }
 
 // Line direction u and sweep direction w of a laser sheet travelling along -d.
@@ -238,7 +241,7 @@ SimSensor MakeSensor(Part part, const Vector3d& d_l, double camera_tilt_deg, std
 }
 
 Vector3d FrontalDirection(Part part) {
-  return part == Part::kBoxWithBore ? Vector3d(0.6, 0.5, 1).normalized() : Vector3d::UnitZ();
+  return IsBlock(part) ? Vector3d(0.6, 0.5, 1).normalized() : Vector3d::UnitZ();
 }
 
 void ScanOne(Part part, const SimSensor& sensor, uint32_t scan_index, std::mt19937_64& rng,
@@ -289,7 +292,9 @@ void ScanOne(Part part, const SimSensor& sensor, uint32_t scan_index, std::mt199
       out.truth.push_back(p.cast<float>());
       out.true_normal.push_back(hit->normal.cast<float>());
       out.is_outlier.push_back(spike ? 1 : 0);
-      out.edge_distance.push_back(static_cast<float>(EdgeDistance(part, p)));
+      const EdgeDistances edges = Edges(part, p);
+      out.edge_distance.push_back(static_cast<float>(std::min(edges.convex, edges.concave)));
+      out.edge_convex.push_back(edges.convex <= edges.concave ? 1 : 0);
     }
   }
   ScanMeta meta;
@@ -334,6 +339,12 @@ std::vector<SimSensor> TwoOverlappingSensors(Part part) {
   oblique.noise_sigma *= 2;
   oblique.misregistration.translation() = Vector3d(0, 0, 0.02);
   return {MakeSensor(part, d, 25, "frontal"), oblique};
+}
+
+std::vector<SimSensor> ThreeOverlappingSensors(Part part) {
+  return {MakeSensor(part, Vector3d(0.6, 0.3, 1), 25, "from+x"),
+          MakeSensor(part, Vector3d(-0.6, 0.3, 1), 25, "from-x"),
+          MakeSensor(part, Vector3d(0, -0.6, 1), 25, "from-y")};
 }
 
 std::vector<SimSensor> SurroundingSensors(Part part) {
