@@ -2,12 +2,11 @@
 // parts (box with bore, stepped block).
 #pragma once
 
+#include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <optional>
-
-#include <Eigen/Core>
 
 namespace scanprep::sim {
 

@@ -14,8 +14,9 @@ using Eigen::Vector3d;
 using G = PartGeometry;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kEps = 1e-9;
-constexpr double hx = G::box_half_x, hy = G::box_half_y, h = G::box_height;
-constexpr double w = G::slot_half_width, f = G::box_height - G::slot_depth;  // slot floor
+// Half extents, top, the slot's half width and its floor's height.
+constexpr double kHx = G::box_half_x, kHy = G::box_half_y, kTop = G::box_height;
+constexpr double kW = G::slot_half_width, kFloor = G::box_height - G::slot_depth;
 
 struct Face {
   Vector3d lo, hi, normal;  // an axis-aligned rectangle (lo and hi agree on one axis)
@@ -25,22 +26,22 @@ struct Face {
 const std::array<Face, 14>& Faces() {
   static const std::array<Face, 14> faces = [] {
     std::array<Face, 14> r = {{
-        {{-hx, -hy, h}, {-w, hy, h}, Vector3d::UnitZ()},   // top, left of the slot
-        {{w, -hy, h}, {hx, hy, h}, Vector3d::UnitZ()},     // top, right of the slot
-        {{-w, -hy, f}, {w, hy, f}, Vector3d::UnitZ()},     // slot floor
-        {{-w, -hy, f}, {-w, hy, h}, Vector3d::UnitX()},    // slot wall facing +x
-        {{w, -hy, f}, {w, hy, h}, -Vector3d::UnitX()},     // slot wall facing -x
-        {{-hx, -hy, 0}, {hx, hy, 0}, -Vector3d::UnitZ()},  // bottom
-        {{hx, -hy, 0}, {hx, hy, h}, Vector3d::UnitX()},
-        {{-hx, -hy, 0}, {-hx, hy, h}, -Vector3d::UnitX()},
+        {{-kHx, -kHy, kTop}, {-kW, kHy, kTop}, Vector3d::UnitZ()},    // top, left of the slot
+        {{kW, -kHy, kTop}, {kHx, kHy, kTop}, Vector3d::UnitZ()},      // top, right of the slot
+        {{-kW, -kHy, kFloor}, {kW, kHy, kFloor}, Vector3d::UnitZ()},  // slot floor
+        {{-kW, -kHy, kFloor}, {-kW, kHy, kTop}, Vector3d::UnitX()},   // slot wall facing +x
+        {{kW, -kHy, kFloor}, {kW, kHy, kTop}, -Vector3d::UnitX()},    // slot wall facing -x
+        {{-kHx, -kHy, 0}, {kHx, kHy, 0}, -Vector3d::UnitZ()},         // bottom
+        {{kHx, -kHy, 0}, {kHx, kHy, kTop}, Vector3d::UnitX()},
+        {{-kHx, -kHy, 0}, {-kHx, kHy, kTop}, -Vector3d::UnitX()},
     }};
     // Each end face is the x-z rectangle minus the slot's notch: three rectangles.
     size_t next = 8;
-    for (double y : {hy, -hy}) {
+    for (double y : {kHy, -kHy}) {
       const Vector3d n(0, y > 0 ? 1 : -1, 0);
-      r[next++] = {{-hx, y, 0}, {-w, y, h}, n};
-      r[next++] = {{w, y, 0}, {hx, y, h}, n};
-      r[next++] = {{-w, y, 0}, {w, y, f}, n};
+      r[next++] = {{-kHx, y, 0}, {-kW, y, kTop}, n};
+      r[next++] = {{kW, y, 0}, {kHx, y, kTop}, n};
+      r[next++] = {{-kW, y, 0}, {kW, y, kFloor}, n};
     }
     return r;
   }();
@@ -53,27 +54,29 @@ const std::vector<Segment>& ConvexEdges() {
   static const std::vector<Segment> edges = [] {
     std::vector<Segment> e;
     for (double sx : {-1.0, 1.0}) {
-      e.push_back({{sx * hx, -hy, 0}, {sx * hx, hy, 0}});  // bottom, along y
-      e.push_back({{sx * hx, -hy, h}, {sx * hx, hy, h}});  // top, along y
-      e.push_back({{sx * w, -hy, h}, {sx * w, hy, h}});    // slot rims
+      e.push_back({{sx * kHx, -kHy, 0}, {sx * kHx, kHy, 0}});        // bottom, along y
+      e.push_back({{sx * kHx, -kHy, kTop}, {sx * kHx, kHy, kTop}});  // top, along y
+      e.push_back({{sx * kW, -kHy, kTop}, {sx * kW, kHy, kTop}});    // slot rims
       for (double sy : {-1.0, 1.0}) {
-        e.push_back({{sx * hx, sy * hy, 0}, {sx * hx, sy * hy, h}});  // vertical box corners
-        e.push_back({{sx * w, sy * hy, f}, {sx * w, sy * hy, h}});    // slot walls' end edges
-        e.push_back({{sx * w, sy * hy, h}, {sx * hx, sy * hy, h}});   // top, along x
+        e.push_back({{sx * kHx, sy * kHy, 0}, {sx * kHx, sy * kHy, kTop}});  // vertical box corners
+        e.push_back(
+            {{sx * kW, sy * kHy, kFloor}, {sx * kW, sy * kHy, kTop}});  // slot walls' end edges
+        e.push_back({{sx * kW, sy * kHy, kTop}, {sx * kHx, sy * kHy, kTop}});  // top, along x
       }
     }
     for (double sy : {-1.0, 1.0}) {
-      e.push_back({{-hx, sy * hy, 0}, {hx, sy * hy, 0}});  // bottom, along x
-      e.push_back({{-w, sy * hy, f}, {w, sy * hy, f}});    // slot floor's end edges
+      e.push_back({{-kHx, sy * kHy, 0}, {kHx, sy * kHy, 0}});          // bottom, along x
+      e.push_back({{-kW, sy * kHy, kFloor}, {kW, sy * kHy, kFloor}});  // slot floor's end edges
     }
     return e;
   }();
   return edges;
 }
 
-const std::array<Segment, 2> kConcaveEdges = {{{{-w, -hy, f}, {-w, hy, f}}, {{w, -hy, f}, {w, hy, f}}}};
+const std::array<Segment, 2> kConcaveEdges = {
+    {{{-kW, -kHy, kFloor}, {-kW, kHy, kFloor}}, {{kW, -kHy, kFloor}, {kW, kHy, kFloor}}}};
 
-double NearestSegment(const Vector3d& p, auto const& segments) {
+double NearestSegment(const Vector3d& p, const auto& segments) {
   double best = kInf;
   for (const auto& [a, b] : segments) best = std::min(best, DistanceToSegment(p, a, b));
   return best;
@@ -81,12 +84,12 @@ double NearestSegment(const Vector3d& p, auto const& segments) {
 
 }  // namespace
 
-// The solid is the box minus the slot prism S = {|x| < w, z > f}: a ray enters it where it enters
-// the box outside S, or where it leaves S while still inside the box.
+// The solid is the box minus the slot prism S = {|x| < kW, z > kFloor}: a ray enters it where it
+// enters the box outside S, or where it leaves S while still inside the box.
 std::optional<RayHit> Intersect(const Vector3d& o, const Vector3d& d) {
-  const auto box = LineThroughBox(o, d, {-hx, -hy, 0}, {hx, hy, h});
+  const auto box = LineThroughBox(o, d, {-kHx, -kHy, 0}, {kHx, kHy, kTop});
   if (!box || box->enter <= kEps) return std::nullopt;
-  const auto slot = LineThroughBox(o, d, {-w, -kInf, f}, {w, kInf, kInf});
+  const auto slot = LineThroughBox(o, d, {-kW, -kInf, kFloor}, {kW, kInf, kInf});
   if (!slot || !(box->enter > slot->enter && box->enter < slot->exit)) {
     return RayHit{box->enter, box->enter_normal};
   }

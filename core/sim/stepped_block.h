@@ -4,9 +4,8 @@
 // distances; the dimensions are in PartGeometry.
 #pragma once
 
-#include <optional>
-
 #include <Eigen/Core>
+#include <optional>
 
 #include "core/sim/geometry.h"
 

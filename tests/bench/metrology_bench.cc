@@ -38,9 +38,7 @@ std::string Zone(const ZoneError& z, const ZoneError& raw) {
   return absl::StrFormat("%.2f (%.2f×)", 1000 * z.rms, z.rms / raw.rms);
 }
 
-std::string Share(double value) {
-  return std::isnan(value) ? "–" : absl::StrFormat("%.3f", value);
-}
+std::string Share(double value) { return std::isnan(value) ? "–" : absl::StrFormat("%.3f", value); }
 
 void PrintRow(const std::string& name, const Metrology& m, const Metrology& raw, double seconds) {
   std::printf("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %zu | %.1f |\n", name.c_str(),
@@ -66,16 +64,18 @@ int Run(size_t points, uint64_t seed) {
   char date[32];
   std::strftime(date, sizeof date, "%Y-%m-%d", std::gmtime(&now));
   const ScanMeta& scan0 = sim.cloud.scans[0];
-  std::printf("Stepped block, %zu points in %zu scans, seed %llu, σ = %.3f mm, %.0f %% spikes, "
-              "Δs = %.4f mm, Δp = %.4f mm, coverage radius %.3f mm; measured %s.\n"
-              "RMS distance to the true surface in µm (ratio to raw); zones of "
-              "tests/support/metrology.h.\n\n",
-              sim.cloud.size(), sim.cloud.scans.size(), static_cast<unsigned long long>(seed),
-              testing::kEvaluationSigmaMm, 100 * testing::kEvaluationSpikeShare,
-              scan0.scanline_spacing, scan0.point_spacing, testing::CoverageRadiusMm(sim), date);
-  std::printf("| run | flat | edge ≤ %.0f mm | convex ≤ %.1f mm | concave ≤ %.1f mm | curved | "
-              "P | R | coverage | points out | s |\n",
-              testing::kEdgeZoneMm, testing::kSharpZoneMm, testing::kSharpZoneMm);
+  std::printf(
+      "Stepped block, %zu points in %zu scans, seed %llu, σ = %.3f mm, %.0f %% "
+      "spikes, Δs = %.4f mm, Δp = %.4f mm, coverage radius %.3f mm; measured %s.\n"
+      "RMS distance to the true surface in µm (ratio to raw); zones of "
+      "tests/support/metrology.h.\n\n",
+      sim.cloud.size(), sim.cloud.scans.size(), static_cast<unsigned long long>(seed),
+      testing::kEvaluationSigmaMm, 100 * testing::kEvaluationSpikeShare, scan0.scanline_spacing,
+      scan0.point_spacing, testing::CoverageRadiusMm(sim), date);
+  std::printf(
+      "| run | flat | edge ≤ %.0f mm | convex ≤ %.1f mm | concave ≤ %.1f mm | curved | "
+      "P | R | coverage | points out | s |\n",
+      testing::kEdgeZoneMm, testing::kSharpZoneMm, testing::kSharpZoneMm);
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
   PrintRow("raw", raw, raw, 0);
 

@@ -1,12 +1,12 @@
 // CGAL 5.5 bilateral_smooth_point_set as its manual's example calls it, with normals from
 // jet_estimate_normals (the manual's choice for smooth input) on the same k neighbours.
-#include <utility>
-#include <vector>
-
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/bilateral_smooth_point_set.h>
 #include <CGAL/jet_estimate_normals.h>
 #include <CGAL/property_map.h>
+
+#include <utility>
+#include <vector>
 
 #include "tests/bench/metrology_peers.h"
 
@@ -41,8 +41,7 @@ PointCloud SmoothWithCgalBilateral(const PointCloud& raw, int k, double sharpnes
   for (size_t i = 0; i < raw.size(); ++i) {
     const auto& camera = raw.scans[raw.scan[i]].camera_position;
     if (!camera) continue;
-    const Vector to_camera(camera->x() - raw.x[i], camera->y() - raw.y[i],
-                           camera->z() - raw.z[i]);
+    const Vector to_camera(camera->x() - raw.x[i], camera->y() - raw.y[i], camera->z() - raw.z[i]);
     if (points[i].second * to_camera < 0) points[i].second = -points[i].second;
   }
   for (int round = 0; round < iterations; ++round) {

@@ -1,11 +1,11 @@
 // PCL 1.13 MovingLeastSquares as a user would call it: second-order polynomial, a fixed search
 // radius, no upsampling, the output mapped back to the input by its corresponding indices.
-#include <memory>
-
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/search/kdtree.h>
 #include <pcl/surface/mls.h>
+
+#include <memory>
 
 #include "tests/bench/metrology_peers.h"
 

@@ -1,14 +1,15 @@
 // The metrology targets of issue 13 on the simulated three-scan stepped block (exact ground
 // truth, σ = 0.01 mm, 1 % spikes; tests/support/metrology.h), as ratios to the raw cloud. The
 // table in the docs is the same evaluation at 1 M points and another seed (metrology_bench).
+#include "tests/support/metrology.h"
+
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
 
-#include <gtest/gtest.h>
-
-#include "tests/support/metrology.h"
 #include "tests/support/metrology_job.h"
 
 namespace scanprep::testing {
@@ -39,11 +40,12 @@ const std::vector<std::string> kOutliersAndSmoothing = {"outliers", "smoothing"}
 const std::vector<std::string> kDefaultPipeline = {};
 
 void Print(const char* name, const Metrology& m) {
-  std::printf("%s: flat %.4f edge %.4f convex %.4f concave %.4f (× raw), P %.3f R %.3f, "
-              "coverage %.4f, %zu points out\n",
-              name, m.flat.rms / Raw().flat.rms, m.edge.rms / Raw().edge.rms,
-              m.convex.rms / Raw().convex.rms, m.concave.rms / Raw().concave.rms, m.precision,
-              m.recall, m.coverage, m.points_out);
+  std::printf(
+      "%s: flat %.4f edge %.4f convex %.4f concave %.4f (× raw), P %.3f R %.3f, "
+      "coverage %.4f, %zu points out\n",
+      name, m.flat.rms / Raw().flat.rms, m.edge.rms / Raw().edge.rms,
+      m.convex.rms / Raw().convex.rms, m.concave.rms / Raw().concave.rms, m.precision, m.recall,
+      m.coverage, m.points_out);
 }
 
 // The harness itself: the raw cloud shows the simulator's noise in every zone, and a cloud put

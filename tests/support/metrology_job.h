@@ -15,7 +15,7 @@
 namespace scanprep::testing {
 
 inline constexpr sim::Part kEvaluationPart = sim::Part::kSteppedBlock;
-inline constexpr double kEvaluationSigmaMm = 0.01;    // every sensor's range noise
+inline constexpr double kEvaluationSigmaMm = 0.01;     // every sensor's range noise
 inline constexpr double kEvaluationSpikeShare = 0.01;  // injected spikes per scan
 
 // The stepped block seen by ThreeOverlappingSensors, about `points` points, 1 % spikes.
