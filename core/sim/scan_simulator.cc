@@ -43,13 +43,7 @@ double BoundingRadius(Part part) {
   return 0;
 }
 
-// Roots of a t² + b t + c = 0 in ascending order, if real.
-std::optional<std::pair<double, double>> Quadratic(double a, double b, double c) {
-  const double disc = b * b - 4 * a * c;
-  if (a <= 0 || disc <= 0) return std::nullopt;
-  const double s = std::sqrt(disc);
-  return std::pair{(-b - s) / (2 * a), (-b + s) / (2 * a)};
-}
+const VerticalBore kBore{Eigen::Vector2d::Zero(), G::bore_radius};
 
 std::optional<Hit> IntersectPlane(const Vector3d& o, const Vector3d& d) {
   if (std::abs(d.z()) < 1e-15) return std::nullopt;
@@ -92,21 +86,9 @@ std::optional<Hit> IntersectBoxWithBore(const Vector3d& o, const Vector3d& d) {
   if (!box || box->enter <= kEps) return std::nullopt;
   const double enter = box->enter, exit = box->exit;
 
-  const double rb = G::bore_radius;
-  double bore_in = kInf, bore_out = -kInf;  // empty interval
-  const double a = d.x() * d.x() + d.y() * d.y();
-  if (a < 1e-18) {
-    if (o.x() * o.x() + o.y() * o.y() < rb * rb) bore_in = -kInf, bore_out = kInf;
-  } else if (auto roots = Quadratic(a, 2 * (o.x() * d.x() + o.y() * d.y()),
-                                    o.x() * o.x() + o.y() * o.y() - rb * rb)) {
-    bore_in = roots->first;
-    bore_out = roots->second;
-  }
+  const auto [bore_in, bore_out] = kBore.Interval(o, d);
   if (!(enter > bore_in && enter < bore_out)) return Hit{enter, box->enter_normal};
-  if (bore_out < exit) {
-    const Vector3d p = o + bore_out * d;
-    return Hit{bore_out, -Vector3d(p.x(), p.y(), 0) / rb};
-  }
+  if (bore_out < exit) return Hit{bore_out, -kBore.Radial(o + bore_out * d)};
   return std::nullopt;
 }
 
@@ -127,33 +109,18 @@ struct Closest {
   Vector3d point, normal;
 };
 
-// Closest point on the cap at height z: the rectangle |x| <= hx, |y| <= hy minus the bore.
-Vector3d ClosestOnCap(const Vector3d& p, double z) {
-  Vector3d c(std::clamp(p.x(), -G::box_half_x, G::box_half_x),
-             std::clamp(p.y(), -G::box_half_y, G::box_half_y), z);
-  const double rho = std::hypot(c.x(), c.y());
-  if (rho < G::bore_radius) {
-    const double s = rho > 0 ? G::bore_radius / rho : 0;
-    c.head<2>() = rho > 0 ? Eigen::Vector2d(c.x() * s, c.y() * s)
-                          : Eigen::Vector2d(G::bore_radius, 0);
-  }
-  return c;
-}
-
 Closest ClosestOnBox(const Vector3d& p) {
   const double hx = G::box_half_x, hy = G::box_half_y, h = G::box_height;
   const double cx = std::clamp(p.x(), -hx, hx), cy = std::clamp(p.y(), -hy, hy),
                cz = std::clamp(p.z(), 0.0, h);
-  const double rho = std::hypot(p.x(), p.y());
-  const Vector3d radial = rho > 0 ? Vector3d(p.x() / rho, p.y() / rho, 0) : Vector3d::UnitX();
   const std::array<Closest, 7> candidates = {{
-      {ClosestOnCap(p, h), Vector3d::UnitZ()},
-      {ClosestOnCap(p, 0), -Vector3d::UnitZ()},
+      {kBore.ClosestOnCap(p, {-hx, -hy, h}, {hx, hy, h}), Vector3d::UnitZ()},
+      {kBore.ClosestOnCap(p, {-hx, -hy, 0}, {hx, hy, 0}), -Vector3d::UnitZ()},
       {{hx, cy, cz}, Vector3d::UnitX()},
       {{-hx, cy, cz}, -Vector3d::UnitX()},
       {{cx, hy, cz}, Vector3d::UnitY()},
       {{cx, -hy, cz}, -Vector3d::UnitY()},
-      {G::bore_radius * radial + Vector3d(0, 0, cz), -radial},
+      {kBore.ClosestOnWall(p, h), -kBore.Radial(p)},
   }};
   return *std::min_element(candidates.begin(), candidates.end(),
                            [&](const Closest& a, const Closest& b) {
@@ -199,8 +166,7 @@ double BoxWithBoreEdgeDistance(const Vector3d& p) {
       if (!(i & bit)) best = std::min(best, DistanceToSegment(p, corner(i), corner(i | bit)));
     }
   }
-  const double rho_off = std::hypot(p.x(), p.y()) - G::bore_radius;
-  for (double z : {0.0, h}) best = std::min(best, std::hypot(rho_off, p.z() - z));
+  for (double z : {0.0, h}) best = std::min(best, kBore.RimDistance(p, z));
   return best;
 }
 

@@ -49,10 +49,13 @@ struct PartGeometry {
   static constexpr double box_height = 8.0;
   static constexpr double bore_radius = 3.0;
   // kSteppedBlock: the same box with a slot |x| < slot_half_width, slot_depth deep, milled along
-  // y through its top (no bore). The slot's rims are convex edges, the lines where its walls
-  // meet its floor concave ones (stepped_block.h).
+  // y through its top, and a bore of radius stepped_bore_radius along z at x = stepped_bore_x,
+  // y = 0 (in the shoulder right of the slot). The slot's and the bore's rims are convex edges,
+  // the lines where the slot's walls meet its floor concave ones (stepped_block.h).
   static constexpr double slot_half_width = 3.0;
   static constexpr double slot_depth = 3.0;
+  static constexpr double stepped_bore_x = 7.5;
+  static constexpr double stepped_bore_radius = 2.0;
 };
 
 // A laser-line sensor sweeping along a direction: scanlines are parallel laser planes spaced

@@ -1,7 +1,8 @@
 // The stepped block: a box with a slot milled along y through its top, so it has concave 90°
 // edges (where the slot's walls meet its floor) besides convex ones (the box's edges, the slot's
-// rims and its outline on the end faces). Exact ray intersection, closest point and edge
-// distances; the dimensions are in PartGeometry.
+// rims and its outline on the end faces, the rims of a bore beside the slot, whose wall is the
+// part's one curved face). Exact ray intersection, closest point and edge distances; the
+// dimensions are in PartGeometry.
 #pragma once
 
 #include <Eigen/Core>

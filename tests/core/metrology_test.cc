@@ -41,24 +41,23 @@ const std::vector<std::string> kDefaultPipeline = {};
 
 void Print(const char* name, const Metrology& m) {
   std::printf(
-      "%s: flat %.4f edge %.4f convex %.4f concave %.4f (× raw), P %.3f R %.3f, "
+      "%s: flat %.4f edge %.4f convex %.4f concave %.4f curved %.4f (× raw), P %.3f R %.3f, "
       "coverage %.4f, %zu points out\n",
       name, m.flat.rms / Raw().flat.rms, m.edge.rms / Raw().edge.rms,
-      m.convex.rms / Raw().convex.rms, m.concave.rms / Raw().concave.rms, m.precision, m.recall,
-      m.coverage, m.points_out);
+      m.convex.rms / Raw().convex.rms, m.concave.rms / Raw().concave.rms,
+      m.curved.rms / Raw().curved.rms, m.precision, m.recall, m.coverage, m.points_out);
 }
 
 // The harness itself: the raw cloud shows the simulator's noise in every zone, and a cloud put
 // back on its true points with exactly the spikes removed scores perfectly.
 TEST(Metrology, HarnessMeasuresTheNoiseAndAPerfectResult) {
   const Metrology& raw = Raw();
-  for (const ZoneError* z : {&raw.flat, &raw.edge, &raw.convex, &raw.concave}) {
+  for (const ZoneError* z : {&raw.flat, &raw.edge, &raw.convex, &raw.concave, &raw.curved}) {
     EXPECT_GT(z->points, 1000u);
     // Noise σ/cos q along the camera ray, seen along the normal: between 0.5σ and 2σ.
     EXPECT_GT(z->rms, 0.5 * kEvaluationSigmaMm);
     EXPECT_LT(z->rms, 2.0 * kEvaluationSigmaMm);
   }
-  EXPECT_EQ(raw.curved.points, 0u);  // the stepped block has only planar faces
   EXPECT_TRUE(std::isnan(raw.precision));
   EXPECT_EQ(raw.recall, 0.0);
   EXPECT_EQ(raw.coverage, 1.0);
@@ -71,7 +70,9 @@ TEST(Metrology, HarnessMeasuresTheNoiseAndAPerfectResult) {
     if (Scan().is_outlier[i]) perfect.flags[i] |= kRemovedOutlier;
   }
   const Metrology m = MeasureAgainstTruth(kEvaluationPart, Scan(), perfect);
-  for (const ZoneError* z : {&m.flat, &m.edge, &m.convex, &m.concave}) EXPECT_LT(z->rms, 1e-5);
+  for (const ZoneError* z : {&m.flat, &m.edge, &m.convex, &m.concave, &m.curved}) {
+    EXPECT_LT(z->rms, 1e-5);
+  }
   EXPECT_EQ(m.precision, 1.0);
   EXPECT_EQ(m.recall, 1.0);
   EXPECT_EQ(m.coverage, 1.0);
@@ -120,6 +121,7 @@ TEST(Metrology, DISABLED_NoMetadataSmoothsFlatsAndHurtsNoZone) {
     EXPECT_LE(m.edge.rms, Raw().edge.rms);
     EXPECT_LE(m.convex.rms, Raw().convex.rms);
     EXPECT_LE(m.concave.rms, Raw().concave.rms);
+    EXPECT_LE(m.curved.rms, Raw().curved.rms);
   }
 }
 
