@@ -8,6 +8,9 @@
 #include <optional>
 #include <random>
 
+#include "core/sim/geometry.h"
+#include "core/sim/stepped_block.h"
+
 namespace scanprep::sim {
 namespace {
 
@@ -22,8 +25,10 @@ struct Hit {
   Vector3d normal;
 };
 
+bool IsBlock(Part part) { return part == Part::kBoxWithBore || part == Part::kSteppedBlock; }
+
 Vector3d PartCentre(Part part) {
-  return part == Part::kBoxWithBore ? Vector3d(0, 0, G::box_height / 2) : Vector3d::Zero();
+  return IsBlock(part) ? Vector3d(0, 0, G::box_height / 2) : Vector3d::Zero();
 }
 
 double BoundingRadius(Part part) {
@@ -32,18 +37,13 @@ double BoundingRadius(Part part) {
     case Part::kSphere: return G::sphere_radius;
     case Part::kCylinder: return std::hypot(G::cylinder_radius, G::cylinder_half_length);
     case Part::kBoxWithBore:
+    case Part::kSteppedBlock:
       return Vector3d(G::box_half_x, G::box_half_y, G::box_height / 2).norm();
   }
   return 0;
 }
 
-// Roots of a t² + b t + c = 0 in ascending order, if real.
-std::optional<std::pair<double, double>> Quadratic(double a, double b, double c) {
-  const double disc = b * b - 4 * a * c;
-  if (a <= 0 || disc <= 0) return std::nullopt;
-  const double s = std::sqrt(disc);
-  return std::pair{(-b - s) / (2 * a), (-b + s) / (2 * a)};
-}
+const VerticalBore kBore{Eigen::Vector2d::Zero(), G::bore_radius};
 
 std::optional<Hit> IntersectPlane(const Vector3d& o, const Vector3d& d) {
   if (std::abs(d.z()) < 1e-15) return std::nullopt;
@@ -81,41 +81,14 @@ std::optional<Hit> IntersectCylinder(const Vector3d& o, const Vector3d& d) {
 // The solid is the box minus the infinite bore cylinder: the ray enters it where it enters the
 // box outside the bore, or where it leaves the bore while still inside the box.
 std::optional<Hit> IntersectBoxWithBore(const Vector3d& o, const Vector3d& d) {
-  const Vector3d lo(-G::box_half_x, -G::box_half_y, 0), hi(G::box_half_x, G::box_half_y,
-                                                          G::box_height);
-  double enter = -kInf, exit = kInf;
-  Vector3d enter_normal = Vector3d::Zero();
-  for (int a = 0; a < 3; ++a) {
-    if (std::abs(d[a]) < 1e-15) {
-      if (o[a] < lo[a] || o[a] > hi[a]) return std::nullopt;
-      continue;
-    }
-    double t1 = (lo[a] - o[a]) / d[a], t2 = (hi[a] - o[a]) / d[a];
-    if (t1 > t2) std::swap(t1, t2);
-    if (t1 > enter) {
-      enter = t1;
-      enter_normal = Vector3d::Zero();
-      enter_normal[a] = d[a] > 0 ? -1 : 1;
-    }
-    exit = std::min(exit, t2);
-  }
-  if (enter > exit || enter <= kEps) return std::nullopt;
+  const auto box = LineThroughBox(o, d, {-G::box_half_x, -G::box_half_y, 0},
+                                  {G::box_half_x, G::box_half_y, G::box_height});
+  if (!box || box->enter <= kEps) return std::nullopt;
+  const double enter = box->enter, exit = box->exit;
 
-  const double rb = G::bore_radius;
-  double bore_in = kInf, bore_out = -kInf;  // empty interval
-  const double a = d.x() * d.x() + d.y() * d.y();
-  if (a < 1e-18) {
-    if (o.x() * o.x() + o.y() * o.y() < rb * rb) bore_in = -kInf, bore_out = kInf;
-  } else if (auto roots = Quadratic(a, 2 * (o.x() * d.x() + o.y() * d.y()),
-                                    o.x() * o.x() + o.y() * o.y() - rb * rb)) {
-    bore_in = roots->first;
-    bore_out = roots->second;
-  }
-  if (!(enter > bore_in && enter < bore_out)) return Hit{enter, enter_normal};
-  if (bore_out < exit) {
-    const Vector3d p = o + bore_out * d;
-    return Hit{bore_out, -Vector3d(p.x(), p.y(), 0) / rb};
-  }
+  const auto [bore_in, bore_out] = kBore.Interval(o, d);
+  if (!(enter > bore_in && enter < bore_out)) return Hit{enter, box->enter_normal};
+  if (bore_out < exit) return Hit{bore_out, -kBore.Radial(o + bore_out * d)};
   return std::nullopt;
 }
 
@@ -125,6 +98,9 @@ std::optional<Hit> Intersect(Part part, const Vector3d& o, const Vector3d& d) {
     case Part::kSphere: return IntersectSphere(o, d);
     case Part::kCylinder: return IntersectCylinder(o, d);
     case Part::kBoxWithBore: return IntersectBoxWithBore(o, d);
+    case Part::kSteppedBlock:
+      if (auto hit = stepped_block::Intersect(o, d)) return Hit{hit->t, hit->normal};
+      return std::nullopt;
   }
   return std::nullopt;
 }
@@ -133,33 +109,18 @@ struct Closest {
   Vector3d point, normal;
 };
 
-// Closest point on the cap at height z: the rectangle |x| <= hx, |y| <= hy minus the bore.
-Vector3d ClosestOnCap(const Vector3d& p, double z) {
-  Vector3d c(std::clamp(p.x(), -G::box_half_x, G::box_half_x),
-             std::clamp(p.y(), -G::box_half_y, G::box_half_y), z);
-  const double rho = std::hypot(c.x(), c.y());
-  if (rho < G::bore_radius) {
-    const double s = rho > 0 ? G::bore_radius / rho : 0;
-    c.head<2>() = rho > 0 ? Eigen::Vector2d(c.x() * s, c.y() * s)
-                          : Eigen::Vector2d(G::bore_radius, 0);
-  }
-  return c;
-}
-
 Closest ClosestOnBox(const Vector3d& p) {
   const double hx = G::box_half_x, hy = G::box_half_y, h = G::box_height;
   const double cx = std::clamp(p.x(), -hx, hx), cy = std::clamp(p.y(), -hy, hy),
                cz = std::clamp(p.z(), 0.0, h);
-  const double rho = std::hypot(p.x(), p.y());
-  const Vector3d radial = rho > 0 ? Vector3d(p.x() / rho, p.y() / rho, 0) : Vector3d::UnitX();
   const std::array<Closest, 7> candidates = {{
-      {ClosestOnCap(p, h), Vector3d::UnitZ()},
-      {ClosestOnCap(p, 0), -Vector3d::UnitZ()},
+      {kBore.ClosestOnCap(p, {-hx, -hy, h}, {hx, hy, h}), Vector3d::UnitZ()},
+      {kBore.ClosestOnCap(p, {-hx, -hy, 0}, {hx, hy, 0}), -Vector3d::UnitZ()},
       {{hx, cy, cz}, Vector3d::UnitX()},
       {{-hx, cy, cz}, -Vector3d::UnitX()},
       {{cx, hy, cz}, Vector3d::UnitY()},
       {{cx, -hy, cz}, -Vector3d::UnitY()},
-      {G::bore_radius * radial + Vector3d(0, 0, cz), -radial},
+      {kBore.ClosestOnWall(p, h), -kBore.Radial(p)},
   }};
   return *std::min_element(candidates.begin(), candidates.end(),
                            [&](const Closest& a, const Closest& b) {
@@ -184,19 +145,17 @@ Closest ClosestOnSurface(Part part, const Vector3d& p) {
       return {G::cylinder_radius * n + Vector3d(0, y, 0), n};
     }
     case Part::kBoxWithBore: return ClosestOnBox(p);
+    case Part::kSteppedBlock: {
+      const auto c = stepped_block::Closest(p);
+      return {c.point, c.normal};
+    }
   }
   return {p, Vector3d::UnitZ()};
 }
 
-double DistanceToSegment(const Vector3d& p, const Vector3d& a, const Vector3d& b) {
-  const Vector3d ab = b - a;
-  const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
-  return (p - (a + t * ab)).norm();
-}
-
-// Distance to the nearest sharp edge: the 12 box edges and the two rims of the bore.
-double EdgeDistance(Part part, const Vector3d& p) {
-  if (part != Part::kBoxWithBore) return kInf;
+// Distance to the nearest sharp edge of the box with bore, all convex: the 12 box edges and the
+// two rims of the bore.
+double BoxWithBoreEdgeDistance(const Vector3d& p) {
   const double hx = G::box_half_x, hy = G::box_half_y, h = G::box_height;
   double best = kInf;
   auto corner = [&](int i) {
@@ -207,9 +166,19 @@ double EdgeDistance(Part part, const Vector3d& p) {
       if (!(i & bit)) best = std::min(best, DistanceToSegment(p, corner(i), corner(i | bit)));
     }
   }
-  const double rho_off = std::hypot(p.x(), p.y()) - G::bore_radius;
-  for (double z : {0.0, h}) best = std::min(best, std::hypot(rho_off, p.z() - z));
+  for (double z : {0.0, h}) best = std::min(best, kBore.RimDistance(p, z));
   return best;
+}
+
+EdgeDistances Edges(Part part, const Vector3d& p) {
+  switch (part) {
+    case Part::kBoxWithBore: return {BoxWithBoreEdgeDistance(p), kInf};
+    case Part::kSteppedBlock: return stepped_block::Edges(p);
+    case Part::kPlane:
+    case Part::kSphere:
+    case Part::kCylinder: return {};
+  }
+  return {};
 }
 
 // Line direction u and sweep direction w of a laser sheet travelling along -d.
@@ -238,7 +207,7 @@ SimSensor MakeSensor(Part part, const Vector3d& d_l, double camera_tilt_deg, std
 }
 
 Vector3d FrontalDirection(Part part) {
-  return part == Part::kBoxWithBore ? Vector3d(0.6, 0.5, 1).normalized() : Vector3d::UnitZ();
+  return IsBlock(part) ? Vector3d(0.6, 0.5, 1).normalized() : Vector3d::UnitZ();
 }
 
 void ScanOne(Part part, const SimSensor& sensor, uint32_t scan_index, std::mt19937_64& rng,
@@ -289,7 +258,9 @@ void ScanOne(Part part, const SimSensor& sensor, uint32_t scan_index, std::mt199
       out.truth.push_back(p.cast<float>());
       out.true_normal.push_back(hit->normal.cast<float>());
       out.is_outlier.push_back(spike ? 1 : 0);
-      out.edge_distance.push_back(static_cast<float>(EdgeDistance(part, p)));
+      const EdgeDistances edges = Edges(part, p);
+      out.edge_distance.push_back(static_cast<float>(std::min(edges.convex, edges.concave)));
+      out.edge_convex.push_back(edges.convex <= edges.concave ? 1 : 0);
     }
   }
   ScanMeta meta;
@@ -334,6 +305,12 @@ std::vector<SimSensor> TwoOverlappingSensors(Part part) {
   oblique.noise_sigma *= 2;
   oblique.misregistration.translation() = Vector3d(0, 0, 0.02);
   return {MakeSensor(part, d, 25, "frontal"), oblique};
+}
+
+std::vector<SimSensor> ThreeOverlappingSensors(Part part) {
+  return {MakeSensor(part, Vector3d(0.6, 0.3, 1), 25, "from+x"),
+          MakeSensor(part, Vector3d(-0.6, 0.3, 1), 25, "from-x"),
+          MakeSensor(part, Vector3d(0, -0.6, 1), 25, "from-y")};
 }
 
 std::vector<SimSensor> SurroundingSensors(Part part) {

@@ -32,7 +32,7 @@
 namespace scanprep::sim {
 
 // Analytic parts with known surfaces, in millimetres.
-enum class Part { kPlane, kSphere, kCylinder, kBoxWithBore };
+enum class Part { kPlane, kSphere, kCylinder, kBoxWithBore, kSteppedBlock };
 
 struct PartGeometry {
   // kPlane: z = 0, |x|, |y| <= plane_half; outward normal +z.
@@ -48,6 +48,14 @@ struct PartGeometry {
   static constexpr double box_half_y = 8.0;
   static constexpr double box_height = 8.0;
   static constexpr double bore_radius = 3.0;
+  // kSteppedBlock: the same box with a slot |x| < slot_half_width, slot_depth deep, milled along
+  // y through its top, and a bore of radius stepped_bore_radius along z at x = stepped_bore_x,
+  // y = 0 (in the shoulder right of the slot). The slot's and the bore's rims are convex edges,
+  // the lines where the slot's walls meet its floor concave ones (stepped_block.h).
+  static constexpr double slot_half_width = 3.0;
+  static constexpr double slot_depth = 3.0;
+  static constexpr double stepped_bore_x = 7.5;
+  static constexpr double stepped_bore_radius = 2.0;
 };
 
 // A laser-line sensor sweeping along a direction: scanlines are parallel laser planes spaced
@@ -72,6 +80,8 @@ struct SimulatedCloud {
   std::vector<uint8_t> is_outlier;           // 1 for injected spikes
   std::vector<float> edge_distance;          // distance of the true point to the nearest sharp
                                              // edge (infinity if the part has none)
+  std::vector<uint8_t> edge_convex;          // 1 when that nearest edge is convex (or there is
+                                             // none), 0 when it is concave
 };
 
 SimulatedCloud Simulate(Part part, const std::vector<SimSensor>& sensors, uint64_t seed);
@@ -87,6 +97,10 @@ std::vector<SimSensor> FrontalSensor(Part part);
 // Two overlapping sensors of different quality: the frontal one and an oblique (≈50°) one with
 // twice the noise and a 0.02 mm misregistration (translation) — the merge stage's fixture.
 std::vector<SimSensor> TwoOverlappingSensors(Part part);
+// Three laser-line sensors with σ = 0.01 mm, overlapping on the top: two tilted ≈31° to +x and
+// to −x (each sees the slot wall facing it and the concave edge at that wall's foot) and one
+// tilted ≈31° to −y. No misregistration: the evaluation's fixture (tests/support/metrology.h).
+std::vector<SimSensor> ThreeOverlappingSensors(Part part);
 // Six sensors from ±x, ±y, ±z: a closed part scanned all around (for orientation without poses).
 std::vector<SimSensor> SurroundingSensors(Part part);
 

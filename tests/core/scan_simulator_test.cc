@@ -121,5 +121,99 @@ TEST(ScanSimulator, SurfaceQueries) {
   EXPECT_NEAR(DistanceToSurface(Part::kCylinder, {0, 3, -11}), 1.0, 1e-12);
 }
 
+TEST(ScanSimulator, SteppedBlockSurfaceQueries) {
+  const Part part = Part::kSteppedBlock;
+  // The slot (|x| < 3, floor at z = 5) is open above: its floor, walls and rims are the surface.
+  EXPECT_NEAR(DistanceToSurface(part, {0, 0, 6}), 1.0, 1e-12);
+  EXPECT_TRUE(SurfaceNormal(part, {0, 0, 6}).isApprox(Eigen::Vector3d::UnitZ()));
+  EXPECT_NEAR(DistanceToSurface(part, {2.5, 0, 6.5}), 0.5, 1e-12);
+  EXPECT_TRUE(SurfaceNormal(part, {2.5, 0, 6.5}).isApprox(-Eigen::Vector3d::UnitX()));
+  EXPECT_TRUE(SurfaceNormal(part, {-2.5, 0, 6.5}).isApprox(Eigen::Vector3d::UnitX()));
+  EXPECT_NEAR(DistanceToSurface(part, {11, 5, 8.2}), 0.2, 1e-12);
+  EXPECT_NEAR(DistanceToSurface(part, {0, 0, 9}), std::sqrt(10.0), 1e-12);  // to the rims
+  EXPECT_NEAR(DistanceToSurface(part, {0, 9, 4}), 1.0, 1e-12);               // end face, below
+  EXPECT_NEAR(DistanceToSurface(part, {0, 9, 6}), std::sqrt(2.0), 1e-12);    // the notch's floor
+  EXPECT_NEAR(DistanceToSurface(part, {-12.5, 0, 4}), 0.5, 1e-12);
+  // The bore (radius 2 at x = 7.5, y = 0): its wall faces the axis; above it, its rim is nearest.
+  EXPECT_NEAR(DistanceToSurface(part, {8.5, 0, 4}), 1.0, 1e-12);
+  EXPECT_TRUE(SurfaceNormal(part, {8.5, 0, 4}).isApprox(-Eigen::Vector3d::UnitX()));
+  EXPECT_TRUE(SurfaceNormal(part, {7.5, 1.5, 4}).isApprox(-Eigen::Vector3d::UnitY()));
+  EXPECT_NEAR(DistanceToSurface(part, {7.5, 0.5, 8.5}), std::hypot(1.5, 0.5), 1e-12);
+  EXPECT_NEAR(DistanceToSurface(part, {7.5, 3.0, 8.5}), 0.5, 1e-12);  // the top beside it
+}
+
+TEST(ScanSimulator, SteppedBlockRaysStopAtTheFirstFaceTheyMeet) {
+  // A noise-free laser straight down (+z above the block's centre): inside the slot every ray
+  // must reach the floor, outside it the top.
+  SimSensor frontal = FrontalSensor(Part::kPlane)[0];
+  frontal.camera_position += Eigen::Vector3d(0, 0, 4);
+  frontal.laser_position += Eigen::Vector3d(0, 0, 4);
+  frontal.noise_sigma = 0;
+  const SimulatedCloud sim = Simulate(Part::kSteppedBlock, {frontal}, 1);
+  size_t floor = 0, top = 0;
+  for (size_t i = 0; i < sim.cloud.size(); ++i) {
+    const Eigen::Vector3f t = sim.truth[i];
+    ASSERT_NEAR(DistanceToSurface(Part::kSteppedBlock, t.cast<double>()), 0.0, 1e-4);
+    ASSERT_GT(std::hypot(t.x() - 7.5f, t.y()), 2.0f - 1e-4f) << "rays down the bore hit nothing";
+    if (std::abs(t.x()) < 2.9f && std::abs(t.y()) < 7.9f) {
+      ASSERT_NEAR(t.z(), 5.0f, 1e-4f) << "inside the slot the ray must reach its floor";
+      ++floor;
+    }
+    if (std::abs(t.x()) > 3.1f && t.z() > 4.0f) {
+      ASSERT_NEAR(t.z(), 8.0f, 1e-4f);
+      ++top;
+    }
+  }
+  EXPECT_GT(floor, 1000u);
+  EXPECT_GT(top, 5000u);
+}
+
+TEST(ScanSimulator, SteppedBlockTellsConvexFromConcaveEdges) {
+  const Part part = Part::kSteppedBlock;
+  const SimulatedCloud sim = Simulate(part, ThreeOverlappingSensors(part), 5);
+  const Stats s = Measure(part, sim, 0.01);
+  EXPECT_EQ(s.far, 0u);
+  ASSERT_EQ(sim.edge_convex.size(), sim.cloud.size());
+  size_t wall_facing_x = 0, wall_facing_minus_x = 0, bore = 0, concave = 0, convex = 0;
+  size_t per_scan[3] = {0, 0, 0};
+  for (size_t i = 0; i < sim.cloud.size(); ++i) {
+    const Eigen::Vector3f t = sim.truth[i], n = sim.true_normal[i];
+    ++per_scan[sim.cloud.scan[i]];
+    wall_facing_x += n.x() > 0.99f && std::abs(t.x() + 3) < 1e-4f;
+    wall_facing_minus_x += n.x() < -0.99f && std::abs(t.x() - 3) < 1e-4f;
+    bore += std::abs(n.z()) < 0.01f && std::abs(std::hypot(t.x() - 7.5f, t.y()) - 2) < 1e-4f;
+    const bool mid = std::abs(t.y()) < 7.5f;  // away from the end faces' edges
+    const float to_wall = std::abs(std::abs(t.x()) - 3.0f);
+    // On the floor or a wall next to their meeting line: concave; on the top next to a rim or
+    // on a wall next to it: convex.
+    if (mid && to_wall < 0.15f && std::abs(t.z() - 5) < 1e-4f) {
+      ASSERT_EQ(sim.edge_convex[i], 0) << t.transpose();
+      ASSERT_NEAR(sim.edge_distance[i], to_wall, 1e-4f);
+    }
+    const bool on_wall = mid && to_wall < 1e-4f;
+    if (on_wall && t.z() < 5.15f) {
+      ASSERT_EQ(sim.edge_convex[i], 0) << t.transpose();
+    }
+    if ((on_wall && t.z() > 7.85f) || (mid && to_wall < 0.15f && std::abs(t.z() - 8) < 1e-4f)) {
+      ASSERT_EQ(sim.edge_convex[i], 1) << t.transpose();
+    }
+    if (sim.edge_distance[i] < 0.2f) ++(sim.edge_convex[i] ? convex : concave);
+  }
+  std::printf("stepped block: %zu points (%zu/%zu/%zu per scan), slot walls %zu/%zu, bore %zu, "
+              "within 0.2 mm of a convex edge %zu, of a concave edge %zu\n",
+              sim.cloud.size(), per_scan[0], per_scan[1], per_scan[2], wall_facing_x,
+              wall_facing_minus_x, bore, convex, concave);
+  // Every sensor sees the top; each side sensor sees the wall facing it and the concave edge at
+  // its foot.
+  for (size_t n : per_scan) EXPECT_GT(n, 10000u);
+  EXPECT_GT(wall_facing_x, 500u);
+  EXPECT_GT(wall_facing_minus_x, 500u);
+  EXPECT_GT(bore, 300u);
+  EXPECT_GT(concave, 200u);
+  EXPECT_GT(convex, 1000u);
+  EXPECT_EQ(sim.cloud.scans.size(), 3u);
+  for (const ScanMeta& m : sim.cloud.scans) EXPECT_DOUBLE_EQ(m.uncertainty, 3 * 0.01);
+}
+
 }  // namespace
 }  // namespace scanprep::testing
