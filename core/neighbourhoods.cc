@@ -127,9 +127,9 @@ absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shif
   return absl::OkStatus();
 }
 
-void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius,
-                            RadiusMatches& out) const {
-  WithinUncapped(cloud, i, radius, out);
+void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
+                            uint8_t skip) const {
+  WithinUncapped(cloud, i, radius, out, skip);
   const size_t cap = max_ball_points();
   if (out.size() <= cap) return;
   std::nth_element(out.begin(), out.begin() + (cap - 1), out.end(), [](const auto& a, const auto& b) {
@@ -141,20 +141,21 @@ void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius,
 }
 
 void Neighbourhoods::WithinUncapped(const PointCloud& cloud, size_t i, float radius,
-                                    RadiusMatches& out) const {
+                                    RadiusMatches& out, uint8_t skip) const {
   out.clear();
+  auto skipped = [&](size_t j) { return (cloud.flags[j] & skip) != 0; };
   if (k_ > 0 && !moved_ && radius <= dk(i)) {
-    if (!cloud.removed(i)) out.emplace_back(static_cast<uint32_t>(i), 0.f);
+    if (!skipped(i)) out.emplace_back(static_cast<uint32_t>(i), 0.f);
     for (const uint32_t j : knn(i)) {
       const float d2 = cloud.squared_distance(i, j);
       if (!(d2 < radius * radius)) break;  // the list is nearest first
-      if (!cloud.removed(j)) out.emplace_back(j, d2);
+      if (!skipped(j)) out.emplace_back(j, d2);
     }
     return;
   }
   const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
   grid_.Within(q, radius, out);
-  std::erase_if(out, [&](const auto& m) { return cloud.removed(m.first); });
+  std::erase_if(out, [&](const auto& m) { return skipped(m.first); });
 }
 
 }  // namespace scanprep

@@ -74,11 +74,14 @@ class Neighbourhoods {
   // Unremoved points within `radius` of point i (i itself included), as (index, squared
   // distance), at most max_ball_points() of them: a fuller ball keeps its nearest (ties to the
   // lower index) and is counted in capped_balls(). Answers from the k-NN list when the radius
-  // fits inside it and no point has moved since the build, else asks the grid.
-  void Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out) const;
+  // fits inside it and no point has moved since the build, else asks the grid. `skip`: the removal
+  // flags that leave a point out (smoothing still fits to the points merging took out).
+  void Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
+              uint8_t skip = kRemovedMask) const;
   // Every unremoved point within `radius`, for a caller whose total work stays O(n) however full
   // the balls (simplification: each point lies in the balls of a bounded number of kept centres).
-  void WithinUncapped(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out) const;
+  void WithinUncapped(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
+                      uint8_t skip = kRemovedMask) const;
   uint32_t max_ball_points() const { return std::max<uint32_t>(kMaxBallPointsPerK * k_, 64); }
   // Balls capped so far, and the points they left out.
   uint64_t capped_balls() const { return capped_balls_.load(std::memory_order_relaxed); }

@@ -152,7 +152,11 @@ SmoothingOutcome SmoothPoint(const SmoothingInputs& in, size_t i, SmoothingScrat
   if (in.cloud.removed(i)) return kKept;
   const float r_p = in.nb.adaptive_radius(i);
   if (!(r_p > 0)) return kKept;
-  in.nb.Within(in.cloud, i, r_p, scratch.matches);  // includes i itself (x = 0, Φ = 1)
+  // Includes i itself (x = 0, Φ = 1). The own-side fit also takes the points merging removed:
+  // they are measurements of the same surface, only worse viewed (Eq. 6 weighs them so), and
+  // without them the merged layer is smoothed from a third of the data where three scans overlap.
+  const uint8_t skip = in.s.own_side ? kRemovedOutlier | kRemovedSimplify : kRemovedMask;
+  in.nb.Within(in.cloud, i, r_p, scratch.matches, skip);
   BaseWeights(in, r_p, scratch);
   return in.s.own_side ? OwnSide(in, i, p, scratch, out) : Mean(in, i, p, scratch, out);
 }

@@ -35,6 +35,7 @@ struct Plane {
 };
 
 struct Judged {
+  Plane plane;   // refitted
   float offset;  // of the point from the refitted plane
   float sigma;   // RMS offset of the plane's supporters from it
   float share;   // of the point's neighbours that support it
@@ -52,8 +53,11 @@ std::optional<Judged> Refit(const PointCloud& cloud, const Eigen::Vector3f& p, c
   if (moments.count() < kMinSupport) return std::nullopt;
   const LocalFrame frame = moments.Solve();
   if (!frame.valid) return std::nullopt;
-  return Judged{static_cast<float>(std::abs(frame.centroid.dot(frame.normal()))),
-                static_cast<float>(std::sqrt(frame.eigenvalues[0])),
+  return Judged{Plane{p + frame.centroid.cast<float>(), frame.normal().cast<float>()},
+                static_cast<float>(std::abs(frame.centroid.dot(frame.normal()))),
+                // A plane fitted to n points leaves them n − 3 degrees of freedom.
+                static_cast<float>(std::sqrt(frame.eigenvalues[0] * double(moments.count()) /
+                                             double(moments.count() - 3))),
                 static_cast<float>(moments.count()) / static_cast<float>(scratch.matches.size())};
 }
 
@@ -79,7 +83,17 @@ std::optional<Judged> NearestSupportedPlane(const PointCloud& cloud, size_t i, f
     nearest_offset = offset;
   }
   if (!nearest) return std::nullopt;
-  const std::optional<Judged> own = Refit(cloud, p, *nearest, gate, true, scratch);
+  std::optional<Judged> own = Refit(cloud, p, *nearest, gate, true, scratch);
+  // Once more within 3 of the supporters' own σ: noise tails and other spikes near the plane
+  // would widen σ and tilt the plane.
+  if (own) {
+    const float scan_sigma = gate / (kGateSigmas * kLocalNoiseCap);
+    const float tight =
+        kGateSigmas * std::clamp(own->sigma, scan_sigma, kLocalNoiseCap * scan_sigma);
+    if (std::optional<Judged> refit = Refit(cloud, p, own->plane, tight, true, scratch)) {
+      own = refit;
+    }
+  }
   if (!own || own->offset <= gate) return own;
   // The rest are a surface only if they lie as close to their plane as a supporter may.
   const std::optional<Judged> rest = Refit(cloud, p, *nearest, gate, false, scratch);

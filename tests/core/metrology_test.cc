@@ -84,9 +84,8 @@ TEST(Metrology, HarnessMeasuresTheNoiseAndAPerfectResult) {
   EXPECT_LT(MeasureAgainstTruth(kEvaluationPart, Scan(), perfect).coverage, 0.97);
 }
 
-// Enabled by the smoothing rewrite: the current smoothing barely moves points with an honest
-// u = σ (δ rejects most moves) and does not sharpen edges.
-TEST(Metrology, DISABLED_OutliersAndSmoothingWithUserMetadata) {
+// Issue 13's targets with an honest u = σ: flats well under half the raw noise, edges sharper.
+TEST(Metrology, OutliersAndSmoothingWithUserMetadata) {
   const Metrology m = Evaluate(true, kOutliersAndSmoothing);
   Print("outliers + smoothing", m);
   EXPECT_LE(m.flat.rms, 0.40 * Raw().flat.rms);
@@ -102,8 +101,8 @@ TEST(Metrology, DefaultPipelineKeepsTheSurfaceCovered) {
   EXPECT_GE(m.coverage, 0.99);
 }
 
-// Enabled by the smoothing rewrite (and outlier detection that tells 5σ spikes from noise).
-TEST(Metrology, DISABLED_DefaultPipelineWithUserMetadata) {
+// The whole default pipeline: flats better than raw, 5-20σ spikes told from noise.
+TEST(Metrology, DefaultPipelineWithUserMetadata) {
   const Metrology m = Evaluate(true, kDefaultPipeline);
   Print("default pipeline", m);
   EXPECT_LE(m.flat.rms, 0.8 * Raw().flat.rms);
@@ -111,8 +110,9 @@ TEST(Metrology, DISABLED_DefaultPipelineWithUserMetadata) {
   EXPECT_GE(m.recall, 0.95);
 }
 
-// Enabled by the smoothing rewrite: without metadata the edges come out worse than raw.
-TEST(Metrology, DISABLED_NoMetadataSmoothsFlatsAndHurtsNoZone) {
+// One bare .xyz of all three scans: σ is measured, so smoothing still works, and no zone gets
+// worse than raw.
+TEST(Metrology, NoMetadataSmoothsFlatsAndHurtsNoZone) {
   for (const auto* stages : {&kOutliersAndSmoothing, &kDefaultPipeline}) {
     const Metrology m = Evaluate(false, *stages);
     Print(stages->empty() ? "default pipeline, no metadata" : "outliers + smoothing, no metadata",
