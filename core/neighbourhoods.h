@@ -34,6 +34,16 @@ inline constexpr double kMaxRadiusPerGlobalRadius = 5.0;
 // an override) and clusters far denser than the rest. It bounds every stage at O(n·k) work.
 inline constexpr uint32_t kMaxBallPointsPerK = 32;
 
+// Where scans overlap, a ball of one scan's points is widened once so that it holds about k + 1
+// of them, as r_p = d_k would on that scan alone: by √((k+1)/own) for `own` found, at most 2×
+// (4× the area; a point with hardly any of its own scan around it is judged on what is there,
+// not on a ball reaching into hundreds of another scan's points).
+inline float OwnScanWidening(size_t own, uint32_t k) {
+  const float wanted =
+      std::sqrt(static_cast<float>(k + 1) / static_cast<float>(std::max<size_t>(own, 1)));
+  return std::min(2.f, wanted);
+}
+
 class Neighbourhoods {
  public:
   // Builds the grid and the k-NN graph over all points of `cloud` (removed ones included: the

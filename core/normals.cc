@@ -88,14 +88,13 @@ class NormalsStage : public Stage {
           const double sigma = sigma_override.value_or(cloud.scans[cloud.scan[i]].uncertainty);
           r = MitraRadius(cloud, nb, i, sigma, mitra, scratch.mitra);
         }
-        // In an overlap part of the k-NN ball belongs to other scans: widen it once so that
-        // the own scan alone holds about k points, as r_p = d_k would on that scan alone.
-        // Only the widened ball is fitted. (One query reaching past r_p for both balls costs
-        // more than two: a radius search grows faster than the ball.)
+        // In an overlap part of the k-NN ball belongs to other scans: widen it once
+        // (OwnScanWidening). Only the widened ball is fitted. (One query reaching past r_p for
+        // both balls costs more than two: a radius search grows faster than the ball.)
         Gather(cloud, nb, i, r, per_scan, scratch.matches);
         const size_t own = scratch.matches.size();
         if (per_scan && own < nb.k() + 1) {
-          r *= std::sqrt(static_cast<float>(nb.k() + 1) / std::max<size_t>(own, 1));
+          r *= OwnScanWidening(own, nb.k());
           Gather(cloud, nb, i, r, per_scan, scratch.matches);
         }
         const LocalFrame frame = Fit(cloud, i, r, weight_scale, scratch.matches);

@@ -132,8 +132,7 @@ absl::Status JudgeBySurface(const PointCloud& cloud, const Neighbourhoods& nb,
       float radius = nb.adaptive_radius(i);
       OwnScanNeighbours(cloud, nb, i, radius, scratch.matches);
       if (scratch.matches.size() < nb.k()) {
-        radius *= std::sqrt(static_cast<float>(nb.k()) /
-                            std::max<size_t>(scratch.matches.size(), 1));
+        radius *= OwnScanWidening(scratch.matches.size(), nb.k());
         OwnScanNeighbours(cloud, nb, i, radius, scratch.matches);
       }
       scratch.candidates.clear();
