@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <map>
+#include <optional>
 
 #include <google/protobuf/util/json_util.h>
 
@@ -185,8 +186,11 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   std::vector<uint32_t> first_scan;      // per file: its first scan's index in the header
   std::vector<std::string> scan_files;  // per scan: the file it came from
   for (const std::string& file : files) {
-    auto cloud = io::ReadScanFile(file);
+    auto cloud = io::ReadScanFile(file, job.notes);
     if (!cloud.ok()) return cloud.status();
+    if (cloud->has_normals()) {
+      job.notes.push_back(absl::StrCat(file, ": its normals are not sent (the service estimates its own)"));
+    }
     const std::string stem = fs::path(file).stem().string();
     split.push_back(SplitByScanColumn(*cloud));
     first_scan.push_back(static_cast<uint32_t>(job.header.scans_size()));
@@ -206,6 +210,10 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
         from_job.erase(match);
       }
       scan->set_scan_id(id);
+      // A file's sensor origin (PCD VIEWPOINT) is in the file's frame and units, as the header's
+      // camera_position is; the job file's value, when it has one, wins.
+      const std::optional<Eigen::Vector3d>& origin = cloud->scans.front().camera_position;
+      if (origin && !scan->has_camera_position()) SetVec3(*origin, scan->mutable_camera_position());
       scan_files.push_back(file);
     }
     clouds.push_back(std::move(*cloud));
