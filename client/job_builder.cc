@@ -189,7 +189,8 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
     auto cloud = io::ReadScanFile(file, job.notes);
     if (!cloud.ok()) return cloud.status();
     if (cloud->has_normals()) {
-      job.notes.push_back(absl::StrCat(file, ": its normals are not sent (the service estimates its own)"));
+      job.notes.push_back(
+          absl::StrCat(file, ": its normals are not sent (the service estimates its own)"));
     }
     const std::string stem = fs::path(file).stem().string();
     split.push_back(SplitByScanColumn(*cloud));

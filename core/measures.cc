@@ -146,8 +146,9 @@ class MeasuresStage : public Stage {
     // A line scanner's κ̂ comes from its scanlines (Eq. 11); without them every point falls back
     // to surface variation (Eq. 12), which blurs edges over the whole ball. Flexible scanners
     // have no scanlines by design, so only a line scan that lost them is warned about.
-    ctx.Record("measures.line_scan_without_scanlines", cloud.kind == ScannerKind::kLine && !lines ? 1 : 0);
-    if (cloud.kind == ScannerKind::kLine && !lines) {
+    const bool line_scan_without_scanlines = cloud.kind == ScannerKind::kLine && !lines;
+    ctx.Record("measures.line_scan_without_scanlines", line_scan_without_scanlines ? 1 : 0);
+    if (line_scan_without_scanlines) {
       ctx.Warn("measures: the line scans came without scanline indices, so curvature κ̂ is "
                "surface variation (Eq. 12) everywhere instead of scanline curvature (Eq. 11); "
                "send the scanline of every point");

@@ -37,7 +37,8 @@ void WarnAboutMissingMetadata(JobContext& ctx, bool radius_forced) {
     if (!scan.uncertainty_stated) no_uncertainty.push_back(s);
   }
   ctx.Record("neighbourhoods.scans_without_spacing", static_cast<double>(no_spacing.size()));
-  ctx.Record("neighbourhoods.scans_default_uncertainty", static_cast<double>(no_uncertainty.size()));
+  ctx.Record("neighbourhoods.scans_default_uncertainty",
+             static_cast<double>(no_uncertainty.size()));
   if (!no_spacing.empty() && !radius_forced) {
     ctx.Warn(absl::StrCat("neighbourhoods: line scan(s) ", ScanList(cloud, no_spacing),
                           " state no scanline spacing, so r_min (Eq. 2) is ε_u alone; give "

@@ -32,7 +32,8 @@ constexpr uint64_t kMaxLzfRatio = 88;
 
 // The point values the reader keeps, in this order.
 enum Slot : uint8_t { kX, kY, kZ, kNx, kNy, kNz, kIntensity, kSlots };
-constexpr const char* kSlotNames[kSlots] = {"x", "y", "z", "normal_x", "normal_y", "normal_z", "intensity"};
+constexpr const char* kSlotNames[kSlots] = {"x",        "y",        "z",        "normal_x",
+                                            "normal_y", "normal_z", "intensity"};
 
 // Decodes one little-endian binary value of `field`.
 double DecodeBinary(const Field& field, const char* p) {
@@ -64,7 +65,8 @@ double DecodeBinary(const Field& field, const char* p) {
 // points before the next field's (`soa`).
 class BinarySource {
  public:
-  BinarySource(std::string_view bytes, const Header& header, bool soa) : bytes_(bytes), header_(header) {
+  BinarySource(std::string_view bytes, const Header& header, bool soa)
+      : bytes_(bytes), header_(header) {
     size_t start = 0;
     for (const Field& field : header.fields) {
       if (soa && field.name == "_") {
@@ -107,14 +109,15 @@ class AsciiSource {
     std::string_view line;
     do {
       if (!cursor_.Next(line)) {
-        return absl::InvalidArgumentError(absl::StrCat(name_, ": data ends before point ", i, " of POINTS ",
-                                                       header_.points, " (truncated file or wrong count)"));
+        return absl::InvalidArgumentError(absl::StrCat(name_, ": data ends before point ", i,
+                                                       " of POINTS ", header_.points,
+                                                       " (truncated file or wrong count)"));
       }
       SplitFields(line, /*commas=*/false, values_);
     } while (values_.empty());
     if (values_.size() != header_.point_values) {
-      return Error(absl::StrCat("point ", i, " has ", values_.size(), " values but the fields declare ",
-                                header_.point_values));
+      return Error(absl::StrCat("point ", i, " has ", values_.size(),
+                                " values but the fields declare ", header_.point_values));
     }
     return absl::OkStatus();
   }
@@ -123,14 +126,16 @@ class AsciiSource {
     const Field& field = header_.fields[f];
     const std::string_view token = values_[field.value_index];
     if (ParseDouble(token, out)) return absl::OkStatus();
-    return Error(absl::StrCat("field '", field.name, "' value '", std::string(token), "' is not a number"));
+    return Error(
+        absl::StrCat("field '", field.name, "' value '", std::string(token), "' is not a number"));
   }
 
   absl::Status Finish() {
     std::string_view line;
     while (cursor_.Next(line)) {
       SplitFields(line, /*commas=*/false, values_);
-      if (!values_.empty()) return Error(absl::StrCat("data after the last of POINTS ", header_.points));
+      if (!values_.empty())
+        return Error(absl::StrCat("data after the last of POINTS ", header_.points));
     }
     return absl::OkStatus();
   }
@@ -164,19 +169,26 @@ absl::StatusOr<Layout> MapFields(const Header& header, const std::string& name) 
       layout.unused.push_back(field.name);
       continue;
     }
-    if (layout.field[slot]) return absl::InvalidArgumentError(absl::StrCat(name, ": field '", field.name, "' appears twice"));
-    if (field.count != 1) {
+    if (layout.field[slot]) {
       return absl::InvalidArgumentError(
-          absl::StrCat(name, ": field '", field.name, "' has COUNT ", field.count, " (expected 1)"));
+          absl::StrCat(name, ": field '", field.name, "' appears twice"));
+    }
+    if (field.count != 1) {
+      return absl::InvalidArgumentError(absl::StrCat(name, ": field '", field.name, "' has COUNT ",
+                                                     field.count, " (expected 1)"));
     }
     layout.field[slot] = f;
   }
   for (int slot : {kX, kY, kZ}) {
-    if (!layout.field[slot]) return absl::InvalidArgumentError(absl::StrCat(name, ": no field '", kSlotNames[slot], "'"));
+    if (!layout.field[slot]) {
+      return absl::InvalidArgumentError(absl::StrCat(name, ": no field '", kSlotNames[slot], "'"));
+    }
   }
-  const int normals = layout.field[kNx].has_value() + layout.field[kNy].has_value() + layout.field[kNz].has_value();
+  const int normals =
+      layout.field[kNx].has_value() + layout.field[kNy].has_value() + layout.field[kNz].has_value();
   if (normals != 0 && normals != 3) {
-    return absl::InvalidArgumentError(absl::StrCat(name, ": only some of normal_x, normal_y, normal_z"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(name, ": only some of normal_x, normal_y, normal_z"));
   }
   return layout;
 }
@@ -193,8 +205,8 @@ void Reserve(const Header& header, const Layout& layout, PointCloud& cloud) {
 
 // Reads every point from `source`, keeping those with finite coordinates.
 template <class Source>
-absl::Status ReadPoints(const Header& header, const Layout& layout, Source& source, PointCloud& cloud,
-                        uint64_t& invalid) {
+absl::Status ReadPoints(const Header& header, const Layout& layout, Source& source,
+                        PointCloud& cloud, uint64_t& invalid) {
   const bool normals = layout.field[kNx].has_value();
   const bool intensity = layout.field[kIntensity].has_value();
   const bool organised = header.height > 1;
@@ -226,11 +238,14 @@ absl::Status ReadPoints(const Header& header, const Layout& layout, Source& sour
 }
 
 // The uncompressed field-after-field bytes of a binary_compressed body.
-absl::StatusOr<std::string> Decompress(std::string_view body, const Header& header, const std::string& name) {
+absl::StatusOr<std::string> Decompress(std::string_view body, const Header& header,
+                                       const std::string& name) {
   auto error = [&](std::string_view message) {
-    return absl::InvalidArgumentError(absl::StrCat(name, ": binary_compressed body: ", std::string(message)));
+    return absl::InvalidArgumentError(
+        absl::StrCat(name, ": binary_compressed body: ", std::string(message)));
   };
-  if (body.size() < 8) return error(absl::StrCat("has ", body.size(), " bytes, fewer than its 8-byte size prefix"));
+  if (body.size() < 8)
+    return error(absl::StrCat("has ", body.size(), " bytes, fewer than its 8-byte size prefix"));
   uint32_t sizes[2];
   std::memcpy(sizes, body.data(), 8);
   const uint64_t compressed = kHostIsBigEndian ? ByteSwapped(sizes[0]) : sizes[0];
@@ -240,27 +255,31 @@ absl::StatusOr<std::string> Decompress(std::string_view body, const Header& head
   const std::string_view rest = body.substr(8);
   if (compressed > rest.size() ||
       rest.find_first_not_of('\0', compressed) != std::string_view::npos) {
-    return error(absl::StrCat("declares ", compressed, " compressed bytes but ", rest.size(),
-                              " follow", compressed > rest.size() ? "" : ", not all of the rest zero padding"));
+    return error(
+        absl::StrCat("declares ", compressed, " compressed bytes but ", rest.size(), " follow",
+                     compressed > rest.size() ? "" : ", not all of the rest zero padding"));
   }
   uint64_t record = 0;
-  for (const Field& field : header.fields) record += field.name == "_" ? 0 : uint64_t{field.size} * field.count;
+  for (const Field& field : header.fields)
+    record += field.name == "_" ? 0 : uint64_t{field.size} * field.count;
   if (record != 0 && header.points > uncompressed / record) {
-    return error(absl::StrCat("POINTS ", header.points, " of ", record, " bytes need more than the ", uncompressed,
+    return error(absl::StrCat("POINTS ", header.points, " of ", record,
+                              " bytes need more than the ", uncompressed,
                               " uncompressed bytes it declares"));
   }
   if (header.points * record != uncompressed) {
-    return error(absl::StrCat("declares ", uncompressed, " uncompressed bytes but POINTS ", header.points, " of ",
-                              record, " bytes are ", header.points * record));
+    return error(absl::StrCat("declares ", uncompressed, " uncompressed bytes but POINTS ",
+                              header.points, " of ", record, " bytes are ",
+                              header.points * record));
   }
   if (uncompressed > kMaxLzfRatio * compressed) {
-    return error(absl::StrCat(compressed, " LZF bytes cannot expand to the ", uncompressed, " declared (at most ",
-                              kMaxLzfRatio, "x)"));
+    return error(absl::StrCat(compressed, " LZF bytes cannot expand to the ", uncompressed,
+                              " declared (at most ", kMaxLzfRatio, "x)"));
   }
   std::string out(uncompressed, '\0');
   if (uncompressed == 0) return out;
-  const unsigned got = lzf_decompress(body.data() + 8, static_cast<unsigned>(compressed), out.data(),
-                                      static_cast<unsigned>(uncompressed));
+  const unsigned got = lzf_decompress(body.data() + 8, static_cast<unsigned>(compressed),
+                                      out.data(), static_cast<unsigned>(uncompressed));
   if (got != uncompressed) {
     return error(absl::StrCat("LZF data decompress to ", got, " bytes, not the ", uncompressed,
                               " declared (corrupt data)"));
@@ -268,21 +287,25 @@ absl::StatusOr<std::string> Decompress(std::string_view body, const Header& head
   return out;
 }
 
-void AddMetadataWarnings(const Header& header, const Layout& layout, uint64_t invalid, const std::string& name,
-                         PointCloud& cloud, std::vector<std::string>& warnings) {
+void AddMetadataWarnings(const Header& header, const Layout& layout, uint64_t invalid,
+                         const std::string& name, PointCloud& cloud,
+                         std::vector<std::string>& warnings) {
   if (!layout.unused.empty()) {
     warnings.push_back(absl::StrCat(name, ": fields not used: ", absl::StrJoin(layout.unused, ", "),
                                     " (scanprep reads x y z, normal_x/y/z and intensity)"));
   }
   if (invalid > 0) {
-    warnings.push_back(absl::StrCat(name, ": ", invalid, " of ", header.points,
-                                    " points have a NaN or infinite coordinate (no measurement) and were left out"));
+    warnings.push_back(absl::StrCat(
+        name, ": ", invalid, " of ", header.points,
+        " points have a NaN or infinite coordinate (no measurement) and were left out"));
   }
   constexpr std::array<double, 7> kPclDefault = {0, 0, 0, 1, 0, 0, 0};
   if (!header.viewpoint || *header.viewpoint == kPclDefault) {
     warnings.push_back(absl::StrCat(
-        name, ": ", header.viewpoint ? "VIEWPOINT is PCL's default 0 0 0 1 0 0 0" : "no VIEWPOINT line",
-        ": sensor origin unknown (if the sensor sat at the origin, give camera_position in the job file)"));
+        name, ": ",
+        header.viewpoint ? "VIEWPOINT is PCL's default 0 0 0 1 0 0 0" : "no VIEWPOINT line",
+        ": sensor origin unknown (if the sensor sat at the origin, give camera_position in the job "
+        "file)"));
     return;
   }
   const std::array<double, 7>& v = *header.viewpoint;
@@ -317,8 +340,9 @@ absl::StatusOr<PointCloud> ParsePcd(std::string_view data, const std::string& na
   }
   if (!status.ok()) return status;
   if (header->points > 0 && invalid == header->points) {
-    return absl::InvalidArgumentError(absl::StrCat(name, ": all ", header->points,
-                                                   " points have a NaN or infinite coordinate: no valid point"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(name, ": all ", header->points,
+                     " points have a NaN or infinite coordinate: no valid point"));
   }
   cloud.scans.push_back(ScanMeta{.id = std::filesystem::path(name).stem().string()});
   AddMetadataWarnings(*header, *layout, invalid, name, cloud, warnings);
@@ -328,7 +352,8 @@ absl::StatusOr<PointCloud> ParsePcd(std::string_view data, const std::string& na
 
 }  // namespace
 
-absl::StatusOr<PointCloud> ReadPcd(const std::filesystem::path& path, std::vector<std::string>& warnings) {
+absl::StatusOr<PointCloud> ReadPcd(const std::filesystem::path& path,
+                                   std::vector<std::string>& warnings) {
   absl::StatusOr<std::string> data = ReadFileToString(path);
   if (!data.ok()) return data.status();
   return ParsePcd(*data, path.string(), warnings);

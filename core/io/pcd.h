@@ -28,7 +28,8 @@ namespace scanprep::io {
 // pose is unknown, so that exact value (or no VIEWPOINT line) leaves camera_position empty, with
 // a warning saying how to give the origin. Coordinates stay in the file's units; one scan, id =
 // file stem; FinishLoading() has been called. Warnings are appended to `warnings`.
-absl::StatusOr<PointCloud> ReadPcd(const std::filesystem::path& path, std::vector<std::string>& warnings);
+absl::StatusOr<PointCloud> ReadPcd(const std::filesystem::path& path,
+                                   std::vector<std::string>& warnings);
 absl::StatusOr<PointCloud> ReadPcd(std::istream& in, const std::string& name_for_errors,
                                    std::vector<std::string>& warnings);
 

@@ -1,6 +1,7 @@
 #include "core/io/pcd_header.h"
 
 #include <cmath>
+#include <limits>
 #include <set>
 
 #include "absl/strings/ascii.h"
@@ -17,7 +18,8 @@ constexpr uint64_t kMaxCount = 1u << 16;
 
 class HeaderParser {
  public:
-  HeaderParser(std::string_view data, const std::string& name) : data_(data), cursor_(data), name_(name) {}
+  HeaderParser(std::string_view data, const std::string& name)
+      : data_(data), cursor_(data), name_(name) {}
 
   absl::StatusOr<Header> Parse() {
     std::string_view line;
@@ -46,7 +48,8 @@ class HeaderParser {
       for (const std::string& v : values) header_.fields.push_back(Field{.name = v});
       return absl::OkStatus();
     }
-    if (keyword == "SIZE" || keyword == "TYPE" || keyword == "COUNT") return PerField(keyword, values);
+    if (keyword == "SIZE" || keyword == "TYPE" || keyword == "COUNT")
+      return PerField(keyword, values);
     if (keyword == "WIDTH") return Count(keyword, values, header_.width);
     if (keyword == "HEIGHT") return Count(keyword, values, header_.height);
     if (keyword == "POINTS") {
@@ -67,7 +70,8 @@ class HeaderParser {
         if (values[0] == known) return absl::OkStatus();
       }
     }
-    return Error(absl::StrCat("VERSION '", absl::StrJoin(values, " "), "' is not supported (0.6 or 0.7)"));
+    return Error(
+        absl::StrCat("VERSION '", absl::StrJoin(values, " "), "' is not supported (0.6 or 0.7)"));
   }
 
   absl::Status PerField(const std::string& keyword, const std::vector<std::string>& values) {
@@ -80,20 +84,25 @@ class HeaderParser {
       Field& field = header_.fields[f];
       uint64_t number = 0;
       if (keyword == "TYPE") {
-        if (values[f].size() != 1 || std::string_view("IUF").find(values[f][0]) == std::string_view::npos) {
-          return Error(absl::StrCat("TYPE of '", field.name, "' is '", values[f], "' (expected I, U or F)"));
+        if (values[f].size() != 1 ||
+            std::string_view("IUF").find(values[f][0]) == std::string_view::npos) {
+          return Error(
+              absl::StrCat("TYPE of '", field.name, "' is '", values[f], "' (expected I, U or F)"));
         }
         field.type = values[f][0];
       } else if (!ParseUint64(values[f], number)) {
-        return Error(absl::StrCat(keyword, " of '", field.name, "' is '", values[f], "', not an integer"));
+        return Error(
+            absl::StrCat(keyword, " of '", field.name, "' is '", values[f], "', not an integer"));
       } else if (keyword == "SIZE") {
         if (number != 1 && number != 2 && number != 4 && number != 8) {
-          return Error(absl::StrCat("SIZE of '", field.name, "' is ", number, " (expected 1, 2, 4 or 8)"));
+          return Error(
+              absl::StrCat("SIZE of '", field.name, "' is ", number, " (expected 1, 2, 4 or 8)"));
         }
         field.size = static_cast<uint32_t>(number);
       } else {
         if (number == 0 || number > kMaxCount) {
-          return Error(absl::StrCat("COUNT of '", field.name, "' is ", number, " (expected 1 to ", kMaxCount, ")"));
+          return Error(absl::StrCat("COUNT of '", field.name, "' is ", number, " (expected 1 to ",
+                                    kMaxCount, ")"));
         }
         field.count = static_cast<uint32_t>(number);
       }
@@ -101,9 +110,11 @@ class HeaderParser {
     return absl::OkStatus();
   }
 
-  absl::Status Count(const std::string& keyword, const std::vector<std::string>& values, uint64_t& out) {
+  absl::Status Count(const std::string& keyword, const std::vector<std::string>& values,
+                     uint64_t& out) {
     if (values.size() != 1 || !ParseUint64(values[0], out)) {
-      return Error(absl::StrCat(keyword, " '", absl::StrJoin(values, " "), "' is not one non-negative integer"));
+      return Error(absl::StrCat(keyword, " '", absl::StrJoin(values, " "),
+                                "' is not one non-negative integer"));
     }
     return absl::OkStatus();
   }
@@ -111,11 +122,13 @@ class HeaderParser {
   absl::Status Viewpoint(const std::vector<std::string>& values) {
     std::array<double, 7> v{};
     if (values.size() != v.size()) {
-      return Error(absl::StrCat("VIEWPOINT has ", values.size(), " values (expected tx ty tz qw qx qy qz)"));
+      return Error(
+          absl::StrCat("VIEWPOINT has ", values.size(), " values (expected tx ty tz qw qx qy qz)"));
     }
     for (size_t k = 0; k < v.size(); ++k) {
       if (!ParseDouble(values[k], v[k]) || !std::isfinite(v[k])) {
-        return Error(absl::StrCat("VIEWPOINT value ", k + 1, " '", values[k], "' is not a finite number"));
+        return Error(
+            absl::StrCat("VIEWPOINT value ", k + 1, " '", values[k], "' is not a finite number"));
       }
     }
     header_.viewpoint = v;
@@ -141,11 +154,13 @@ class HeaderParser {
 
   absl::StatusOr<Header> Finish() {
     for (const char* required : {"FIELDS", "SIZE", "TYPE", "WIDTH"}) {
-      if (!seen_.contains(required)) return Error(absl::StrCat("the header has no ", required, " line"));
+      if (!seen_.contains(required))
+        return Error(absl::StrCat("the header has no ", required, " line"));
     }
     for (Field& field : header_.fields) {
       if (field.type == 'F' && field.size != 4 && field.size != 8) {
-        return Error(absl::StrCat("field '", field.name, "' is TYPE F with SIZE ", field.size, " (expected 4 or 8)"));
+        return Error(absl::StrCat("field '", field.name, "' is TYPE F with SIZE ", field.size,
+                                  " (expected 4 or 8)"));
       }
       field.offset = header_.point_bytes;
       field.value_index = header_.point_values;
@@ -153,14 +168,20 @@ class HeaderParser {
       header_.point_values += field.count;
     }
     // WIDTH·HEIGHT is checked against POINTS before it is trusted: both are below 2^64.
+    // An organised cloud's rows become 32-bit scanline indices.
+    if (header_.height > std::numeric_limits<uint32_t>::max()) {
+      return Error(absl::StrCat("HEIGHT ", header_.height, " exceeds the limit ",
+                                std::numeric_limits<uint32_t>::max()));
+    }
     const uint64_t grid = header_.width * header_.height;
     if (header_.height != 0 && grid / header_.height != header_.width) {
-      return Error(absl::StrCat("WIDTH ", header_.width, " x HEIGHT ", header_.height, " overflows"));
+      return Error(
+          absl::StrCat("WIDTH ", header_.width, " x HEIGHT ", header_.height, " overflows"));
     }
     header_.points = declared_points_.value_or(grid);
     if (header_.points != grid) {
-      return Error(absl::StrCat("POINTS ", header_.points, " but WIDTH x HEIGHT = ", header_.width, " x ",
-                                header_.height, " = ", grid));
+      return Error(absl::StrCat("POINTS ", header_.points, " but WIDTH x HEIGHT = ", header_.width,
+                                " x ", header_.height, " = ", grid));
     }
     return BoundByBody();
   }
@@ -169,17 +190,20 @@ class HeaderParser {
   absl::StatusOr<Header> BoundByBody() {
     const uint64_t body = data_.size() - header_.body_offset;
     if (header_.data == Data::kAscii) {
-      // Every value takes at least one character and one separator (the last newline may be missing).
+      // Every value takes at least one character and one separator (the last newline may be
+      // missing).
       const uint64_t min_bytes = 2 * header_.point_values;
       if (header_.points > (body + 1) / min_bytes) {
         return Error(absl::StrCat("POINTS ", header_.points, " but the ascii body (", body,
-                                  " bytes) cannot hold them (at least ", min_bytes, " bytes each)"));
+                                  " bytes) cannot hold them (at least ", min_bytes,
+                                  " bytes each)"));
       }
     } else if (header_.data == Data::kBinary) {
       const uint64_t record = header_.point_bytes;
       if (header_.points > body / record || header_.points * record != body) {
         return Error(absl::StrCat("POINTS ", header_.points, " of ", record, " bytes each need ",
-                                  header_.points > body / record ? "more than" : "fewer than", " the ", body,
+                                  header_.points > body / record ? "more than" : "fewer than",
+                                  " the ", body,
                                   " bytes of the binary body (truncated file or wrong count)"));
       }
     }

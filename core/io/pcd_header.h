@@ -17,10 +17,10 @@ enum class Data { kAscii, kBinary, kBinaryCompressed };
 
 struct Field {
   std::string name;
-  uint32_t size = 4;   // bytes per value: 1, 2, 4 or 8
-  char type = 'F';     // 'I' signed, 'U' unsigned, 'F' floating point
-  uint32_t count = 1;  // values per point
-  size_t offset = 0;   // byte offset of the first value in a binary point record
+  uint32_t size = 4;       // bytes per value: 1, 2, 4 or 8
+  char type = 'F';         // 'I' signed, 'U' unsigned, 'F' floating point
+  uint32_t count = 1;      // values per point
+  size_t offset = 0;       // byte offset of the first value in a binary point record
   size_t value_index = 0;  // index of the first value among a point's values (ASCII columns)
 };
 

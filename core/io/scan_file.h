@@ -12,6 +12,7 @@ namespace scanprep::io {
 
 // .ply -> ReadPly; .pcd -> ReadPcd; .xyz/.asc/.txt/.pts -> ReadXyz (no scanlines). Extensions are
 // case-insensitive. What a reader could not use or had to leave out is appended to `warnings`.
-absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path, std::vector<std::string>& warnings);
+absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
+                                        std::vector<std::string>& warnings);
 
 }  // namespace scanprep::io

@@ -1,6 +1,7 @@
 // PCD reader: ascii, binary and binary_compressed files built here from known points, VIEWPOINT
 // as the sensor origin, organised clouds with NaN cells, malformed headers and bodies, and PCL's
 // own rs1 and table_scene_mug files against the numbers in the data README.
+#include <gtest/gtest.h>
 #include <lzf.h>
 
 #include <algorithm>
@@ -10,8 +11,6 @@
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -61,11 +60,12 @@ std::vector<Point> KnownPoints() {
 
 std::string HeaderText(const std::string& data, uint64_t width = 5, uint64_t height = 1,
                        const std::string& viewpoint = "VIEWPOINT 1.5 -2 300 1 0 0 0\n") {
-  return absl::StrCat("# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\n",
-                      "FIELDS x y z normal_x normal_y normal_z intensity rgb curvature _\n",
-                      "SIZE 4 4 4 4 4 4 4 4 8 1\nTYPE F F F F F F F U F U\nCOUNT 1 1 1 1 1 1 1 1 1 3\n",
-                      "WIDTH ", width, "\nHEIGHT ", height, "\n", viewpoint, "POINTS ", width * height,
-                      "\nDATA ", data, "\n");
+  return absl::StrCat(
+      "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\n",
+      "FIELDS x y z normal_x normal_y normal_z intensity rgb curvature _\n",
+      "SIZE 4 4 4 4 4 4 4 4 8 1\nTYPE F F F F F F F U F U\nCOUNT 1 1 1 1 1 1 1 1 1 3\n", "WIDTH ",
+      width, "\nHEIGHT ", height, "\n", viewpoint, "POINTS ", width * height, "\nDATA ", data,
+      "\n");
 }
 
 template <class T>
@@ -93,8 +93,8 @@ std::string AsciiFile(const std::vector<Point>& points) {
   std::string text = HeaderText("ascii");
   for (const Point& p : points) {
     // %.9g: every float survives the trip through decimal text exactly.
-    absl::StrAppendFormat(&text, "%.9g %.9g %.9g %.9g %.9g %.9g %.9g %u %.17g 0 0 0\n", p.x, p.y, p.z, p.nx,
-                          p.ny, p.nz, p.intensity, p.rgb, p.curvature);
+    absl::StrAppendFormat(&text, "%.9g %.9g %.9g %.9g %.9g %.9g %.9g %u %.17g 0 0 0\n", p.x, p.y,
+                          p.z, p.nx, p.ny, p.nz, p.intensity, p.rgb, p.curvature);
   }
   return text;
 }
@@ -142,7 +142,8 @@ void ExpectKnownPoints(const Read& r) {
   ASSERT_TRUE(c.scans[0].camera_position.has_value());
   EXPECT_EQ(*c.scans[0].camera_position, Eigen::Vector3d(1.5, -2, 300));
   ASSERT_EQ(r.warnings.size(), 1u);
-  EXPECT_NE(r.warnings[0].find("fields not used: rgb, curvature"), std::string::npos) << r.warnings[0];
+  EXPECT_NE(r.warnings[0].find("fields not used: rgb, curvature"), std::string::npos)
+      << r.warnings[0];
 }
 
 TEST(Pcd, AsciiRoundTrip) { ExpectKnownPoints(Parse(AsciiFile(KnownPoints()))); }
@@ -150,8 +151,9 @@ TEST(Pcd, BinaryRoundTrip) { ExpectKnownPoints(Parse(BinaryFile(KnownPoints())))
 TEST(Pcd, BinaryCompressedRoundTrip) { ExpectKnownPoints(Parse(CompressedFile(KnownPoints()))); }
 
 TEST(Pcd, Version06HeaderWithoutViewpointOrHeight) {
-  const Read r = Parse("VERSION .6\nFIELDS x y z\nSIZE 8 8 8\nTYPE F F F\nWIDTH 2\nPOINTS 2\nDATA ascii\n"
-                       "1 2 3\n4 5 6");
+  const Read r = Parse(
+      "VERSION .6\nFIELDS x y z\nSIZE 8 8 8\nTYPE F F F\nWIDTH 2\nPOINTS 2\nDATA ascii\n"
+      "1 2 3\n4 5 6");
   ASSERT_TRUE(r.cloud.ok()) << r.cloud.status();
   EXPECT_EQ(r.cloud->point(1), Eigen::Vector3f(4, 5, 6));
   EXPECT_FALSE(r.cloud->scans[0].camera_position.has_value());
@@ -199,7 +201,8 @@ TEST(Pcd, OrganisedCloudDropsNaNCellsLoudlyAndKeepsRowsAsScanlines) {
 TEST(Pcd, NoValidPointIsAnError) {
   const Read r = Parse("FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nDATA ascii\nnan nan nan\n");
   ASSERT_FALSE(r.cloud.ok());
-  EXPECT_NE(r.cloud.status().message().find("all 1 points have a NaN"), std::string::npos) << r.cloud.status();
+  EXPECT_NE(r.cloud.status().message().find("all 1 points have a NaN"), std::string::npos)
+      << r.cloud.status();
 }
 
 TEST(Pcd, IntegerCoordinatesAreRead) {
@@ -239,22 +242,30 @@ TEST(Pcd, MalformedFilesNameTheProblem) {
       {fields + "VIEWPOINT 0 0 0 1 0 0\n", "VIEWPOINT has 6 values"},
       {fields + "VIEWPOINT 0 0 nan 1 0 0 0\n", "VIEWPOINT value 3 'nan' is not a finite number"},
       {fields + "COLOUR 3\n", "line 4: unknown header keyword 'COLOUR'"},
-      {fields + "WIDTH 2\nHEIGHT 2\nPOINTS 5\nDATA ascii\n", "POINTS 5 but WIDTH x HEIGHT = 2 x 2 = 4"},
+      {fields + "WIDTH 2\nHEIGHT 2\nPOINTS 5\nDATA ascii\n",
+       "POINTS 5 but WIDTH x HEIGHT = 2 x 2 = 4"},
+      {fields + "WIDTH 1\nHEIGHT 4294967296\nDATA ascii\n",
+       "HEIGHT 4294967296 exceeds the limit 4294967295"},
       {fields + "WIDTH 1\nDATA lzma\n", "DATA 'lzma' is not ascii, binary or binary_compressed"},
-      {"FIELDS x y z\nSIZE 4 4 2\nTYPE F F F\nWIDTH 1\nDATA ascii\n1 2 3\n", "'z' is TYPE F with SIZE 2"},
+      {"FIELDS x y z\nSIZE 4 4 2\nTYPE F F F\nWIDTH 1\nDATA ascii\n1 2 3\n",
+       "'z' is TYPE F with SIZE 2"},
       {"FIELDS x y\nSIZE 4 4\nTYPE F F\nWIDTH 1\nDATA ascii\n1 2\n", "no field 'z'"},
-      {"FIELDS x y z x\nSIZE 4 4 4 4\nTYPE F F F F\nWIDTH 1\nDATA ascii\n1 2 3 4\n", "field 'x' appears twice"},
+      {"FIELDS x y z x\nSIZE 4 4 4 4\nTYPE F F F F\nWIDTH 1\nDATA ascii\n1 2 3 4\n",
+       "field 'x' appears twice"},
       {"FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 2 1\nWIDTH 1\nDATA ascii\n1 2 3 4\n",
        "field 'y' has COUNT 2 (expected 1)"},
       {fields + "FIELDS x y z normal_x\n", "keyword FIELDS appears twice"},
-      {fields + "WIDTH 1000000\nDATA ascii\n1 2 3\n", "POINTS 1000000 but the ascii body (6 bytes) cannot hold"},
+      {fields + "WIDTH 1000000\nDATA ascii\n1 2 3\n",
+       "POINTS 1000000 but the ascii body (6 bytes) cannot hold"},
       {fields + "WIDTH 2\nDATA ascii\n1 2 3\n\n\n\n\n\n", "data ends before point 1 of POINTS 2"},
       {fields + "WIDTH 1\nDATA ascii\n1 2 3\n4 5 6\n", "line 7: data after the last of POINTS 1"},
-      {fields + "WIDTH 1\nDATA ascii\n1 2\n\n\n", "line 6: point 0 has 2 values but the fields declare 3"},
+      {fields + "WIDTH 1\nDATA ascii\n1 2\n\n\n",
+       "line 6: point 0 has 2 values but the fields declare 3"},
       {fields + "WIDTH 1\nDATA ascii\n1 two 3\n", "line 6: field 'y' value 'two' is not a number"},
       {fields + "WIDTH 2\nDATA binary\n" + std::string(23, '\0'), "need more than the 23 bytes"},
       {fields + "WIDTH 1\nDATA binary\n" + std::string(13, '\0'), "need fewer than the 13 bytes"},
-      {fields + "WIDTH 1\nDATA binary_compressed\n\x01", "has 1 bytes, fewer than its 8-byte size prefix"},
+      {fields + "WIDTH 1\nDATA binary_compressed\n\x01",
+       "has 1 bytes, fewer than its 8-byte size prefix"},
       {huge_claim, "4 LZF bytes cannot expand to the 1200000 declared (at most 88x)"},
       {corrupt, "decompress to 0 bytes, not the 12 declared (corrupt data)"},
   };
@@ -277,7 +288,8 @@ TEST(Pcd, CompressedSizesMustMatchTheBody) {
       << r.cloud.status();
   const Read cut = Parse(bytes.substr(0, bytes.size() - 1));
   ASSERT_FALSE(cut.cloud.ok());
-  EXPECT_NE(cut.cloud.status().message().find("compressed bytes but"), std::string::npos) << cut.cloud.status();
+  EXPECT_NE(cut.cloud.status().message().find("compressed bytes but"), std::string::npos)
+      << cut.cloud.status();
 }
 
 // PCL's rs1.pcd: one laser scan, binary_compressed, sensor-centred, default VIEWPOINT.
@@ -302,7 +314,8 @@ TEST(PcdSharedData, Rs1LaserScene) {
 TEST(PcdSharedData, OrganisedStereoTableScene) {
   SCANPREP_REQUIRE_SHARED_DATA(dir);
   Read r;
-  r.cloud = ReadPcd(dir / "pcl_table_scene_mug_stereo/table_scene_mug_stereo_textured.pcd", r.warnings);
+  r.cloud =
+      ReadPcd(dir / "pcl_table_scene_mug_stereo/table_scene_mug_stereo_textured.pcd", r.warnings);
   ASSERT_TRUE(r.cloud.ok()) << r.cloud.status();
   ASSERT_EQ(r.cloud->size(), 209280u);
   EXPECT_TRUE(HasWarning(r, "97920 of 307200 points have a NaN"));

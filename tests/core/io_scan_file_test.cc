@@ -40,8 +40,9 @@ TEST(ScanFile, DispatchesOnTheExtension) {
 }
 
 TEST(ScanFile, PcdGoesToThePcdReaderWithItsWarnings) {
-  const std::string pcd = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\n"
-                          "HEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n";
+  const std::string pcd =
+      "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\n"
+      "POINTS 1\nDATA ascii\n1 2 3\n";
   for (const char* name : {"g.pcd", "h.PCD"}) {
     std::vector<std::string> warnings;
     absl::StatusOr<PointCloud> cloud = io::ReadScanFile(WriteTemp(name, pcd), warnings);
@@ -55,7 +56,8 @@ TEST(ScanFile, PcdGoesToThePcdReaderWithItsWarnings) {
 TEST(ScanFile, UnknownExtensionIsRejected) {
   const absl::StatusOr<PointCloud> cloud = ReadScanFile(WriteTemp("scene.las", "whatever"));
   ASSERT_EQ(cloud.status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(cloud.status().message().find("unsupported file extension '.las'"), std::string::npos) << cloud.status();
+  EXPECT_NE(cloud.status().message().find("unsupported file extension '.las'"), std::string::npos)
+      << cloud.status();
 }
 
 }  // namespace

@@ -1,11 +1,11 @@
 // A stage that cannot do its job for want of metadata says so: a warning in the report and a
 // machine-readable record, each path tested against a control that has the metadata, where the
 // record reads 0 and the warning is absent.
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <string>
 #include <string_view>
-
-#include <gtest/gtest.h>
 
 #include "core/pipeline.h"
 #include "core/sim/scan_simulator.h"
@@ -41,7 +41,9 @@ StageRun RunStages(PointCloud cloud, std::vector<std::string> stages) {
 }
 
 // One frontal laser-line scan of a plane: poses, spacing, u and scanlines all present.
-PointCloud OneScan() { return sim::Simulate(Part::kPlane, sim::FrontalSensor(Part::kPlane), 41).cloud; }
+PointCloud OneScan() {
+  return sim::Simulate(Part::kPlane, sim::FrontalSensor(Part::kPlane), 41).cloud;
+}
 
 void ForgetPoses(PointCloud& cloud) {
   for (ScanMeta& scan : cloud.scans) {
@@ -57,8 +59,9 @@ TEST(LoudNoOps, CorrectionOfASingleScanSaysThereIsNothingToMerge) {
   EXPECT_EQ(one.Record("correction", "correction.single_scan"), 1);
   EXPECT_TRUE(one.Warned("correction: the job has one scan"));
 
-  const StageRun two = RunStages(
-      sim::Simulate(Part::kPlane, sim::TwoOverlappingSensors(Part::kPlane), 41).cloud, {"correction"});
+  const StageRun two =
+      RunStages(sim::Simulate(Part::kPlane, sim::TwoOverlappingSensors(Part::kPlane), 41).cloud,
+                {"correction"});
   EXPECT_EQ(two.Record("correction", "correction.single_scan"), 0);
   EXPECT_FALSE(two.Warned("correction: the job has one scan"));
 }
