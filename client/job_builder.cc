@@ -1,11 +1,13 @@
 #include "client/job_builder.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <optional>
 
 #include <google/protobuf/util/json_util.h>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
@@ -226,6 +228,16 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   }
   if (args.Has("conf")) {
     if (absl::Status s = ApplyConf(args.Get("conf"), scan_files, job.header); !s.ok()) return s;
+  }
+  if (!args.Has("unit") && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED) {
+    // PCL's convention (REP 103) is metres, so a PCD file read as mm is likely 1000x too small.
+    const bool pcd = std::any_of(files.begin(), files.end(), [](const std::string& f) {
+      return absl::AsciiStrToLower(fs::path(f).extension().string()) == ".pcd";
+    });
+    job.notes.push_back(absl::StrCat("no --unit and no unit in the job file: coordinates are taken "
+                                     "as millimetres",
+                                     pcd ? " (PCL writes PCD files in metres: pass --unit m if so)"
+                                         : ""));
   }
   if (absl::Status s = ApplyOptionFlags(args, job.header); !s.ok()) return s;
 

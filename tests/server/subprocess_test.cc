@@ -335,6 +335,8 @@ TEST(Cli, APcdViewpointIsTheScansSensorOrigin) {
     const bool known = viewpoint != "0 0 0 1 0 0 0";
     EXPECT_EQ(r.output.find("VIEWPOINT is PCL's default") == std::string::npos, known) << r.output;
     EXPECT_EQ(r.output.find("has neither sensor poses") == std::string::npos, known) << r.output;
+    EXPECT_THAT(r.output, HasSubstr("coordinates are taken as millimetres (PCL writes PCD files "
+                                    "in metres: pass --unit m if so)"));
   }
 }
 
