@@ -1,10 +1,13 @@
 #include "client/job_builder.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
+#include <optional>
 
 #include <google/protobuf/util/json_util.h>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
@@ -185,8 +188,12 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   std::vector<uint32_t> first_scan;      // per file: its first scan's index in the header
   std::vector<std::string> scan_files;  // per scan: the file it came from
   for (const std::string& file : files) {
-    auto cloud = io::ReadScanFile(file);
+    auto cloud = io::ReadScanFile(file, job.notes);
     if (!cloud.ok()) return cloud.status();
+    if (cloud->has_normals()) {
+      job.notes.push_back(
+          absl::StrCat(file, ": its normals are not sent (the service estimates its own)"));
+    }
     const std::string stem = fs::path(file).stem().string();
     split.push_back(SplitByScanColumn(*cloud));
     first_scan.push_back(static_cast<uint32_t>(job.header.scans_size()));
@@ -206,6 +213,10 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
         from_job.erase(match);
       }
       scan->set_scan_id(id);
+      // A file's sensor origin (PCD VIEWPOINT) is in the file's frame and units, as the header's
+      // camera_position is; the job file's value, when it has one, wins.
+      const std::optional<Eigen::Vector3d>& origin = cloud->scans.front().camera_position;
+      if (origin && !scan->has_camera_position()) SetVec3(*origin, scan->mutable_camera_position());
       scan_files.push_back(file);
     }
     clouds.push_back(std::move(*cloud));
@@ -217,6 +228,16 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   }
   if (args.Has("conf")) {
     if (absl::Status s = ApplyConf(args.Get("conf"), scan_files, job.header); !s.ok()) return s;
+  }
+  if (!args.Has("unit") && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED) {
+    // PCL's convention (REP 103) is metres, so a PCD file read as mm is likely 1000x too small.
+    const bool pcd = std::any_of(files.begin(), files.end(), [](const std::string& f) {
+      return absl::AsciiStrToLower(fs::path(f).extension().string()) == ".pcd";
+    });
+    job.notes.push_back(absl::StrCat("no --unit and no unit in the job file: coordinates are taken "
+                                     "as millimetres",
+                                     pcd ? " (PCL writes PCD files in metres: pass --unit m if so)"
+                                         : ""));
   }
   if (absl::Status s = ApplyOptionFlags(args, job.header); !s.ok()) return s;
 

@@ -72,8 +72,12 @@ class CorrectionStage : public Stage {
  public:
   absl::Status Run(JobContext& ctx) override {
     PointCloud& cloud = ctx.cloud();
+    ctx.Record("correction.single_scan", cloud.scans.size() < 2 ? 1 : 0);
     if (cloud.scans.size() < 2) {  // nothing can overlap
       ctx.Record("correction.removed", 0);
+      ctx.Warn("correction: the job has one scan, so there is no overlap to merge and nothing "
+               "was changed; send each scan as its own scan (one file per scan, or a per-point "
+               "scan column)");
       return absl::OkStatus();
     }
     if (absl::Status s = ctx.Require("measures"); !s.ok()) return s;

@@ -91,14 +91,17 @@ class MeasuresStage : public Stage {
       });
     }
     ctx.Record("measures.quality_from_scanner", 0);
+    size_t without_pose = 0;
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
       const ScanMeta& scan = cloud.scans[s];
       if (!TowardCamera(scan, Eigen::Vector3d::Zero()) &&
           !TowardProjector(scan, Eigen::Vector3d::Zero())) {
+        ++without_pose;
         ctx.Warn(absl::StrCat("measures: scan '", scan.id, "' has neither sensor poses nor a "
                               "per-point quality; its viewing quality is set to 1"));
       }
     }
+    ctx.Record("measures.scans_without_pose", static_cast<double>(without_pose));
     absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
       for (size_t i = begin; i < end; ++i) {
         if (!HasNormal(cloud, i)) continue;
@@ -140,6 +143,16 @@ class MeasuresStage : public Stage {
 
     std::vector<float> kappa;
     const bool lines = cloud.kind == ScannerKind::kLine && cloud.has_scanlines();
+    // A line scanner's κ̂ comes from its scanlines (Eq. 11); without them every point falls back
+    // to surface variation (Eq. 12), which blurs edges over the whole ball. Flexible scanners
+    // have no scanlines by design, so only a line scan that lost them is warned about.
+    const bool line_scan_without_scanlines = cloud.kind == ScannerKind::kLine && !lines;
+    ctx.Record("measures.line_scan_without_scanlines", line_scan_without_scanlines ? 1 : 0);
+    if (line_scan_without_scanlines) {
+      ctx.Warn("measures: the line scans came without scanline indices, so curvature κ̂ is "
+               "surface variation (Eq. 12) everywhere instead of scanline curvature (Eq. 11); "
+               "send the scanline of every point");
+    }
     if (lines) {
       ScanlineCurvatureCounts counts;
       absl::Status s = ScanlineCurvature(cloud, window, ctx.cancel(), kappa, counts);

@@ -4,11 +4,53 @@
 #include "core/neighbourhoods_stage.h"
 
 #include <algorithm>
+#include <string>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 
 namespace scanprep {
 namespace {
+
+// Names the scans (the first few, then a count) for a warning.
+std::string ScanList(const PointCloud& cloud, const std::vector<size_t>& scans) {
+  constexpr size_t kNamed = 3;
+  std::vector<std::string> names;
+  for (size_t k = 0; k < std::min(scans.size(), kNamed); ++k) {
+    names.push_back(absl::StrCat("'", cloud.scans[scans[k]].id, "'"));
+  }
+  std::string list = absl::StrJoin(names, ", ");
+  if (scans.size() > kNamed) absl::StrAppend(&list, " and ", scans.size() - kNamed, " more");
+  return list;
+}
+
+// A line scanner without Δs loses Eq. 2's √3·Δs term (r_min = ε_u only, so the balls at the
+// scanline gaps may hold one line); a scan without u runs on the 0.1 mm default for ε_u, the
+// curvature window and the smoothing limit δ. Both are counted and warned about, not assumed.
+void WarnAboutMissingMetadata(JobContext& ctx, bool radius_forced) {
+  const PointCloud& cloud = ctx.cloud();
+  std::vector<size_t> no_spacing, no_uncertainty;
+  for (size_t s = 0; s < cloud.scans.size(); ++s) {
+    const ScanMeta& scan = cloud.scans[s];
+    if (cloud.kind == ScannerKind::kLine && !(scan.scanline_spacing > 0)) no_spacing.push_back(s);
+    if (!scan.uncertainty_stated) no_uncertainty.push_back(s);
+  }
+  ctx.Record("neighbourhoods.scans_without_spacing", static_cast<double>(no_spacing.size()));
+  ctx.Record("neighbourhoods.scans_default_uncertainty",
+             static_cast<double>(no_uncertainty.size()));
+  if (!no_spacing.empty() && !radius_forced) {
+    ctx.Warn(absl::StrCat("neighbourhoods: line scan(s) ", ScanList(cloud, no_spacing),
+                          " state no scanline spacing, so r_min (Eq. 2) is ε_u alone; give "
+                          "scanline_spacing, or neighbourhoods.min_radius_mm"));
+  }
+  if (!no_uncertainty.empty()) {
+    ctx.Warn(absl::StrCat("neighbourhoods: scan(s) ", ScanList(cloud, no_uncertainty),
+                          " state no measuring uncertainty u; the default ", ScanMeta{}.uncertainty,
+                          " mm is used for ε_u, the curvature window and the smoothing limit; "
+                          "give the scanner's uncertainty"));
+  }
+}
 
 class NeighbourhoodsStage : public Stage {
  public:
@@ -30,6 +72,7 @@ class NeighbourhoodsStage : public Stage {
       ctx.RecordForScan("neighbourhoods.epsilon_u_mm", s, epsilon_u);
       ctx.RecordForScan("neighbourhoods.min_radius_mm", s, options.min_radius.back());
     }
+    WarnAboutMissingMetadata(ctx, forced_radius.has_value());
     auto nb = Neighbourhoods::Build(cloud, options, ctx.cancel());
     if (!nb.ok()) return nb.status();
     for (size_t s = 0; s < cloud.scans.size(); ++s) {

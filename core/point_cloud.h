@@ -36,6 +36,9 @@ struct ScanMeta {
   std::optional<Eigen::Vector3d> projector_direction;
   double scanline_spacing = 0.0;  // Δs; 0 when the sensor has no fixed spacing
   double uncertainty = 0.1;       // u
+  // False when the job stated no u and the 0.1 mm default above stands in for it (the stages
+  // that use u then say so in the report).
+  bool uncertainty_stated = true;
   double point_spacing = 0.0;     // nominal spacing along a scanline; 0 = derive from data
 };
 

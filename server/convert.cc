@@ -132,6 +132,7 @@ absl::StatusOr<ScanMeta> ScanMetaFromProto(const v1::ScanHeader& scan, const Sca
   }
   meta.scanline_spacing = *spacing;
   if (*uncertainty > 0) meta.uncertainty = *uncertainty;
+  meta.uncertainty_stated = *uncertainty > 0;
   meta.point_spacing = *point_spacing;
   return meta;
 }

@@ -2,17 +2,22 @@
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
+#include "core/io/pcd.h"
 #include "core/io/ply.h"
 #include "core/io/xyz.h"
 
 namespace scanprep::io {
 
-absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path) {
+absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
+                                        std::vector<std::string>& warnings) {
   const std::string extension = absl::AsciiStrToLower(path.extension().string());
   if (extension == ".ply") return ReadPly(path);
-  if (extension == ".xyz" || extension == ".asc" || extension == ".txt" || extension == ".pts") return ReadXyz(path);
-  return absl::InvalidArgumentError(absl::StrCat(path.string(), ": unsupported file extension '", extension,
-                                                 "' (supported: .ply, .xyz, .asc, .txt, .pts)"));
+  if (extension == ".pcd") return ReadPcd(path, warnings);
+  if (extension == ".xyz" || extension == ".asc" || extension == ".txt" || extension == ".pts")
+    return ReadXyz(path);
+  return absl::InvalidArgumentError(
+      absl::StrCat(path.string(), ": unsupported file extension '", extension,
+                   "' (supported: .ply, .pcd, .xyz, .asc, .txt, .pts)"));
 }
 
 }  // namespace scanprep::io

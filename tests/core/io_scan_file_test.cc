@@ -8,6 +8,13 @@
 namespace scanprep::io {
 namespace {
 
+absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path) {
+  std::vector<std::string> warnings;
+  absl::StatusOr<PointCloud> cloud = io::ReadScanFile(path, warnings);
+  EXPECT_TRUE(warnings.empty()) << warnings.front();
+  return cloud;
+}
+
 std::filesystem::path WriteTemp(const std::string& name, const std::string& text) {
   const std::filesystem::path path = std::filesystem::path(::testing::TempDir()) / name;
   std::ofstream(path, std::ios::binary) << text;
@@ -32,10 +39,25 @@ TEST(ScanFile, DispatchesOnTheExtension) {
   EXPECT_FALSE(ReadScanFile(WriteTemp("g.xyz", ply)).ok());
 }
 
+TEST(ScanFile, PcdGoesToThePcdReaderWithItsWarnings) {
+  const std::string pcd =
+      "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\n"
+      "POINTS 1\nDATA ascii\n1 2 3\n";
+  for (const char* name : {"g.pcd", "h.PCD"}) {
+    std::vector<std::string> warnings;
+    absl::StatusOr<PointCloud> cloud = io::ReadScanFile(WriteTemp(name, pcd), warnings);
+    ASSERT_TRUE(cloud.ok()) << cloud.status();
+    EXPECT_EQ(cloud->point(0), Eigen::Vector3f(1, 2, 3));
+    ASSERT_EQ(warnings.size(), 1u);  // no VIEWPOINT line
+    EXPECT_NE(warnings[0].find("no VIEWPOINT line"), std::string::npos) << warnings[0];
+  }
+}
+
 TEST(ScanFile, UnknownExtensionIsRejected) {
-  const absl::StatusOr<PointCloud> cloud = ReadScanFile(WriteTemp("scene.pcd", "whatever"));
+  const absl::StatusOr<PointCloud> cloud = ReadScanFile(WriteTemp("scene.las", "whatever"));
   ASSERT_EQ(cloud.status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(cloud.status().message().find("unsupported file extension '.pcd'"), std::string::npos) << cloud.status();
+  EXPECT_NE(cloud.status().message().find("unsupported file extension '.las'"), std::string::npos)
+      << cloud.status();
 }
 
 }  // namespace

@@ -34,8 +34,10 @@ inline BunnyJob LoadBunny(const fs::path& dir) {
   EXPECT_TRUE(conf.ok()) << conf.status();
   for (uint32_t s = 0; s < std::size(kScans); ++s) {
     const std::string file = std::string(kScans[s]) + ".ply";
-    auto cloud = io::ReadScanFile(dir / file);
+    std::vector<std::string> warnings;
+    auto cloud = io::ReadScanFile(dir / file, warnings);
     EXPECT_TRUE(cloud.ok()) << cloud.status();
+    EXPECT_TRUE(warnings.empty()) << warnings.front();
     auto entry = std::find_if(conf->begin(), conf->end(),
                               [&](const io::ConfEntry& e) { return e.file == file; });
     EXPECT_NE(entry, conf->end()) << file;

@@ -190,6 +190,28 @@ TEST(Process, InvalidCoordinatesAreExcludedCountedAndWarned) {
               ::testing::Contains(HasSubstr("4 of " + std::to_string(n) + " points had NaN")));
 }
 
+// A scan header without an uncertainty leaves u at its default: the report counts and names it;
+// the same job stating u is the control.
+TEST(Process, AnUnstatedUncertaintyIsCountedAndWarned) {
+  InProcessServer server;
+  const GeneratedScan scan = NoisyPlaneWithSpikes(40, 0.5f);
+  for (const double u : {0.0, 0.05}) {
+    v1::JobHeader header = OutliersJob(v1::MILLIMETRE, 0.5);
+    header.mutable_scans(0)->set_uncertainty(u);
+    auto result = server.Client().Process(header, scan.cloud);
+    ASSERT_TRUE(result.ok()) << result.status();
+    ASSERT_EQ(result->report.stages(0).name(), "neighbourhoods");
+    EXPECT_EQ(result->report.stages(0).parameters().at("neighbourhoods.scans_default_uncertainty"),
+              u == 0 ? 1 : 0);
+    const auto warning = ::testing::Contains(HasSubstr("state no measuring uncertainty u"));
+    if (u == 0) {
+      EXPECT_THAT(result->report.warnings(), warning);
+    } else {
+      EXPECT_THAT(result->report.warnings(), ::testing::Not(warning));
+    }
+  }
+}
+
 TEST(Process, GetInfoListsStagesParametersAndLimits) {
   server::ServerOptions options;
   options.limits.max_points_per_job = 123'456;

@@ -13,6 +13,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "absl/strings/str_cat.h"
 #include "core/io/ply.h"
 #include "server/memory_budget.h"
 #include "tests/server/service_fixtures.h"
@@ -315,6 +316,29 @@ TEST(Cli, APerPointScanColumnSplitsTheFileIntoScans) {
   ASSERT_TRUE(result.ok()) << result.status();
   std::set<uint32_t> scans(result->scan.begin(), result->scan.end());
   EXPECT_EQ(scans, (std::set<uint32_t>{0, 1}));
+}
+
+// A PCD file's VIEWPOINT reaches the server as the scan's camera_position, so the viewing quality
+// has a sensor; PCL's default VIEWPOINT means "unknown" and both the client and the stage say so.
+TEST(Cli, APcdViewpointIsTheScansSensorOrigin) {
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  const fs::path tmp = ::testing::TempDir();
+  for (const std::string viewpoint : {"5 5 100 1 0 0 0", "0 0 0 1 0 0 0"}) {
+    std::string pcd = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 20\n"
+                      "HEIGHT 20\nVIEWPOINT " + viewpoint + "\nPOINTS 400\nDATA ascii\n";
+    for (int i = 0; i < 400; ++i) absl::StrAppend(&pcd, i % 20 * 0.5, " ", i / 20 * 0.5, " 0\n");
+    const fs::path in = tmp / "grid.pcd", out = tmp / "grid_out.ply";
+    std::ofstream(in) << pcd;
+    const CommandResult r = RunCli("process " + in.string() + " --stages measures -o " +
+                                   out.string() + " --server " + server.target());
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const bool known = viewpoint != "0 0 0 1 0 0 0";
+    EXPECT_EQ(r.output.find("VIEWPOINT is PCL's default") == std::string::npos, known) << r.output;
+    EXPECT_EQ(r.output.find("has neither sensor poses") == std::string::npos, known) << r.output;
+    EXPECT_THAT(r.output, HasSubstr("coordinates are taken as millimetres (PCL writes PCD files "
+                                    "in metres: pass --unit m if so)"));
+  }
 }
 
 TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {

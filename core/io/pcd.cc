@@ -1,0 +1,369 @@
+// PCD reader: the header fixes the layout, one templated loop reads the points from any of the
+// three bodies, and a builder keeps the valid ones.
+#include "core/io/pcd.h"
+
+#include <lzf.h>
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <optional>
+#include <string_view>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "core/io/byte_order.h"
+#include "core/io/float_narrowing.h"
+#include "core/io/pcd_header.h"
+#include "core/io/read_file.h"
+#include "core/io/text_fields.h"
+
+namespace scanprep::io {
+namespace {
+
+using pcd::Data;
+using pcd::Field;
+using pcd::Header;
+
+// A back-reference in an LZF stream emits at most 264 bytes from 3 input bytes, so no stream
+// decompresses to more than 88 times its size; larger claims are rejected before allocating.
+constexpr uint64_t kMaxLzfRatio = 88;
+
+// The point values the reader keeps, in this order.
+enum Slot : uint8_t { kX, kY, kZ, kNx, kNy, kNz, kIntensity, kSlots };
+constexpr const char* kSlotNames[kSlots] = {"x",        "y",        "z",        "normal_x",
+                                            "normal_y", "normal_z", "intensity"};
+
+// Decodes one little-endian binary value of `field`.
+double DecodeBinary(const Field& field, const char* p) {
+  auto load = [p]<class T>(T) {
+    T value;
+    std::memcpy(&value, p, sizeof(T));
+    return static_cast<double>(kHostIsBigEndian ? ByteSwapped(value) : value);
+  };
+  switch (field.type) {
+    case 'F': return field.size == 4 ? load(float{}) : load(double{});
+    case 'I':
+      switch (field.size) {
+        case 1: return load(int8_t{});
+        case 2: return load(int16_t{});
+        case 4: return load(int32_t{});
+        default: return load(int64_t{});
+      }
+    default:
+      switch (field.size) {
+        case 1: return load(uint8_t{});
+        case 2: return load(uint16_t{});
+        case 4: return load(uint32_t{});
+        default: return load(uint64_t{});
+      }
+  }
+}
+
+// Binary records, point after point; or, for binary_compressed, every field's values for all
+// points before the next field's (`soa`).
+class BinarySource {
+ public:
+  BinarySource(std::string_view bytes, const Header& header, bool soa)
+      : bytes_(bytes), header_(header) {
+    size_t start = 0;
+    for (const Field& field : header.fields) {
+      if (soa && field.name == "_") {
+        field_start_.push_back(start);  // PCL leaves padding out of compressed data
+        continue;
+      }
+      field_start_.push_back(soa ? start : field.offset);
+      start += soa ? static_cast<size_t>(field.size) * field.count * header.points : 0;
+    }
+    stride_ = soa ? 0 : header.point_bytes;
+  }
+
+  absl::Status BeginPoint(uint64_t i) {
+    point_ = i;
+    return absl::OkStatus();
+  }
+
+  absl::Status Get(size_t f, double& out) const {
+    const Field& field = header_.fields[f];
+    const size_t at = stride_ != 0 ? point_ * stride_ + field_start_[f]
+                                   : field_start_[f] + point_ * field.count * field.size;
+    out = DecodeBinary(field, bytes_.data() + at);
+    return absl::OkStatus();
+  }
+
+ private:
+  std::string_view bytes_;
+  const Header& header_;
+  std::vector<size_t> field_start_;
+  size_t stride_ = 0;
+  uint64_t point_ = 0;
+};
+
+class AsciiSource {
+ public:
+  AsciiSource(std::string_view body, const Header& header, const std::string& name)
+      : cursor_(body, header.body_first_line), header_(header), name_(name) {}
+
+  absl::Status BeginPoint(uint64_t i) {
+    std::string_view line;
+    do {
+      if (!cursor_.Next(line)) {
+        return absl::InvalidArgumentError(absl::StrCat(name_, ": data ends before point ", i,
+                                                       " of POINTS ", header_.points,
+                                                       " (truncated file or wrong count)"));
+      }
+      SplitFields(line, /*commas=*/false, values_);
+    } while (values_.empty());
+    if (values_.size() != header_.point_values) {
+      return Error(absl::StrCat("point ", i, " has ", values_.size(),
+                                " values but the fields declare ", header_.point_values));
+    }
+    return absl::OkStatus();
+  }
+
+  absl::Status Get(size_t f, double& out) const {
+    const Field& field = header_.fields[f];
+    const std::string_view token = values_[field.value_index];
+    if (ParseDouble(token, out)) return absl::OkStatus();
+    return Error(
+        absl::StrCat("field '", field.name, "' value '", std::string(token), "' is not a number"));
+  }
+
+  absl::Status Finish() {
+    std::string_view line;
+    while (cursor_.Next(line)) {
+      SplitFields(line, /*commas=*/false, values_);
+      if (!values_.empty())
+        return Error(absl::StrCat("data after the last of POINTS ", header_.points));
+    }
+    return absl::OkStatus();
+  }
+
+ private:
+  absl::Status Error(std::string_view message) const {
+    return absl::InvalidArgumentError(
+        absl::StrCat(name_, ": line ", cursor_.line_number(), ": ", std::string(message)));
+  }
+
+  LineCursor cursor_;
+  const Header& header_;
+  const std::string& name_;
+  std::vector<std::string_view> values_;
+};
+
+// Which field feeds each slot; the fields nobody reads are listed for the warning.
+struct Layout {
+  std::array<std::optional<size_t>, kSlots> field;
+  std::vector<std::string> unused;
+};
+
+absl::StatusOr<Layout> MapFields(const Header& header, const std::string& name) {
+  Layout layout;
+  for (size_t f = 0; f < header.fields.size(); ++f) {
+    const Field& field = header.fields[f];
+    if (field.name == "_") continue;
+    int slot = 0;
+    while (slot < kSlots && field.name != kSlotNames[slot]) ++slot;
+    if (slot == kSlots) {
+      layout.unused.push_back(field.name);
+      continue;
+    }
+    if (layout.field[slot]) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(name, ": field '", field.name, "' appears twice"));
+    }
+    if (field.count != 1) {
+      return absl::InvalidArgumentError(absl::StrCat(name, ": field '", field.name, "' has COUNT ",
+                                                     field.count, " (expected 1)"));
+    }
+    layout.field[slot] = f;
+  }
+  for (int slot : {kX, kY, kZ}) {
+    if (!layout.field[slot]) {
+      return absl::InvalidArgumentError(absl::StrCat(name, ": no field '", kSlotNames[slot], "'"));
+    }
+  }
+  const int normals =
+      layout.field[kNx].has_value() + layout.field[kNy].has_value() + layout.field[kNz].has_value();
+  if (normals != 0 && normals != 3) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(name, ": only some of normal_x, normal_y, normal_z"));
+  }
+  return layout;
+}
+
+void Reserve(const Header& header, const Layout& layout, PointCloud& cloud) {
+  const size_t n = header.points;
+  for (std::vector<float>* v : {&cloud.x, &cloud.y, &cloud.z}) v->reserve(n);
+  if (layout.field[kNx]) {
+    for (std::vector<float>* v : {&cloud.nx, &cloud.ny, &cloud.nz}) v->reserve(n);
+  }
+  if (layout.field[kIntensity]) cloud.intensity.reserve(n);
+  if (header.height > 1) cloud.scanline.reserve(n);
+}
+
+// Reads every point from `source`, keeping those with finite coordinates.
+template <class Source>
+absl::Status ReadPoints(const Header& header, const Layout& layout, Source& source,
+                        PointCloud& cloud, uint64_t& invalid) {
+  const bool normals = layout.field[kNx].has_value();
+  const bool intensity = layout.field[kIntensity].has_value();
+  const bool organised = header.height > 1;
+  for (uint64_t i = 0; i < header.points; ++i) {
+    if (absl::Status s = source.BeginPoint(i); !s.ok()) return s;
+    std::array<float, kSlots> value{};
+    for (int slot = 0; slot < kSlots; ++slot) {
+      if (!layout.field[slot]) continue;
+      double v = 0.0;
+      if (absl::Status s = source.Get(*layout.field[slot], v); !s.ok()) return s;
+      value[slot] = NarrowToFloat(v);
+    }
+    if (!std::isfinite(value[kX]) || !std::isfinite(value[kY]) || !std::isfinite(value[kZ])) {
+      ++invalid;
+      continue;
+    }
+    cloud.x.push_back(value[kX]);
+    cloud.y.push_back(value[kY]);
+    cloud.z.push_back(value[kZ]);
+    if (normals) {
+      cloud.nx.push_back(value[kNx]);
+      cloud.ny.push_back(value[kNy]);
+      cloud.nz.push_back(value[kNz]);
+    }
+    if (intensity) cloud.intensity.push_back(value[kIntensity]);
+    if (organised) cloud.scanline.push_back(static_cast<uint32_t>(i / header.width));
+  }
+  return absl::OkStatus();
+}
+
+// The uncompressed field-after-field bytes of a binary_compressed body.
+absl::StatusOr<std::string> Decompress(std::string_view body, const Header& header,
+                                       const std::string& name) {
+  auto error = [&](std::string_view message) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(name, ": binary_compressed body: ", std::string(message)));
+  };
+  if (body.size() < 8)
+    return error(absl::StrCat("has ", body.size(), " bytes, fewer than its 8-byte size prefix"));
+  uint32_t sizes[2];
+  std::memcpy(sizes, body.data(), 8);
+  const uint64_t compressed = kHostIsBigEndian ? ByteSwapped(sizes[0]) : sizes[0];
+  const uint64_t uncompressed = kHostIsBigEndian ? ByteSwapped(sizes[1]) : sizes[1];
+  // PCL sizes the file before it compresses, so its files end in zero padding; anything else
+  // after the stream is not PCL's and is refused.
+  const std::string_view rest = body.substr(8);
+  if (compressed > rest.size() ||
+      rest.find_first_not_of('\0', compressed) != std::string_view::npos) {
+    return error(
+        absl::StrCat("declares ", compressed, " compressed bytes but ", rest.size(), " follow",
+                     compressed > rest.size() ? "" : ", not all of the rest zero padding"));
+  }
+  uint64_t record = 0;
+  for (const Field& field : header.fields)
+    record += field.name == "_" ? 0 : uint64_t{field.size} * field.count;
+  if (record != 0 && header.points > uncompressed / record) {
+    return error(absl::StrCat("POINTS ", header.points, " of ", record,
+                              " bytes need more than the ", uncompressed,
+                              " uncompressed bytes it declares"));
+  }
+  if (header.points * record != uncompressed) {
+    return error(absl::StrCat("declares ", uncompressed, " uncompressed bytes but POINTS ",
+                              header.points, " of ", record, " bytes are ",
+                              header.points * record));
+  }
+  if (uncompressed > kMaxLzfRatio * compressed) {
+    return error(absl::StrCat(compressed, " LZF bytes cannot expand to the ", uncompressed,
+                              " declared (at most ", kMaxLzfRatio, "x)"));
+  }
+  std::string out(uncompressed, '\0');
+  if (uncompressed == 0) return out;
+  const unsigned got = lzf_decompress(body.data() + 8, static_cast<unsigned>(compressed),
+                                      out.data(), static_cast<unsigned>(uncompressed));
+  if (got != uncompressed) {
+    return error(absl::StrCat("LZF data decompress to ", got, " bytes, not the ", uncompressed,
+                              " declared (corrupt data)"));
+  }
+  return out;
+}
+
+void AddMetadataWarnings(const Header& header, const Layout& layout, uint64_t invalid,
+                         const std::string& name, PointCloud& cloud,
+                         std::vector<std::string>& warnings) {
+  if (!layout.unused.empty()) {
+    warnings.push_back(absl::StrCat(name, ": fields not used: ", absl::StrJoin(layout.unused, ", "),
+                                    " (scanprep reads x y z, normal_x/y/z and intensity)"));
+  }
+  if (invalid > 0) {
+    warnings.push_back(absl::StrCat(
+        name, ": ", invalid, " of ", header.points,
+        " points have a NaN or infinite coordinate (no measurement) and were left out"));
+  }
+  constexpr std::array<double, 7> kPclDefault = {0, 0, 0, 1, 0, 0, 0};
+  if (!header.viewpoint || *header.viewpoint == kPclDefault) {
+    warnings.push_back(absl::StrCat(
+        name, ": ",
+        header.viewpoint ? "VIEWPOINT is PCL's default 0 0 0 1 0 0 0" : "no VIEWPOINT line",
+        ": sensor origin unknown (if the sensor sat at the origin, give camera_position in the job "
+        "file)"));
+    return;
+  }
+  const std::array<double, 7>& v = *header.viewpoint;
+  cloud.scans.front().camera_position = Eigen::Vector3d(v[0], v[1], v[2]);
+}
+
+absl::StatusOr<PointCloud> ParsePcd(std::string_view data, const std::string& name,
+                                    std::vector<std::string>& warnings) {
+  absl::StatusOr<Header> header = pcd::ParseHeader(data, name);
+  if (!header.ok()) return header.status();
+  absl::StatusOr<Layout> layout = MapFields(*header, name);
+  if (!layout.ok()) return layout.status();
+  const std::string_view body = data.substr(header->body_offset);
+  PointCloud cloud;
+  // ParseHeader bounded POINTS by the body (binary_compressed: Decompress does, below).
+  if (header->data != Data::kBinaryCompressed) Reserve(*header, *layout, cloud);
+  uint64_t invalid = 0;
+  absl::Status status;
+  if (header->data == Data::kAscii) {
+    AsciiSource source(body, *header, name);
+    status = ReadPoints(*header, *layout, source, cloud, invalid);
+    if (status.ok()) status = source.Finish();
+  } else if (header->data == Data::kBinary) {
+    BinarySource source(body, *header, /*soa=*/false);
+    status = ReadPoints(*header, *layout, source, cloud, invalid);
+  } else {
+    absl::StatusOr<std::string> bytes = Decompress(body, *header, name);
+    if (!bytes.ok()) return bytes.status();
+    Reserve(*header, *layout, cloud);
+    BinarySource source(*bytes, *header, /*soa=*/true);
+    status = ReadPoints(*header, *layout, source, cloud, invalid);
+  }
+  if (!status.ok()) return status;
+  if (header->points > 0 && invalid == header->points) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(name, ": all ", header->points,
+                     " points have a NaN or infinite coordinate: no valid point"));
+  }
+  cloud.scans.push_back(ScanMeta{.id = std::filesystem::path(name).stem().string()});
+  AddMetadataWarnings(*header, *layout, invalid, name, cloud, warnings);
+  cloud.FinishLoading();
+  return cloud;
+}
+
+}  // namespace
+
+absl::StatusOr<PointCloud> ReadPcd(const std::filesystem::path& path,
+                                   std::vector<std::string>& warnings) {
+  absl::StatusOr<std::string> data = ReadFileToString(path);
+  if (!data.ok()) return data.status();
+  return ParsePcd(*data, path.string(), warnings);
+}
+
+absl::StatusOr<PointCloud> ReadPcd(std::istream& in, const std::string& name_for_errors,
+                                   std::vector<std::string>& warnings) {
+  absl::StatusOr<std::string> data = ReadStreamToString(in, name_for_errors);
+  if (!data.ok()) return data.status();
+  return ParsePcd(*data, name_for_errors, warnings);
+}
+
+}  // namespace scanprep::io
