@@ -58,16 +58,6 @@ bool ShouldGo(const PointCloud& cloud, const std::vector<float>& quality, const 
   return v.overlap && cloud.scan[j] != v.best_scan && quality[j] < v.mean_quality;
 }
 
-bool UniformQuality(const PointCloud& cloud, const std::vector<float>& quality) {
-  std::optional<float> first;
-  for (size_t i = 0; i < cloud.size(); ++i) {
-    if (cloud.removed(i)) continue;
-    if (!first) first = quality[i];
-    if (quality[i] != *first) return false;
-  }
-  return true;
-}
-
 class CorrectionStage : public Stage {
  public:
   absl::Status Run(JobContext& ctx) override {

@@ -249,4 +249,14 @@ StageInfo MeasuresStageInfo() {
   };
 }
 
+bool UniformQuality(const PointCloud& cloud, const std::vector<float>& quality) {
+  std::optional<float> first;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (cloud.removed(i)) continue;
+    if (!first) first = quality[i];
+    if (quality[i] != *first) return false;
+  }
+  return true;
+}
+
 }  // namespace scanprep

@@ -15,6 +15,10 @@ StageInfo MeasuresStageInfo();
 // nearest-neighbour distance of the scan.
 std::vector<double> ScanPointSpacing(JobContext& ctx);
 
+// Whether every unremoved point has the same q̂ (no scan had sensor poses or a per-point
+// quality): then a weight or a choice by q̂ tells nothing apart.
+bool UniformQuality(const PointCloud& cloud, const std::vector<float>& quality);
+
 // A sort key of point i that orders by descending q̂, then by index, in its low 62 bits: q̂ in
 // [0, 1] (anything else clamped) as 1 − q̂ in float bits, which non-negative floats order like.
 // Sorting such keys beats a comparator that looks q̂ up by index, which would miss the cache on

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <numbers>
 #include <numeric>
+#include <optional>
 
 
 #include "absl/strings/str_cat.h"
@@ -210,18 +211,30 @@ absl::Status RunTiled(JobContext& ctx, Thinner& thinner, std::vector<uint32_t> o
 constexpr double kMaxSpacingPerGlobalRadius = 10.0;
 
 // Default r_s: twice the scanner's own sampling pitch, √(Δs·Δp) per scan (the side of the square
-// each sample covers), median over scans; from the global density when there is no pitch.
-double DefaultSpacing(const PointCloud& cloud, const std::vector<double>& point_spacing,
-                      const Neighbourhoods& nb) {
+// each sample covers), median over scans; nothing when no scan has a pitch (no line scan with Δs).
+std::optional<double> SpacingFromPitch(const PointCloud& cloud,
+                                       const std::vector<double>& point_spacing) {
   std::vector<double> pitch;
   for (size_t s = 0; s < cloud.scans.size(); ++s) {
     const double ds = cloud.kind == ScannerKind::kLine ? cloud.scans[s].scanline_spacing : 0.0;
     const double dp = point_spacing[s];
     if (ds > 0 && dp > 0) pitch.push_back(std::sqrt(ds * dp));
   }
-  if (pitch.empty()) return nb.density() > 0 ? 2.0 / std::sqrt(nb.density()) : 0.0;
+  if (pitch.empty()) return std::nullopt;
   std::nth_element(pitch.begin(), pitch.begin() + pitch.size() / 2, pitch.end());
   return 2.0 * pitch[pitch.size() / 2];
+}
+
+// The default r_s: from the pitch, else (recorded and warned) 2/√ρ_g of the global density.
+double DefaultSpacing(JobContext& ctx, const Neighbourhoods& nb) {
+  const std::optional<double> pitch = SpacingFromPitch(ctx.cloud(), ScanPointSpacing(ctx));
+  ctx.Record("simplification.spacing_from_density", pitch ? 0 : 1);
+  if (pitch) return *pitch;
+  if (!ctx.Overridden("simplification.spacing_mm")) {
+    ctx.Warn("simplification: no scan states a scanline spacing, so the thinning spacing is "
+             "derived from the cloud's density (2/√ρ) rather than the scanner's pitch");
+  }
+  return nb.density() > 0 ? 2.0 / std::sqrt(nb.density()) : 0.0;
 }
 
 class SimplificationStage : public Stage {
@@ -247,7 +260,7 @@ class SimplificationStage : public Stage {
     // in the wrong unit, and where κ̂ keeps most points every centre's ball would be a large
     // part of the cloud. The report shows the spacing used.
     const double spacing =
-        ctx.Number("simplification.spacing_mm", DefaultSpacing(cloud, ScanPointSpacing(ctx), **nb));
+        ctx.Number("simplification.spacing_mm", DefaultSpacing(ctx, **nb));
     plan.spacing = static_cast<float>(ctx.CapRadius(
         "the thinning spacing r_s", spacing, kMaxSpacingPerGlobalRadius * (*nb)->global_radius()));
     ctx.Record("simplification.spacing_mm", plan.spacing);

@@ -12,6 +12,7 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
+#include "core/measures.h"
 #include "core/parallel.h"
 #include "core/scan_noise.h"
 #include "core/smoothing_kernels.h"
@@ -30,6 +31,13 @@ class SmoothingStage : public Stage {
       return absl::InternalError("smoothing: the measures stage left no quality/curvature/fit");
     }
     const SmoothingSettings settings = ReadSettings(ctx);
+    // Without poses every q̂ is the same and Eq. (6) weighs by flatness alone.
+    const bool uniform = UniformQuality(cloud, m.quality);
+    ctx.Record("smoothing.without_quality", uniform ? 1 : 0);
+    if (uniform && settings.lambda > 0) {
+      ctx.Warn("smoothing: every point has the same viewing quality (no sensor poses), so the "
+               "weights of Eq. (6) tell points apart by flatness alone");
+    }
     const int iterations = static_cast<int>(ctx.Integer("smoothing.iterations"));
 
     std::vector<Eigen::Vector3f> next(n);
@@ -96,6 +104,7 @@ class SmoothingStage : public Stage {
     s.fixed_tolerance = forced.has_value() || !s.own_side;
     const std::vector<std::optional<double>> measured =
         MeasuredScanNoise(cloud, ctx.measures(), scans);
+    size_t tolerance_from_default = 0;
     for (size_t scan = 0; scan < scans; ++scan) {
       const double u = scan < cloud.scans.size() ? cloud.scans[scan].uncertainty : 0.1;
       double noise = forced_noise.value_or(measured[scan].value_or(u));
@@ -113,8 +122,15 @@ class SmoothingStage : public Stage {
       s.tolerance.push_back(
           static_cast<float>(forced.value_or(s.own_side ? kMoveSigmas * noise : u)));
       if (s.own_side) ctx.RecordForScan("smoothing.noise_mm", scan, noise);
+      const bool default_u = scan < cloud.scans.size() && !cloud.scans[scan].uncertainty_stated;
+      if (!forced && s.fixed_tolerance && default_u) {
+        ++tolerance_from_default;
+        ctx.Warn(absl::StrCat("smoothing: scan ", scan, " states no uncertainty; δ is the default "
+                              "u = ", u, " mm (smoothing.method = own_side measures the noise)"));
+      }
       ctx.RecordForScan("smoothing.tolerance_mm", scan, s.tolerance.back());
     }
+    ctx.Record("smoothing.tolerance_from_default_u", static_cast<double>(tolerance_from_default));
     return s;
   }
 };

@@ -137,5 +137,48 @@ TEST(LoudNoOps, NormalsWithoutASensorAreOrientedByTheTreeAndSaySo) {
   EXPECT_FALSE(with.Warned("spanning-tree"));
 }
 
+TEST(LoudNoOps, SmoothingWithoutPosesWeighsByFlatnessAloneAndSaysSo) {
+  PointCloud blind = OneScan();
+  ForgetPoses(blind);
+  const StageRun without = RunStages(std::move(blind), {"smoothing"});
+  EXPECT_EQ(without.Record("smoothing", "smoothing.without_quality"), 1);
+  EXPECT_TRUE(without.Warned("smoothing: every point has the same viewing quality"));
+  const StageRun with = RunStages(OneScan(), {"smoothing"});
+  EXPECT_EQ(with.Record("smoothing", "smoothing.without_quality"), 0);
+  EXPECT_FALSE(with.Warned("smoothing: every point has the same viewing quality"));
+}
+
+// The paper's rule δ = u with no u stated: δ is the 0.1 mm default. The default method measures
+// the noise, so it has nothing to say (control), nor does a stated u.
+TEST(LoudNoOps, PaperSmoothingWithTheDefaultUncertaintySaysSo) {
+  auto run = [](bool stated, const char* method) {
+    PointCloud cloud = OneScan();
+    cloud.scans[0].uncertainty_stated = stated;
+    CancelToken cancel;
+    auto report = RunPipeline(
+        cloud, {.stages = {"smoothing"}, .params = {{"smoothing.method", method}}}, cancel);
+    EXPECT_TRUE(report.ok()) << report.status();
+    return StageRun{report.ok() ? *std::move(report) : PipelineReport{}};
+  };
+  const StageRun unstated = run(false, "mean");
+  EXPECT_EQ(unstated.Record("smoothing", "smoothing.tolerance_from_default_u"), 1);
+  EXPECT_TRUE(unstated.Warned("states no uncertainty; δ is the default"));
+  for (const StageRun& control : {run(true, "mean"), run(false, "own_side")}) {
+    EXPECT_EQ(control.Record("smoothing", "smoothing.tolerance_from_default_u"), 0);
+    EXPECT_FALSE(control.Warned("states no uncertainty; δ is the default"));
+  }
+}
+
+TEST(LoudNoOps, SimplificationWithoutAScannerPitchUsesTheDensityAndSaysSo) {
+  PointCloud flexible = OneScan();
+  flexible.kind = ScannerKind::kFlexible;  // no scanline spacing counts
+  const StageRun without = RunStages(std::move(flexible), {"simplification"});
+  EXPECT_EQ(without.Record("simplification", "simplification.spacing_from_density"), 1);
+  EXPECT_TRUE(without.Warned("derived from the cloud's density"));
+  const StageRun with = RunStages(OneScan(), {"simplification"});
+  EXPECT_EQ(with.Record("simplification", "simplification.spacing_from_density"), 0);
+  EXPECT_FALSE(with.Warned("derived from the cloud's density"));
+}
+
 }  // namespace
 }  // namespace scanprep
