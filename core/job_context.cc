@@ -132,6 +132,9 @@ absl::Status JobContext::Require(std::string_view stage) {
   return RunStage(*info);
 }
 
+// Capped balls above this share of the points get a warning (they are always recorded).
+constexpr double kCappedBallsWarnShare = 0.01;
+
 void JobContext::RecordCappedBalls(const std::string& stage) {
   if (!neighbourhoods_) return;
   // Since the last stage that ended: a stage nested in another claims the balls it capped.
@@ -142,6 +145,11 @@ void JobContext::RecordCappedBalls(const std::string& stage) {
   if (capped == 0) return;
   Record(absl::StrCat(stage, ".balls_capped"), static_cast<double>(capped));
   Record(absl::StrCat(stage, ".ball_points_left_out"), static_cast<double>(cut));
+  // A spike far off a dense surface has a k-th neighbour far away, and its ball is capped as a
+  // matter of course; only when many are does the job's scale look wrong.
+  if (static_cast<double>(capped) < kCappedBallsWarnShare * static_cast<double>(cloud_.size())) {
+    return;
+  }
   Warn(absl::StrCat(stage, ": ", capped, " neighbourhoods held more than ",
                     neighbourhoods_->max_ball_points(), " points and kept their nearest ",
                     neighbourhoods_->max_ball_points(), " (", cut, " points left out); many "
