@@ -104,6 +104,31 @@ TEST(Outliers, DuplicatedSpikesAreCaught) {
   EXPECT_EQ(grid_removed, 0u);
 }
 
+// A noiseless light-section grid whose far end is sampled 5 % wider (the last 10 of 100
+// scanlines, both spacings 0.21 mm instead of 0.2 mm, as at the far end of a field of view):
+// there is no outlier at all. σ of d_1 is then tiny, μ + 2σ ≈ 0.206 mm, and only the
+// 1.5·median floor of §5 keeps the wider scanlines.
+TEST(Outliers, SlightlyWiderScanlinesAreNoOutliers) {
+  PointCloud cloud;
+  cloud.scans.push_back(ScanMeta{.id = "grid", .scanline_spacing = 0.2});
+  float y = 0;
+  for (int row = 0; row < 100; ++row) {
+    const float step = row < 90 ? 0.2f : 0.21f;
+    if (row > 0) y += step;
+    for (int col = 0; col < 100; ++col) {
+      cloud.x.push_back(col * step);
+      cloud.y.push_back(y);
+      cloud.z.push_back(0);
+      cloud.scanline.push_back(row);
+    }
+  }
+  cloud.FinishLoading();
+  CancelToken cancel;
+  auto report = RunPipeline(cloud, {.stages = {"outliers"}}, cancel);
+  ASSERT_TRUE(report.ok()) << report.status();
+  EXPECT_EQ(cloud.CountKept(), cloud.size());
+}
+
 // Share of the points the outlier stage removes from `cloud`.
 double RemovedShare(PointCloud cloud) {
   CancelToken cancel;

@@ -1,0 +1,145 @@
+#!/usr/bin/env bash
+# The mutation check, run by CI (.ci/run): breaks each equation and guard of the stages listed in
+# deploy/mutations.txt one at a time, rebuilds the core test executables and requires the core
+# test suite to FAIL on every mutation. A mutation the suite survives means a test is missing.
+#
+# Each mutation replaces one exact snippet of one file. The snippet must occur exactly once: a
+# refactor that moves or rewrites it fails this check loudly instead of turning the mutation
+# into a silent no-op. A mutation that does not compile is an error in the list, not a kill.
+# Every mutated file is restored on exit, however the run ends (trap), and the run fails if the
+# tree then differs from what it was at the start.
+#
+# Usage: deploy/run-mutations.sh [NAME_REGEX]   (default: every mutation)
+# Environment: BUILD_DIR (default build; reused, configured Release if new), MUTATION_TIMEOUT
+# (seconds for one mutation's test run, default 300; a hang counts as a kill).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build_dir=${BUILD_DIR:-build}
+list=deploy/mutations.txt
+filter=${1:-.}
+timeout_s=${MUTATION_TIMEOUT:-300}
+work=$(mktemp -d)
+tree_before=$(git diff HEAD | sha1sum)
+
+# Restores every file a mutation touched from its saved copy; cp, not git, so uncommitted work
+# in those files survives too. Not cp -p: the restored file must be newer than the mutated
+# objects, or ninja keeps them and the mutation lives on into the next runs.
+restore() {
+  local saved
+  for saved in "$work"/saved/*; do
+    [[ -e $saved ]] || continue
+    cp "$saved" "$(cat "$saved.path")"
+    rm -f "$saved" "$saved.path"
+  done
+}
+trap 'restore; rm -rf "$work"' EXIT
+trap 'exit 130' INT TERM
+
+# The list: blocks of "name = …", "what = …", "file = …", "from = …", "to = …" lines; # comments.
+mutations() {  # prints the selected names, one a line
+  python3 - "$list" "$filter" <<'PY'
+import re, sys
+names = [m for m in re.findall(r"^name\s*=\s*(\S+)", open(sys.argv[1]).read(), re.M)]
+if len(names) != len(set(names)):
+    sys.exit("mutations.txt: duplicate names")
+print("\n".join(n for n in names if re.search(sys.argv[2], n)))
+PY
+}
+
+# Saves the file of mutation NAME into $work/saved, writes the mutated file, prints its "what".
+apply_mutation() {
+  python3 - "$list" "$1" "$work/saved" <<'PY'
+import os, re, shutil, sys
+blocks = [b for b in re.split(r"\n\s*\n", open(sys.argv[1]).read())]
+fields = None
+for block in blocks:
+    f = dict(re.findall(r"^(name|what|file|from|to)\s*=\s?(.*)$", block, re.M))
+    if f.get("name") == sys.argv[2]:
+        fields = f
+missing = {"name", "what", "file", "from", "to"} - set(fields or {})
+if missing:
+    sys.exit(f"mutation {sys.argv[2]}: missing {sorted(missing)}")
+path, old, new = fields["file"], fields["from"].strip(), fields["to"].strip()
+text = open(path).read()
+count = text.count(old)
+if count != 1:
+    sys.exit(f"mutation {sys.argv[2]}: the snippet occurs {count} times in {path}, not once "
+             f"(was the code changed? update deploy/mutations.txt):\n  {old}")
+os.makedirs(sys.argv[3], exist_ok=True)
+saved = os.path.join(sys.argv[3], path.replace("/", "+"))
+shutil.copy2(path, saved)
+open(saved + ".path", "w").write(path)
+open(path, "w").write(text.replace(old, new))
+print(fields["what"])
+PY
+}
+
+# The suite: every test of tests/core except the readers' (io_*), which no mutation touches.
+mapfile -t sources < <(ls tests/core/*_test.cc | grep -v '/io_')
+targets=()
+for s in "${sources[@]}"; do targets+=("$(basename "$s" .cc)"); done
+suites=$(grep -ohE '^TEST(_F|_P)?\(\w+' "${sources[@]}" | sed 's/.*(//' | sort -u | paste -sd'|')
+suite_regex="^($suites)\\."
+
+[[ -f $build_dir/build.ninja ]] ||
+  cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+build() { ninja -C "$build_dir" "${targets[@]}" >"$work/build.log" 2>&1; }
+run_suite() {  # the first failing test's name on stdout; status 0 if every test passed
+  local rc=0
+  timeout -k 10 "$timeout_s" ctest --test-dir "$build_dir" -R "$suite_regex" -j "$(nproc)" \
+    --stop-on-failure >"$work/ctest.log" 2>&1 || rc=$?
+  ((rc == 124 || rc == 137)) && { echo "(timeout after ${timeout_s} s)"; return 1; }
+  grep -m1 -oE 'Test +#[0-9]+: [^ ]+ \.*\*\*\*[A-Za-z]+' "$work/ctest.log" |
+    sed -E 's/Test +#[0-9]+: ([^ ]+) \.*\*\*\*(.*)/\1 (\2)/' || true
+  return "$rc"
+}
+
+mapfile -t names < <(mutations)
+((${#names[@]})) || { echo "no mutation matches '$filter'" >&2; exit 2; }
+start=$SECONDS
+echo "baseline: building ${#targets[@]} test executables and running the unmutated suite"
+build || { cat "$work/build.log"; echo "the unmutated tree does not build" >&2; exit 1; }
+if ! run_suite >/dev/null; then
+  cat "$work/ctest.log"
+  echo "the unmutated suite fails: no mutation can be judged" >&2
+  exit 1
+fi
+
+rows=() survived=0 broken=0
+for name in "${names[@]}"; do
+  t0=$SECONDS
+  if ! what=$(apply_mutation "$name"); then
+    rows+=("| $name | (the list is stale: see above) | ERROR | | 0 |")
+    broken=$((broken + 1))
+    continue
+  fi
+  if ! build; then
+    grep -m3 -E 'error' "$work/build.log" >&2 || true
+    verdict="ERROR: does not compile" killer=
+    broken=$((broken + 1))
+  elif killer=$(run_suite); then
+    verdict=SURVIVED killer=
+    survived=$((survived + 1))
+  else
+    verdict=killed
+  fi
+  restore
+  rows+=("| $name | $what | $verdict | ${killer:-} | $((SECONDS - t0)) |")
+  printf '%-40s %-9s %s (%d s)\n' "$name" "$verdict" "${killer:-}" "$((SECONDS - t0))" >&2
+done
+
+# Leave the build matching the restored tree, so the next ctest run tests the real code.
+build || { cat "$work/build.log"; exit 1; }
+echo
+echo "| mutation | what it breaks | verdict | killed by | seconds |"
+echo "|---|---|---|---|---:|"
+printf '%s\n' "${rows[@]}"
+echo
+echo "${#names[@]} mutations: $((${#names[@]} - survived - broken)) killed, $survived survived," \
+  "$broken broken; $((SECONDS - start)) s in all on $(nproc) cores"
+if [[ $(git diff HEAD | sha1sum) != "$tree_before" ]]; then
+  git diff --stat HEAD
+  echo "the tree differs from before the run: a mutation was not restored" >&2
+  exit 1
+fi
+((survived == 0 && broken == 0))
