@@ -53,7 +53,7 @@ import os, re, shutil, sys
 blocks = [b for b in re.split(r"\n\s*\n", open(sys.argv[1]).read())]
 fields = None
 for block in blocks:
-    f = dict(re.findall(r"^(name|what|file|from|to)\s*=\s?(.*)$", block, re.M))
+    f = dict(re.findall(r"^(name|what|file|from|to|tests)\s*=\s?(.*)$", block, re.M))
     if f.get("name") == sys.argv[2]:
         fields = f
 missing = {"name", "what", "file", "from", "to"} - set(fields or {})
@@ -70,6 +70,7 @@ saved = os.path.join(sys.argv[3], path.replace("/", "+"))
 shutil.copy2(path, saved)
 open(saved + ".path", "w").write(path)
 open(path, "w").write(text.replace(old, new))
+open(os.path.join(sys.argv[3], "..", "tests"), "w").write(fields.get("tests", "").strip())
 print(fields["what"])
 PY
 }
@@ -84,6 +85,19 @@ suite_regex="^($suites)\\."
 [[ -f $build_dir/build.ninja ]] ||
   cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
 build() { ninja -C "$build_dir" "${targets[@]}" >"$work/build.log" 2>&1; }
+# A mutation naming the executables that kill it builds and runs only those (a whole-suite
+# relink per mutation would cost CI most of its budget); its first failing test is the killer.
+run_named() {  # EXECUTABLES...; the first failing test's name on stdout; status 0 if all passed
+  local exe rc=0
+  for exe in "$@"; do
+    timeout -k 10 "$timeout_s" "$build_dir/tests/$exe" >"$work/gtest.log" 2>&1 || rc=$?
+    ((rc == 124 || rc == 137)) && { echo "$exe (timeout after ${timeout_s} s)"; return 1; }
+    if ((rc != 0)); then
+      grep -m1 -oE '^\[  FAILED  \] [^ ]+' "$work/gtest.log" | sed 's/^\[  FAILED  \] //' || echo "$exe"
+      return "$rc"
+    fi
+  done
+}
 run_suite() {  # the first failing test's name on stdout; status 0 if every test passed
   local rc=0
   timeout -k 10 "$timeout_s" ctest --test-dir "$build_dir" -R "$suite_regex" -j "$(nproc)" \
@@ -113,11 +127,13 @@ for name in "${names[@]}"; do
     broken=$((broken + 1))
     continue
   fi
-  if ! build; then
+  read -ra named <"$work/tests" || true
+  if ! { if ((${#named[@]})); then ninja -C "$build_dir" "${named[@]}" >"$work/build.log" 2>&1;
+         else build; fi; }; then
     grep -m3 -E 'error' "$work/build.log" >&2 || true
     verdict="ERROR: does not compile" killer=
     broken=$((broken + 1))
-  elif killer=$(run_suite); then
+  elif killer=$(if ((${#named[@]})); then run_named "${named[@]}"; else run_suite; fi); then
     verdict=SURVIVED killer=
     survived=$((survived + 1))
   else

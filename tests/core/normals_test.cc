@@ -182,4 +182,49 @@ TEST(Normals, StanfordBunnyScanFacesTheScanner) {
 }
 
 }  // namespace
+// A 90° edge, noiseless: the top face z = 0 (x <= 0) and the side face x = 0 (z < 0) on a
+// 0.1 mm grid. The Gaussian weights of Eq. (4) (h = r_p/2) are what keep the far side of the
+// ball, across the edge, from tilting the normal of a point near it: on a face point between
+// 0.15 and 0.35 mm from the edge the true normal is known exactly.
+TEST(Normals, GaussianWeightsKeepNormalsNearAnEdgeOnTheirFace) {
+  PointCloud cloud;
+  cloud.scans.push_back(ScanMeta{.id = "edge", .camera_position = Eigen::Vector3d(100, 0, 100),
+                                 .uncertainty = 0.01});
+  cloud.kind = ScannerKind::kFlexible;
+  constexpr float kStep = 0.1f;
+  constexpr int kRows = 60, kCols = 40;
+  std::vector<Eigen::Vector3f> truth;
+  std::vector<float> edge_distance;
+  for (int row = 0; row < kRows; ++row) {
+    for (int c = 0; c < 2 * kCols; ++c) {
+      const bool top = c < kCols;  // top: x = -c·step; side: z = -(c − kCols + 1)·step
+      const float along = top ? c * kStep : (c - kCols + 1) * kStep;
+      cloud.x.push_back(top ? -along : 0.f);
+      cloud.y.push_back(row * kStep);
+      cloud.z.push_back(top ? 0.f : -along);
+      truth.push_back(top ? Eigen::Vector3f(0, 0, 1) : Eigen::Vector3f(1, 0, 0));
+      edge_distance.push_back(along);
+    }
+  }
+  cloud.FinishLoading();
+  auto report = RunNormals(cloud);
+  ASSERT_TRUE(report.ok()) << report.status();
+  const double r = report->stages.back().parameters.at("normals.median_radius_mm");
+  std::vector<std::vector<double>> bands(6);
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const float y = cloud.y[i];
+    if (y < 1.0f || y > (kRows - 1) * kStep - 1.0f) continue;  // away from the grid's ends
+    const size_t band = static_cast<size_t>(edge_distance[i] / 0.1f + 0.5f);
+    if (band < bands.size()) bands[band].push_back(AxisAngleDeg(cloud, i, truth[i]));
+  }
+  for (size_t b = 0; b < bands.size(); ++b) {
+    std::printf("edge distance %.1f mm (r_p %.3f): median %.2f°\n", b * 0.1, r,
+                Quantile(bands[b], 0.5));
+  }
+  // Measured: 13.9° and 2.1° with h = r_p/2; 16.3° and 3.0° with h = r_p, worse without weights.
+  EXPECT_LT(Quantile(bands[1], 0.5), 15.0);
+  EXPECT_LT(Quantile(bands[2], 0.5), 2.5);
+  EXPECT_LT(Quantile(bands[3], 0.5), 0.1);
+}
+
 }  // namespace scanprep::testing
