@@ -4,6 +4,7 @@
 #include <cmath>
 #include <optional>
 
+#include "core/flattest_neighbours.h"
 #include "core/local_moments.h"
 
 namespace scanprep {
@@ -82,15 +83,7 @@ float Support(const SmoothingInputs& in, const SmoothingScratch& scratch, const 
 // the most weight: near an edge, the plane of p's own side.
 std::optional<Plane> BestSeed(const SmoothingInputs& in, size_t i, const Eigen::Vector3f& p,
                               float gate, SmoothingScratch& scratch) {
-  scratch.seeds.clear();
-  for (size_t k = 0; k < scratch.matches.size(); ++k) {
-    const uint32_t j = scratch.matches[k].first;
-    if (j == i || in.cloud.flags[j] & kNormalInvalid) continue;
-    scratch.seeds.emplace_back(in.m.surface_variation[j], static_cast<uint32_t>(j));
-  }
-  const size_t take = std::min(kSeeds - 1, scratch.seeds.size());
-  std::partial_sort(scratch.seeds.begin(), scratch.seeds.begin() + take, scratch.seeds.end());
-  scratch.seeds.resize(take);
+  FlattestNeighbours(in.cloud, in.m, scratch.matches, i, kSeeds - 1, scratch.seeds);
   if (!(in.cloud.flags[i] & kNormalInvalid)) scratch.seeds.emplace_back(0.f, i);
   std::optional<Plane> best;
   float best_support = 0;

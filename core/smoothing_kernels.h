@@ -47,7 +47,7 @@ inline constexpr float kMoveSigmas = 3.f;
 struct SmoothingScratch {
   RadiusMatches matches;
   std::vector<float> base;                       // w_j·Φ per match
-  std::vector<std::pair<float, uint32_t>> seeds;  // (surface variation, match index)
+  std::vector<std::pair<float, uint32_t>> seeds;  // (surface variation, point index)
 };
 
 struct SmoothingInputs {

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 
+#include "core/flattest_neighbours.h"
 #include "core/local_moments.h"
 #include "core/parallel.h"
 
@@ -135,16 +136,7 @@ absl::Status JudgeBySurface(const PointCloud& cloud, const Neighbourhoods& nb,
         radius *= OwnScanWidening(scratch.matches.size(), nb.k());
         OwnScanNeighbours(cloud, nb, i, radius, scratch.matches);
       }
-      scratch.candidates.clear();
-      for (const auto& [j, d2] : scratch.matches) {
-        if (!(cloud.flags[j] & kNormalInvalid)) {
-          scratch.candidates.emplace_back(m.surface_variation[j], j);
-        }
-      }
-      const size_t take = std::min(kCandidates, scratch.candidates.size());
-      std::partial_sort(scratch.candidates.begin(), scratch.candidates.begin() + take,
-                        scratch.candidates.end());
-      scratch.candidates.resize(take);
+      FlattestNeighbours(cloud, m, scratch.matches, i, kCandidates, scratch.candidates);
       const float scan_sigma = static_cast<float>(*noise[scan]);
       const std::optional<Judged> judged = NearestSupportedPlane(
           cloud, i, kGateSigmas * kLocalNoiseCap * scan_sigma, scratch);
