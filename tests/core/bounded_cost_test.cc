@@ -80,6 +80,8 @@ TEST(BoundedCost, CoincidentPointsAreCollapsedAndExpanded) {
   cloud.FinishLoading();
   PipelineOptions options;
   options.stages = {"outliers", "normals", "smoothing"};
+  // The paper's d₁ rule alone: the surface test would catch the spike pair even uncollapsed.
+  options.params = {{"outliers.surface_sigmas", "0"}};
   auto report = RunPipeline(cloud, options, CancelToken());
   ASSERT_TRUE(report.ok()) << report.status();
   const StageReport& nb = report->stages.front();
@@ -88,6 +90,10 @@ TEST(BoundedCost, CoincidentPointsAreCollapsedAndExpanded) {
   // spike copy collapse.
   EXPECT_EQ(nb.parameters.at("neighbourhoods.duplicates_collapsed"), double(plane / 10));
   EXPECT_EQ(nb.points_in, cloud.size());  // the report counts every input point
+  // The pile costs nothing: uncollapsed, its 1,000 points would fill (and cap) every ball near it.
+  for (const StageReport& stage : report->stages) {
+    EXPECT_FALSE(stage.parameters.contains(stage.name + ".balls_capped")) << stage.name;
+  }
   // The duplicated spike is judged like a single one.
   EXPECT_TRUE(cloud.flags[cloud.size() - 1] & kRemovedOutlier);
   EXPECT_TRUE(cloud.flags[cloud.size() - 2] & kRemovedOutlier);
