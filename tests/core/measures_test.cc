@@ -255,6 +255,35 @@ TEST(Measures, ScanlineWindowIsBoundedWhateverItsWidth) {
   EXPECT_LT(Quantile(relative, 1.0), 0.02);
 }
 
+// One scanline over a step: a flat run at z = 0, an unseen 0.5 mm (5·Δp) stretch where the step's
+// face is occluded, and a flat run 0.3 mm higher. Both runs are straight, so every curvature the
+// line yields must be 0; a 1 mm window that fitted across the gap would bend over the step.
+TEST(Measures, ScanlinesAreSplitAtGaps) {
+  PointCloud cloud;
+  for (int t = 0; t < 60; ++t) {
+    const bool upper = t >= 30;
+    cloud.x.push_back(0.1f * t + (upper ? 0.4f : 0.f));
+    cloud.y.push_back(0.f);
+    cloud.z.push_back(upper ? 0.3f : 0.f);
+    cloud.scanline.push_back(0);
+  }
+  cloud.scans.push_back(ScanMeta{.id = "step", .scanline_spacing = 0.2, .uncertainty = 0.01});
+  cloud.FinishLoading();
+  CancelToken cancel;
+  std::vector<float> kappa;
+  ScanlineCurvatureCounts counts;
+  ASSERT_TRUE(ScanlineCurvature(cloud, {1.0}, cancel, kappa, counts).ok());
+  size_t fitted = 0;
+  float largest = 0;
+  for (const float k : kappa) {
+    if (!std::isfinite(k)) continue;
+    ++fitted;
+    largest = std::max(largest, k);
+  }
+  EXPECT_EQ(fitted, 60u - 4 * 2);  // all but the two points at each end of each run
+  EXPECT_LT(largest, 1e-3f);
+}
+
 TEST(Measures, CappedScanlineWindowsAreReported) {
   PointCloud cloud = Rings();
   CancelToken cancel;
