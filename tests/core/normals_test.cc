@@ -1,6 +1,7 @@
 // Normals against the simulator's ground truth: accuracy on flat and curved regions, orientation
 // toward the sensor (Eq. 3) and consistent spanning-tree orientation without poses (Eq. 5).
 #include <cstdio>
+#include <numbers>
 
 #include <gtest/gtest.h>
 
@@ -126,15 +127,28 @@ TEST(Normals, MitraRadiusGrowsAsTheCubeRootOfC1) {
   EXPECT_LT(radius[1] / radius[0], 2.5);
 }
 
+// §6: a point's normal is fitted to its own scan only. The oblique scan is misregistered by a 4°
+// rotation, so its points lie on a plane 4° off the frontal scan's: fitted together, the overlap's
+// normals would split the difference; each scan's normals must follow its own plane.
 TEST(Normals, OverlappingScansUseTheirOwnPoints) {
-  SimulatedCloud sim = Simulate(Part::kPlane, TwoOverlappingSensors(Part::kPlane), 15);
+  std::vector<SimSensor> sensors = TwoOverlappingSensors(Part::kPlane);
+  const Eigen::Matrix3d tilt =
+      Eigen::AngleAxisd(4 * std::numbers::pi / 180, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  sensors[1].misregistration.linear() = tilt;
+  SimulatedCloud sim = Simulate(Part::kPlane, sensors, 15);
+  for (size_t i = 0; i < sim.cloud.size(); ++i) {
+    if (sim.cloud.scan[i] != 1) continue;
+    sim.true_normal[i] = (tilt * sim.true_normal[i].cast<double>()).cast<float>();
+  }
   ASSERT_TRUE(RunNormals(sim.cloud).ok());
   for (uint32_t s = 0; s < 2; ++s) {
     const NormalCheck c = Check(sim, [&](size_t i) { return sim.cloud.scan[i] == s; });
-    std::printf("overlap, scan %u: %zu normals, median %.3f°, away %zu\n", s, c.checked,
-                c.median_deg, c.away_from_sensor);
-    // The oblique scan has 2× the noise at 45°, ≈2.8× the frontal σ along its rays.
+    std::printf("overlap, scan %u: %zu normals, median %.3f°, p95 %.3f°, away %zu\n", s, c.checked,
+                c.median_deg, c.p95_deg, c.away_from_sensor);
+    // The oblique scan has 2× the noise at 45°, ≈2.8× the frontal σ along its rays. Measured p95
+    // 1.9° and 4.1°; with the other scan's points in the fit, 5.9° and 10.3°.
     EXPECT_LT(c.median_deg, s == 0 ? 2.0 : 2.5);
+    EXPECT_LT(c.p95_deg, s == 0 ? 3.0 : 6.0);
     EXPECT_EQ(c.away_from_sensor, 0u);
   }
 }

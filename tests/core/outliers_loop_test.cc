@@ -102,11 +102,11 @@ TEST(OutliersOnScans, LoopParametersAreValidated) {
   EXPECT_FALSE(ValidateOptions({.params = {{"outliers.method", "lof"}}}).ok());
 }
 
-// LoOP's score is a probability (Kriegel et al. 2009): erf(PLOF / (nPLOF·√2)) with nPLOF = λ·rms(PLOF)
-// is P(|Z| < PLOF / (λ·rms)) for a standard normal Z. With λ = 1 on a homogeneous cloud (no
-// outliers; PLOF roughly normal), the share of points scored above t is therefore ≈ (1 − t) / 2:
-// 10 % at t = 0.8. Measured 12.4 % (PLOF's right tail is a little heavier than normal); erf
-// without the √2 would score 20.5 %.
+// LoOP's score is a probability (Kriegel et al. 2009): erf(PLOF / (nPLOF·√2)) with
+// nPLOF = λ·rms(PLOF) is P(|Z| < PLOF / (λ·rms)) for a standard normal Z. With λ = 1 on a
+// homogeneous cloud (no outliers; PLOF roughly normal), the share of points scored above t is
+// therefore ≈ (1 − t) / 2: 10 % at t = 0.8. Measured 12.4 % (PLOF's right tail is a little heavier
+// than normal); erf without the √2 would score 20.5 %.
 TEST(OutliersOnScans, LoopScoresAreCalibratedProbabilities) {
   PointCloud cloud;
   cloud.scans.push_back(ScanMeta{.id = "uniform"});
