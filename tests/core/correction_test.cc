@@ -121,12 +121,18 @@ TEST(Correction, GatherIgnoresPointOrder) {
   EXPECT_LE(differ, removed / 1000);
 }
 
-TEST(Correction, SingleScanIsUntouched) {
+// One scan has nothing to merge: every point stays, and the stage says it changed nothing (a
+// client that sent two scans as one would otherwise never learn why nothing merged).
+TEST(Correction, SingleScanIsUntouchedAndSaysSo) {
   auto sim = sim::Simulate(Part::kSphere, sim::FrontalSensor(Part::kSphere), 22);
   CancelToken cancel;
   auto report = RunPipeline(sim.cloud, {.stages = {"correction"}}, cancel);
   ASSERT_TRUE(report.ok()) << report.status();
   EXPECT_EQ(sim.cloud.CountKept(), sim.cloud.size());
+  EXPECT_EQ(report->stages.back().parameters.at("correction.single_scan"), 1);
+  EXPECT_EQ(report->stages.back().parameters.at("correction.removed"), 0);
+  ASSERT_EQ(report->warnings.size(), 1u);
+  EXPECT_NE(report->warnings[0].find("one scan"), std::string::npos) << report->warnings[0];
 }
 
 // Two overlapping scans without poses or quality: every q̂ is 1, so no overlap can be resolved.
