@@ -52,6 +52,7 @@ class ScanPrepService final : public v1::ScanPrep::Service {
   using Stream = grpc::ServerReaderWriter<v1::ProcessResponse, v1::ProcessRequest>;
   // What the log line of a Process call says besides its status.
   struct CallRecord {
+    absl::Time start;  // when the call arrived
     std::string job_id;
     uint64_t points = 0;
   };
