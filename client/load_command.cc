@@ -94,7 +94,9 @@ int RunLoadCommand(const ParsedArgs& args) {
   for (const std::string& note : job->notes) std::cerr << "note: " << note << "\n";
   if (budget) job->header.mutable_budget()->set_total_seconds(*budget);
 
-  const std::string target = args.Get("server");
+  auto channel_target = ChannelTarget(args.Get("server"));
+  if (!channel_target.ok()) return Fail("load", std::string(channel_target.status().message()));
+  const std::string& target = *channel_target;
   auto credentials = CredentialsFromArgs(args);
   if (!credentials.ok()) return Fail("load", std::string(credentials.status().message()));
   std::shared_ptr<grpc::Channel> channel = RoundRobinChannel(target, *credentials);
@@ -118,8 +120,9 @@ int RunLoadCommand(const ParsedArgs& args) {
 Command LoadCommand() {
   std::vector<FlagSpec> flags = {
       {"server", FlagSpec::kValue,
-       "target (required): HOST:PORT or a gRPC name such as dns:///NAME:PORT; calls are spread "
-       "round-robin over every address it resolves to"},
+       "target (required): HOST:PORT, a list IP:PORT,IP:PORT,… or a gRPC name such as "
+       "dns:///NAME:PORT; calls are spread round-robin over every address, and a call that ends "
+       "UNAVAILABLE (a replica died or drains) is sent again, at most 3 times within --timeout"},
       {"concurrency", FlagSpec::kValue, "workers, i.e. calls in flight at most (default 1)"},
       {"duration", FlagSpec::kValue, "no call starts after this, e.g. 60s (default 60s)"},
       {"max_jobs", FlagSpec::kValue, "also stop after starting this many calls"},

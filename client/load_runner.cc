@@ -109,6 +109,7 @@ LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job
         continue;
       }
       ++result.jobs_ok;
+      result.retries += r->retries;
       result.latencies.push_back(seconds);
       if (!r->report.budget_met()) ++result.budget_misses;
       result.report_budget_seconds =
