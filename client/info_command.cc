@@ -22,7 +22,9 @@ std::string Admits(const v1::ParameterInfo& p) {
 }
 
 int RunInfo(const ParsedArgs& args) {
-  const std::string server = args.Get("server", "localhost:50051");
+  auto target = ChannelTarget(args.Get("server", "localhost:50051"));
+  if (!target.ok()) return Fail("info", std::string(target.status().message()));
+  const std::string& server = *target;
   auto credentials = CredentialsFromArgs(args);
   if (!credentials.ok()) return Fail("info", std::string(credentials.status().message()));
   auto info = ScanPrepClient::Connect(server, *credentials).GetInfo(absl::Seconds(10));
@@ -68,7 +70,7 @@ int RunInfo(const ParsedArgs& args) {
 
 Command InfoCommand() {
   std::vector<FlagSpec> flags = {
-      {"server", FlagSpec::kValue, "HOST:PORT of the service (default localhost:50051)"}};
+      {"server", FlagSpec::kValue, absl::StrCat(kServerFlagHelp, " (default localhost:50051)")}};
   AddTlsFlags(flags);
   return Command{
       .name = "info",

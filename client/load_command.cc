@@ -79,7 +79,7 @@ absl::StatusOr<Job> LoadJob(const ParsedArgs& args) {
 }
 
 int RunLoadCommand(const ParsedArgs& args) {
-  if (!args.Has("server")) return Fail("load", "--server HOST:PORT is required");
+  if (!args.Has("server")) return Fail("load", "--server HOST:PORT is required (no default)");
   auto options = ParseLoadOptions(args);
   if (!options.ok()) return Fail("load", std::string(options.status().message()));
   std::optional<double> budget;
@@ -120,9 +120,7 @@ int RunLoadCommand(const ParsedArgs& args) {
 Command LoadCommand() {
   std::vector<FlagSpec> flags = {
       {"server", FlagSpec::kValue,
-       "target (required): HOST:PORT, a list IP:PORT,IP:PORT,… or a gRPC name such as "
-       "dns:///NAME:PORT; calls are spread round-robin over every address, and a call that ends "
-       "UNAVAILABLE (a replica died or drains) is sent again, at most 3 times within --timeout"},
+       kServerFlagHelp},
       {"concurrency", FlagSpec::kValue, "workers, i.e. calls in flight at most (default 1)"},
       {"duration", FlagSpec::kValue, "no call starts after this, e.g. 60s (default 60s)"},
       {"max_jobs", FlagSpec::kValue, "also stop after starting this many calls"},

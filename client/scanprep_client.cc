@@ -69,7 +69,7 @@ absl::StatusOr<std::shared_ptr<grpc::ChannelCredentials>> ChannelCredentialsFor(
 
 ScanPrepClient ScanPrepClient::Connect(const std::string& target,
                                        std::shared_ptr<grpc::ChannelCredentials> credentials) {
-  return ScanPrepClient(grpc::CreateChannel(target, std::move(credentials)));
+  return ScanPrepClient(RoundRobinChannel(target, std::move(credentials)));
 }
 
 std::shared_ptr<grpc::Channel> RoundRobinChannel(

@@ -71,7 +71,7 @@ absl::StatusOr<std::shared_ptr<grpc::ChannelCredentials>> ChannelCredentialsFor(
 class ScanPrepClient {
  public:
   explicit ScanPrepClient(std::shared_ptr<grpc::Channel> channel);
-  // A channel to HOST:PORT; plaintext unless `credentials` say otherwise.
+  // A RoundRobinChannel to `target`; plaintext unless `credentials` say otherwise.
   static ScanPrepClient Connect(
       const std::string& target,
       std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials());

@@ -157,8 +157,10 @@ class Client:
     """A channel to one scanprep server (or a load-balanced name)."""
 
     def __init__(self, target: str, credentials: Optional[grpc.ChannelCredentials] = None):
-        self._channel = (grpc.secure_channel(target, credentials) if credentials
-                         else grpc.insecure_channel(target))
+        # Round-robin over every address of the target (ipv4:a:p,b:p or dns:///name:port).
+        options = [("grpc.lb_policy_name", "round_robin")]
+        self._channel = (grpc.secure_channel(target, credentials, options) if credentials
+                         else grpc.insecure_channel(target, options))
         self._stub = pb_grpc.ScanPrepStub(self._channel)
 
     def close(self) -> None:
