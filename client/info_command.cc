@@ -13,10 +13,10 @@ namespace {
 
 // "integer in [1, 64], at most neighbourhoods.k", "real in (0, 10000]", "one of {nn, loop}".
 std::string Admits(const v1::ParameterInfo& p) {
-  if (p.kind() == v1::CHOICE) {
+  if (p.kind() == v1::PARAMETER_KIND_CHOICE) {
     return absl::StrCat("one of {", absl::StrJoin(p.choices(), ", "), "}");
   }
-  std::string text = absl::StrCat(p.kind() == v1::INTEGER ? "integer" : "real", " in ", p.range());
+  std::string text = absl::StrCat(p.kind() == v1::PARAMETER_KIND_INTEGER ? "integer" : "real", " in ", p.range());
   if (!p.at_most().empty()) absl::StrAppend(&text, ", at most ", p.at_most());
   return text;
 }

@@ -96,10 +96,10 @@ absl::StatusOr<std::string> ChannelTarget(const std::string& servers) {
   return absl::StrCat("ipv4:", servers);
 }
 
-absl::StatusOr<v1::Info> ScanPrepClient::GetInfo(std::optional<absl::Duration> timeout) {
+absl::StatusOr<v1::GetInfoResponse> ScanPrepClient::GetInfo(std::optional<absl::Duration> timeout) {
   grpc::ClientContext context;
   SetDeadline(context, timeout);
-  v1::Info info;
+  v1::GetInfoResponse info;
   grpc::Status status = stub_->GetInfo(&context, v1::GetInfoRequest(), &info);
   if (!status.ok()) return FromGrpc(status);
   return info;
@@ -169,7 +169,7 @@ absl::StatusOr<ProcessResult> ScanPrepClient::ProcessOnce(const v1::JobHeader& j
     while (stream->Read(&response)) {
       switch (response.kind_case()) {
         case v1::ProcessResponse::kProgress:
-          if (response.progress().phase() == v1::Progress::UPLOAD &&
+          if (response.progress().phase() == v1::Progress::PHASE_UPLOAD &&
               response.progress().points() == total_points) {
             upload_acked = absl::Now();
           }

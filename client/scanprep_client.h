@@ -76,7 +76,7 @@ class ScanPrepClient {
       const std::string& target,
       std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials());
 
-  absl::StatusOr<v1::Info> GetInfo(std::optional<absl::Duration> timeout = std::nullopt);
+  absl::StatusOr<v1::GetInfoResponse> GetInfo(std::optional<absl::Duration> timeout = std::nullopt);
 
   // Runs one job. `points` are in the header's unit and in each scan's own frame; points.scan
   // indexes header.scans. header.total_points is filled in when zero. A failed call returns the

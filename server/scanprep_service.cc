@@ -171,7 +171,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     }
     const uint64_t received = assembler.points_received();
     const double fraction = static_cast<double>(received) / assembler.total_points();
-    if (!SendProgress(stream, v1::Progress::UPLOAD, "", fraction, received)) {
+    if (!SendProgress(stream, v1::Progress::PHASE_UPLOAD, "", fraction, received)) {
       return Gone(*context, "upload");
     }
     watch.Expect(timeouts_.idle, "idle_timeout",
@@ -200,7 +200,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     }
     for (const StageProgress& p : running->DrainProgress()) {
       if (client_gone) break;
-      if (!SendProgress(stream, v1::Progress::PROCESSING, p.stage, p.fraction, 0)) {
+      if (!SendProgress(stream, v1::Progress::PHASE_PROCESSING, p.stage, p.fraction, 0)) {
         client_gone = true;
         running->Cancel();
       }
@@ -230,7 +230,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     if (job->packed_results) PackArrays(*response.mutable_points());
     sent.Add(response.points());
     if (!Send(stream, response) ||
-        !SendProgress(stream, v1::Progress::DOWNLOAD, "",
+        !SendProgress(stream, v1::Progress::PHASE_DOWNLOAD, "",
                       static_cast<double>(end) / indices.size(), end)) {
       return Gone(*context, "download");
     }
@@ -256,7 +256,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
 }
 
 grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoRequest*,
-                                      v1::Info* info) {
+                                      v1::GetInfoResponse* info) {
   metrics_.RpcStarted("GetInfo");
   info->set_version(SCANPREP_VERSION);
   v1::Limits* limits = info->mutable_limits();

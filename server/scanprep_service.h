@@ -46,7 +46,7 @@ class ScanPrepService final : public v1::ScanPrep::Service {
       grpc::ServerContext* context,
       grpc::ServerReaderWriter<v1::ProcessResponse, v1::ProcessRequest>* stream) override;
   grpc::Status GetInfo(grpc::ServerContext* context, const v1::GetInfoRequest* request,
-                       v1::Info* info) override;
+                       v1::GetInfoResponse* info) override;
 
  private:
   using Stream = grpc::ServerReaderWriter<v1::ProcessResponse, v1::ProcessRequest>;

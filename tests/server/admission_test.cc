@@ -219,7 +219,7 @@ class HeldCall {
   // True once the server acknowledged the chunk, i.e. the call holds a slot.
   bool WaitUntilRunning() {
     v1::ProcessResponse ack;
-    return stream_->Read(&ack) && ack.progress().phase() == v1::Progress::UPLOAD;
+    return stream_->Read(&ack) && ack.progress().phase() == v1::Progress::PHASE_UPLOAD;
   }
   grpc::Status Finish() {
     stream_->Write(EndRequest({ChunkRequest(LineChunk(100))}));

@@ -245,7 +245,7 @@ TEST(SimulateCommand, WritesScansAndTheirJobFile) {
   text << in.rdbuf();
   v1::JobHeader header;
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(text.str(), &header).ok()) << text.str();
-  EXPECT_EQ(header.unit(), v1::MILLIMETRE);
+  EXPECT_EQ(header.unit(), v1::LENGTH_UNIT_MILLIMETRE);
   ASSERT_EQ(header.scans_size(), 2);
   EXPECT_EQ(header.scans(0).scan_id(), "sim_frontal");
   EXPECT_EQ(header.scans(1).scan_id(), "sim_oblique");

@@ -335,9 +335,14 @@ TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {
   EXPECT_EQ(r.exit_code, 3);
   EXPECT_THAT(r.output, HasSubstr("UNAVAILABLE"));
 
-  // The job file is JobHeader's JSON form; the flags override it.
+  // The job file is JobHeader's JSON form; the flags override it. The enum value names from
+  // before they took their enum's prefix ("MILLIMETRE", "LINE") are still read.
   const fs::path job = tmp / "job.json";
-  std::ofstream(job) << R"({"jobId": "j1", "unit": "MILLIMETRE", "options": {"stages": ["nope"]}})";
+  std::ofstream(job) << R"({"unit": "LENGTH_UNIT_MILLIMETRE", "scannerKind": "SCANNER_KIND_LINE"})";
+  r = RunCli(base + " --job " + job.string() + " --stages outliers");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  std::ofstream(job)
+      << R"({"jobId": "j1", "unit": "MILLIMETRE", "scanner_kind": "LINE", "options": {"stages": ["nope"]}})";
   r = RunCli(base + " --job " + job.string());
   EXPECT_EQ(r.exit_code, 4);
   EXPECT_THAT(r.output, HasSubstr("unknown stage 'nope'"));

@@ -15,7 +15,7 @@ from google.rpc import error_details_pb2, status_pb2
 from scanprep.v1 import scanprep_pb2 as pb
 from scanprep.v1 import scanprep_pb2_grpc as pb_grpc
 
-_UNITS = {"mm": pb.MILLIMETRE, "m": pb.METRE, "um": pb.MICROMETRE, "in": pb.INCH}
+_UNITS = {"mm": pb.LENGTH_UNIT_MILLIMETRE, "m": pb.LENGTH_UNIT_METRE, "um": pb.LENGTH_UNIT_MICROMETRE, "in": pb.LENGTH_UNIT_INCH}
 _CHUNK_POINTS = 32768  # the service's recommended chunk size (GetInfo().limits)
 
 
@@ -172,7 +172,7 @@ class Client:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def info(self, timeout: Optional[float] = 10) -> pb.Info:
+    def info(self, timeout: Optional[float] = 10) -> pb.GetInfoResponse:
         try:
             return self._stub.GetInfo(pb.GetInfoRequest(), timeout=timeout)
         except grpc.RpcError as e:
