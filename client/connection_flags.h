@@ -12,6 +12,13 @@
 
 namespace scanprep::client {
 
+// --server, for every command that connects: where the service is.
+inline constexpr char kServerFlagHelp[] =
+    "HOST:PORT of the service, a list IP:PORT,IP:PORT,… or a gRPC name such as "
+    "dns:///NAME:PORT; calls are spread round-robin over its addresses, and a job whose "
+    "call ends UNAVAILABLE (a replica died or drains) is sent again, at most 3 attempts within "
+    "its deadline";
+
 // Appends --tls_ca, --tls_cert and --tls_key to a command's flags.
 void AddTlsFlags(std::vector<FlagSpec>& flags);
 

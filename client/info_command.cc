@@ -13,16 +13,18 @@ namespace {
 
 // "integer in [1, 64], at most neighbourhoods.k", "real in (0, 10000]", "one of {nn, loop}".
 std::string Admits(const v1::ParameterInfo& p) {
-  if (p.kind() == v1::CHOICE) {
+  if (p.kind() == v1::PARAMETER_KIND_CHOICE) {
     return absl::StrCat("one of {", absl::StrJoin(p.choices(), ", "), "}");
   }
-  std::string text = absl::StrCat(p.kind() == v1::INTEGER ? "integer" : "real", " in ", p.range());
+  std::string text = absl::StrCat(p.kind() == v1::PARAMETER_KIND_INTEGER ? "integer" : "real", " in ", p.range());
   if (!p.at_most().empty()) absl::StrAppend(&text, ", at most ", p.at_most());
   return text;
 }
 
 int RunInfo(const ParsedArgs& args) {
-  const std::string server = args.Get("server", "localhost:50051");
+  auto target = ChannelTarget(args.Get("server", "localhost:50051"));
+  if (!target.ok()) return Fail("info", std::string(target.status().message()));
+  const std::string& server = *target;
   auto credentials = CredentialsFromArgs(args);
   if (!credentials.ok()) return Fail("info", std::string(credentials.status().message()));
   auto info = ScanPrepClient::Connect(server, *credentials).GetInfo(absl::Seconds(10));
@@ -68,7 +70,7 @@ int RunInfo(const ParsedArgs& args) {
 
 Command InfoCommand() {
   std::vector<FlagSpec> flags = {
-      {"server", FlagSpec::kValue, "HOST:PORT of the service (default localhost:50051)"}};
+      {"server", FlagSpec::kValue, absl::StrCat(kServerFlagHelp, " (default localhost:50051)")}};
   AddTlsFlags(flags);
   return Command{
       .name = "info",

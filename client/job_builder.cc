@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <regex>
 
 #include <google/protobuf/util/json_util.h>
 
@@ -86,7 +87,7 @@ absl::Status ApplyOptionFlags(const ParsedArgs& args, v1::JobHeader& header) {
     if (!unit.ok()) return unit.status();
     header.set_unit(*unit);
   } else if (header.unit() == v1::LENGTH_UNIT_UNSPECIFIED) {
-    header.set_unit(v1::MILLIMETRE);
+    header.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
   }
   v1::PipelineOptions* options = header.mutable_options();
   if (args.Has("stages")) {
@@ -144,9 +145,10 @@ std::vector<FlagSpec> JobFlags() {
 
 absl::StatusOr<v1::LengthUnit> ParseUnit(const std::string& text) {
   static const std::map<std::string, v1::LengthUnit> kUnits = {
-      {"mm", v1::MILLIMETRE}, {"m", v1::METRE},   {"um", v1::MICROMETRE}, {"in", v1::INCH},
-      {"MILLIMETRE", v1::MILLIMETRE}, {"METRE", v1::METRE}, {"MICROMETRE", v1::MICROMETRE},
-      {"INCH", v1::INCH}};
+      {"mm", v1::LENGTH_UNIT_MILLIMETRE},         {"m", v1::LENGTH_UNIT_METRE},
+      {"um", v1::LENGTH_UNIT_MICROMETRE},         {"in", v1::LENGTH_UNIT_INCH},
+      {"MILLIMETRE", v1::LENGTH_UNIT_MILLIMETRE}, {"METRE", v1::LENGTH_UNIT_METRE},
+      {"MICROMETRE", v1::LENGTH_UNIT_MICROMETRE}, {"INCH", v1::LENGTH_UNIT_INCH}};
   auto it = kUnits.find(text);
   if (it == kUnits.end()) {
     return absl::InvalidArgumentError(
@@ -155,9 +157,20 @@ absl::StatusOr<v1::LengthUnit> ParseUnit(const std::string& text) {
   return it->second;
 }
 
+// Job files written before the enum values took their enum's prefix (2026-11-24) say
+// "unit": "METRE" and "scannerKind": "LINE"; those values are read as the prefixed ones.
+std::string WithPrefixedEnumValues(const std::string& json) {
+  static const std::regex kUnit(R"re(("unit"\s*:\s*")(MILLIMETRE|METRE|MICROMETRE|INCH)")re");
+  static const std::regex kKind(
+      R"re(("scanner_?[kK]ind"\s*:\s*")(LINE|FLEXIBLE)")re");
+  return std::regex_replace(std::regex_replace(json, kUnit, "$1LENGTH_UNIT_$2\""), kKind,
+                            "$1SCANNER_KIND_$2\"");
+}
+
 absl::StatusOr<v1::JobHeader> ReadJobFile(const std::string& path) {
   auto text = io::ReadFileToString(path);
   if (!text.ok()) return text.status();
+  *text = WithPrefixedEnumValues(*text);
   v1::JobHeader header;
   google::protobuf::util::JsonParseOptions options;
   options.ignore_unknown_fields = false;
@@ -295,8 +308,8 @@ absl::StatusOr<Job> BuildJobFromCloud(const ParsedArgs& args, PointCloud cloud) 
     }
   }
   Job job;
-  job.header.set_unit(v1::MILLIMETRE);
-  job.header.set_scanner_kind(cloud.kind == ScannerKind::kLine ? v1::LINE : v1::FLEXIBLE);
+  job.header.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
+  job.header.set_scanner_kind(cloud.kind == ScannerKind::kLine ? v1::SCANNER_KIND_LINE : v1::SCANNER_KIND_FLEXIBLE);
   for (const ScanMeta& meta : cloud.scans) *job.header.add_scans() = ScanHeaderFromMeta(meta);
   if (absl::Status s = ApplyOptionFlags(args, job.header); !s.ok()) return s;
   job.points = std::move(cloud);

@@ -79,7 +79,7 @@ absl::StatusOr<Job> LoadJob(const ParsedArgs& args) {
 }
 
 int RunLoadCommand(const ParsedArgs& args) {
-  if (!args.Has("server")) return Fail("load", "--server HOST:PORT is required");
+  if (!args.Has("server")) return Fail("load", "--server HOST:PORT is required (no default)");
   auto options = ParseLoadOptions(args);
   if (!options.ok()) return Fail("load", std::string(options.status().message()));
   std::optional<double> budget;
@@ -94,7 +94,9 @@ int RunLoadCommand(const ParsedArgs& args) {
   for (const std::string& note : job->notes) std::cerr << "note: " << note << "\n";
   if (budget) job->header.mutable_budget()->set_total_seconds(*budget);
 
-  const std::string target = args.Get("server");
+  auto channel_target = ChannelTarget(args.Get("server"));
+  if (!channel_target.ok()) return Fail("load", std::string(channel_target.status().message()));
+  const std::string& target = *channel_target;
   auto credentials = CredentialsFromArgs(args);
   if (!credentials.ok()) return Fail("load", std::string(credentials.status().message()));
   std::shared_ptr<grpc::Channel> channel = RoundRobinChannel(target, *credentials);
@@ -118,8 +120,7 @@ int RunLoadCommand(const ParsedArgs& args) {
 Command LoadCommand() {
   std::vector<FlagSpec> flags = {
       {"server", FlagSpec::kValue,
-       "target (required): HOST:PORT or a gRPC name such as dns:///NAME:PORT; calls are spread "
-       "round-robin over every address it resolves to"},
+       kServerFlagHelp},
       {"concurrency", FlagSpec::kValue, "workers, i.e. calls in flight at most (default 1)"},
       {"duration", FlagSpec::kValue, "no call starts after this, e.g. 60s (default 60s)"},
       {"max_jobs", FlagSpec::kValue, "also stop after starting this many calls"},

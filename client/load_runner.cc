@@ -90,7 +90,7 @@ LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job
       if (abort) {
         call.canceller = &canceller;
         call.progress = [&canceller](const v1::Progress& p) {
-          if (p.phase() == v1::Progress::UPLOAD) canceller.Cancel();
+          if (p.phase() == v1::Progress::PHASE_UPLOAD) canceller.Cancel();
         };
       }
       absl::StatusOr<ProcessResult> r = client.Process(header, job.points, call);
@@ -109,6 +109,7 @@ LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job
         continue;
       }
       ++result.jobs_ok;
+      result.retries += r->retries;
       result.latencies.push_back(seconds);
       if (!r->report.budget_met()) ++result.budget_misses;
       result.report_budget_seconds =

@@ -88,7 +88,9 @@ int RunProcess(const ParsedArgs& args) {
   ProgressView view(std::cerr, isatty(STDERR_FILENO) != 0);
   call.progress = [&view](const v1::Progress& p) { view.Update(p); };
 
-  const std::string server = args.Get("server", "localhost:50051");
+  auto target = ChannelTarget(args.Get("server", "localhost:50051"));
+  if (!target.ok()) return Fail("process", std::string(target.status().message()));
+  const std::string& server = *target;
   auto credentials = CredentialsFromArgs(args);
   if (!credentials.ok()) return Fail("process", std::string(credentials.status().message()));
   auto result =
@@ -130,7 +132,7 @@ int RunProcess(const ParsedArgs& args) {
 Command ProcessCommand() {
   std::vector<FlagSpec> flags = {
       {"out", FlagSpec::kValue, "output PLY file (required)", "o"},
-      {"server", FlagSpec::kValue, "HOST:PORT of the service (default localhost:50051)"},
+      {"server", FlagSpec::kValue, absl::StrCat(kServerFlagHelp, " (default localhost:50051)")},
   };
   AddTlsFlags(flags);
   for (FlagSpec& flag : JobFlags()) flags.push_back(std::move(flag));

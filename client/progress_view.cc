@@ -14,13 +14,13 @@ void ProgressView::Update(const v1::Progress& p) {
   if (!live_) return;
   std::string line;
   switch (p.phase()) {
-    case v1::Progress::UPLOAD:
+    case v1::Progress::PHASE_UPLOAD:
       line = absl::StrFormat("upload     %3.0f%%  %d points", 100 * p.fraction(), p.points());
       break;
-    case v1::Progress::PROCESSING:
+    case v1::Progress::PHASE_PROCESSING:
       line = absl::StrFormat("processing %3.0f%%  %s", 100 * p.fraction(), p.stage());
       break;
-    case v1::Progress::DOWNLOAD:
+    case v1::Progress::PHASE_DOWNLOAD:
       line = absl::StrFormat("download   %3.0f%%  %d points", 100 * p.fraction(), p.points());
       break;
     default:

@@ -2,6 +2,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "proto/chunk_arrays.h"
 
 namespace scanprep::client {
 namespace {
@@ -61,9 +62,15 @@ absl::Status ResultReceiver::AddMessage(v1::ProcessResponse& response) {
     return absl::DataLossError("the server sent a message after the result's end message");
   }
   switch (response.kind_case()) {
-    case v1::ProcessResponse::kPoints:
+    case v1::ProcessResponse::kPoints: {
       received_.Add(response.points());
+      std::string bad_array;
+      if (!UnpackArrays(*response.mutable_points(), bad_array).ok()) {
+        return absl::DataLossError(absl::StrCat("the server sent a result chunk whose ",
+                                                bad_array, " is malformed"));
+      }
       return AppendResultChunk(response.points(), result_.cloud);
+    }
     case v1::ProcessResponse::kReport:
       result_.report = std::move(*response.mutable_report());
       has_report_ = true;

@@ -27,6 +27,7 @@ struct ProcessResult {
   PointCloud cloud;
   v1::Report report;
   TransferSeconds transfer;
+  int retries = 0;  // attempts that ended UNAVAILABLE before this one succeeded
 };
 
 class ResultReceiver {

@@ -1,8 +1,11 @@
 #include "client/scanprep_client.h"
 
+#include <regex>
 #include <thread>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "client/call_error.h"
 #include "core/io/read_file.h"
 
@@ -12,6 +15,9 @@ namespace {
 void SetDeadline(grpc::ClientContext& context, const std::optional<absl::Duration>& timeout) {
   if (timeout) context.set_deadline(absl::ToChronoTime(absl::Now() + *timeout));
 }
+
+// Before another attempt: long enough for the channel to see a dead replica's connection fail.
+constexpr absl::Duration kRetryPause = absl::Milliseconds(100);
 
 }  // namespace
 
@@ -63,7 +69,7 @@ absl::StatusOr<std::shared_ptr<grpc::ChannelCredentials>> ChannelCredentialsFor(
 
 ScanPrepClient ScanPrepClient::Connect(const std::string& target,
                                        std::shared_ptr<grpc::ChannelCredentials> credentials) {
-  return ScanPrepClient(grpc::CreateChannel(target, std::move(credentials)));
+  return ScanPrepClient(RoundRobinChannel(target, std::move(credentials)));
 }
 
 std::shared_ptr<grpc::Channel> RoundRobinChannel(
@@ -73,10 +79,27 @@ std::shared_ptr<grpc::Channel> RoundRobinChannel(
   return grpc::CreateCustomChannel(target, std::move(credentials), arguments);
 }
 
-absl::StatusOr<v1::Info> ScanPrepClient::GetInfo(std::optional<absl::Duration> timeout) {
+absl::StatusOr<std::string> ChannelTarget(const std::string& servers) {
+  if (servers.find(',') == std::string::npos || absl::StartsWith(servers, "ipv4:") ||
+      absl::StartsWith(servers, "ipv6:")) {
+    return servers;
+  }
+  static const std::regex kIpv4HostPort(R"(\d{1,3}(\.\d{1,3}){3}:\d{1,5})");
+  for (absl::string_view server : absl::StrSplit(servers, ',')) {
+    if (!std::regex_match(server.begin(), server.end(), kIpv4HostPort)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "--server: '", std::string(server), "' in a list is not an IPv4 address:port; list "
+          "addresses (10.0.0.1:50051,10.0.0.2:50051) or give one name (dns:///name:50051 "
+          "spreads over every address of the name)"));
+    }
+  }
+  return absl::StrCat("ipv4:", servers);
+}
+
+absl::StatusOr<v1::GetInfoResponse> ScanPrepClient::GetInfo(std::optional<absl::Duration> timeout) {
   grpc::ClientContext context;
   SetDeadline(context, timeout);
-  v1::Info info;
+  v1::GetInfoResponse info;
   grpc::Status status = stub_->GetInfo(&context, v1::GetInfoRequest(), &info);
   if (!status.ok()) return FromGrpc(status);
   return info;
@@ -104,11 +127,29 @@ absl::StatusOr<ProcessResult> ScanPrepClient::Process(v1::JobHeader header,
                                                       const PointCloud& points,
                                                       const CallOptions& options) {
   if (header.total_points() == 0) header.set_total_points(points.size());
+  const absl::Time deadline =
+      options.timeout ? absl::Now() + *options.timeout : absl::InfiniteFuture();
+  for (int attempt = 1;; ++attempt) {
+    absl::StatusOr<ProcessResult> result = ProcessOnce(header, points, options, deadline);
+    if (result.ok()) result->retries = attempt - 1;
+    if (result.ok() || result.status().code() != absl::StatusCode::kUnavailable ||
+        attempt >= options.max_attempts || absl::Now() + kRetryPause >= deadline) {
+      return result;
+    }
+    absl::SleepFor(kRetryPause);
+  }
+}
+
+absl::StatusOr<ProcessResult> ScanPrepClient::ProcessOnce(const v1::JobHeader& job_header,
+                                                          const PointCloud& points,
+                                                          const CallOptions& options,
+                                                          absl::Time deadline) {
+  v1::JobHeader header = job_header;
   const size_t chunk_points = std::max<size_t>(1, options.chunk_points);
   const bool with_scan_index = header.scans_size() > 1;
 
   grpc::ClientContext context;
-  SetDeadline(context, options.timeout);
+  if (deadline != absl::InfiniteFuture()) context.set_deadline(absl::ToChronoTime(deadline));
   if (options.canceller != nullptr && !options.canceller->Attach(&context)) {
     return absl::CancelledError("the call was cancelled before it started");
   }
@@ -128,7 +169,7 @@ absl::StatusOr<ProcessResult> ScanPrepClient::Process(v1::JobHeader header,
     while (stream->Read(&response)) {
       switch (response.kind_case()) {
         case v1::ProcessResponse::kProgress:
-          if (response.progress().phase() == v1::Progress::UPLOAD &&
+          if (response.progress().phase() == v1::Progress::PHASE_UPLOAD &&
               response.progress().points() == total_points) {
             upload_acked = absl::Now();
           }

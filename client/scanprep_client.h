@@ -44,10 +44,14 @@ class CallCanceller {
 };
 
 struct CallOptions {
-  std::optional<absl::Duration> timeout;  // none = no deadline
+  std::optional<absl::Duration> timeout;  // none = no deadline; covers every attempt
   ProgressCallback progress;
   CallCanceller* canceller = nullptr;
   size_t chunk_points = kDefaultChunkPoints;
+  // Attempts at a job whose call ends UNAVAILABLE (a replica that died or drains, a lost
+  // connection): the service keeps nothing between calls, so the whole job is sent again, to the
+  // next replica of a round-robin channel, while the deadline allows. 1 = no retry.
+  int max_attempts = 3;
 };
 
 // PEM files for a TLS channel. With `ca` the server's certificate is verified against it; with
@@ -67,12 +71,12 @@ absl::StatusOr<std::shared_ptr<grpc::ChannelCredentials>> ChannelCredentialsFor(
 class ScanPrepClient {
  public:
   explicit ScanPrepClient(std::shared_ptr<grpc::Channel> channel);
-  // A channel to HOST:PORT; plaintext unless `credentials` say otherwise.
+  // A RoundRobinChannel to `target`; plaintext unless `credentials` say otherwise.
   static ScanPrepClient Connect(
       const std::string& target,
       std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials());
 
-  absl::StatusOr<v1::Info> GetInfo(std::optional<absl::Duration> timeout = std::nullopt);
+  absl::StatusOr<v1::GetInfoResponse> GetInfo(std::optional<absl::Duration> timeout = std::nullopt);
 
   // Runs one job. `points` are in the header's unit and in each scan's own frame; points.scan
   // indexes header.scans. header.total_points is filled in when zero. A failed call returns the
@@ -82,15 +86,25 @@ class ScanPrepClient {
                                         const CallOptions& options = {});
 
  private:
+  // One attempt, ending by `deadline`.
+  absl::StatusOr<ProcessResult> ProcessOnce(const v1::JobHeader& header, const PointCloud& points,
+                                            const CallOptions& options, absl::Time deadline);
+
   std::unique_ptr<v1::ScanPrep::Stub> stub_;
 };
 
-// A channel to `target` (HOST:PORT or a gRPC name such as dns:///name:port) that spreads its
-// calls round-robin over every address the name resolves to, so one client loads all replicas
-// behind a headless service instead of the first one it reaches.
+// A channel to `target` (HOST:PORT, a gRPC name such as dns:///name:port, or a list such as
+// ipv4:10.0.0.1:50051,10.0.0.2:50051) that spreads its calls round-robin over every address the
+// name resolves to, so one client loads all replicas behind a headless service instead of the
+// first one it reaches.
 std::shared_ptr<grpc::Channel> RoundRobinChannel(
     const std::string& target,
     std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials());
+
+// The gRPC target for a --server value: HOST:PORT or any gRPC name as it is; a comma-separated
+// list of IPv4 HOST:PORT literals as gRPC's "ipv4:" list. INVALID_ARGUMENT for a list with a name
+// in it (a dns:/// name already round-robins over all its addresses).
+absl::StatusOr<std::string> ChannelTarget(const std::string& servers);
 
 // The request chunk for points [begin, end); scan_index only when `with_scan_index`.
 void RequestChunk(const PointCloud& points, size_t begin, size_t end, bool with_scan_index,

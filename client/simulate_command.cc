@@ -58,8 +58,8 @@ int RunSimulate(const ParsedArgs& args) {
   const fs::path out = args.Get("out");
   const fs::path stem = out.parent_path() / out.stem();
   v1::JobHeader header;
-  header.set_unit(v1::MILLIMETRE);
-  header.set_scanner_kind(v1::LINE);
+  header.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
+  header.set_scanner_kind(v1::SCANNER_KIND_LINE);
   std::vector<std::string> files;
   for (uint32_t s = 0; s < cloud->scans.size(); ++s) {
     const fs::path file =

@@ -73,6 +73,10 @@ for b in rows:
           f"{b['points_per_second']:,.0f} | {b['peak_rss_bytes'] / 2**20:,.0f} |")
 PY
 rm -f "$out"
+# The Python client's codec (client/python): packed arrays against the repeated fields.
+if [[ $filter == . || $filter == *ython* ]]; then
+  PYTHONPATH=build/python:client/python /usr/bin/python3 tests/bench/python_codec_bench.py
+fi
 # The hostile family's service side is deploy/run-hostile-benchmark.sh, not these e2e rows.
 [[ ${1:-} != *Hostile* ]] || exit 0
 mapfile -t e2e_points < <(grep -oE '[0-9]{4,}' <<<"${1:-}" || true)

@@ -17,23 +17,26 @@ uint32_t Update(uint32_t crc, const void* data, size_t bytes) {
   return bytes == 0 ? crc : crc32_z(crc, static_cast<const Bytef*>(data), bytes);
 }
 
+// One array, in whichever form it came (the packed bytes are the repeated values' memory).
 template <class T>
-uint32_t Update(uint32_t crc, const google::protobuf::RepeatedField<T>& values) {
+uint32_t Update(uint32_t crc, const google::protobuf::RepeatedField<T>& values,
+                const std::string& packed) {
   static_assert(sizeof(T) == 4);
-  return Update(crc, values.data(), values.size() * sizeof(T));
+  crc = Update(crc, values.data(), values.size() * sizeof(T));
+  return Update(crc, packed.data(), packed.size());
 }
 
 }  // namespace
 
 void StreamChecksum::Add(const v1::PointChunk& chunk) {
-  points_ += chunk.xyz_size() / 3;
+  points_ += (chunk.xyz_size() + chunk.xyz_packed().size() / 4) / 3;
   uint32_t crc = crc32_;
-  crc = Update(crc, chunk.xyz());
-  crc = Update(crc, chunk.scan_index());
-  crc = Update(crc, chunk.scanline());
-  crc = Update(crc, chunk.quality());
-  crc = Update(crc, chunk.intensity());
-  crc = Update(crc, chunk.normal());
+  crc = Update(crc, chunk.xyz(), chunk.xyz_packed());
+  crc = Update(crc, chunk.scan_index(), chunk.scan_index_packed());
+  crc = Update(crc, chunk.scanline(), chunk.scanline_packed());
+  crc = Update(crc, chunk.quality(), chunk.quality_packed());
+  crc = Update(crc, chunk.intensity(), chunk.intensity_packed());
+  crc = Update(crc, chunk.normal(), chunk.normal_packed());
   crc = Update(crc, chunk.flags().data(), chunk.flags().size());
   crc32_ = crc;
 }

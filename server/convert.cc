@@ -61,10 +61,10 @@ absl::StatusOr<Eigen::Vector3d> Direction(const v1::Vec3& v, const ScanFrame& fr
 
 absl::StatusOr<double> MillimetresPerUnit(v1::LengthUnit unit) {
   switch (unit) {
-    case v1::MILLIMETRE: return 1.0;
-    case v1::METRE: return 1000.0;
-    case v1::MICROMETRE: return 0.001;
-    case v1::INCH: return 25.4;
+    case v1::LENGTH_UNIT_MILLIMETRE: return 1.0;
+    case v1::LENGTH_UNIT_METRE: return 1000.0;
+    case v1::LENGTH_UNIT_MICROMETRE: return 0.001;
+    case v1::LENGTH_UNIT_INCH: return 25.4;
     default:
       return WithFieldViolation(
           absl::InvalidArgumentError("header.unit: the length unit must be stated (MILLIMETRE, "
@@ -139,8 +139,8 @@ absl::StatusOr<ScanMeta> ScanMetaFromProto(const v1::ScanHeader& scan, const Sca
 
 ScannerKind KindFromHeader(const v1::JobHeader& header) {
   switch (header.scanner_kind()) {
-    case v1::LINE: return ScannerKind::kLine;
-    case v1::FLEXIBLE: return ScannerKind::kFlexible;
+    case v1::SCANNER_KIND_LINE: return ScannerKind::kLine;
+    case v1::SCANNER_KIND_FLEXIBLE: return ScannerKind::kFlexible;
     default:
       for (const v1::ScanHeader& scan : header.scans()) {
         if (scan.scanline_spacing() > 0) return ScannerKind::kLine;
@@ -189,9 +189,9 @@ void ParamSpecToProto(const ParamSpec& spec, v1::ParameterInfo* out) {
   out->set_default_value(spec.default_text);
   for (const std::string& c : spec.choices) out->add_choices(c);
   switch (spec.kind) {
-    case ParamKind::kReal: out->set_kind(v1::REAL); break;
-    case ParamKind::kInteger: out->set_kind(v1::INTEGER); break;
-    case ParamKind::kChoice: out->set_kind(v1::CHOICE); return;
+    case ParamKind::kReal: out->set_kind(v1::PARAMETER_KIND_REAL); break;
+    case ParamKind::kInteger: out->set_kind(v1::PARAMETER_KIND_INTEGER); break;
+    case ParamKind::kChoice: out->set_kind(v1::PARAMETER_KIND_CHOICE); return;
   }
   out->set_default_derived(!spec.default_value.has_value());
   out->set_min(spec.range.min);
@@ -232,9 +232,9 @@ void ResultChunk(const PointCloud& cloud, const std::vector<uint32_t>& indices, 
 }  // namespace scanprep::server
 
 // The wire flag bits are core's bits; ResultChunk copies them unchanged.
-static_assert(int{scanprep::kRemovedOutlier} == scanprep::v1::REMOVED_OUTLIER &&
-              int{scanprep::kRemovedMerge} == scanprep::v1::REMOVED_MERGE &&
-              int{scanprep::kRemovedSimplify} == scanprep::v1::REMOVED_SIMPLIFY &&
-              int{scanprep::kSmoothed} == scanprep::v1::SMOOTHED &&
-              int{scanprep::kNormalInvalid} == scanprep::v1::NORMAL_INVALID &&
-              int{scanprep::kEdge} == scanprep::v1::EDGE);
+static_assert(int{scanprep::kRemovedOutlier} == scanprep::v1::FLAG_REMOVED_OUTLIER &&
+              int{scanprep::kRemovedMerge} == scanprep::v1::FLAG_REMOVED_MERGE &&
+              int{scanprep::kRemovedSimplify} == scanprep::v1::FLAG_REMOVED_SIMPLIFY &&
+              int{scanprep::kSmoothed} == scanprep::v1::FLAG_SMOOTHED &&
+              int{scanprep::kNormalInvalid} == scanprep::v1::FLAG_NORMAL_INVALID &&
+              int{scanprep::kEdge} == scanprep::v1::FLAG_EDGE);

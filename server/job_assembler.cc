@@ -4,6 +4,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "proto/chunk_arrays.h"
 #include "server/error_details.h"
 
 namespace scanprep::server {
@@ -100,6 +101,8 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
   job_.job_id = header.job_id();
   job_.mm_per_unit = *mm;
   job_.include_removed = header.options().include_removed();
+  job_.labels.insert(header.labels().begin(), header.labels().end());
+  job_.packed_results = header.result_arrays() == v1::ARRAY_ENCODING_PACKED;
   job_.options = OptionsFromHeader(header, limits_.default_budget_seconds,
                                    limits_.default_stage_budget_seconds);
   if (absl::Status s = ValidateOptions(job_.options); !s.ok()) return OptionsError(s);
@@ -140,14 +143,16 @@ absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
                           " scans per job (max_scans_per_job)")),
                       "TOO_MANY_SCANS");
   }
-  const std::pair<std::string_view, int> lists[] = {
-      {"header.options.stages", header.options().stages_size()},
-      {"header.options.params", header.options().params_size()},
-      {"header.budget.stage_seconds", header.budget().stage_seconds_size()}};
-  for (const auto& [field, size] : lists) {
-    if (size > kMaxHeaderListEntries) {
+  const std::tuple<std::string_view, int, int> lists[] = {
+      {"header.options.stages", header.options().stages_size(), kMaxHeaderListEntries},
+      {"header.options.params", header.options().params_size(), kMaxHeaderListEntries},
+      {"header.budget.stage_seconds", header.budget().stage_seconds_size(),
+       kMaxHeaderListEntries},
+      {"header.labels", header.labels_size(), kMaxLabels}};
+  for (const auto& [field, size, most] : lists) {
+    if (size > most) {
       return BadHeader(field, absl::StrCat(std::string(field), " has ", size, " entries; at most ",
-                                           kMaxHeaderListEntries, " are accepted"));
+                                           most, " are accepted"));
     }
   }
   if (auto s = CheckString("header.job_id", "the job id", header.job_id()); !s.ok()) return s;
@@ -173,6 +178,12 @@ absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
   }
   for (const auto& [name, seconds] : header.budget().stage_seconds()) {
     if (auto s = CheckString("header.budget.stage_seconds", "a stage name", name); !s.ok())
+      return s;
+  }
+  for (const auto& [key, value] : header.labels()) {
+    if (auto s = CheckString("header.labels", "a label key", key); !s.ok()) return s;
+    if (auto s = CheckString(absl::StrCat("header.labels['", key, "']"), "the value", value);
+        !s.ok())
       return s;
   }
   return absl::OkStatus();
@@ -222,6 +233,14 @@ absl::Status JobAssembler::CheckChunk(const v1::PointChunk& chunk, size_t n) con
 absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
   if (!has_header_) {
     return BadHeader("header", "first message must be a header (got points)");
+  }
+  if (HasPackedArrays(chunk)) {  // checked and read in the repeated form: one copy of ≤ 1 chunk
+    v1::PointChunk unpacked = chunk;
+    std::string bad_array;
+    if (absl::Status s = UnpackArrays(unpacked, bad_array); !s.ok()) {
+      return BadChunk(chunks_, bad_array, std::string(s.message()));
+    }
+    return AddChunk(unpacked);
   }
   if (chunk.xyz_size() % 3 != 0) {
     return BadChunk(chunks_, "xyz",

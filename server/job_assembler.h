@@ -26,6 +26,8 @@ inline constexpr int kMaxHeaderListEntries = 256;
 // limit a report still fits far within gRPC's 4 MiB message limit (a 4 MB job_id made a report
 // the client could not receive).
 inline constexpr size_t kMaxHeaderStringBytes = 256;
+// JobHeader.labels entries: the caller's own tags, echoed in the report.
+inline constexpr int kMaxLabels = 32;
 
 struct JobLimits {
   uint64_t max_points_per_job = 20'000'000;
@@ -48,6 +50,8 @@ struct AssembledJob {
   uint64_t points_received = 0;
   uint64_t points_invalid = 0;
   std::vector<std::string> warnings;
+  std::map<std::string, std::string> labels;
+  bool packed_results = false;  // header.result_arrays = ARRAY_ENCODING_PACKED
 };
 
 class JobAssembler {

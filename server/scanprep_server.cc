@@ -117,12 +117,19 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
         options.credentials != nullptr ? " (or the TLS certificate and key are not a valid pair)"
                                        : ""));
   }
-  server->server_->GetHealthCheckService()->SetServingStatus(true);
+  server->SetServing(true);
   return server;
 }
 
+// Health answers for the whole server ("") and by the service's full name, as probes ask either.
+void ScanPrepServer::SetServing(bool serving) {
+  grpc::HealthCheckServiceInterface* health = server_->GetHealthCheckService();
+  health->SetServingStatus(serving);
+  health->SetServingStatus(scanprep::v1::ScanPrep::service_full_name(), serving);
+}
+
 void ScanPrepServer::Drain() {
-  server_->GetHealthCheckService()->SetServingStatus(false);
+  SetServing(false);
   admission_.Drain();
 }
 

@@ -71,6 +71,7 @@ class ScanPrepServer {
  private:
   // `options` with the memory budget resolved.
   explicit ScanPrepServer(const ServerOptions& options);
+  void SetServing(bool serving);
 
   metrics::Registry registry_;
   ServiceMetrics metrics_;

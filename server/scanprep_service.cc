@@ -6,9 +6,12 @@
 #include <new>
 #include <optional>
 
+#include <google/protobuf/util/time_util.h>
+
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/stage.h"
+#include "proto/chunk_arrays.h"
 #include "proto/stream_checksum.h"
 #include "server/convert.h"
 #include "server/error_details.h"
@@ -32,7 +35,11 @@ absl::Time CallDeadline(const grpc::ServerContext& context) {
 // deadline timer firing first.
 constexpr absl::Duration kDeadlineSkew = absl::Milliseconds(250);
 
-uint64_t ChunkPoints(const v1::PointChunk& chunk) { return chunk.xyz_size() / 3; }
+uint64_t ChunkPoints(const v1::PointChunk& chunk) {
+  return (chunk.xyz_size() + chunk.xyz_packed().size() / 4) / 3;  // either form
+}
+
+using google::protobuf::util::TimeUtil;
 
 // glibc keeps freed memory resident in its per-thread arenas, and the next job's threads may
 // allocate from other arenas: without handing the pages back, a server running one job after
@@ -69,8 +76,7 @@ grpc::Status ScanPrepService::Gone(const grpc::ServerContext& context,
 
 grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stream) {
   metrics_.RpcStarted("Process");
-  const absl::Time start = absl::Now();
-  CallRecord record;
+  CallRecord record{.start = absl::Now()};
   grpc::Status status;
   // Counted before anything is read, so one host's calls cannot fill every slot and queue place.
   // Read now: gRPC reports a cancelled call's peer as "unknown".
@@ -86,7 +92,7 @@ grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stre
     }
   }
   metrics_.RpcHandled("Process", status.error_code());
-  LogCall(peer, record, status, absl::Now() - start);
+  LogCall(peer, record, status, absl::Now() - record.start);
   return status;
 }
 
@@ -165,7 +171,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     }
     const uint64_t received = assembler.points_received();
     const double fraction = static_cast<double>(received) / assembler.total_points();
-    if (!SendProgress(stream, v1::Progress::UPLOAD, "", fraction, received)) {
+    if (!SendProgress(stream, v1::Progress::PHASE_UPLOAD, "", fraction, received)) {
       return Gone(*context, "upload");
     }
     watch.Expect(timeouts_.idle, "idle_timeout",
@@ -194,7 +200,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     }
     for (const StageProgress& p : running->DrainProgress()) {
       if (client_gone) break;
-      if (!SendProgress(stream, v1::Progress::PROCESSING, p.stage, p.fraction, 0)) {
+      if (!SendProgress(stream, v1::Progress::PHASE_PROCESSING, p.stage, p.fraction, 0)) {
         client_gone = true;
         running->Cancel();
       }
@@ -221,9 +227,10 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     const size_t end = std::min(indices.size(), begin + kRecommendedChunkPoints);
     v1::ProcessResponse response;
     ResultChunk(cloud, indices, begin, end, job->mm_per_unit, response.mutable_points());
+    if (job->packed_results) PackArrays(*response.mutable_points());
     sent.Add(response.points());
     if (!Send(stream, response) ||
-        !SendProgress(stream, v1::Progress::DOWNLOAD, "",
+        !SendProgress(stream, v1::Progress::PHASE_DOWNLOAD, "",
                       static_cast<double>(end) / indices.size(), end)) {
       return Gone(*context, "download");
     }
@@ -237,6 +244,10 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   report->set_points_returned(indices.size());
   for (const std::string& w : job->warnings) report->add_warnings(w);
   ReportToProto(*result, report);
+  report->mutable_labels()->insert(job->labels.begin(), job->labels.end());
+  report->set_server_version(SCANPREP_VERSION);
+  *report->mutable_started() = TimeUtil::NanosecondsToTimestamp(absl::ToUnixNanos(record.start));
+  *report->mutable_finished() = TimeUtil::NanosecondsToTimestamp(absl::ToUnixNanos(absl::Now()));
   if (!Send(stream, response)) return Gone(*context, "download");
   response.Clear();
   *response.mutable_end() = sent.End();
@@ -245,7 +256,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
 }
 
 grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoRequest*,
-                                      v1::Info* info) {
+                                      v1::GetInfoResponse* info) {
   metrics_.RpcStarted("GetInfo");
   info->set_version(SCANPREP_VERSION);
   v1::Limits* limits = info->mutable_limits();
@@ -258,6 +269,7 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
   limits->set_max_calls_per_peer(peers_.max_calls_per_peer());
   limits->set_max_scans_per_job(limits_.max_scans_per_job);
   limits->set_max_message_bytes(kMaxMessageBytes);
+  limits->set_max_labels(kMaxLabels);
   limits->set_max_header_string_bytes(kMaxHeaderStringBytes);
   limits->set_header_timeout_seconds(absl::ToDoubleSeconds(timeouts_.header));
   limits->set_idle_timeout_seconds(absl::ToDoubleSeconds(timeouts_.idle));

@@ -46,12 +46,13 @@ class ScanPrepService final : public v1::ScanPrep::Service {
       grpc::ServerContext* context,
       grpc::ServerReaderWriter<v1::ProcessResponse, v1::ProcessRequest>* stream) override;
   grpc::Status GetInfo(grpc::ServerContext* context, const v1::GetInfoRequest* request,
-                       v1::Info* info) override;
+                       v1::GetInfoResponse* info) override;
 
  private:
   using Stream = grpc::ServerReaderWriter<v1::ProcessResponse, v1::ProcessRequest>;
   // What the log line of a Process call says besides its status.
   struct CallRecord {
+    absl::Time start;  // when the call arrived
     std::string job_id;
     uint64_t points = 0;
   };

@@ -1,6 +1,7 @@
 # Sourced by the deploy scripts that need a local server: start_local_server LOG [FLAGS...] runs
 # $bin/server/scanprep-server in plaintext on a free loopback port and sets server_pid and port;
-# stop_local_server sends SIGTERM and returns the server's exit status.
+# stop_local_server sends SIGTERM and returns the server's exit status. With PIN=CPUS set the
+# server runs on those CPUs only (taskset).
 start_local_server() {
   local log=$1
   shift
@@ -9,7 +10,7 @@ start_local_server() {
   # place but one of the default 4 slots + 8 queue places (the default per-host limit is 2).
   # Metrics on a free loopback port, so that another server on this host (its default 9464)
   # cannot make this one fail to start; FLAGS may override it.
-  "$bin/server/scanprep-server" --plaintext --listen=127.0.0.1:0 --metrics_listen=127.0.0.1:0 \
+  ${PIN:+taskset -c "$PIN"} "$bin/server/scanprep-server" --plaintext --listen=127.0.0.1:0 --metrics_listen=127.0.0.1:0 \
     --max_calls_per_peer=11 "$@" \
     >"$log" 2>&1 &
   server_pid=$!

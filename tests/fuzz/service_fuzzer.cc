@@ -163,7 +163,7 @@ v1::JobHeader Header(FuzzedDataProvider& in, uint64_t points_to_send) {
   const Dictionary& d = service->dictionary;
   v1::JobHeader h;
   if (in.ConsumeBool()) h.set_job_id(in.ConsumeBool() ? "fuzz" : Text(in));
-  h.set_unit(in.PickValueInArray({v1::MILLIMETRE, v1::METRE, v1::MICROMETRE, v1::INCH,
+  h.set_unit(in.PickValueInArray({v1::LENGTH_UNIT_MILLIMETRE, v1::LENGTH_UNIT_METRE, v1::LENGTH_UNIT_MICROMETRE, v1::LENGTH_UNIT_INCH,
                                    v1::LENGTH_UNIT_UNSPECIFIED, static_cast<v1::LengthUnit>(7)}));
   h.set_scanner_kind(static_cast<v1::ScannerKind>(in.ConsumeIntegralInRange(0, 3)));
   // Mostly a few scans; now and then the limit or one beyond it.

@@ -219,7 +219,7 @@ class HeldCall {
   // True once the server acknowledged the chunk, i.e. the call holds a slot.
   bool WaitUntilRunning() {
     v1::ProcessResponse ack;
-    return stream_->Read(&ack) && ack.progress().phase() == v1::Progress::UPLOAD;
+    return stream_->Read(&ack) && ack.progress().phase() == v1::Progress::PHASE_UPLOAD;
   }
   grpc::Status Finish() {
     stream_->Write(EndRequest({ChunkRequest(LineChunk(100))}));
@@ -415,24 +415,40 @@ TEST(Admission, ADeadlineThatPassesInTheQueueIsLoggedAsSuch) {
   EXPECT_THAT(log.str(), ::testing::Not(HasSubstr("CANCELLED")));
 }
 
-// grpc.health.v1.Health/Check for the whole server, by hand (no generated health stubs in
-// Debian): 1 = SERVING, 2 = NOT_SERVING, -1 on error.
-int HealthStatus(const std::string& target) {
+// grpc.health.v1.Health/Check for `service` ("" = the whole server), by hand (no generated
+// health stubs in Debian): 1 = SERVING, 2 = NOT_SERVING, -1 on error, -5 for NOT_FOUND.
+int HealthStatus(const std::string& target, const std::string& service = "") {
   grpc::GenericStub stub(grpc::CreateChannel(target, grpc::InsecureChannelCredentials()));
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
-  grpc::Slice empty("");  // HealthCheckRequest{service: ""} serialises to no bytes
-  grpc::ByteBuffer request(&empty, 1), response;
+  // HealthCheckRequest{service}: field 1, length-delimited (names here are < 128 bytes).
+  const std::string encoded =
+      service.empty() ? "" : std::string{'\x0a', static_cast<char>(service.size())} + service;
+  grpc::Slice slice(encoded);
+  grpc::ByteBuffer request(&slice, 1), response;
   std::promise<grpc::Status> done;
   stub.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request,
                  &response, [&](grpc::Status s) { done.set_value(s); });
-  if (!done.get_future().get().ok()) return -1;
+  const grpc::Status status = done.get_future().get();
+  if (status.error_code() == grpc::StatusCode::NOT_FOUND) return -grpc::StatusCode::NOT_FOUND;
+  if (!status.ok()) return -1;
   std::vector<grpc::Slice> slices;
   if (!response.Dump(&slices).ok()) return -1;
   std::string bytes;
   for (const grpc::Slice& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
   // HealthCheckResponse{status = N}: field 1, varint.
   return bytes.size() == 2 && bytes[0] == 0x08 ? bytes[1] : -1;
+}
+
+// Load balancers and Kubernetes probes ask by the service's full name as often as by "".
+TEST(Admission, HealthAnswersForTheServerAndByServiceName) {
+  InProcessServer server(Options(1, 1));
+  EXPECT_EQ(HealthStatus(server.target()), 1);
+  EXPECT_EQ(HealthStatus(server.target(), "scanprep.v1.ScanPrep"), 1);
+  EXPECT_EQ(HealthStatus(server.target(), "scanprep.v1.NoSuchService"), -5);
+  server.server().Drain();
+  EXPECT_EQ(HealthStatus(server.target()), 2);
+  EXPECT_EQ(HealthStatus(server.target(), "scanprep.v1.ScanPrep"), 2);
 }
 
 TEST(Admission, DrainingReportsNotServingRefusesNewAndQueuedCallsAndFinishesRunningOnes) {

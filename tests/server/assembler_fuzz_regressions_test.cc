@@ -45,11 +45,11 @@ void ExpectNoInfiniteCoordinates(v1::LengthUnit unit, double translation_x, floa
 }
 
 TEST(AssemblerFuzzRegressions, CoordinateOverflowingFloatAfterUnitConversion) {
-  ExpectNoInfiniteCoordinates(v1::METRE, 0.0, 3e38f);
+  ExpectNoInfiniteCoordinates(v1::LENGTH_UNIT_METRE, 0.0, 3e38f);
 }
 
 TEST(AssemblerFuzzRegressions, CoordinateOverflowingFloatAfterTranslation) {
-  ExpectNoInfiniteCoordinates(v1::MILLIMETRE, 1e300, 1.f);
+  ExpectNoInfiniteCoordinates(v1::LENGTH_UNIT_MILLIMETRE, 1e300, 1.f);
 }
 
 }  // namespace

@@ -29,7 +29,7 @@ struct BunnyJob {
 inline BunnyJob LoadBunny(const fs::path& dir) {
   BunnyJob job;
   job.header.set_job_id("bunny");
-  job.header.set_unit(v1::METRE);
+  job.header.set_unit(v1::LENGTH_UNIT_METRE);
   auto conf = io::ReadConf(dir / "bun.conf");
   EXPECT_TRUE(conf.ok()) << conf.status();
   for (uint32_t s = 0; s < std::size(kScans); ++s) {

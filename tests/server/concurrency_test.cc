@@ -68,7 +68,7 @@ TEST(Concurrency, CancellingHalfTheJobsLeavesTheOtherHalfIntact) {
     client::CallOptions options{.canceller = &cancellers[j]};
     if (j % 2 == 0) {
       options.progress = [&cancellers, j](const v1::Progress& p) {
-        if (p.phase() == v1::Progress::PROCESSING) cancellers[j].Cancel();
+        if (p.phase() == v1::Progress::PHASE_PROCESSING) cancellers[j].Cancel();
       };
     }
     jobs.push_back(std::async(std::launch::async, [&server, options] {

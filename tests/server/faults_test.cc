@@ -120,7 +120,7 @@ TEST(Faults, ClientsThatVanishMidUploadOrMidDownloadLeaveNoMemoryBehind) {
     auto result = client.Process(OutliersHeader(), scan.cloud,
                                  {.progress =
                                       [&](const v1::Progress& p) {
-                                        if (p.phase() == v1::Progress::DOWNLOAD) canceller.Cancel();
+                                        if (p.phase() == v1::Progress::PHASE_DOWNLOAD) canceller.Cancel();
                                       },
                                   .canceller = &canceller});
     EXPECT_EQ(result.status().code(), absl::StatusCode::kCancelled);
@@ -237,7 +237,7 @@ TEST(Faults, ADeadlineExpiringDuringUploadOrDownloadEndsWithDeadlineExceeded) {
     auto result = client.Process(
         OutliersHeader(), scan.cloud,
         {.timeout = deadline - absl::Now(), .progress = [&](const v1::Progress& p) {
-           if (p.phase() != v1::Progress::DOWNLOAD || stalled) return;
+           if (p.phase() != v1::Progress::PHASE_DOWNLOAD || stalled) return;
            stalled = true;
            absl::SleepFor(deadline - absl::Now() + absl::Milliseconds(200));
          }});

@@ -253,7 +253,7 @@ TEST(FullPipeline, AllSevenStagesOnASimulatedPart) {
   const sim::SimulatedCloud simulated = sim::Simulate(part, sensors, 5);
   v1::JobHeader header;
   header.set_job_id("box");
-  header.set_unit(v1::MILLIMETRE);
+  header.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
   for (const ScanMeta& meta : simulated.cloud.scans) {
     v1::ScanHeader* scan = header.add_scans();
     scan->set_scan_id(meta.id);

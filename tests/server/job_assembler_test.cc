@@ -30,7 +30,7 @@ v1::ProcessRequest End(std::initializer_list<v1::ProcessRequest> chunks) {
 // Scan in inches, rotated 90° about z, shifted by (1, 0, 0) in.
 v1::JobHeader InchHeader() {
   v1::JobHeader h;
-  h.set_unit(v1::INCH);
+  h.set_unit(v1::LENGTH_UNIT_INCH);
   v1::ScanHeader* scan = h.add_scans();
   v1::RigidTransform* t = scan->mutable_to_common();
   t->mutable_rotation()->set_z(std::sqrt(0.5));
@@ -85,7 +85,7 @@ TEST(JobAssembler, AppliesUnitAndPoseToPointsAndScannerMetadata) {
 
 TEST(JobAssembler, ScannerKindAndBudgetDefaults) {
   v1::JobHeader h;
-  h.set_unit(v1::MILLIMETRE);
+  h.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
   h.add_scans()->set_uncertainty(0.05);
   h.set_total_points(1);
   JobAssembler assembler(JobLimits{.default_budget_seconds = 7});
@@ -122,7 +122,7 @@ absl::Status AddScan(v1::LengthUnit unit, const v1::ScanHeader& scan) {
 TEST(JobAssembler, ScannerLengthsAreZeroOrFromOneNanometreToTenMetres) {
   v1::ScanHeader scan;
   scan.set_scanline_spacing(1e300);  // was accepted, and the job came back with 2 of 2,000 points
-  absl::Status s = AddScan(v1::MILLIMETRE, scan);
+  absl::Status s = AddScan(v1::LENGTH_UNIT_MILLIMETRE, scan);
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(s.message(), "header.scans[0].scanline_spacing: must be 0 or a length in "
                          "[1e-06, 10000] mm, got 1e+300 (1e+300 mm)");
@@ -130,9 +130,9 @@ TEST(JobAssembler, ScannerLengthsAreZeroOrFromOneNanometreToTenMetres) {
   // The bound holds after unit conversion: 10 m is the largest, 10.001 m is not.
   v1::ScanHeader metres;
   metres.set_uncertainty(10);
-  EXPECT_TRUE(AddScan(v1::METRE, metres).ok());
+  EXPECT_TRUE(AddScan(v1::LENGTH_UNIT_METRE, metres).ok());
   metres.set_uncertainty(10.001);
-  s = AddScan(v1::METRE, metres);
+  s = AddScan(v1::LENGTH_UNIT_METRE, metres);
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(s.message(), "header.scans[0].uncertainty: must be 0 or a length in "
                          "[1e-06, 10000] mm, got 10.001 (10001 mm)");
@@ -140,9 +140,9 @@ TEST(JobAssembler, ScannerLengthsAreZeroOrFromOneNanometreToTenMetres) {
   // 1 nm is the smallest; 1e-300 mm underflowed the derived spacings to 0.
   v1::ScanHeader micrometres;
   micrometres.set_scanline_spacing(0.001);
-  EXPECT_TRUE(AddScan(v1::MICROMETRE, micrometres).ok());
+  EXPECT_TRUE(AddScan(v1::LENGTH_UNIT_MICROMETRE, micrometres).ok());
   micrometres.set_scanline_spacing(1e-300);
-  s = AddScan(v1::MICROMETRE, micrometres);
+  s = AddScan(v1::LENGTH_UNIT_MICROMETRE, micrometres);
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(s.message(), ::testing::HasSubstr("scanline_spacing: must be 0 or a length in "));
 
@@ -150,7 +150,7 @@ TEST(JobAssembler, ScannerLengthsAreZeroOrFromOneNanometreToTenMetres) {
                      std::numeric_limits<double>::infinity()}) {
     v1::ScanHeader point_spacing;
     point_spacing.set_point_spacing(bad);
-    s = AddScan(v1::MILLIMETRE, point_spacing);
+    s = AddScan(v1::LENGTH_UNIT_MILLIMETRE, point_spacing);
     EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << bad;
     EXPECT_THAT(s.message(), ::testing::HasSubstr("header.scans[0].point_spacing: must be 0 or a "
                                                   "length in [1e-06, 10000] mm"));
@@ -160,14 +160,14 @@ TEST(JobAssembler, ScannerLengthsAreZeroOrFromOneNanometreToTenMetres) {
 TEST(JobAssembler, ScannerPositionsAndDirectionsAreBounded) {
   v1::ScanHeader far;
   far.mutable_camera_position()->set_x(2e6);  // finite, but 2,000 km in metres
-  const absl::Status s = AddScan(v1::METRE, far);
+  const absl::Status s = AddScan(v1::LENGTH_UNIT_METRE, far);
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(s.message(), "header.scans[0].camera_position: must be within 1e+09 mm of the origin "
                          "in the common frame");
 
   // Components whose squared norm overflows still give a unit direction, not a zero vector.
   v1::JobHeader h;
-  h.set_unit(v1::MILLIMETRE);
+  h.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
   h.set_total_points(1);
   h.add_scans()->mutable_view_direction()->set_y(1e200);
   JobAssembler assembler(JobLimits{});
@@ -182,7 +182,7 @@ TEST(JobAssembler, ScannerPositionsAndDirectionsAreBounded) {
 
   v1::ScanHeader zero;
   zero.mutable_projector_direction()->set_z(0);
-  EXPECT_EQ(AddScan(v1::MILLIMETRE, zero).message(),
+  EXPECT_EQ(AddScan(v1::LENGTH_UNIT_MILLIMETRE, zero).message(),
             "header.scans[0].projector_direction: must be a finite non-zero vector");
 }
 

@@ -350,7 +350,7 @@ TEST(Limits, AReportForAHeaderAtEveryLimitFitsTheClientsReceiveLimit) {
   const size_t scans = server::JobLimits{}.max_scans_per_job;
   v1::JobHeader header;
   header.set_job_id(std::string(server::kMaxHeaderStringBytes, 'j'));
-  header.set_unit(v1::MILLIMETRE);
+  header.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
   PointCloud cloud;
   for (size_t s = 0; s < scans; ++s) {
     std::string id = absl::StrCat(s, "-");

@@ -7,12 +7,14 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <future>
 #include <fstream>
 #include <random>
 #include <sstream>
 
 #include "client/latency_stats.h"
 #include "core/io/ply.h"
+#include "tests/server/server_process.h"
 #include "tests/server/service_fixtures.h"
 #include "tests/support/run_command.h"
 
@@ -191,6 +193,36 @@ TEST_F(LoadCommand, ReplaysAGeneratedScan) {
   EXPECT_THAT(r.output, HasSubstr("--unit does not apply to a generated scan"));
 }
 
+// Two replicas behind one address list; one is killed (SIGKILL) while calls run on it. Its calls
+// end UNAVAILABLE and are sent again to the live one: no job is lost, and the retries are counted.
+TEST_F(LoadCommand, AKilledReplicaLosesNoJob) {
+  // Every worker fits the survivor alone (the per-host limit is not what this test is about).
+  ServerProcess doomed({"--max_calls_per_peer=8"}), survivor({"--max_calls_per_peer=8"});
+  ASSERT_GT(doomed.port(), 0);
+  ASSERT_GT(survivor.port(), 0);
+  auto run = std::async(std::launch::async, [&] {
+    return Load(doomed.target() + "," + survivor.target(),
+                "--concurrency 4 --duration 4s --timeout 60s", "--simulate 40000");
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  kill(doomed.pid(), SIGKILL);
+  const LoadRun result = run.get();
+  ASSERT_EQ(result.command.exit_code, 0) << result.command.output;
+  EXPECT_EQ(result.Number("errors"), 0) << result.command.output;
+  EXPECT_GT(result.Number("jobs"), 0);
+  EXPECT_GE(result.Number("retries"), 1) << result.command.output;
+  EXPECT_THAT(result.command.output, HasSubstr("retries: "));
+}
+
+TEST(LoadTargets, ListsOfAddressesBecomeAnIpv4Target) {
+  EXPECT_EQ(*client::ChannelTarget("127.0.0.1:5001"), "127.0.0.1:5001");
+  EXPECT_EQ(*client::ChannelTarget("dns:///scanprep:50051"), "dns:///scanprep:50051");
+  EXPECT_EQ(*client::ChannelTarget("10.0.0.1:1,10.0.0.2:2"), "ipv4:10.0.0.1:1,10.0.0.2:2");
+  const auto named = client::ChannelTarget("10.0.0.1:1,scanprep:2");
+  ASSERT_FALSE(named.ok());
+  EXPECT_THAT(named.status().message(), HasSubstr("'scanprep:2' in a list is not an IPv4"));
+}
+
 // `simulate` writes one PLY per scan and a job file whose scan ids are the files' stems, so
 // `process` finds every scan's metadata.
 TEST(SimulateCommand, WritesScansAndTheirJobFile) {
@@ -213,7 +245,7 @@ TEST(SimulateCommand, WritesScansAndTheirJobFile) {
   text << in.rdbuf();
   v1::JobHeader header;
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(text.str(), &header).ok()) << text.str();
-  EXPECT_EQ(header.unit(), v1::MILLIMETRE);
+  EXPECT_EQ(header.unit(), v1::LENGTH_UNIT_MILLIMETRE);
   ASSERT_EQ(header.scans_size(), 2);
   EXPECT_EQ(header.scans(0).scan_id(), "sim_frontal");
   EXPECT_EQ(header.scans(1).scan_id(), "sim_oblique");

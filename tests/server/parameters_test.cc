@@ -25,7 +25,7 @@ TEST(Parameters, GetInfoStatesKindDefaultAndRange) {
   std::map<std::string, v1::ParameterInfo> params = InfoByName(server);
 
   const v1::ParameterInfo& rounds = params["correction.rounds"];
-  EXPECT_EQ(rounds.kind(), v1::INTEGER);
+  EXPECT_EQ(rounds.kind(), v1::PARAMETER_KIND_INTEGER);
   EXPECT_EQ(rounds.default_value(), "10");
   EXPECT_FALSE(rounds.default_derived());
   EXPECT_EQ(rounds.min(), 1);
@@ -34,7 +34,7 @@ TEST(Parameters, GetInfoStatesKindDefaultAndRange) {
   EXPECT_EQ(rounds.range(), "[1, 1000]");
 
   const v1::ParameterInfo& radius = params["correction.radius_mm"];
-  EXPECT_EQ(radius.kind(), v1::REAL);
+  EXPECT_EQ(radius.kind(), v1::PARAMETER_KIND_REAL);
   EXPECT_TRUE(radius.default_derived());
   EXPECT_FALSE(radius.min_inclusive());
   EXPECT_EQ(radius.range(), "(0, 10000]");
@@ -48,14 +48,14 @@ TEST(Parameters, GetInfoStatesKindDefaultAndRange) {
   EXPECT_EQ(k.at_most(), "neighbourhoods.k");
 
   const v1::ParameterInfo& method = params["outliers.method"];
-  EXPECT_EQ(method.kind(), v1::CHOICE);
+  EXPECT_EQ(method.kind(), v1::PARAMETER_KIND_CHOICE);
   EXPECT_EQ(method.default_value(), "nn");
   EXPECT_EQ(method.range(), "");
 
   // Every numeric parameter has a non-empty, finite range.
   for (const auto& [name, p] : params) {
-    if (p.kind() == v1::CHOICE) continue;
-    EXPECT_TRUE(p.kind() == v1::REAL || p.kind() == v1::INTEGER) << name;
+    if (p.kind() == v1::PARAMETER_KIND_CHOICE) continue;
+    EXPECT_TRUE(p.kind() == v1::PARAMETER_KIND_REAL || p.kind() == v1::PARAMETER_KIND_INTEGER) << name;
     EXPECT_LT(p.min(), p.max()) << name;
     EXPECT_LE(p.max(), 1e4) << name;
     EXPECT_FALSE(p.range().empty()) << name;

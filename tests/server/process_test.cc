@@ -37,7 +37,7 @@ TEST(Process, NoisyPlaneLosesItsSpikesAndKeepsThePlane) {
   const size_t spikes = std::count(scan.spike.begin(), scan.spike.end(), true);
   ASSERT_GT(spikes, 300u);
 
-  v1::JobHeader header = OutliersJob(v1::MILLIMETRE, 0.5);
+  v1::JobHeader header = OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5);
   header.mutable_options()->set_include_removed(true);
   std::set<v1::Progress::Phase> phases;
   std::set<std::string> stages_seen;
@@ -46,7 +46,7 @@ TEST(Process, NoisyPlaneLosesItsSpikesAndKeepsThePlane) {
   call.progress = [&](const v1::Progress& p) {
     std::lock_guard lock(mu);
     phases.insert(p.phase());
-    if (p.phase() == v1::Progress::PROCESSING) stages_seen.insert(p.stage());
+    if (p.phase() == v1::Progress::PHASE_PROCESSING) stages_seen.insert(p.stage());
   };
   auto result = server.Client().Process(header, scan.cloud, call);
   ASSERT_TRUE(result.ok()) << result.status();
@@ -57,7 +57,7 @@ TEST(Process, NoisyPlaneLosesItsSpikesAndKeepsThePlane) {
   size_t true_pos = 0, false_pos = 0;
   for (size_t i = 0; i < out.size(); ++i) {
     ASSERT_EQ(out.x[i], scan.cloud.x[i]);
-    if (out.flags[i] & v1::REMOVED_OUTLIER) (scan.spike[i] ? true_pos : false_pos)++;
+    if (out.flags[i] & v1::FLAG_REMOVED_OUTLIER) (scan.spike[i] ? true_pos : false_pos)++;
   }
   EXPECT_GE(true_pos, 0.95 * spikes);
   EXPECT_LE(false_pos, 40u);  // 0.1 % of the plane
@@ -81,9 +81,9 @@ TEST(Process, NoisyPlaneLosesItsSpikesAndKeepsThePlane) {
               std::sqrt(3.0) * 0.5 + 0.1, 1e-6);
   EXPECT_TRUE(report.budget_met());
 
-  EXPECT_TRUE(phases.count(v1::Progress::UPLOAD));
-  EXPECT_TRUE(phases.count(v1::Progress::PROCESSING));
-  EXPECT_TRUE(phases.count(v1::Progress::DOWNLOAD));
+  EXPECT_TRUE(phases.count(v1::Progress::PHASE_UPLOAD));
+  EXPECT_TRUE(phases.count(v1::Progress::PHASE_PROCESSING));
+  EXPECT_TRUE(phases.count(v1::Progress::PHASE_DOWNLOAD));
   EXPECT_TRUE(stages_seen.count("outliers"));
 }
 
@@ -92,7 +92,7 @@ TEST(Process, KeptPointsOnlyComeInChunksOfAtMost32768) {
   const GeneratedScan scan = NoisyPlaneWithSpikes(300, 0.5f);  // 90,000 + spikes
   auto stub = server.Stub();
   const std::vector<v1::ProcessRequest> requests =
-      JobRequests(OutliersJob(v1::MILLIMETRE, 0.5), scan.cloud, 30'000);
+      JobRequests(OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5), scan.cloud, 30'000);
   std::vector<v1::ProcessResponse> responses;
   ASSERT_TRUE(RawCall(*stub, requests, &responses).ok());
   size_t points = 0, chunks = 0;
@@ -115,13 +115,13 @@ TEST(Process, MetresAndAPoseGiveTheSameJobAsMillimetres) {
   InProcessServer server;
   const GeneratedScan scan = NoisyPlaneWithSpikes(120, 0.5f);
 
-  v1::JobHeader mm_header = OutliersJob(v1::MILLIMETRE, 0.5);
+  v1::JobHeader mm_header = OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5);
   mm_header.mutable_options()->set_include_removed(true);
   auto mm = server.Client().Process(mm_header, scan.cloud);
   ASSERT_TRUE(mm.ok()) << mm.status();
 
   // The same scan in metres, rotated 90° about z and shifted by (1, 2, 3) m into the common frame.
-  v1::JobHeader m_header = OutliersJob(v1::METRE, 0.0005);
+  v1::JobHeader m_header = OutliersJob(v1::LENGTH_UNIT_METRE, 0.0005);
   m_header.mutable_options()->set_include_removed(true);
   v1::RigidTransform* pose = m_header.mutable_scans(0)->mutable_to_common();
   pose->mutable_rotation()->set_z(std::sqrt(0.5));
@@ -157,7 +157,7 @@ TEST(Process, UploadProcessingAndDownloadAreTimedAndFitInTheCall) {
   client::CallOptions call;
   call.chunk_points = 4'096;  // several chunks each way, so both transfers take measurable time
   const absl::Time start = absl::Now();
-  auto result = server.Client().Process(OutliersJob(v1::MILLIMETRE, 0.5), scan.cloud, call);
+  auto result = server.Client().Process(OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5), scan.cloud, call);
   const double wall = absl::ToDoubleSeconds(absl::Now() - start);
   ASSERT_TRUE(result.ok()) << result.status();
   ASSERT_GT(result->report.points_returned(), 32'768u);  // at least two result chunks
@@ -180,7 +180,7 @@ TEST(Process, InvalidCoordinatesAreExcludedCountedAndWarned) {
   const size_t n = scan.cloud.size();
   for (size_t i : {5u, 77u, 1000u}) scan.cloud.x[i] = std::numeric_limits<float>::quiet_NaN();
   scan.cloud.z[2000] = std::numeric_limits<float>::infinity();
-  auto result = server.Client().Process(OutliersJob(v1::MILLIMETRE, 0.5), scan.cloud);
+  auto result = server.Client().Process(OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5), scan.cloud);
   ASSERT_TRUE(result.ok()) << result.status();
   EXPECT_EQ(result->report.points_received(), n);
   EXPECT_EQ(result->report.points_invalid(), 4u);
@@ -196,7 +196,7 @@ TEST(Process, AnUnstatedUncertaintyIsCountedAndWarned) {
   InProcessServer server;
   const GeneratedScan scan = NoisyPlaneWithSpikes(40, 0.5f);
   for (const double u : {0.0, 0.05}) {
-    v1::JobHeader header = OutliersJob(v1::MILLIMETRE, 0.5);
+    v1::JobHeader header = OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5);
     header.mutable_scans(0)->set_uncertainty(u);
     auto result = server.Client().Process(header, scan.cloud);
     ASSERT_TRUE(result.ok()) << result.status();
@@ -245,7 +245,7 @@ TEST(Process, DefaultBudgetAppliesWhenTheJobStatesNone) {
   server::ServerOptions options;
   options.limits.default_budget_seconds = 600;
   InProcessServer server(options);
-  v1::JobHeader header = OutliersJob(v1::MILLIMETRE, 0.5);
+  v1::JobHeader header = OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5);
   (*header.mutable_budget()->mutable_stage_seconds())["outliers"] = 300;
   auto result = server.Client().Process(header, NoisyPlaneWithSpikes(50, 0.5f).cloud);
   ASSERT_TRUE(result.ok()) << result.status();
@@ -265,10 +265,10 @@ TEST(Process, CancelDuringProcessingEndsTheCallAndTheServerServesTheNext) {
   client::CallOptions call;
   call.canceller = &canceller;
   call.progress = [&](const v1::Progress& p) {
-    if (p.phase() == v1::Progress::PROCESSING && !cancelled.exchange(true)) canceller.Cancel();
+    if (p.phase() == v1::Progress::PHASE_PROCESSING && !cancelled.exchange(true)) canceller.Cancel();
   };
   const auto start = std::chrono::steady_clock::now();
-  auto result = server.Client().Process(OutliersJob(v1::MILLIMETRE, 0.5), big.cloud, call);
+  auto result = server.Client().Process(OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5), big.cloud, call);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSERT_FALSE(result.ok());
@@ -277,7 +277,7 @@ TEST(Process, CancelDuringProcessingEndsTheCallAndTheServerServesTheNext) {
   RecordProperty("cancelled_call_seconds", std::to_string(seconds));
 
   // The job slot and the arena are free again: a job runs to completion.
-  auto next = server.Client().Process(OutliersJob(v1::MILLIMETRE, 0.5),
+  auto next = server.Client().Process(OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5),
                                       NoisyPlaneWithSpikes(50, 0.5f).cloud);
   EXPECT_TRUE(next.ok()) << next.status();
 }
@@ -287,9 +287,9 @@ TEST(Process, DeadlineEndsALongJob) {
   const GeneratedScan big = NoisyPlaneWithSpikes(1000, 0.5f);
   client::CallOptions call;
   call.timeout = absl::Milliseconds(300);
-  auto result = server.Client().Process(OutliersJob(v1::MILLIMETRE, 0.5), big.cloud, call);
+  auto result = server.Client().Process(OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5), big.cloud, call);
   EXPECT_EQ(result.status().code(), absl::StatusCode::kDeadlineExceeded) << result.status();
-  auto next = server.Client().Process(OutliersJob(v1::MILLIMETRE, 0.5),
+  auto next = server.Client().Process(OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5),
                                       NoisyPlaneWithSpikes(50, 0.5f).cloud);
   EXPECT_TRUE(next.ok()) << next.status();
 }

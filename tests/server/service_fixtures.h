@@ -132,7 +132,7 @@ inline v1::ProcessRequest ChunkRequest(const v1::PointChunk& chunk) {
 inline v1::JobHeader SimpleHeader(double scanline_spacing = 0.5) {
   v1::JobHeader header;
   header.set_job_id("test");
-  header.set_unit(v1::MILLIMETRE);
+  header.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
   v1::ScanHeader* scan = header.add_scans();
   scan->set_scan_id("plane");
   scan->set_scanline_spacing(scanline_spacing);

@@ -18,6 +18,7 @@
 #include "server/memory_budget.h"
 #include "tests/server/service_fixtures.h"
 #include "tests/server/metrics_scrape.h"
+#include "tests/server/server_process.h"
 #include "tests/support/run_command.h"
 #include "tests/support/test_data.h"
 
@@ -26,66 +27,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
-
-// The number after `marker` in a log line, 0 when the line has none.
-int PortAfter(const std::string& line, const std::string& marker) {
-  const size_t at = line.find(marker);
-  return at == std::string::npos ? 0 : std::atoi(line.c_str() + at + marker.size());
-}
-
-// scanprep-server --plaintext --listen 127.0.0.1:0 --metrics_listen 127.0.0.1:0 plus `flags`, its
-// stdout in a file from which both ports are read.
-class ServerProcess {
- public:
-  explicit ServerProcess(std::vector<std::string> flags = {}) {
-    log_ = fs::path(::testing::TempDir()) / ("scanprep_server_" + std::to_string(getpid()) + ".log");
-    flags.insert(flags.begin(), {SCANPREP_SERVER_BINARY, "--plaintext", "--listen=127.0.0.1:0",
-                                 "--metrics_listen=127.0.0.1:0", "--threads=2",
-                                 "--grace_period=5s"});
-    pid_ = fork();
-    if (pid_ == 0) {
-      FILE* out = std::freopen(log_.c_str(), "w", stdout);
-      if (out == nullptr) _exit(127);
-      std::vector<char*> argv;
-      for (std::string& f : flags) argv.push_back(f.data());
-      argv.push_back(nullptr);
-      execv(SCANPREP_SERVER_BINARY, argv.data());
-      _exit(127);
-    }
-    for (int i = 0; i < 200 && metrics_port_ == 0; ++i) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(25));
-      std::ifstream in(log_);
-      for (std::string line; std::getline(in, line);) {
-        if (const int p = PortAfter(line, "listening on port "); p > 0) port_ = p;
-        if (const int p = PortAfter(line, "metrics on port "); p > 0) metrics_port_ = p;
-      }
-    }
-  }
-  ~ServerProcess() {
-    if (pid_ > 0) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
-  }
-  std::string target() const { return "127.0.0.1:" + std::to_string(port_); }
-  int port() const { return port_; }
-  pid_t pid() const { return pid_; }
-  int metrics_port() const { return metrics_port_; }
-  // SIGTERM, then the exit code (-1 when it did not exit normally).
-  int Terminate() {
-    kill(pid_, SIGTERM);
-    int status = 0;
-    waitpid(pid_, &status, 0);
-    pid_ = -1;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
-
- private:
-  fs::path log_;
-  pid_t pid_ = -1;
-  int port_ = 0;
-  int metrics_port_ = 0;
-};
 
 CommandResult RunCli(const std::string& args) {
   return RunCommand(std::string(SCANPREP_CLI_BINARY) + " " + args);
@@ -394,9 +335,14 @@ TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {
   EXPECT_EQ(r.exit_code, 3);
   EXPECT_THAT(r.output, HasSubstr("UNAVAILABLE"));
 
-  // The job file is JobHeader's JSON form; the flags override it.
+  // The job file is JobHeader's JSON form; the flags override it. The enum value names from
+  // before they took their enum's prefix ("MILLIMETRE", "LINE") are still read.
   const fs::path job = tmp / "job.json";
-  std::ofstream(job) << R"({"jobId": "j1", "unit": "MILLIMETRE", "options": {"stages": ["nope"]}})";
+  std::ofstream(job) << R"({"unit": "LENGTH_UNIT_MILLIMETRE", "scannerKind": "SCANNER_KIND_LINE"})";
+  r = RunCli(base + " --job " + job.string() + " --stages outliers");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  std::ofstream(job)
+      << R"({"jobId": "j1", "unit": "MILLIMETRE", "scanner_kind": "LINE", "options": {"stages": ["nope"]}})";
   r = RunCli(base + " --job " + job.string());
   EXPECT_EQ(r.exit_code, 4);
   EXPECT_THAT(r.output, HasSubstr("unknown stage 'nope'"));

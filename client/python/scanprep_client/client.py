@@ -1,0 +1,228 @@
+"""Sends one job as packed little-endian arrays (PointChunk.*_packed) and reads the result the
+same way: numpy's tobytes() and frombuffer(), no loop per value."""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import zlib
+from typing import Callable, Iterator, Mapping, Optional, Sequence
+
+import grpc
+import numpy as np
+
+from google.rpc import error_details_pb2, status_pb2
+from scanprep.v1 import scanprep_pb2 as pb
+from scanprep.v1 import scanprep_pb2_grpc as pb_grpc
+
+_UNITS = {"mm": pb.LENGTH_UNIT_MILLIMETRE, "m": pb.LENGTH_UNIT_METRE, "um": pb.LENGTH_UNIT_MICROMETRE, "in": pb.LENGTH_UNIT_INCH}
+_CHUNK_POINTS = 32768  # the service's recommended chunk size (GetInfo().limits)
+
+
+class Flag(enum.IntFlag):
+    """Bits of Result.flags (scanprep.proto, enum Flag)."""
+    REMOVED_OUTLIER = 1
+    REMOVED_MERGE = 2
+    REMOVED_SIMPLIFY = 4
+    SMOOTHED = 8
+    NORMAL_INVALID = 16
+    EDGE = 32
+    REMOVED = REMOVED_OUTLIER | REMOVED_MERGE | REMOVED_SIMPLIFY
+
+
+@dataclasses.dataclass
+class Scan:
+    """One scan: points (n×3, in the job's unit, the scan's own frame) and what the scanner
+    knows. Vectors are 3-sequences; to_common is (quaternion x, y, z, w; translation x, y, z)."""
+    points: np.ndarray
+    scan_id: str = ""
+    camera_position: Optional[Sequence[float]] = None
+    view_direction: Optional[Sequence[float]] = None
+    projector_position: Optional[Sequence[float]] = None
+    projector_direction: Optional[Sequence[float]] = None
+    scanline_spacing: float = 0.0
+    uncertainty: float = 0.0
+    point_spacing: float = 0.0
+    to_common: Optional[tuple[Sequence[float], Sequence[float]]] = None
+    scanline: Optional[np.ndarray] = None   # uint32 per point
+    quality: Optional[np.ndarray] = None    # float in [0, 1] per point
+    intensity: Optional[np.ndarray] = None  # float per point
+
+
+@dataclasses.dataclass
+class Result:
+    """The returned points in the job's unit and the common frame, with the service's report."""
+    points: np.ndarray               # n×3 float32
+    normals: Optional[np.ndarray]    # n×3 float32, or None
+    flags: np.ndarray                # uint8 per point (Flag bits)
+    scan_index: np.ndarray           # uint32 per point
+    report: pb.Report
+
+    @property
+    def kept(self) -> np.ndarray:
+        """Mask of the points not removed (all of them unless include_removed was asked)."""
+        return (self.flags & int(Flag.REMOVED)) == 0
+
+
+class ScanprepError(Exception):
+    """A call the service refused or could not finish: the gRPC code, its message, and the
+    machine-readable reason and offending field from the status details when present."""
+
+    def __init__(self, code: grpc.StatusCode, message: str, reason: str = "", field: str = ""):
+        super().__init__(f"{code.name}: {message}")
+        self.code, self.message, self.reason, self.field = code, message, reason, field
+
+
+def _vec(target, values) -> None:
+    target.x, target.y, target.z = (float(v) for v in values)
+
+
+def _header(scans: Sequence[Scan], unit: str, stages, params, include_removed, labels,
+            budget_seconds, job_id) -> pb.JobHeader:
+    if unit not in _UNITS:
+        raise ValueError(f"unit {unit!r}: one of {sorted(_UNITS)}")
+    header = pb.JobHeader(job_id=job_id, unit=_UNITS[unit],
+                          result_arrays=pb.ARRAY_ENCODING_PACKED,
+                          total_points=sum(len(s.points) for s in scans))
+    for scan in scans:
+        s = header.scans.add(scan_id=scan.scan_id, scanline_spacing=scan.scanline_spacing,
+                             uncertainty=scan.uncertainty, point_spacing=scan.point_spacing)
+        for name in ("camera_position", "view_direction", "projector_position",
+                     "projector_direction"):
+            if getattr(scan, name) is not None:
+                _vec(getattr(s, name), getattr(scan, name))
+        if scan.to_common is not None:
+            (qx, qy, qz, qw), translation = scan.to_common
+            s.to_common.rotation.x, s.to_common.rotation.y = qx, qy
+            s.to_common.rotation.z, s.to_common.rotation.w = qz, qw
+            _vec(s.to_common.translation, translation)
+    header.options.stages.extend(stages or [])
+    header.options.params.update({k: str(v) for k, v in (params or {}).items()})
+    header.options.include_removed = include_removed
+    header.labels.update(labels or {})
+    header.budget.total_seconds = budget_seconds
+    return header
+
+
+def _column(scans: Sequence[Scan], name: str, dtype: str) -> Optional[np.ndarray]:
+    """One optional per-point array over all scans; every scan must have it or none."""
+    present = [getattr(s, name) is not None for s in scans]
+    if not any(present):
+        return None
+    if not all(present):
+        raise ValueError(f"{name}: given for some scans but not all (the service needs it in "
+                         "every chunk or none)")
+    return np.concatenate([np.asarray(getattr(s, name), dtype=dtype).ravel() for s in scans])
+
+
+def _requests(header: pb.JobHeader, scans: Sequence[Scan],
+              chunk_points: int) -> Iterator[pb.ProcessRequest]:
+    xyz = np.concatenate([np.asarray(s.points, dtype="<f4").reshape(-1, 3) for s in scans])
+    arrays = {"xyz": xyz,
+              "scan_index": np.concatenate([np.full(len(s.points), i, dtype="<u4")
+                                            for i, s in enumerate(scans)]),
+              "scanline": _column(scans, "scanline", "<u4"),
+              "quality": _column(scans, "quality", "<f4"),
+              "intensity": _column(scans, "intensity", "<f4")}
+    yield pb.ProcessRequest(header=header)
+    crc = 0
+    for begin in range(0, len(xyz), chunk_points):
+        chunk = pb.PointChunk()
+        for name, values in arrays.items():  # field order: the checksum's order
+            if values is None:
+                continue
+            data = values[begin:begin + chunk_points].tobytes()
+            setattr(chunk, f"{name}_packed", data)
+            crc = zlib.crc32(data, crc)
+        yield pb.ProcessRequest(points=chunk)
+    yield pb.ProcessRequest(end=pb.StreamEnd(points=len(xyz), crc32=crc))
+
+
+def _error(error: grpc.RpcError) -> ScanprepError:
+    reason = field = ""
+    for key, value in error.trailing_metadata() or ():
+        if key != "grpc-status-details-bin":
+            continue
+        status = status_pb2.Status.FromString(value)
+        for detail in status.details:
+            info, bad = error_details_pb2.ErrorInfo(), error_details_pb2.BadRequest()
+            if detail.Unpack(info):
+                reason = info.reason
+            elif detail.Unpack(bad) and bad.field_violations:
+                field = bad.field_violations[0].field
+    return ScanprepError(error.code(), error.details(), reason, field)
+
+
+class Client:
+    """A channel to one scanprep server (or a load-balanced name)."""
+
+    def __init__(self, target: str, credentials: Optional[grpc.ChannelCredentials] = None):
+        # Round-robin over every address of the target (ipv4:a:p,b:p or dns:///name:port).
+        options = [("grpc.lb_policy_name", "round_robin")]
+        self._channel = (grpc.secure_channel(target, credentials, options) if credentials
+                         else grpc.insecure_channel(target, options))
+        self._stub = pb_grpc.ScanPrepStub(self._channel)
+
+    def close(self) -> None:
+        self._channel.close()
+
+    def __enter__(self) -> "Client":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def info(self, timeout: Optional[float] = 10) -> pb.GetInfoResponse:
+        try:
+            return self._stub.GetInfo(pb.GetInfoRequest(), timeout=timeout)
+        except grpc.RpcError as e:
+            raise _error(e) from None
+
+    def process(self, scans: Sequence[Scan], *, unit: str = "mm",
+                stages: Optional[Sequence[str]] = None,
+                params: Optional[Mapping[str, object]] = None, include_removed: bool = False,
+                labels: Optional[Mapping[str, str]] = None, budget_seconds: float = 0.0,
+                job_id: str = "", timeout: Optional[float] = None,
+                chunk_points: int = _CHUNK_POINTS,
+                progress: Optional[Callable[[pb.Progress], None]] = None) -> Result:
+        """Runs one job. Raises ScanprepError when the service refuses or fails it, and when the
+        result arrives incomplete or corrupted (its end message's count or CRC-32 disagrees)."""
+        header = _header(scans, unit, stages, params, include_removed, labels, budget_seconds,
+                         job_id)
+        parts: dict[str, list[bytes]] = {"xyz": [], "normal": [], "scan_index": []}
+        flags: list[bytes] = []
+        report = end = None
+        crc = 0
+        try:
+            for response in self._stub.Process(_requests(header, scans, chunk_points),
+                                               timeout=timeout):
+                kind = response.WhichOneof("kind")
+                if kind == "points":
+                    chunk = response.points
+                    for name in ("xyz", "scan_index", "scanline", "quality", "intensity",
+                                 "normal"):
+                        data = getattr(chunk, f"{name}_packed")
+                        crc = zlib.crc32(data, crc)
+                        if name in parts and data:
+                            parts[name].append(data)
+                    crc = zlib.crc32(chunk.flags, crc)
+                    flags.append(chunk.flags)
+                elif kind == "report":
+                    report = response.report
+                elif kind == "end":
+                    end = response.end
+                elif kind == "progress" and progress is not None:
+                    progress(response.progress)
+        except grpc.RpcError as e:
+            raise _error(e) from None
+        points = np.frombuffer(b"".join(parts["xyz"]), dtype="<f4").reshape(-1, 3)
+        if report is None or end is None or end.points != len(points) or end.crc32 != crc:
+            raise ScanprepError(grpc.StatusCode.DATA_LOSS,
+                                f"the result arrived incomplete or corrupted: {len(points)} "
+                                f"points, end message {end}")
+        normals = (np.frombuffer(b"".join(parts["normal"]), dtype="<f4").reshape(-1, 3)
+                   if parts["normal"] else None)
+        return Result(points=points, normals=normals,
+                      flags=np.frombuffer(b"".join(flags), dtype=np.uint8),
+                      scan_index=np.frombuffer(b"".join(parts["scan_index"]), dtype="<u4"),
+                      report=report)

@@ -1,0 +1,125 @@
+"""The Python client (client/python) against a real scanprep-server: the bunny scans from
+../shared/data, a plane with known spikes, and a refused parameter. Run by ctest with
+PYTHONPATH=build/python:client/python and SCANPREP_SERVER set (tests/CMakeLists.txt)."""
+
+import os
+import pathlib
+import re
+import subprocess
+import unittest
+
+import grpc
+import numpy as np
+
+from scanprep_client import Client, Flag, Scan, ScanprepError
+
+DATA = pathlib.Path(os.environ.get(
+    "SCANPREP_DATA_DIR", pathlib.Path(__file__).resolve().parents[2].parent / "shared" / "data"))
+
+
+def read_ascii_ply(path: pathlib.Path) -> np.ndarray:
+    """The vertices (x, y, z) of an ASCII PLY such as the Stanford range scans."""
+    with open(path) as f:
+        vertices = 0
+        for line in f:
+            if line.startswith("element vertex"):
+                vertices = int(line.split()[2])
+            if line.strip() == "end_header":
+                break
+        return np.loadtxt(f, max_rows=vertices, usecols=(0, 1, 2), dtype=np.float32)
+
+
+def bunny_scan(name: str) -> Scan:
+    """A bunny range scan with its bun.conf pose: X_common = R(q)ᵀ·X + t, so the conjugate q."""
+    with open(DATA / "stanford_bunny_range_scans" / "bun.conf") as conf:
+        lines = conf.read().splitlines()
+    for line in lines:
+        fields = line.split()
+        if fields[:2] == ["bmesh", f"{name}.ply"]:
+            tx, ty, tz, qx, qy, qz, qw = map(float, fields[2:])
+            return Scan(points=read_ascii_ply(DATA / "stanford_bunny_range_scans" / f"{name}.ply"),
+                        scan_id=name, to_common=((-qx, -qy, -qz, qw), (tx, ty, tz)))
+    raise KeyError(name)
+
+
+class ClientTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.server = subprocess.Popen(
+            [os.environ["SCANPREP_SERVER"], "--listen=127.0.0.1:0", "--plaintext", "--threads=2"],
+            stdout=subprocess.PIPE, text=True)
+        for line in cls.server.stdout:
+            match = re.search(r"listening on port (\d+)", line)
+            if match:
+                cls.target = f"127.0.0.1:{match.group(1)}"
+                break
+        else:
+            raise RuntimeError("scanprep-server did not start")
+        cls.client = Client(cls.target)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.client.close()
+        cls.server.terminate()
+        cls.server.wait(timeout=30)
+        cls.server.stdout.close()
+
+    def test_bunny_scans_in_one_job(self):
+        if not (DATA / "stanford_bunny_range_scans" / "bun.conf").exists():
+            self.skipTest(f"real-scan data folder {DATA} not found (set SCANPREP_DATA_DIR)")
+        scans = [bunny_scan("bun000"), bunny_scan("bun045")]
+        sent = sum(len(s.points) for s in scans)
+        result = self.client.process(scans, unit="m", labels={"part_serial": "bunny-1"},
+                                     include_removed=True, timeout=120)
+        report = result.report
+        self.assertEqual(report.points_received, sent)
+        self.assertEqual(len(result.points), sent)            # include_removed: all of them
+        self.assertEqual(report.labels["part_serial"], "bunny-1")
+        # Every point keeps its scan, in the order sent.
+        np.testing.assert_array_equal(result.scan_index,
+                                      np.repeat([0, 1], [len(s.points) for s in scans]))
+        kept = result.kept
+        self.assertEqual(int(kept.sum()), report.stages[-1].points_out)
+        # The bunny is about 0.155 × 0.15 × 0.12 m: the merged cloud stays that size.
+        extent = np.ptp(result.points[kept], axis=0)
+        self.assertTrue(np.all(extent < 0.2) and np.all(extent > 0.05), extent)
+        # Unit normals wherever a normal was fitted.
+        valid = kept & ((result.flags & int(Flag.NORMAL_INVALID)) == 0)
+        norms = np.linalg.norm(result.normals[valid], axis=1)
+        self.assertLess(np.abs(norms - 1).max(), 1e-4)
+        outliers = np.count_nonzero(result.flags & int(Flag.REMOVED_OUTLIER))
+        self.assertLess(outliers, 0.05 * sent)
+
+    def test_spikes_on_a_plane_are_flagged_and_the_rest_comes_back_unchanged(self):
+        rng = np.random.default_rng(7)
+        u, v = np.meshgrid(np.arange(150) * 0.5, np.arange(150) * 0.5)
+        plane = np.column_stack([u.ravel(), v.ravel(), rng.normal(0, 0.01, u.size)])
+        spikes = rng.choice(u.size, 100, replace=False)
+        plane[spikes, 2] += rng.uniform(2, 5, spikes.size)
+        rows = np.repeat(np.arange(150, dtype=np.uint32), 150)
+        scan = Scan(points=plane.astype(np.float32), scanline=rows, scanline_spacing=0.5,
+                    view_direction=(0, 0, 1), uncertainty=0.01)
+        result = self.client.process([scan], stages=["outliers"], include_removed=True,
+                                     chunk_points=4000)
+        np.testing.assert_array_equal(result.points, scan.points)
+        removed = set(np.flatnonzero(result.flags & int(Flag.REMOVED_OUTLIER)))
+        self.assertLessEqual(set(spikes), removed)                # every spike
+        self.assertLessEqual(len(removed - set(spikes)), 0.001 * u.size)  # ≤ 0.1 % of the plane
+
+    def test_a_refused_parameter_names_its_field(self):
+        scan = Scan(points=np.zeros((10, 3), dtype=np.float32))
+        with self.assertRaises(ScanprepError) as caught:
+            self.client.process([scan], params={"smoothing.lambda": 7})
+        error = caught.exception
+        self.assertEqual(error.code, grpc.StatusCode.INVALID_ARGUMENT)
+        self.assertEqual(error.field, "header.options.params['smoothing.lambda']")
+        self.assertTrue(error.reason)
+
+    def test_info(self):
+        info = self.client.info()
+        self.assertTrue(info.version)
+        self.assertGreater(info.limits.max_points_per_job, 0)
+
+
+if __name__ == "__main__":
+    unittest.main()
