@@ -70,6 +70,10 @@ void PackArrays(v1::PointChunk& chunk) {
   });
 }
 
+uint64_t ChunkPoints(const v1::PointChunk& chunk) {
+  return (chunk.xyz_size() + chunk.xyz_packed().size() / 4) / 3;
+}
+
 bool HasPackedArrays(const v1::PointChunk& chunk) {
   return !chunk.xyz_packed().empty() || !chunk.scan_index_packed().empty() ||
          !chunk.scanline_packed().empty() || !chunk.quality_packed().empty() ||

@@ -3,6 +3,7 @@
 // form; these convert at the edge, a memcpy per array.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 #include "absl/status/status.h"
@@ -17,6 +18,9 @@ absl::Status UnpackArrays(v1::PointChunk& chunk, std::string& bad_array);
 
 // Moves every repeated array of `chunk` into its packed twin.
 void PackArrays(v1::PointChunk& chunk);
+
+// The points of `chunk`: its xyz values over 3, in whichever form they came.
+uint64_t ChunkPoints(const v1::PointChunk& chunk);
 
 // Whether any array of `chunk` is in the packed form.
 bool HasPackedArrays(const v1::PointChunk& chunk);

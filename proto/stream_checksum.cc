@@ -4,6 +4,8 @@
 
 #include <zlib.h>
 
+#include "proto/chunk_arrays.h"
+
 namespace scanprep {
 namespace {
 
@@ -29,7 +31,7 @@ uint32_t Update(uint32_t crc, const google::protobuf::RepeatedField<T>& values,
 }  // namespace
 
 void StreamChecksum::Add(const v1::PointChunk& chunk) {
-  points_ += (chunk.xyz_size() + chunk.xyz_packed().size() / 4) / 3;
+  points_ += ChunkPoints(chunk);
   uint32_t crc = crc32_;
   crc = Update(crc, chunk.xyz(), chunk.xyz_packed());
   crc = Update(crc, chunk.scan_index(), chunk.scan_index_packed());

@@ -35,10 +35,6 @@ absl::Time CallDeadline(const grpc::ServerContext& context) {
 // deadline timer firing first.
 constexpr absl::Duration kDeadlineSkew = absl::Milliseconds(250);
 
-uint64_t ChunkPoints(const v1::PointChunk& chunk) {
-  return (chunk.xyz_size() + chunk.xyz_packed().size() / 4) / 3;  // either form
-}
-
 using google::protobuf::util::TimeUtil;
 
 // glibc keeps freed memory resident in its per-thread arenas, and the next job's threads may

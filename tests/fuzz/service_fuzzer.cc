@@ -32,6 +32,7 @@
 #include "client/call_error.h"
 #include "core/params.h"
 #include "core/stage.h"
+#include "proto/chunk_arrays.h"
 #include "proto/stream_checksum.h"
 #include "scanprep/v1/scanprep.grpc.pb.h"
 #include "server/scanprep_server.h"
@@ -245,7 +246,7 @@ void Add(Upload& upload, std::string bytes) {
   v1::ProcessRequest parsed;
   if (!parsed.ParseFromString(bytes)) upload.unparsable = true;
   if (!upload.unparsable && parsed.has_points()) {
-    upload.parsed_points += parsed.points().xyz_size() / 3;
+    upload.parsed_points += scanprep::ChunkPoints(parsed.points());
     upload.parsed_chunks.Add(parsed.points());
   }
   if (!upload.unparsable && parsed.has_end()) upload.ended = true;
@@ -367,9 +368,12 @@ void CheckOutcome(const Upload& upload, const Outcome& outcome) {
   for (const v1::ProcessResponse& r : outcome.responses) {
     if (!r.has_points()) continue;
     const v1::PointChunk& c = r.points();
-    returned += c.xyz_size() / 3;
+    returned += scanprep::ChunkPoints(c);
     result.Add(c);
-    for (const float v : c.xyz()) Require(std::isfinite(v), "finite result coordinates");
+    v1::PointChunk unpacked = c;  // packed results (header.result_arrays) read as repeated ones
+    std::string bad_array;
+    Require(scanprep::UnpackArrays(unpacked, bad_array).ok(), "well-formed packed results");
+    for (const float v : unpacked.xyz()) Require(std::isfinite(v), "finite result coordinates");
   }
   Require(returned == report.points_returned(), "the result chunks hold the points returned");
   const v1::StreamEnd& end = outcome.responses[n - 1].end();
