@@ -10,6 +10,7 @@
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
 #include "absl/flags/usage_config.h"
+#include "absl/strings/match.h"
 #include "absl/synchronization/notification.h"
 #include "absl/time/time.h"
 #include "server/budget_config.h"
@@ -97,6 +98,14 @@ absl::StatusOr<scanprep::server::BudgetDefaults> BudgetsFromFlags() {
 int main(int argc, char** argv) {
   absl::FlagsUsageConfig usage;
   usage.version_string = [] { return std::string("scanprep-server " SCANPREP_VERSION "\n"); };
+  // --help lists the flags of the file named like the program; ours live in server/main.cc.
+  usage.contains_help_flags = [](absl::string_view file) {
+    return absl::EndsWith(file, "server/main.cc");
+  };
+  usage.normalize_filename = [](absl::string_view file) {
+    const size_t at = file.rfind("server/main.cc");
+    return std::string(at == absl::string_view::npos ? file : file.substr(at));
+  };
   absl::SetFlagsUsageConfig(usage);
   absl::SetProgramUsageMessage(
       "scanprep-server (--tls_cert FILE --tls_key FILE [--tls_client_ca FILE] | --plaintext) "

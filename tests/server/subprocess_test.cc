@@ -102,6 +102,18 @@ TEST(ServerBinary, BadBudgetFlagsExitOneWithTheReason) {
   EXPECT_THAT(listen.output, HasSubstr("metrics_listen: 'nowhere' is not HOST:PORT"));
 }
 
+// --help lists the server's own flags (absl shows the flags of the file named like the program
+// unless told where they live); absl's usage flags exit 1.
+TEST(ServerBinary, HelpListsTheServersFlags) {
+  const CommandResult r = RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --help");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.output, HasSubstr("Flags from server/main.cc"));
+  for (const char* flag : {"--listen", "--plaintext", "--max_points_per_job", "--threads"}) {
+    EXPECT_THAT(r.output, HasSubstr(flag));
+  }
+  EXPECT_THAT(r.output, ::testing::Not(HasSubstr("No flags matched")));
+}
+
 TEST(ServerBinary, RefusesToStartWithoutTransportSecurityOrPlaintext) {
   const CommandResult r =
       RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --listen=127.0.0.1:0 --metrics_listen=");
