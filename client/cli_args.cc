@@ -2,10 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
+#include <utility>
 
-#include "absl/strings/match.h"
+#include <CLI/CLI.hpp>
+
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 
 namespace scanprep::client {
 
@@ -22,44 +26,45 @@ std::vector<std::string> ParsedArgs::All(const std::string& name) const {
 absl::StatusOr<ParsedArgs> ParseArgs(const std::vector<std::string>& args,
                                      const std::vector<FlagSpec>& specs) {
   ParsedArgs parsed;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& arg = args[i];
-    if (arg.size() < 2 || arg[0] != '-') {
-      parsed.positional.push_back(arg);
-      continue;
+  CLI::App app;
+  app.set_help_flag();  // --help is the caller's (main.cc prints the command's usage)
+  // One string vector per flag, empty when absent; a bool flag's value, "true" or "false", is
+  // filled in after the parse.
+  std::deque<bool> bools;
+  std::vector<std::pair<CLI::Option*, const bool*>> bool_options;
+  for (const FlagSpec& spec : specs) {
+    const std::string names =
+        absl::StrCat("--", spec.name, spec.alias.empty() ? "" : absl::StrCat(",-", spec.alias));
+    std::vector<std::string>& slot = parsed.values_[spec.name];
+    if (spec.kind == FlagSpec::kBool) {
+      bool& value = bools.emplace_back(false);
+      bool_options.emplace_back(app.add_flag(names, value), &value);
+    } else {
+      CLI::Option* option = app.add_option(names, slot);
+      // One value per use ("--param a=1 file.ply": file.ply stays positional).
+      option->expected(1)->allow_extra_args(false)->type_size(1);
+      option->multi_option_policy(spec.kind == FlagSpec::kRepeated
+                                      ? CLI::MultiOptionPolicy::TakeAll
+                                      : CLI::MultiOptionPolicy::Throw);
     }
-    const bool long_form = absl::StartsWith(arg, "--");
-    std::string name = arg.substr(long_form ? 2 : 1);
-    std::string value;
-    const size_t eq = name.find('=');
-    const bool inline_value = eq != std::string::npos;
-    if (inline_value) {
-      value = name.substr(eq + 1);
-      name.resize(eq);
+  }
+  app.add_option("positional", parsed.positional);
+  std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 consumes from the back
+  try {
+    app.parse(reversed);
+  } catch (const CLI::ExtrasError& e) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "unknown flag '", absl::StrJoin(app.remaining(), "', '"), "'"));
+  } catch (const CLI::ParseError& e) {
+    return absl::InvalidArgumentError(e.what());
+  }
+  for (const auto& [option, value] : bool_options) {
+    if (option->count() > 0) {
+      parsed.values_[option->get_name().substr(2)].push_back(*value ? "true" : "false");
     }
-    auto spec = std::find_if(specs.begin(), specs.end(), [&](const FlagSpec& s) {
-      return long_form ? s.name == name : (!s.alias.empty() && s.alias == name);
-    });
-    if (spec == specs.end()) {
-      return absl::InvalidArgumentError(absl::StrCat("unknown flag '", arg, "'"));
-    }
-    if (spec->kind == FlagSpec::kBool) {
-      if (!inline_value) value = "true";
-      if (value != "true" && value != "false") {
-        return absl::InvalidArgumentError(
-            absl::StrCat("--", spec->name, " takes true or false, not '", value, "'"));
-      }
-    } else if (!inline_value) {
-      if (i + 1 >= args.size()) {
-        return absl::InvalidArgumentError(absl::StrCat("--", spec->name, " needs a value"));
-      }
-      value = args[++i];
-    }
-    std::vector<std::string>& slot = parsed.values_[spec->name];
-    if (!slot.empty() && spec->kind == FlagSpec::kValue) {
-      return absl::InvalidArgumentError(absl::StrCat("--", spec->name, " given twice"));
-    }
-    slot.push_back(value);
+  }
+  for (auto it = parsed.values_.begin(); it != parsed.values_.end();) {
+    it = it->second.empty() ? parsed.values_.erase(it) : std::next(it);
   }
   return parsed;
 }

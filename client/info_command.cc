@@ -1,10 +1,13 @@
-// `scanprep info`: what the server offers (GetInfo), readably.
+// `scanprep info`: what the server offers (GetInfo), readably or as JSON.
 #include <iostream>
+
+#include <google/protobuf/util/json_util.h>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "client/commands.h"
+#include "client/call_error.h"
 #include "client/connection_flags.h"
 #include "client/scanprep_client.h"
 
@@ -30,6 +33,18 @@ int RunInfo(const ParsedArgs& args) {
   auto info = ScanPrepClient::Connect(server, *credentials).GetInfo(absl::Seconds(10));
   if (!info.ok()) {
     return FailCall("info", server, info.status());
+  }
+  if (args.Bool("json")) {
+    std::string json;
+    google::protobuf::util::JsonPrintOptions options;
+    options.add_whitespace = true;
+    options.preserve_proto_field_names = true;
+    options.always_print_primitive_fields = true;
+    if (!google::protobuf::util::MessageToJsonString(*info, &json, options).ok()) {
+      return Fail("info", "the server's answer cannot be written as JSON");
+    }
+    std::cout << json;
+    return kExitOk;
   }
   const v1::Limits& limits = info->limits();
   std::cout << "scanprep server " << info->version() << " at " << server << "\n"
@@ -70,11 +85,13 @@ int RunInfo(const ParsedArgs& args) {
 
 Command InfoCommand() {
   std::vector<FlagSpec> flags = {
-      {"server", FlagSpec::kValue, absl::StrCat(kServerFlagHelp, " (default localhost:50051)")}};
+      {"server", FlagSpec::kValue, absl::StrCat(kServerFlagHelp, " (default localhost:50051)")},
+      {"json", FlagSpec::kBool,
+       "print GetInfo's answer as JSON (proto field names, every field) instead of text"}};
   AddTlsFlags(flags);
   return Command{
       .name = "info",
-      .synopsis = "info [--server HOST:PORT] [--tls_ca CA.pem [--tls_cert C.pem --tls_key K.pem]]",
+      .synopsis = "info [--server HOST:PORT] [--json] [--tls_ca CA.pem [--tls_cert C.pem --tls_key K.pem]]",
       .summary = "show the server's version, limits, stages and parameters",
       .flags = std::move(flags),
       .run = RunInfo,

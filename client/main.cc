@@ -1,4 +1,5 @@
 // `scanprep`: command-line client of the scanprep service.
+#include <algorithm>
 #include <iostream>
 
 #include "client/call_error.h"
@@ -23,7 +24,9 @@ int FailCall(const std::string& command, const std::string& server, const absl::
 
 namespace {
 
-std::vector<Command> Commands() { return {ProcessCommand(), InfoCommand(), LoadCommand(), SimulateCommand()}; }
+std::vector<Command> Commands() {
+  return {ProcessCommand(), InfoCommand(), LoadCommand(), SimulateCommand()};
+}
 
 void PrintUsage(std::ostream& out) {
   out << "usage: scanprep COMMAND [args]\n\ncommands:\n";
@@ -52,7 +55,15 @@ int main(int argc, char** argv) {
   }
   for (const Command& command : Commands()) {
     if (command.name != name) continue;
-    auto args = ParseArgs(std::vector<std::string>(argv + 2, argv + argc), command.flags);
+    const std::vector<std::string> words(argv + 2, argv + argc);
+    if (std::find_if(words.begin(), words.end(), [](const std::string& w) {
+          return w == "--help" || w == "-h";
+        }) != words.end()) {
+      std::cout << "usage: scanprep " << command.synopsis << "\n" << command.summary << "\n\n"
+                << FlagHelp(command.flags);
+      return kExitOk;
+    }
+    auto args = ParseArgs(words, command.flags);
     if (!args.ok()) {
       std::cerr << "scanprep " << name << ": " << args.status().message() << "\nusage: scanprep "
                 << command.synopsis << "\n" << FlagHelp(command.flags);

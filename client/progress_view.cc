@@ -1,5 +1,7 @@
 #include "client/progress_view.h"
 
+#include <cmath>
+#include <cstdint>
 #include <map>
 
 #include "absl/strings/match.h"
@@ -37,6 +39,14 @@ void ProgressView::Done() {
   drawn_ = false;
 }
 
+// Counts as plain integers (30462, not 3.046e+04); other values to 4 significant digits.
+std::string ParameterText(double value) {
+  if (value == std::trunc(value) && std::abs(value) < 1e15) {
+    return absl::StrFormat("%d", static_cast<int64_t>(value));
+  }
+  return absl::StrFormat("%.4g", value);
+}
+
 void PrintSummary(std::ostream& out, const v1::Report& report) {
   out << absl::StrFormat("%-16s %10s %10s %9s  %s\n", "stage", "in", "out", "seconds",
                          "parameters");
@@ -50,7 +60,7 @@ void PrintSummary(std::ostream& out, const v1::Report& report) {
         ++per_scan;
         continue;
       }
-      absl::StrAppendFormat(&shown, "%s%s=%.4g", shown.empty() ? "" : " ", name, value);
+      absl::StrAppend(&shown, shown.empty() ? "" : " ", name, "=", ParameterText(value));
     }
     for (const auto& [name, value] : std::map<std::string, std::string>(
              stage.text_parameters().begin(), stage.text_parameters().end())) {

@@ -4,6 +4,7 @@
 
 #include <mutex>
 #include <ostream>
+#include <string>
 
 #include "scanprep/v1/scanprep.pb.h"
 
@@ -34,6 +35,9 @@ struct PhaseSeconds {
 // One line with every phase, and what none of them covers (connecting, the server assembling
 // the job and preparing the first result chunk).
 void PrintPhases(std::ostream& out, const PhaseSeconds& phases);
+
+// A report parameter for people: counts as plain integers, other values to 4 digits.
+std::string ParameterText(double value);
 
 // Per stage: points in and out, seconds and the stage's parameters, numbers and choices (per-scan
 // values are summarised by count); then point totals, invalid points, budget and warnings.

@@ -9,6 +9,8 @@
 #include <thread>
 
 #include <gmock/gmock.h>
+#include <google/protobuf/struct.pb.h>
+#include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -241,7 +243,32 @@ TEST(Cli, ProcessesTwoRegisteredBunnyScans) {
   const auto [min_x, max_x] = std::minmax_element(cloud->x.begin(), cloud->x.end());
   EXPECT_LT(*max_x - *min_x, 0.25);
   EXPECT_GT(*max_x - *min_x, 0.1);
+  // Counts in the summary are plain integers (outliers.removed=1234, not 1.234e+03).
+  EXPECT_THAT(ok.output, ::testing::ContainsRegex("outliers.removed=[0-9]+ "));
+  EXPECT_THAT(ok.output, ::testing::Not(::testing::ContainsRegex("removed=[0-9.]+e\\+")));
+
+  // `info --json`: GetInfo's answer as JSON with the proto's field names.
+  const CommandResult json = RunCli("info --json --server " + server.target());
+  ASSERT_EQ(json.exit_code, 0) << json.output;
+  google::protobuf::Struct parsed;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(json.output, &parsed).ok())
+      << json.output;
+  // 64-bit integers are JSON strings in protobuf's JSON mapping.
+  EXPECT_EQ(parsed.fields().at("limits").struct_value().fields().at("max_chunk_points")
+                .string_value(), "65536");
   EXPECT_EQ(server.Terminate(), 0);
+}
+
+// Every command answers --help (and -h) with its usage and flags, exit 0.
+TEST(Cli, EveryCommandHasHelp) {
+  for (const char* command : {"process", "info", "load", "simulate"}) {
+    for (const char* help : {"--help", "-h"}) {
+      const CommandResult r = RunCli(std::string(command) + " " + help);
+      EXPECT_EQ(r.exit_code, 0) << command << " " << help << ": " << r.output;
+      EXPECT_THAT(r.output, HasSubstr(absl::StrCat("usage: scanprep ", command)));
+      EXPECT_THAT(r.output, HasSubstr("--"));
+    }
+  }
 }
 
 // A PLY whose points carry a scan column (as scanprep's own output does) holds several scans:
