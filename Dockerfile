@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Multi-stage build on Debian 12: the build stage has the -dev packages, the runtime stage only
 # the shared libraries the binaries load (deploy/check-runtime-libs.sh keeps the list honest).
 FROM debian:bookworm AS build
@@ -5,6 +6,7 @@ RUN apt-get update \
  && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \
       cmake ninja-build g++ pkg-config libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev \
       libabsl-dev libeigen3-dev libnanoflann-dev libtbb-dev libcpp-httplib-dev zlib1g-dev liblzf-dev \
+      libcli11-dev \
  && rm -rf /var/lib/apt/lists/*
 WORKDIR /src
 COPY CMakeLists.txt ./
@@ -24,6 +26,7 @@ RUN apt-get update \
  && rm -rf /var/lib/apt/lists/* \
  && useradd --system --uid 10001 --no-create-home scanprep
 COPY --from=build /build/server/scanprep-server /build/client/scanprep /usr/local/bin/
+COPY LICENSE /usr/share/doc/scanprep/LICENSE
 # Proves the runtime stage is complete: the binaries load and run.
 RUN scanprep-server --version && scanprep --help >/dev/null
 # glibc otherwise keeps a heap per thread and resident memory creeps up across jobs.

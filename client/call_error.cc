@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "client/call_error.h"
 
 #include <grpcpp/grpcpp.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What a failed call's standard error details say (google.rpc.ErrorInfo reason, RetryInfo delay,
 // BadRequest field violations) and what the CLI makes of them: a line to print and an exit code a script can act on.
 #pragma once

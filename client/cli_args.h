@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The CLI's subcommand flags, declared once as FlagSpecs and parsed by CLI11: "--name=value",
 // "--name value", short aliases, boolean flags and flags that may be repeated (--param a=1
 // --param b=2). The table also gives the usage text.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The CLI's subcommands. Adding one = a function with this signature plus a table entry in
 // main.cc.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The flags that choose a command's transport security, shared by every command that connects:
 // TLS when --tls_ca is given (plus a client certificate for mutual TLS), plaintext otherwise.
 #pragma once

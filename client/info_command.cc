@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `scanprep info`: what the server offers (GetInfo), readably or as JSON.
 #include <iostream>
 

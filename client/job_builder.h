@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Turns the `process` command line into a job: the JobHeader (job file, then flags on top) and
 // the points of every scan file, each file one scan in its own frame and file units (or, with a
 // per-point scan column of several values, one scan per value).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Latency percentiles of a load run. Nearest-rank percentiles (an observed value, never an
 // interpolation), so p50 <= p90 <= p99 <= max always holds.
 #pragma once

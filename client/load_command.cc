@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `scanprep load`: a bounded load test of a ScanPrep deployment with one replayed job.
 #include <cmath>
 #include <fstream>

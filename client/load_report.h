@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What `scanprep load` prints and writes: throughput, latency percentiles, errors by status
 // code, budget misses, and the pass/fail verdict, as text and as JSON.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The engine of `scanprep load`: replays one job over a shared channel from `concurrency`
 // workers, closed loop (each worker calls back to back) or open loop (arrivals at a total rate,
 // at most `concurrency` in flight), and tallies what came back.

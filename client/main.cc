@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `scanprep`: command-line client of the scanprep service.
 #include <algorithm>
 #include <iostream>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `scanprep process SCAN... -o OUT.ply`: one job through the service, result to a PLY file.
 #include <fstream>
 #include <iostream>

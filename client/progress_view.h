@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the CLI shows the user: a one-line live progress display on a terminal and the
 // end-of-job summary table.
 #pragma once

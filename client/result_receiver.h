@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Collects a Process call's result messages (points, the report, the end message) and checks the
 // end message's count and CRC-32 against the points that arrived, so that a cut or corrupted
 // result is refused instead of written.

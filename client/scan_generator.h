@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Generated laser-line scans for `scanprep simulate` and `scanprep load --simulate`: an analytic
 // part scanned by core/sim's simulated sensor, its spacings scaled to give about the requested
 // number of points.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Client library for the ScanPrep service, used by the `scanprep` CLI and the tests: streams a
 // job (header, chunks, end message), relays progress, and returns the result cloud and the report
 // once the result's end message confirmed them.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `scanprep simulate`: writes a generated laser-line scan as PLY files (one per scan) plus the
 // job file with each scan's metadata, ready for `scanprep process`.
 #include <google/protobuf/util/json_util.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "core/ball_cache.h"
 
 #include <algorithm>

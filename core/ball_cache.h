@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Radius balls that the k-NN lists cannot answer (radius > d_k), gathered once from the grid in
 // parallel and kept in CSR form by point index, for a stage that asks the same balls again
 // (correction's rounds). The points must not move while it is in use.

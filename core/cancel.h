@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Cooperative cancellation shared between a job's owner (the RPC) and its stages.
 #pragma once
 

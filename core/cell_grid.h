@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A uniform grid over the cloud's points, in place of a kd-tree: the points are copied next to
 // their indices and sorted by cell, x-major and z-minor, so every (x, y) column of cells is one
 // contiguous stretch; a dense table holds where each column's occupied cells start. A ball then

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Where scans overlap, the worse-viewed layer goes: inside N_{r_c}(p) every point whose viewing
 // quality q̂ lies below the neighbourhood mean q̄ is removed. r_c = ‖(Δs, u, Δp)‖ (Eq. 11) is the
 // smallest ball that reliably reaches the other layer: Δs alone is too large, u alone too small.

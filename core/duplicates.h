@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Exact duplicates: points of one scan with identical coordinates (scanners that repeat a point
 // for a missing sample, clients that send a scan twice). Every stage sees each such group once,
 // through its first point; the others are given that point's result on the way out. A pile of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A refused option names the option at fault twice: in its message ("options.params['x']: ...")
 // for people, and as a payload for programs, so an adapter (the gRPC server's
 // google.rpc.BadRequest) can name the field without parsing the message.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The neighbours whose normal fits are the flattest (lowest surface variation): their tangent
 // planes are the candidates for "the surface here", as used by smoothing's own-side plane and by
 // the outliers' surface test. Near an edge, the flattest ones lie on the faces, not on the edge.

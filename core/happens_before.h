@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tells ThreadSanitizer about ordering it cannot see. Debian's libtbb is not built with TSan, so
 // the fork/join ordering TBB guarantees (everything before a parallel loop happens before its
 // blocks; every block happens before the loop returns) is invisible to it and every parallel

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nanoflann kd-tree over the cloud's own coordinate arrays (an adaptor: no copy of the points).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // q̂ = 1 − max(α, β)/(π/2) from the normals and the sensor geometry (or the scanner's own
 // quality), κ̂ = min(κ/s, 1) from the scanline curvature, with surface variation as the fallback
 // where a scanline window does not exist (no scanlines, segment ends, short lines).

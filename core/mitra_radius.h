@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Optional per-point PCA radius after Mitra, Nguyen & Guibas 2004 — Eq. (1), algorithms.md §3.
 #pragma once
 

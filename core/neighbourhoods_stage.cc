@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The "neighbourhoods" stage: builds the shared grid and k-NN graph and reports the derived
 // global radius, density and minimum radius. Other stages pull it in through
 // JobContext::neighbourhoods(); listing it explicitly only makes its timing visible.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Per point: the ball N_{r_p}(p), r_p = max(r_min, d_k) (or the Mitra radius), Gaussian weights
 // with h = r_p/2 relative to p, the central-moment tensor in double and its smallest eigenvector.
 // In overlaps only the point's own scan contributes, so a second, misregistered layer from

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The paper's global rule: a point whose nearest-neighbour distance d_1 exceeds μ + 2σ of all
 // d_1 is an outlier. Statistics are taken per scan because sensors differ in density, and d_1 is
 // measured to the point's own scan: in the merged cloud a point where scans overlap has a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // σ(o) = √(mean of squared distances to the k nearest neighbours), pdist = λ·σ,
 // PLOF(o) = pdist(o) / mean pdist(N_k(o)) − 1, nPLOF = λ·√(mean PLOF²),
 // LoOP = max(0, erf(PLOF / (nPLOF·√2))). Removed neighbours are skipped; the k nearest

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Parallel loops that honour cancellation. Every stage loops through here so a cancelled job
 // stops within one block of work instead of finishing the stage.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Named pipeline parameters: each is declared once by its stage (kind, default, valid range), may
 // be overridden by the request, is range-checked before any stage runs, and is always reported
 // with the value actually used.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Runs a job's stages in order on the calling thread's TBB arena.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Structure-of-arrays point cloud: the one data type every stage reads and writes.
 #pragma once
 

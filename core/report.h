@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What a pipeline run tells its caller: per-stage counts, wall time, the parameters it used.
 #pragma once
 

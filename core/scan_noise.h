@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The noise σ̂ of each scan, measured from the data: the median RMS residual of its points'
 // normal fits (PointMeasures::fit_rms). An edge or a spike inflates a few fits, not the median.
 // Used by the surface-spike test and by smoothing, so both judge offsets in the same σ.

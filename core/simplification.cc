@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Each centre p keeps m(p) = ⌊κ̂_p·n(p) + 0.5⌋ of the n(p) other points within the target spacing
 // r_s (Eq. 13) and removes the rest, lowest quality first; p itself stays. Flat parts (κ̂ ≈ 0) thin
 // to a Poisson-disk set of spacing r_s, edges (κ̂ ≈ 1) keep their full density. Edge centres go

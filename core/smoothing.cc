@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Edge-preserving smoothing (paper §3.1, Eqs. 6-10; algorithms.md §11; docs/algorithms.md for the
 // deviation). Every point's weights combine viewing quality and flatness (Eq. 6) with a distance
 // fall-off (Eq. 9). By default each point is projected onto the plane of its own side of the

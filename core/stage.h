@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The stage interface and the per-job context every stage works in.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The list of stages the service offers, in the paper's execution order (algorithms.md).
 #include <algorithm>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Spikes that stand just off the surface. A triangulation spike displaced along the viewing ray by
 // a few noise σ has a nearest neighbour as close as any grid point, so no distance rule (d_1,
 // LoOP) can see it; what gives it away is its offset from the surface around it. A point is a

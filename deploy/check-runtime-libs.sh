@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Fast proxy for the container build (deploy/container-check.sh), run in CI: every shared library
 # that ldd reports for the built binaries must come from a package the Dockerfile's runtime stage
 # installs, or from one of their dependencies, or from an essential package of the base image.

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Builds the Dockerfile for real without a Docker engine or a registry, and smoke-tests the
 # runtime stage inside the build (podman run needs cgroup control this machine lacks).
 #   1. debootstrap --variant=minbase bookworm, imported with podman as debian:bookworm, so the

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Installs the Debian 12 packages scanprep builds and tests with. Safe to repeat: apt runs only
 # when something is missing. With --sanitizers also clang and its sanitizer and libFuzzer runtimes
 # (deploy/run-sanitizers.sh, deploy/run-fuzzers.sh).

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Runs every benchmark case (tests/bench/pipeline_bench: stages, neighbour graph, whole pipeline,
 # bare nanoflann baseline at 100k/1M/4M points, 1 and 2 threads; the pipeline on 4M points at the
 # 1M density), then, when it was built (only where libpcl-dev is installed), the PCL baseline

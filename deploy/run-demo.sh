@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The main job: installs what is missing, builds Release, starts scanprep-server on loopback,
 # processes a sample scan through the default pipeline, prints the report, stops the server.
 # The sample is two overlapping Stanford bunny scans from ../shared/data when present, else a

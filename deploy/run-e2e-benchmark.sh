@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The end-to-end service benchmark: for each point count, a generated two-scan cloud
 # (`scanprep simulate --scans 2`) goes through scanprep-server on loopback with 1 and 2 worker
 # threads, the whole default pipeline. `scanprep process` reads the files, uploads, the server

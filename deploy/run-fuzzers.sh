@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Builds the libFuzzer targets (tests/fuzz, ASan + UBSan, clang) into ./build-asan, or $BUILD_DIR,
 # and runs each for SECONDS (default 60) over a scratch copy of its seed corpus. Prints runs,
 # coverage and the result per target; exits non-zero if any target crashed, leaked, hung or ran

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The hostile-input benchmark through the service (docs/hostile-inputs.md): ordinary-but-unseen
 # input must cost no more than the ordinary cloud of the same size. The ordinary cloud is a
 # generated two-scan line-scanner cloud (`scanprep simulate --scans 2`); every case is that cloud

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The mutation check, run by CI (.ci/run): breaks each equation and guard of the stages listed in
 # deploy/mutations.txt one at a time, rebuilds the core test executables and requires the core
 # test suite to FAIL on every mutation. A mutation the suite survives means a test is missing.

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # buf lint of the API (proto/buf.yaml: STANDARD rules but the service-name suffix). buf is not
 # packaged in Debian: it comes from npm (@bufbuild/buf ships the binary), pinned, into a cache
 # directory outside the tree ($BUF_DIR, default ~/.cache/scanprep-buf).

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The sanitizer jobs of CI (.ci/run), each in its own clang build directory:
 #   asan  ASan + UBSan (+ libFuzzer coverage) on every target in ./build-asan; runs the whole
 #         ctest suite, then every fuzzer for FUZZ_SECONDS (default 60) via deploy/run-fuzzers.sh.

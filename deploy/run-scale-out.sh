@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Scale-out as the MES sees it: `scanprep load` against one scanprep-server pinned to one core,
 # then against two, each pinned to its own core, behind one address list (round-robin); then the
 # two again with one of them killed (SIGKILL) halfway through the run. Prints jobs/s, the

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The test command: installs what is missing, builds, runs the whole suite with ctest.
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The two forms of a PointChunk's per-point arrays: the repeated fields and their *_packed
 // little-endian byte twins (scanprep.proto). The server and the C++ client work on the repeated
 // form; these convert at the edge, a memcpy per array.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "proto/stream_checksum.h"
 
 #include <bit>

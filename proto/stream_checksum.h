@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The count and CRC-32 a StreamEnd carries, computed over the PointChunks of a stream as
 // scanprep.proto defines it. One definition for both directions and both sides: the server checks
 // uploads and sums results with it, the client sums uploads and checks results.

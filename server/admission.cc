@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "server/admission.h"
 
 #include "server/error_details.h"

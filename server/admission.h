@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Admission control in front of the processing arena: at most `max_concurrent_jobs` calls hold a
 // slot, up to `max_queued_jobs` more wait for one in arrival order, and anything beyond that is
 // refused at once. A call is admitted when its header arrives, before the upload: a waiting call

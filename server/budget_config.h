@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The server's default cycle-time budgets, from --stage_budgets ("outliers=0.2,smoothing=0.5")
 // and --budget_config FILE (lines "stage seconds"; "total seconds" for the whole pipeline; '#'
 // starts a comment). A job's own budget replaces these per entry.

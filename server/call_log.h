@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The server's log: one line per finished or refused call (peer, job id, outcome), and lifecycle
 // events. Lines never carry point data; client-supplied text (job id) is escaped and truncated,
 // so a client cannot forge or flood log lines with it.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Translation between the wire messages (job units, per-scan frames) and core's types
 // (millimetres, one common frame).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Standard gRPC error details: a stable reason (google.rpc.ErrorInfo, domain "scanprep.v1") on
 // every refusal a program must tell apart, and google.rpc.RetryInfo only when the same call can
 // succeed later. RESOURCE_EXHAUSTED means both "queue full, retry" (QUEUE_FULL, with RetryInfo)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "server/idle_watch.h"
 
 #include <algorithm>

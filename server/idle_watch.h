@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Ends calls whose client sends nothing for too long, or too little. A synchronous gRPC Read
 // cannot time out, so one thread watches every upload's next-message deadline and cancels the
 // calls that miss it; without this a stream that sends no header, or one point every few seconds,

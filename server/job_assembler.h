@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Validates a Process request stream message by message and assembles it into one job: the
 // cloud in millimetres in the common frame plus the pipeline options. Pure logic, no gRPC, so it
 // can be unit-tested and fuzzed.

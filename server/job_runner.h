@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Runs pipelines on one shared TBB arena, never on gRPC threads. How many run at once is the
 // AdmissionQueue's business.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Bounds how many lines per second a log writes: under a flood of failing calls (garbage
 // connections) every call would otherwise log a line, and stderr grew by 480 KiB/s.
 #pragma once

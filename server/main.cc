@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // scanprep-server: the gRPC service. Stops gracefully on SIGINT/SIGTERM.
 #include <csignal>
 #include <cstdlib>

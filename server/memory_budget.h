@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Memory-aware admission's arithmetic: a job's memory estimated from its declared point count
 // before any point arrives, and the budget the running jobs' estimates must fit in.
 //

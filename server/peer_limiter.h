@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Caps the calls one client host may have in progress at once, so a single machine cannot take
 // every admission slot and queue place. Hosts are told apart by address only: the port changes
 // with every connection.

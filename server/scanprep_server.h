@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The assembled server: ScanPrep service, health checking and reflection on one listening port,
 // plus the Prometheus /metrics endpoint on another. Used by main.cc and by the tests, which
 // start it in-process on ephemeral ports.

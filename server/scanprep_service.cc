@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "server/scanprep_service.h"
 
 #include <malloc.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The ScanPrep gRPC service: protocol handling around JobAssembler, AdmissionQueue and JobRunner.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The service's Prometheus metrics: owns the metric families and offers one typed call per event,
 // so the protocol and admission code never handles names, labels or buckets.
 #pragma once

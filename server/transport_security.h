@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The gRPC port's transport security from the server's flags: TLS, mutual TLS (client
 // certificates required and verified against a CA), or plaintext when asked for explicitly.
 #pragma once

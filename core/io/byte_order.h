@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Byte swapping between the host and a file's declared byte order.
 #pragma once
 

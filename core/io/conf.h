@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stanford / scanalyze `.conf` registration files.
 #pragma once
 

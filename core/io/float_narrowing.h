@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // double -> float without undefined behaviour: out-of-range values saturate to ±infinity (what
 // IEEE rounding gives, but a plain cast of an unrepresentable value is UB in C++ and trips
 // -fsanitize=float-cast-overflow when fuzzing).

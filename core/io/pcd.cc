@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // PCD reader: the header fixes the layout, one templated loop reads the points from any of the
 // three bodies, and a builder keeps the valid ones.
 #include "core/io/pcd.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // PCD (Point Cloud Library) reader.
 #pragma once
 

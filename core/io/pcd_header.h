@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // PCD header model and parser (internal to the PCD reader).
 #pragma once
 

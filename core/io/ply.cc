@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // PLY reader: the header fixes every element's size, one templated loop walks the elements for
 // both encodings, and a builder validates vertex values as they arrive.
 #include "core/io/ply.h"

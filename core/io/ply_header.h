@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // PLY header model and parser (internal to the PLY reader).
 #pragma once
 

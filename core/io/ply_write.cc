@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Binary little-endian PLY writer, packing the structure-of-arrays cloud in fixed-size chunks.
 #include <algorithm>
 #include <cstring>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Whole-file reads: every reader parses from one in-memory buffer, so no allocation can exceed
 // the input's size and every parse step can be bounds-checked against it.
 #pragma once

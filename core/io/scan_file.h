@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Reads a scan file of any supported format, chosen by extension.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Line and field splitting plus whole-token number parsing (std::from_chars) shared by the
 // text readers (ASCII PLY, XYZ, .conf).
 #pragma once

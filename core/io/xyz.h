@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Plain-text point lists (.xyz, .asc, .txt, .pts).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Small exact queries on axis-aligned boxes, rectangles and segments shared by the simulator's
 // parts (box with bore, stepped block).
 #pragma once

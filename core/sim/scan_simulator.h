@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Analytic parts scanned by a simulated laser-line triangulation sensor, with ground truth
 // for every sample (true surface point, true outward normal, spike label, distance to the
 // nearest sharp edge). Everything is in millimetres and deterministic for a seed.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The stepped block: a box with a slot milled along y through its top, so it has concave 90°
 // edges (where the slot's walls meet its floor) besides convex ones (the box's edges, the slot's
 // rims and its outline on the end faces, the rims of a bore beside the slot, whose wall is the

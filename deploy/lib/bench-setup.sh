@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Sourced by the service benchmarks (run-e2e-benchmark.sh, run-hostile-benchmark.sh): builds
 # unless SKIP_BUILD=1, sets cli and bin for $BUILD_DIR (default build), loads local-server.sh,
 # and makes a work directory that is removed, with any server still running, on exit.

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 # The hostile-input cases of deploy/run-hostile-benchmark.sh, made from clouds `scanprep simulate`
 # generated (so every case is the ordinary workload with one thing wrong, not a new generator).
 # Usage: hostile_cases.py ORDINARY_DIR PLANE_DIR SCENE_DIR OUT_DIR

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "server/metrics/http_exporter.h"
 
 #include <httplib.h>

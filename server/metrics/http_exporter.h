@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Serves a Registry on GET /metrics over HTTP (cpp-httplib), on its own port and thread.
 #pragma once
 

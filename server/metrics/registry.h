@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A minimal Prometheus metrics registry (prometheus-cpp is not packaged in Debian 12): counters,
 // gauges and fixed-bucket histograms with labels, rendered in text exposition format 0.0.4.
 #pragma once

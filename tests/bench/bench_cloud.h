@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The benchmark workload: a generated two-scan laser-line cloud of a box with a bore, with noise
 // and 1 % spikes (the reference cloud), cached per size so every case times the same
 // points.

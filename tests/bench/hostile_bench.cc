@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The hostile-input family (issue 11, docs/hostile-inputs.md): the whole default pipeline on the
 // reference cloud with one thing wrong (tests/bench/hostile_cloud.h), and on the reference cloud
 // with each numeric parameter of the registry set to each of -1, 0, 1e-30, 1e30, 2^32 and NaN.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The metrology evaluation as a markdown table: the simulated three-scan stepped block (exact
 // ground truth, σ = 0.01 mm, 1 % spikes) through outliers + smoothing and through the default
 // pipeline, with the metadata a user gives and with none (one bare .xyz), beside the raw cloud

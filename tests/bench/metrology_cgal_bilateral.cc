@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // CGAL 5.5 bilateral_smooth_point_set as its manual's example calls it, with normals from
 // jet_estimate_normals (the manual's choice for smooth input) on the same k neighbours.
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>

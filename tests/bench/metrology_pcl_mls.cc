@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // PCL 1.13 MovingLeastSquares as a user would call it: second-order polynomial, a fixed search
 // radius, no upsampling, the output mapped back to the input by its corresponding indices.
 #include <pcl/point_cloud.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The peers the metrology table compares against, each on the raw cloud: PCL's
 // MovingLeastSquares and CGAL's bilateral_smooth_point_set. Each lives in its own file, compiled
 // only where its library is installed (SCANPREP_HAVE_PCL / SCANPREP_HAVE_CGAL), never a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Issue 6's baseline: the cleaning chain a PCL 1.13 user would write — StatisticalOutlierRemoval,
 // NormalEstimationOMP, MovingLeastSquares, VoxelGrid — over the same reference cloud as
 // pipeline_bench, as a whole (BM_PclChain) and step by step. Arguments: {points, threads}; the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The pipeline as a benchmark case, shared by the stage/pipeline cases and the hostile-input
 // family.
 #pragma once

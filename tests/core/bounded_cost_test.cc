@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The cliffs of unbounded cost, each on a small instance with a control: the work counters
 // (candidates a grid query reads, duplicates collapsed, balls capped, radii capped) must stay
 // bounded where the input is hostile, so a test fails if a cliff comes back.

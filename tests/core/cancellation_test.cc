@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Cancellation latency of every stage (the project's rule: CANCELLED within 0.2 s). Each case
 // runs its stage's prerequisites, then fires the CancelToken from another thread a while after
 // the stage under test started (the progress callback names it) and measures what the pipeline

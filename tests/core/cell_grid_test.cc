@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The grid must answer exactly what the kd-tree answers: every ball the same set of points with
 // the same squared distances, every k-NN list the same distances. Checked on a simulated scan
 // pair, on a cloud with far-flung points (wide bounding box, few occupied cells) and on one with

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Merging overlapping scans (§10) on the simulator: the frontal and an oblique, noisier scan of a
 // sphere. Ground truth says, for every removed point, which scan views its true surface point
 // worse, and where the other scan does not reach at all.

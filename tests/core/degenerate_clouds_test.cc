@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Degenerate clouds through every stage: each job ends with a result or a precise error, never a
 // crash, a hang or a NaN; where the geometry leaves no doubt (a plane stays a plane, identical
 // points stay put) the result is checked against it.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Inputs the fuzzers (tests/fuzz) found mishandled, inlined so the fixes stay fixed.
 #include <sstream>
 #include <string>

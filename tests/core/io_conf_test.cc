@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // scanalyze .conf reader and its quaternion convention, proven on the bunny registration.
 #include <algorithm>
 #include <sstream>

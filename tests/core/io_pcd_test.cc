@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // PCD reader: ascii, binary and binary_compressed files built here from known points, VIEWPOINT
 // as the sensor origin, organised clouds with NaN cells, malformed headers and bodies, and PCL's
 // own rs1 and table_scene_mug files against the numbers in the data README.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // PLY reader/writer: exact round trips, hand-made ASCII and big-endian inputs, malformed inputs,
 // and the ten Stanford bunny range scans against the numbers in the data README.
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // XYZ text reader: separators, comments, PTS counts, errors, laser-profile splitting, and the
 // Cognex laser-line scan from the data README.
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A stage that cannot do its job for want of metadata says so: a warning in the report and a
 // machine-readable record, each path tested against a control that has the metadata, where the
 // record reads 0 and the warning is absent.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Viewing quality and curvature against the simulator's ground truth.
 #include <cstdio>
 #include <numbers>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The metrology targets of issue 13 on the simulated three-scan stepped block (exact ground
 // truth, σ = 0.01 mm, 1 % spikes; tests/support/metrology.h), as ratios to the raw cloud. The
 // table in the docs is the same evaluation at 1 M points and another seed (metrology_bench).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Orientation without a sensor pose (algorithms.md §7) on a cluttered table-top scene like PCL's
 // rs1.pcd: a table plane and dozens of separate objects, so the k-NN graph falls apart into
 // many components that the spanning tree has to bridge. The bridging must stay O(n) work

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Normals against the simulator's ground truth: accuracy on flat and curved regions, orientation
 // toward the sensor (Eq. 3) and consistent spanning-tree orientation without poses (Eq. 5).
 #include <cstdio>

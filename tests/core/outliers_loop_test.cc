@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Outlier rules against injected spikes: the paper's d_1 rule on simulated scans, and LoOP on a
 // cloud whose density changes by 4× between two regions.
 #include <cstdio>

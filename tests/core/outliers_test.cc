@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The paper's 2σ nearest-neighbour rule on a regular grid with spikes displaced along the view.
 #include <cmath>
 #include <cstdio>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Parameters are declared once (kind, default, range) and checked before any stage runs: every
 // numeric parameter of every stage swept over hostile values ends in a result that used the value
 // as given or in INVALID_ARGUMENT naming it; never a crash, never another code (CI runs this under

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The default pipeline (outliers → correction → smoothing → simplification) end to end: on the
 // simulator with two overlapping scans and spikes, and on the ten registered Stanford bunny scans.
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The simulator's ground truth must be trustworthy before other tests lean on it.
 #include "core/sim/scan_simulator.h"
 

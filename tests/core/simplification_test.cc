@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Simplification (§12, Eq. 13) on the simulator: the spacing reached on a plane, the extra
 // density kept at the sharp edges of a box, and no holes (every true sample keeps a point near).
 #include <algorithm>

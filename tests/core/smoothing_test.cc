@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Smoothing against the simulator's true surfaces. Default method (own side): noise drops to well
 // under half on flat parts and sharp box edges get closer to the truth, not rounder; the noise is
 // measured from the data. The paper's method (mean): Eq. (10)'s δ = u is what keeps its edges.

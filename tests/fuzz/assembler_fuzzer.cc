@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the server's JobAssembler fed a stream of ProcessRequest messages decoded from
 // the input, then Finish(); a small assembled job also runs the whole default pipeline, whose
 // output must keep finite coordinates and normals. Degenerate clouds (one point, duplicates,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: io::ReadConf on arbitrary text; every returned pose must be a finite rigid
 // motion (unit quaternion, finite translation).
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Invariants every successfully read or processed cloud must satisfy; a violation aborts so
 // libFuzzer records the input.
 #pragma once

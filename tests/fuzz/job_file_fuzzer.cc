@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the CLI's job-file reader (client::ReadJobFile, protobuf JSON into JobHeader
 // with unknown fields rejected), then the server's header validation (JobAssembler) on whatever
 // parsed. ReadJobFile takes a path, so each input is written to an in-memory file (memfd) and

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Writes the assembler_fuzzer seed corpus: ProcessRequest streams in the fuzzer's framing (each
 message a 2-byte little-endian length plus its serialized bytes), encoded from text format by
 protoc. Run from anywhere; needs protoc on PATH."""

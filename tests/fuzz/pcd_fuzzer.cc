@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: io::ReadPcd on arbitrary bytes (ascii, binary and LZF-compressed bodies).
 #include <cstddef>
 #include <cstdint>

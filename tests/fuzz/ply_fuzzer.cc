@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: io::ReadPly on arbitrary bytes (ASCII and binary PLY share the header parser).
 #include <cstddef>
 #include <cstdint>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the real gRPC service (in-process server on loopback, its default limits)
 // fed sequences of ProcessRequest messages decoded from the input with FuzzedDataProvider:
 // headers whose fields come from edge values (limits ± 1, 0, NaN, ±Inf, 1e300), parameter

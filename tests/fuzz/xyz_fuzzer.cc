@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: io::ReadXyz on arbitrary text, with and without scanline splitting.
 #include <cstddef>
 #include <cstdint>

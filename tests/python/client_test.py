@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The Python client (client/python) against a real scanprep-server: the bunny scans from
 ../shared/data, a plane with known spikes, and a refused parameter. Run by ctest with
 PYTHONPATH=build/python:client/python and SCANPREP_SERVER set (tests/CMakeLists.txt)."""

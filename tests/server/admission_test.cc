@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Admission control: the AdmissionQueue on its own (fake clock, so the expected-wait arithmetic
 // is exact), then through the real service with jobs held open by clients that sent a header and
 // a chunk and wait. Every wait is bounded; no sleep decides an outcome.

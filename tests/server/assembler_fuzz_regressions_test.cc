@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Inputs assembler_fuzzer (tests/fuzz) found mishandled by the JobAssembler, inlined.
 #include <cmath>
 

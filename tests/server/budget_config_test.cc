@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Default budgets from --stage_budgets and --budget_config: parsing, precedence and precise errors.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

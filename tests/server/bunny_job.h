@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The ten Stanford bunny range scans as one job: each scan in its own frame with its bun.conf
 // pose in the header, so the server does the registration.
 #pragma once

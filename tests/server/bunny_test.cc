@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // All ten Stanford bunny range scans through the service, registered by the server with the
 // bun.conf poses: one bunny must come back, not ten.
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the client makes of a failed call: the server's ErrorInfo reason and RetryInfo delay reach
 // the absl::Status, and the exit code says "retry later" exactly when a retry can succeed and "fix
 // the input" when the job itself was refused.

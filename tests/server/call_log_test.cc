@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The call log's rate limit, driven by an injected clock: a flood writes at most the limit per
 // second, and the next line admitted says exactly how many were dropped.
 #include <sstream>

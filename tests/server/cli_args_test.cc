@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The CLI's flag parsing (CLI11 behind the FlagSpec tables): the forms the commands document.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The standard error details a client program acts on: every RESOURCE_EXHAUSTED carries a
 // google.rpc.ErrorInfo with a stable reason, and a google.rpc.RetryInfo exactly when the same call
 // can succeed later; every INVALID_ARGUMENT a reason and a google.rpc.BadRequest naming the field.

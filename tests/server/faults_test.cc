@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Faults from the client's side against the real service in-process: clients that vanish mid-
 // upload and mid-download, deadlines that expire inside every stage and in upload and download,
 // and a long run of malformed calls. The server must answer each with the right status, give its

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // All seven stages through the service: on the ten registered Stanford bunny scans, with each
 // scan's viewing direction determined from its own data, and on a simulated two-scan part with
 // known surface.

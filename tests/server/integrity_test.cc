@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // End-to-end integrity through the service: an upload ends with its end message (count and
 // CRC-32) and a cut, miscounted or corrupted upload is refused, never processed; the result ends
 // with one that the client checks before it uses the points.

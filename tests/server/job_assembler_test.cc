@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The request-to-job translation without gRPC: units, poses applied to points and scanner
 // metadata, defaults, invalid coordinates, and the end message's count and checksum.
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The limits that bound what one call or one client can make the server hold, each enforced
 // before the memory it guards is allocated: bytes per call, calls per client host, scans per
 // header, header list lengths and gRPC's message size. (Points per job and per chunk:

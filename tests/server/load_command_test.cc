@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `scanprep load`: the real CLI binary against an in-process server for about two seconds; its
 // JSON must describe what happened (jobs, errors by code, consistent throughput and latency).
 #include <gmock/gmock.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Memory-aware admission through the real service: a job whose estimated memory exceeds the
 // whole budget is refused at its header with the numbers a program needs (ErrorInfo metadata),
 // a larger neighbourhoods.k raises the estimate, and GetInfo reports the budget. The measured

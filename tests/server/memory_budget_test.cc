@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The memory-aware admission's arithmetic: a job's estimate from its point count and k, the
 // automatic budget from a container limit or the RAM, and the startup check of
 // --max_points_per_job against it. Expected values are worked out by hand from the constants.

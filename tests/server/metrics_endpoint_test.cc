@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The live /metrics endpoint of an in-process server: jobs, a refused call and GetInfo move the
 // counters and histograms by exactly what the reports say; default stage budgets reach the report
 // and the overrun counters; the scrape passes `promtool check metrics`.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The registry's text must be exact Prometheus exposition format 0.0.4: checked line by line and,
 // when promtool is installed, by `promtool check metrics`.
 #include <cstdio>

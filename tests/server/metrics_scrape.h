@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Reading the server's /metrics endpoint in tests: one scrape as text or as samples keyed by
 // "name{labels}" exactly as exposed, and a bounded wait for a sample to reach a value.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // /metrics against slow-header clients: sockets that send half a request line and stop must not
 // keep a scrape from being answered (with httplib's defaults, eight of them blocked every scrape
 // for 5 s).

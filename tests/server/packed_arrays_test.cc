@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The packed form of the per-point arrays (PointChunk.*_packed, JobHeader.result_arrays) carries
 // the same job as the repeated form, and the report echoes the caller's labels with the server's
 // version and the call's times.

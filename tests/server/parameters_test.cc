@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Parameters through the service: GetInfo states each one's kind, default and valid range; a job
 // reports the choices it ran with; an out-of-range integer is refused before any work.
 #include <map>

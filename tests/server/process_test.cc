@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // End to end through the real service in-process: a generated noisy plane with spikes, unit and
 // frame handling, GetInfo, and cancellation of a large job.
 #include <atomic>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The real Prometheus (Debian package `prometheus`) scrapes an in-process server every second;
 // after a few jobs its query API must return the stage histogram and RPC counters with the
 // server's values. Skipped when prometheus is not installed.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Every malformed request ends the call with a precise status: the code and a message that
 // names the problem (field, chunk number or limit).
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // scanprep-server as a subprocess on ephemeral ports, for the tests that run the real binaries
 // (SCANPREP_SERVER_BINARY, tests/CMakeLists.txt).
 #pragma once

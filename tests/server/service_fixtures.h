@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shared by the service tests: the real service started in-process on an ephemeral loopback
 // port, a raw-stream call for protocol tests, and a generated scan (noisy plane with spikes).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The StreamEnd checksum against its definition in scanprep.proto, with values from another
 // implementation (Python: zlib.crc32 over struct.pack('<...') of the arrays in field order).
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The real binaries: scanprep-server as a subprocess on an ephemeral port, driven by the client
 // library and by the `scanprep` CLI; graceful shutdown on SIGTERM.
 #include <csignal>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Transport security of the real service: certificates made at test time by `openssl` (a CA, a
 // server certificate for 127.0.0.1/localhost, a client certificate, and a second CA with its own
 // client certificate); the server configured by the same code as the binary's --tls_* flags.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Ground-truth metrology of a processed simulated cloud: how far the surviving points lie from
 // the true surface, zone by zone, how well the injected spikes were removed, and how much of the
 // surface is still represented. The same numbers for the unprocessed cloud are the "raw" row.

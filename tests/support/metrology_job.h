@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The evaluation's fixture and jobs: the simulated three-scan stepped block, handed to the
 // pipeline the way a user's files would reach it — with the metadata a user knows, or with none
 // (one bare .xyz) — and run for a list of stages.

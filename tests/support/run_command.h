@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Runs a command line through the shell and captures what it printed, for the tests that drive
 // the real binaries.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Small measurements shared by the stage tests that run on simulated scans.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Locates the real scans in ../shared/data; tests that need them skip when it is absent.
 #pragma once
 

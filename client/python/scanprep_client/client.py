@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Sends one job as packed little-endian arrays (PointChunk.*_packed) and reads the result the
 same way: numpy's tobytes() and frombuffer(), no loop per value."""
 
