@@ -25,6 +25,8 @@ enum ExitCode : int {
   // corrupted (DATA_LOSS: a count or checksum mismatch on the way up or down).
   kExitRetryLater = 3,
   kExitFixInput = 4,    // INVALID_ARGUMENT, or RESOURCE_EXHAUSTED without RetryInfo (too large)
+  // `process --fail_on_budget_miss`: the job ran and its output was written, over its budget.
+  kExitBudgetMissed = 5,
 };
 
 struct FieldViolation {

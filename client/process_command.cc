@@ -11,6 +11,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
+#include "client/call_error.h"
 #include "client/commands.h"
 #include "client/connection_flags.h"
 #include "client/job_builder.h"
@@ -77,6 +78,11 @@ int RunProcess(const ParsedArgs& args) {
   PhaseSeconds phases;
   auto job = BuildJob(args);
   if (!job.ok()) return Fail("process", std::string(job.status().message()));
+  if (args.Has("budget")) {
+    auto budget = GetNumber(args, "budget", 0, 0);
+    if (!budget.ok()) return FailUsage("process", std::string(budget.status().message()));
+    job->header.mutable_budget()->set_total_seconds(*budget);
+  }
   phases.read = SecondsSince(start);
   for (const std::string& note : job->notes) std::cerr << "note: " << note << "\n";
 
@@ -125,7 +131,13 @@ int RunProcess(const ParsedArgs& args) {
   PrintSummary(std::cout, result->report);
   PrintPhases(std::cout, phases);
   std::cout << "wrote " << result->cloud.size() << " points to " << out << "\n";
-  return 0;
+  if (args.Bool("fail_on_budget_miss") &&
+      result->report.budget_outcome() == v1::BUDGET_OUTCOME_MISSED) {
+    std::cerr << "scanprep process: the job missed its budget of "
+              << result->report.budget_seconds() << " s (--fail_on_budget_miss)\n";
+    return kExitBudgetMissed;
+  }
+  return kExitOk;
 }
 
 }  // namespace
@@ -138,6 +150,12 @@ Command ProcessCommand() {
   AddTlsFlags(flags);
   for (FlagSpec& flag : JobFlags()) flags.push_back(std::move(flag));
   flags.push_back({"timeout", FlagSpec::kValue, "deadline for the whole call, e.g. 120s"});
+  flags.push_back({"budget", FlagSpec::kValue,
+                   "time budget of the job in seconds (over the job file's and the server's "
+                   "default); the report says whether it was met"});
+  flags.push_back({"fail_on_budget_miss", FlagSpec::kBool,
+                   "exit 5 when the job ran over its time budget (--budget or the server's "
+                   "default); the output is written all the same"});
   flags.push_back({"report_json", FlagSpec::kValue,
                    "also write the full report as JSON, with the phase timings under \"phases\""});
   return Command{

@@ -13,6 +13,11 @@ Eigen::Vector3d FromProto(const v1::Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
 bool Finite(const Eigen::Vector3d& v) { return v.allFinite(); }
 
+v1::BudgetOutcome Outcome(double budget_seconds, bool met) {
+  if (budget_seconds <= 0) return v1::BUDGET_OUTCOME_NO_BUDGET;
+  return met ? v1::BUDGET_OUTCOME_MET : v1::BUDGET_OUTCOME_MISSED;
+}
+
 // INVALID_METADATA "<scan>.<name>: <problem>", naming the field.
 absl::Status BadField(std::string_view field, std::string_view name, std::string_view problem) {
   const std::string path = absl::StrCat(std::string(field), ".", std::string(name));
@@ -177,10 +182,12 @@ void ReportToProto(const PipelineReport& report, v1::Report* out) {
     }
     s->set_budget_seconds(stage.budget_seconds);
     s->set_budget_met(stage.budget_met);
+    s->set_budget_outcome(Outcome(stage.budget_seconds, stage.budget_met));
   }
   out->set_processing_seconds(report.total_seconds);
   out->set_budget_seconds(report.budget_seconds);
   out->set_budget_met(report.budget_met);
+  out->set_budget_outcome(Outcome(report.budget_seconds, report.budget_met));
   for (const std::string& w : report.warnings) out->add_warnings(w);
 }
 

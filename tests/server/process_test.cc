@@ -256,6 +256,29 @@ TEST(Process, DefaultBudgetAppliesWhenTheJobStatesNone) {
   EXPECT_EQ(result->report.stages(2).budget_seconds(), 300);
 }
 
+// budget_met alone is true when there was no budget; budget_outcome tells the three cases apart,
+// for the job and for each stage.
+TEST(Process, BudgetOutcomeTellsNoBudgetFromMetAndMissed) {
+  InProcessServer server;
+  const PointCloud cloud = NoisyPlaneWithSpikes(50, 0.5f).cloud;
+  const std::pair<double, v1::BudgetOutcome> cases[] = {
+      {0, v1::BUDGET_OUTCOME_NO_BUDGET},
+      {600, v1::BUDGET_OUTCOME_MET},
+      {1e-9, v1::BUDGET_OUTCOME_MISSED}};
+  for (const auto& [seconds, outcome] : cases) {
+    v1::JobHeader header = OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5);
+    header.mutable_budget()->set_total_seconds(seconds);
+    (*header.mutable_budget()->mutable_stage_seconds())["outliers"] = seconds;
+    auto result = server.Client().Process(header, cloud);
+    ASSERT_TRUE(result.ok()) << result.status();
+    EXPECT_EQ(result->report.budget_outcome(), outcome) << seconds;
+    EXPECT_EQ(result->report.budget_met(), outcome != v1::BUDGET_OUTCOME_MISSED) << seconds;
+    ASSERT_EQ(result->report.stages(2).name(), "outliers");
+    EXPECT_EQ(result->report.stages(2).budget_outcome(), outcome) << seconds;
+    EXPECT_EQ(result->report.stages(0).budget_outcome(), v1::BUDGET_OUTCOME_NO_BUDGET);
+  }
+}
+
 TEST(Process, CancelDuringProcessingEndsTheCallAndTheServerServesTheNext) {
   InProcessServer server;
   // 2.25 M points: the neighbourhood graph takes seconds, so processing is still running when

@@ -370,6 +370,18 @@ TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.output, HasSubstr("cannot write the report to"));
 
+  // Over its budget: the output is written and the exit code is 0, or 5 when asked to fail.
+  r = RunCli(base + " --stages outliers --budget 0.000000001");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("MISSED"));
+  fs::remove(tmp / "x.ply");
+  r = RunCli(base + " --stages outliers --budget 0.000000001 --fail_on_budget_miss");
+  EXPECT_EQ(r.exit_code, 5) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("missed its budget"));
+  EXPECT_TRUE(fs::exists(tmp / "x.ply"));
+  r = RunCli(base + " --stages outliers --budget 600 --fail_on_budget_miss");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+
   // No server: 3, "retry later".
   r = RunCli("process " + scan.string() + " -o x.ply --server 127.0.0.1:1 --timeout 5s");
   EXPECT_EQ(r.exit_code, 3);
