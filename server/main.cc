@@ -57,7 +57,7 @@ ABSL_FLAG(uint64_t, memory_budget, 0,
 ABSL_FLAG(int, threads, 0, "threads of the shared processing arena (0 = hardware concurrency)");
 ABSL_FLAG(double, default_budget_seconds, 0,
           "total time budget for jobs that state none (0 = no budget); reported and counted in "
-          "scanprep_budget_overruns_total, never enforced; overrides 'total' in --budget_config");
+          "scanprep_job_budget_total, never enforced; overrides 'total' in --budget_config");
 ABSL_FLAG(std::string, stage_budgets, "",
           "default per-stage budgets, e.g. \"outliers=0.2,smoothing=0.5\" (seconds); override "
           "--budget_config entries; a job's own stage budgets override these");
@@ -72,6 +72,17 @@ ABSL_FLAG(absl::Duration, idle_timeout, absl::Seconds(30),
 ABSL_FLAG(double, min_upload_rate, 64 * 1024,
           "bytes per second a Process upload must average from its admission on, after a first "
           "--idle_timeout; a slower one is cancelled (0 = no minimum)");
+ABSL_FLAG(absl::Duration, max_connection_age, absl::InfiniteDuration(),
+          "a client connection older than this is sent GOAWAY, so the client reconnects and "
+          "re-resolves DNS, reaching replicas added since (e.g. 300s behind an autoscaler; "
+          "inf = never)");
+ABSL_FLAG(absl::Duration, max_connection_age_grace, absl::InfiniteDuration(),
+          "how long calls in progress on a connection past --max_connection_age may still run "
+          "(at least the longest job's time; inf = until they end)");
+ABSL_FLAG(absl::Duration, keepalive_time, absl::Hours(2),
+          "idle time after which the server pings a client to check the connection is alive");
+ABSL_FLAG(absl::Duration, keepalive_timeout, absl::Seconds(20),
+          "how long the server waits for a keepalive ping's answer before closing the connection");
 ABSL_FLAG(absl::Duration, grace_period, absl::Seconds(10),
           "on SIGINT/SIGTERM, how long in-flight calls may run before they are cancelled");
 
@@ -153,6 +164,14 @@ int main(int argc, char** argv) {
   options.timeouts = {.header = absl::GetFlag(FLAGS_header_timeout),
                       .idle = absl::GetFlag(FLAGS_idle_timeout),
                       .min_upload_rate = absl::GetFlag(FLAGS_min_upload_rate)};
+  options.connection = {.max_age = absl::GetFlag(FLAGS_max_connection_age),
+                        .max_age_grace = absl::GetFlag(FLAGS_max_connection_age_grace),
+                        .keepalive_time = absl::GetFlag(FLAGS_keepalive_time),
+                        .keepalive_timeout = absl::GetFlag(FLAGS_keepalive_timeout)};
+  if (absl::Status s = scanprep::server::CheckConnectionOptions(options.connection); !s.ok()) {
+    std::cerr << "scanprep-server: " << s.message() << "\n";
+    return 1;
+  }
   if (absl::Status s = scanprep::server::CheckCallsPerPeer(options); !s.ok()) {
     std::cerr << "scanprep-server: " << s.message() << "\n";
     return 1;

@@ -2,6 +2,7 @@
 #include "server/scanprep_server.h"
 
 #include <algorithm>
+#include <limits>
 #include <thread>
 
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
@@ -36,6 +37,24 @@ absl::StatusOr<HostPort> ParseHostPort(const std::string& text, const std::strin
   return hp;
 }
 
+// gRPC reads durations as int milliseconds, INT_MAX meaning "never".
+int Millis(absl::Duration d) {
+  if (d == absl::InfiniteDuration()) return std::numeric_limits<int>::max();
+  return static_cast<int>(std::min<int64_t>(absl::ToInt64Milliseconds(d),
+                                            std::numeric_limits<int>::max()));
+}
+
+void AddConnectionArguments(const ConnectionOptions& c, grpc::ServerBuilder& builder) {
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_MS, Millis(c.max_age));
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_GRACE_MS, Millis(c.max_age_grace));
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, Millis(c.keepalive_time));
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, Millis(c.keepalive_timeout));
+  // Clients may ping as often as every 10 s, with or without calls in progress, without being
+  // sent GOAWAY "too_many_pings" (gRPC's default minimum is 5 min).
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 10'000);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+}
+
 }  // namespace
 
 int CallsPerPeer(const ServerOptions& options) {
@@ -63,6 +82,22 @@ ScanPrepServer::ScanPrepServer(const ServerOptions& options)
       runner_(options.threads, options.on_progress),
       service_(options.limits, options.timeouts, admission_, runner_, metrics_, peers_, log_) {
   metrics_.SetDefaultBudget(options.limits.default_budget_seconds);
+}
+
+absl::Status CheckConnectionOptions(const ConnectionOptions& c) {
+  const std::pair<const char*, absl::Duration> durations[] = {
+      {"max_connection_age", c.max_age},
+      {"max_connection_age_grace", c.max_age_grace},
+      {"keepalive_time", c.keepalive_time},
+      {"keepalive_timeout", c.keepalive_timeout}};
+  for (const auto& [flag, d] : durations) {
+    // gRPC counts whole milliseconds; below 1 ms would turn into 0, "immediately".
+    if (d < absl::Milliseconds(1)) {
+      return absl::InvalidArgumentError(absl::StrCat("--", flag, " must be at least 1ms (got ",
+                                                     absl::FormatDuration(d), ")"));
+    }
+  }
+  return absl::OkStatus();
 }
 
 absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
@@ -110,6 +145,7 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
   // gRPC sets SO_REUSEPORT by default: a second server on the same port would start silently and
   // take half the connections. Without it the second one fails to start.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
+  AddConnectionArguments(options.connection, builder);
   builder.RegisterService(&server->service_);
   server->server_ = builder.BuildAndStart();
   if (server->server_ == nullptr || server->port_ == 0) {

@@ -24,6 +24,21 @@
 
 namespace scanprep::server {
 
+// How long a client connection lives and how its liveness is checked. A long-lived MES channel
+// never re-resolves DNS, so without an age limit it keeps every call on the replicas it first
+// reached and never sees those an autoscaler adds: after `max_age` the server sends GOAWAY, the
+// client reconnects (re-resolving) and calls in progress get `max_age_grace` to finish. Keepalive
+// pings find connections whose peer vanished (a NAT or load balancer dropping idle flows).
+struct ConnectionOptions {
+  absl::Duration max_age = absl::InfiniteDuration();  // infinite = no limit
+  absl::Duration max_age_grace = absl::InfiniteDuration();
+  absl::Duration keepalive_time = absl::Hours(2);  // gRPC's default
+  absl::Duration keepalive_timeout = absl::Seconds(20);
+};
+
+// OK unless a duration is zero or negative; the message names the flag.
+absl::Status CheckConnectionOptions(const ConnectionOptions& connection);
+
 struct ServerOptions {
   std::string listen = "0.0.0.0:50051";  // port 0 picks a free port
   std::string metrics_listen;            // HOST:PORT of /metrics; empty = no endpoint
@@ -37,6 +52,8 @@ struct ServerOptions {
   // default.
   int max_calls_per_peer = 0;
   StreamTimeouts timeouts;
+  // Connection lifetime and liveness; see ConnectionOptions.
+  ConnectionOptions connection;
   // The gRPC port's transport security; null = plaintext. The in-process tests keep the
   // default; scanprep-server always sets it and serves plaintext only when asked to.
   std::shared_ptr<grpc::ServerCredentials> credentials;

@@ -28,7 +28,7 @@ inline int PortAfter(const std::string& line, const std::string& marker) {
 }
 
 // scanprep-server --plaintext --listen 127.0.0.1:0 --metrics_listen 127.0.0.1:0 plus `flags`, its
-// stdout in a file from which both ports are read.
+// stdout and stderr in a file from which both ports are read.
 class ServerProcess {
  public:
   explicit ServerProcess(std::vector<std::string> flags = {}) {
@@ -41,7 +41,7 @@ class ServerProcess {
     pid_ = fork();
     if (pid_ == 0) {
       FILE* out = std::freopen(log_.c_str(), "w", stdout);
-      if (out == nullptr) _exit(127);
+      if (out == nullptr || dup2(fileno(out), STDERR_FILENO) < 0) _exit(127);  // the call log too
       std::vector<char*> argv;
       for (std::string& f : flags) argv.push_back(f.data());
       argv.push_back(nullptr);
@@ -67,6 +67,11 @@ class ServerProcess {
   int port() const { return port_; }
   pid_t pid() const { return pid_; }
   int metrics_port() const { return metrics_port_; }
+  // Everything the server printed so far (stdout and stderr).
+  std::string Log() const {
+    std::ifstream in(log_);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }
   // SIGTERM, then the exit code (-1 when it did not exit normally).
   int Terminate() {
     kill(pid_, SIGTERM);

@@ -6,12 +6,15 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <set>
 #include <sstream>
 #include <thread>
 
 #include <gmock/gmock.h>
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
+#include <set>
+
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -85,7 +88,7 @@ TEST(ServerBinary, ServesMetricsWithTheBudgetAndQueueFlags) {
   const auto samples = Scrape(server.metrics_port());
   EXPECT_EQ(samples.at("scanprep_budget_seconds"), 12);
   EXPECT_EQ(samples.at("scanprep_queue_capacity"), 3);
-  EXPECT_EQ(samples.at("scanprep_rpcs_handled_total{method=\"GetInfo\",code=\"OK\"}"), 1);
+  EXPECT_EQ(samples.at(GrpcHandled("GetInfo", "OK")), 1);
   EXPECT_EQ(server.Terminate(), 0);
 }
 
@@ -103,6 +106,56 @@ TEST(ServerBinary, BadBudgetFlagsExitOneWithTheReason) {
       RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --plaintext --metrics_listen=nowhere");
   EXPECT_EQ(listen.exit_code, 1);
   EXPECT_THAT(listen.output, HasSubstr("metrics_listen: 'nowhere' is not HOST:PORT"));
+}
+
+TEST(ServerBinary, BadConnectionFlagsExitOneWithTheReason) {
+  const CommandResult r =
+      RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --plaintext --max_connection_age=0s");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.output, HasSubstr("--max_connection_age must be at least 1ms (got 0)"));
+}
+
+// The client ports of the Process calls in a server's call log ("process peer=ipv4:IP:PORT").
+std::set<std::string> CallerPorts(const std::string& log) {
+  std::set<std::string> ports;
+  std::istringstream in(log);
+  for (std::string line; std::getline(in, line);) {
+    const size_t at = line.find("process peer=");
+    if (at == std::string::npos) continue;
+    const std::string peer = line.substr(at, line.find(' ', at + 8) - at);
+    ports.insert(peer.substr(peer.rfind(':') + 1));
+  }
+  return ports;
+}
+
+// With --max_connection_age the server sends GOAWAY to older connections, so a client's channel
+// reconnects (re-resolving its target, which is how it reaches replicas added since) and no call
+// fails on the way; without it, one connection serves every call (the control).
+TEST(ServerBinary, MaxConnectionAgeMakesClientsReconnectWithoutFailingCalls) {
+  const GeneratedScan scan = NoisyPlaneWithSpikes(40, 0.5f);
+  v1::JobHeader header = SimpleHeader(0.5);
+  header.mutable_options()->add_stages("outliers");
+  for (const bool limited : {false, true}) {
+    ServerProcess server(limited ? std::vector<std::string>{"--max_connection_age=300ms",
+                                                            "--max_connection_age_grace=30s"}
+                                 : std::vector<std::string>{});
+    ASSERT_GT(server.port(), 0);
+    {
+      auto client = client::ScanPrepClient::Connect(server.target());
+      for (int i = 0; i < 6; ++i) {
+        auto result = client.Process(header, scan.cloud);
+        ASSERT_TRUE(result.ok()) << "call " << i << ": " << result.status();
+        absl::SleepFor(absl::Milliseconds(250));
+      }
+    }
+    const std::set<std::string> ports = CallerPorts(server.Log());
+    if (limited) {
+      EXPECT_GE(ports.size(), 2u) << server.Log();
+    } else {
+      EXPECT_EQ(ports.size(), 1u) << server.Log();
+    }
+    EXPECT_EQ(server.Terminate(), 0);
+  }
 }
 
 // --help lists the server's own flags (absl shows the flags of the file named like the program
