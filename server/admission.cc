@@ -60,7 +60,7 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(
     ++in_flight_;
     reserved_bytes_ += bytes;
     PublishLocked();
-    metrics_.QueueWait(0);
+    metrics_.PhaseEnded(Phase::kQueue, 0);
     return Slot(this, arrived, bytes);
   }
   if (static_cast<int>(waiting_.size()) >= options_.max_queued_jobs) {
@@ -98,7 +98,7 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(
     if (cancelled()) break;
   }
   if (self.granted) {  // GrantLocked already moved it from the queue to a slot
-    metrics_.QueueWait(absl::ToDoubleSeconds(options_.now() - arrived));
+    metrics_.PhaseEnded(Phase::kQueue, absl::ToDoubleSeconds(options_.now() - arrived));
     return Slot(this, options_.now(), bytes);
   }
   waiting_.erase(position);

@@ -72,7 +72,7 @@ grpc::Status ScanPrepService::Gone(const grpc::ServerContext& context,
 }
 
 grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stream) {
-  metrics_.RpcStarted("Process");
+  metrics_.RpcStarted(kProcessRpc);
   CallRecord record{.start = absl::Now()};
   grpc::Status status;
   // Counted before anything is read, so one host's calls cannot fill every slot and queue place.
@@ -88,8 +88,9 @@ grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stre
                             "the server ran out of memory holding this job");
     }
   }
-  metrics_.RpcHandled("Process", status.error_code());
-  LogCall(peer, record, status, absl::Now() - record.start);
+  const absl::Duration elapsed = absl::Now() - record.start;
+  metrics_.RpcHandled(kProcessRpc, status.error_code(), absl::ToDoubleSeconds(elapsed));
+  LogCall(peer, record, status, elapsed);
   return status;
 }
 
@@ -136,6 +137,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   // Upload: validate each message as it arrives; the first error ends the call without reading
   // the rest. The call queues for a slot once its header is valid, before any points arrive.
   std::optional<AdmissionQueue::Slot> slot;
+  absl::Time upload_start;
   // Destroyed after everything the job allocated below and before its slot frees its reservation.
   const ReturnFreedMemoryOnExit return_freed_memory;
   JobAssembler assembler(limits_);
@@ -162,6 +164,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
                    : ToGrpc(admitted.status());
       }
       slot.emplace(std::move(*admitted));
+      upload_start = absl::Now();
       watch.ExpectRate(timeouts_.min_upload_rate, timeouts_.idle, "min_upload_rate");
       watch.Expect(timeouts_.idle, "idle_timeout", "the first chunk");
       continue;
@@ -184,6 +187,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   if (context->IsCancelled()) return Gone(*context, "upload");
   auto job = assembler.Finish();
   if (!job.ok()) return Refuse(job.status());
+  metrics_.PhaseEnded(Phase::kUpload, absl::ToDoubleSeconds(absl::Now() - upload_start));
 
   // Processing on the shared arena; this thread only relays progress and cancellation.
   std::shared_ptr<RunningJob> running =
@@ -210,6 +214,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
                                    : ToGrpc(OptionsError(result.status()));
   }
   metrics_.JobProcessed(*result);
+  const absl::Time download_start = absl::Now();
 
   // Download: the kept points (all of them with include_removed), the report, then the end
   // message with the points' count and CRC-32.
@@ -249,12 +254,14 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   response.Clear();
   *response.mutable_end() = sent.End();
   if (!Send(stream, response)) return Gone(*context, "download");
+  metrics_.PhaseEnded(Phase::kDownload, absl::ToDoubleSeconds(absl::Now() - download_start));
   return grpc::Status::OK;
 }
 
 grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoRequest*,
                                       v1::GetInfoResponse* info) {
-  metrics_.RpcStarted("GetInfo");
+  const absl::Time start = absl::Now();
+  metrics_.RpcStarted(kGetInfoRpc);
   info->set_version(SCANPREP_VERSION);
   v1::Limits* limits = info->mutable_limits();
   limits->set_max_points_per_job(limits_.max_points_per_job);
@@ -286,7 +293,7 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
   for (const auto& [stage, seconds] : limits_.default_stage_budget_seconds) {
     (*info->mutable_default_stage_budget_seconds())[stage] = seconds;
   }
-  metrics_.RpcHandled("GetInfo", grpc::StatusCode::OK);
+  metrics_.RpcHandled(kGetInfoRpc, grpc::StatusCode::OK, absl::ToDoubleSeconds(absl::Now() - start));
   return grpc::Status::OK;
 }
 

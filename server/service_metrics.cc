@@ -1,13 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "server/service_metrics.h"
 
-#include "absl/status/status.h"
+#include <string_view>
+
+#include "scanprep/v1/scanprep.grpc.pb.h"
 
 namespace scanprep::server {
 namespace {
-
-// 1 ms .. 131 s in 18 doublings: a small scan's stage up to a large job's whole run.
-std::vector<double> SecondsBuckets() { return metrics::ExponentialBuckets(0.001, 2, 18); }
 
 const char* ReasonLabel(RejectReason reason) {
   switch (reason) {
@@ -21,25 +20,81 @@ const char* ReasonLabel(RejectReason reason) {
   return "unknown";
 }
 
+const char* PhaseLabel(Phase phase) {
+  switch (phase) {
+    case Phase::kQueue: return "queue";
+    case Phase::kUpload: return "upload";
+    case Phase::kProcessing: return "processing";
+    case Phase::kDownload: return "download";
+  }
+  return "unknown";
+}
+
+// grpc_code as the gRPC ecosystem spells it (Go's codes.Code names), not the C++ enum's.
+const char* CodeLabel(grpc::StatusCode code) {
+  static constexpr const char* kNames[] = {
+      "OK",       "Canceled",          "Unknown",          "InvalidArgument", "DeadlineExceeded",
+      "NotFound", "AlreadyExists",     "PermissionDenied", "ResourceExhausted",
+      "FailedPrecondition", "Aborted", "OutOfRange",       "Unimplemented",   "Internal",
+      "Unavailable", "DataLoss",       "Unauthenticated"};
+  const int i = static_cast<int>(code);
+  return i >= 0 && i < static_cast<int>(std::size(kNames)) ? kNames[i] : "Unknown";
+}
+
 constexpr RejectReason kAllReasons[] = {RejectReason::kQueueFull, RejectReason::kDeadline,
                                         RejectReason::kDraining, RejectReason::kLimit,
                                         RejectReason::kInvalid, RejectReason::kMemory};
+constexpr Phase kAllPhases[] = {Phase::kQueue, Phase::kUpload, Phase::kProcessing,
+                                Phase::kDownload};
+constexpr const char* kBudgetOutcomes[] = {"met", "missed", "none"};
+
+std::vector<std::string> RpcLabels(const RpcMethod& rpc) {
+  return {rpc.type, v1::ScanPrep::service_full_name(), rpc.name};
+}
+
+bool IsUnary(const RpcMethod& rpc) { return std::string_view(rpc.type) == "unary"; }
+
+const std::vector<std::string> kRpcLabelNames = {"grpc_type", "grpc_service", "grpc_method"};
 
 }  // namespace
 
+std::vector<double> BudgetBuckets() {
+  return {0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.2, 0.3,  0.4,  0.5, 0.75,
+          1,     1.25,   1.5,   1.75, 2,     2.5,  3,   3.5, 4,    4.5,  5,   6,
+          7,     8,      9,     10,   12.5,  15,   20,  30,  45,   60,   120, 300};
+}
+
 ServiceMetrics::ServiceMetrics(metrics::Registry& r)
-    : rpcs_started_(r.AddCounter("scanprep_rpcs_started_total", "RPCs started, by method.",
-                                 {"method"})),
-      rpcs_handled_(r.AddCounter("scanprep_rpcs_handled_total",
-                                 "RPCs completed, by method and gRPC status code.",
-                                 {"method", "code"})),
+    : started_(r.AddCounter("grpc_server_started_total", "RPCs started on the server.",
+                            kRpcLabelNames)),
+      handled_(r.AddCounter("grpc_server_handled_total",
+                            "RPCs completed on the server, regardless of success or failure.",
+                            {"grpc_type", "grpc_service", "grpc_method", "grpc_code"})),
+      handling_seconds_(r.AddHistogram("grpc_server_handling_seconds",
+                                       "Response latency of RPCs handled by the server: the whole "
+                                       "call, queue + upload + processing + download for Process.",
+                                       BudgetBuckets(), kRpcLabelNames)),
+      msg_received_(r.AddCounter("grpc_server_msg_received_total",
+                                 "Stream messages received on the server.", kRpcLabelNames)),
+      msg_sent_(r.AddCounter("grpc_server_msg_sent_total", "Stream messages sent by the server.",
+                             kRpcLabelNames)),
       rejected_(r.AddCounter("scanprep_jobs_rejected_total",
                              "Process calls refused before or during upload, by reason.",
                              {"reason"})),
       overruns_(r.AddCounter("scanprep_budget_overruns_total",
-                             "Jobs that missed a cycle-time budget, by stage (\"total\" = the "
-                             "whole pipeline).",
+                             "Processed jobs whose stage exceeded its cycle-time budget, by stage "
+                             "(the whole job: scanprep_job_budget_total{outcome=\"missed\"}).",
                              {"stage"})),
+      budget_outcomes_(r.AddCounter("scanprep_job_budget_total",
+                                    "Processed jobs by the outcome of their own total budget "
+                                    "(the job's, else the server's default): met, missed, none.",
+                                    {"outcome"})),
+      budget_used_(r.AddHistogram("scanprep_job_budget_used_ratio",
+                                  "Processing time of a job with a budget over that budget "
+                                  "(above 1 = missed).",
+                                  {0.1, 0.25, 0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.95, 1, 1.05, 1.1,
+                                   1.25, 1.5, 2, 3, 5, 10})
+                       .WithLabels({})),
       points_received_(r.AddCounter("scanprep_points_received_total",
                                     "Points received in request chunks.")
                            .WithLabels({})),
@@ -68,20 +123,27 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r)
       memory_reserved_(r.AddGauge("scanprep_memory_reserved_bytes",
                                   "Estimated memory of the jobs holding a slot.")
                            .WithLabels({})),
-      job_duration_(r.AddHistogram("scanprep_job_duration_seconds",
-                                   "Pipeline wall time of a processed job (all stages).",
-                                   SecondsBuckets())
-                        .WithLabels({})),
-      stage_duration_(r.AddHistogram("scanprep_stage_duration_seconds",
-                                     "Wall time of one stage of a processed job.",
-                                     SecondsBuckets(), {"stage"})),
-      queue_wait_(r.AddHistogram("scanprep_queue_wait_seconds",
-                                 "Time an admitted job waited for a slot (0 when one was free).",
-                                 SecondsBuckets())
-                      .WithLabels({})) {
+      phase_seconds_(r.AddHistogram("scanprep_phase_seconds",
+                                    "Time of one phase of a Process call: queue (wait for a "
+                                    "slot), upload, processing (all stages), download.",
+                                    BudgetBuckets(), {"phase"})),
+      stage_seconds_(r.AddHistogram("scanprep_stage_duration_seconds",
+                                    "Wall time of one stage of a processed job.", BudgetBuckets(),
+                                    {"stage"})) {
+  r.AddGauge("scanprep_build_info", "Always 1; the server's version as a label.", {"version"})
+      .WithLabels({SCANPREP_VERSION})
+      .Set(1);
   // Series that exist before their first event, so rate() and absent() see them from the start.
   for (RejectReason reason : kAllReasons) rejected_.WithLabels({ReasonLabel(reason)});
-  overruns_.WithLabels({"total"});
+  for (Phase phase : kAllPhases) phase_seconds_.WithLabels({PhaseLabel(phase)});
+  for (const char* outcome : kBudgetOutcomes) budget_outcomes_.WithLabels({outcome});
+  for (const RpcMethod& rpc : {kProcessRpc, kGetInfoRpc}) {
+    started_.WithLabels(RpcLabels(rpc));
+    handling_seconds_.WithLabels(RpcLabels(rpc));
+    std::vector<std::string> ok = RpcLabels(rpc);
+    ok.push_back(CodeLabel(grpc::StatusCode::OK));
+    handled_.WithLabels(ok);
+  }
   metrics::AddProcessMetrics(r);
 }
 
@@ -97,15 +159,20 @@ void ServiceMetrics::SetMemoryReserved(uint64_t bytes) {
 
 void ServiceMetrics::SetDefaultBudget(double seconds) { budget_.Set(seconds); }
 
-void ServiceMetrics::RpcStarted(const std::string& method) {
-  rpcs_started_.WithLabels({method}).Inc();
+void ServiceMetrics::RpcStarted(const RpcMethod& rpc) {
+  started_.WithLabels(RpcLabels(rpc)).Inc();
+  if (IsUnary(rpc)) msg_received_.WithLabels(RpcLabels(rpc)).Inc();
 }
 
-void ServiceMetrics::RpcHandled(const std::string& method, grpc::StatusCode code) {
-  // gRPC and absl share the code numbering; absl spells the canonical names.
-  rpcs_handled_
-      .WithLabels({method, absl::StatusCodeToString(static_cast<absl::StatusCode>(code))})
-      .Inc();
+void ServiceMetrics::RpcHandled(const RpcMethod& rpc, grpc::StatusCode code, double seconds) {
+  std::vector<std::string> labels = RpcLabels(rpc);
+  handling_seconds_.WithLabels(labels).Observe(seconds);
+  // A unary call's one request and response; streams count theirs as they pass.
+  if (IsUnary(rpc) && code == grpc::StatusCode::OK) {
+    msg_sent_.WithLabels(labels).Inc();
+  }
+  labels.push_back(CodeLabel(code));
+  handled_.WithLabels(labels).Inc();
 }
 
 void ServiceMetrics::Rejected(RejectReason reason) { rejected_.WithLabels({ReasonLabel(reason)}).Inc(); }
@@ -115,25 +182,34 @@ void ServiceMetrics::SetAdmissionState(int in_flight, int queued) {
   queued_.Set(queued);
 }
 
-void ServiceMetrics::QueueWait(double seconds) { queue_wait_.Observe(seconds); }
+void ServiceMetrics::PhaseEnded(Phase phase, double seconds) {
+  phase_seconds_.WithLabels({PhaseLabel(phase)}).Observe(seconds);
+}
 
 void ServiceMetrics::RequestReceived(uint64_t bytes, uint64_t points) {
+  msg_received_.WithLabels(RpcLabels(kProcessRpc)).Inc();
   bytes_received_.Inc(static_cast<double>(bytes));
   points_received_.Inc(static_cast<double>(points));
 }
 
 void ServiceMetrics::ResponseSent(uint64_t bytes, uint64_t points) {
+  msg_sent_.WithLabels(RpcLabels(kProcessRpc)).Inc();
   bytes_sent_.Inc(static_cast<double>(bytes));
   points_returned_.Inc(static_cast<double>(points));
 }
 
 void ServiceMetrics::JobProcessed(const PipelineReport& report) {
-  job_duration_.Observe(report.total_seconds);
+  PhaseEnded(Phase::kProcessing, report.total_seconds);
   for (const StageReport& stage : report.stages) {
-    stage_duration_.WithLabels({stage.name}).Observe(stage.seconds);
+    stage_seconds_.WithLabels({stage.name}).Observe(stage.seconds);
     if (!stage.budget_met) overruns_.WithLabels({stage.name}).Inc();
   }
-  if (!report.budget_met) overruns_.WithLabels({"total"}).Inc();
+  if (report.budget_seconds <= 0) {
+    budget_outcomes_.WithLabels({"none"}).Inc();
+    return;
+  }
+  budget_outcomes_.WithLabels({report.budget_met ? "met" : "missed"}).Inc();
+  budget_used_.Observe(report.total_seconds / report.budget_seconds);
 }
 
 }  // namespace scanprep::server

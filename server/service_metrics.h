@@ -1,6 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
 // The service's Prometheus metrics: owns the metric families and offers one typed call per event,
 // so the protocol and admission code never handles names, labels or buckets.
+//
+// RPCs are counted under the gRPC ecosystem's names and labels (grpc_server_handled_total
+// {grpc_type, grpc_service, grpc_method, grpc_code} etc., as go-grpc-prometheus and
+// grpc-ecosystem's Java/Python interceptors export them), so stock gRPC dashboards and alerts work.
 #pragma once
 
 #include <cstdint>
@@ -16,10 +20,25 @@ namespace scanprep::server {
 // Why a call was refused; the `reason` label of scanprep_jobs_rejected_total.
 enum class RejectReason { kQueueFull, kDeadline, kDraining, kLimit, kInvalid, kMemory };
 
+// The `phase` label of scanprep_phase_seconds: where a job's time on the line goes.
+enum class Phase { kQueue, kUpload, kProcessing, kDownload };
+
+// One RPC method as the grpc_server_* metrics label it.
+struct RpcMethod {
+  const char* type;  // grpc_type: "unary", "client_stream", "server_stream" or "bidi_stream"
+  const char* name;  // grpc_method
+};
+inline constexpr RpcMethod kProcessRpc{"bidi_stream", "Process"};
+inline constexpr RpcMethod kGetInfoRpc{"unary", "GetInfo"};
+
+// Histogram bounds in seconds, fine where cycle-time budgets lie (0.5 s to 10 s in steps of
+// 0.25 s to 1 s, so a 3 s budget and a 4 s one fall in different buckets), coarse outside.
+std::vector<double> BudgetBuckets();
+
 class ServiceMetrics {
  public:
-  // Registers every scanprep_* family (and the process metrics) in `registry`, which must
-  // outlive this object.
+  // Registers every family (and the process metrics) in `registry`, which must outlive this
+  // object.
   explicit ServiceMetrics(metrics::Registry& registry);
 
   // Configuration, exported so alerts can compare against it.
@@ -27,26 +46,35 @@ class ServiceMetrics {
   void SetDefaultBudget(double seconds);
   void SetMemoryBudget(uint64_t bytes);
 
-  void RpcStarted(const std::string& method);
-  void RpcHandled(const std::string& method, grpc::StatusCode code);
+  void RpcStarted(const RpcMethod& rpc);
+  // `seconds`: from the call's start to its status.
+  void RpcHandled(const RpcMethod& rpc, grpc::StatusCode code, double seconds);
   void Rejected(RejectReason reason);
 
   // Admission: the current numbers of jobs holding a slot and waiting for one.
   void SetAdmissionState(int in_flight, int queued);
   // The estimated bytes the jobs holding a slot reserved from the memory budget.
   void SetMemoryReserved(uint64_t bytes);
-  void QueueWait(double seconds);
+  // A phase of a Process call that ended (queue: also a zero wait for a free slot).
+  void PhaseEnded(Phase phase, double seconds);
 
+  // One Process request message received, one Process response message sent.
   void RequestReceived(uint64_t bytes, uint64_t points);
   void ResponseSent(uint64_t bytes, uint64_t points);
-  // A pipeline that ran to its end (successfully): wall time, stage times and budget overruns.
+  // A pipeline that ran to its end (successfully): its time (phase "processing"), stage times,
+  // stage overruns, and the job's budget outcome with its used share of the budget.
   void JobProcessed(const PipelineReport& report);
 
  private:
-  metrics::Family<metrics::Counter>& rpcs_started_;
-  metrics::Family<metrics::Counter>& rpcs_handled_;
+  metrics::Family<metrics::Counter>& started_;
+  metrics::Family<metrics::Counter>& handled_;
+  metrics::Family<metrics::Histogram>& handling_seconds_;
+  metrics::Family<metrics::Counter>& msg_received_;
+  metrics::Family<metrics::Counter>& msg_sent_;
   metrics::Family<metrics::Counter>& rejected_;
   metrics::Family<metrics::Counter>& overruns_;
+  metrics::Family<metrics::Counter>& budget_outcomes_;
+  metrics::Histogram& budget_used_;
   metrics::Counter& points_received_;
   metrics::Counter& points_returned_;
   metrics::Counter& bytes_received_;
@@ -57,9 +85,8 @@ class ServiceMetrics {
   metrics::Gauge& budget_;
   metrics::Gauge& memory_budget_;
   metrics::Gauge& memory_reserved_;
-  metrics::Histogram& job_duration_;
-  metrics::Family<metrics::Histogram>& stage_duration_;
-  metrics::Histogram& queue_wait_;
+  metrics::Family<metrics::Histogram>& phase_seconds_;
+  metrics::Family<metrics::Histogram>& stage_seconds_;
 };
 
 }  // namespace scanprep::server

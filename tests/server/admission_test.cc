@@ -122,8 +122,8 @@ TEST(AdmissionQueue, RunsUpToTheLimitQueuesUpToTheCapacityRefusesTheRest) {
   EXPECT_EQ(q.queue().in_flight(), 2);
   EXPECT_EQ(q.queue().queued(), 0);
   // Two immediate admissions waited 0 s, the queued one 3 s on the fake clock.
-  EXPECT_EQ(q.Metric("scanprep_queue_wait_seconds_count"), 3);
-  EXPECT_EQ(q.Metric("scanprep_queue_wait_seconds_sum"), 3);
+  EXPECT_EQ(q.Metric("scanprep_phase_seconds_count{phase=\"queue\"}"), 3);
+  EXPECT_EQ(q.Metric("scanprep_phase_seconds_sum{phase=\"queue\"}"), 3);
 }
 
 TEST(AdmissionQueue, WaitingCallsAreServedInArrivalOrder) {
@@ -369,7 +369,7 @@ TEST(Admission, AQueuedCallWaitsBeforeItsUploadAndRunsWhenTheSlotFrees) {
   EXPECT_EQ(Sample(metrics, "scanprep_jobs_queued"), 0);
   EXPECT_EQ(Sample(metrics, "scanprep_jobs_in_flight"), 0);
   EXPECT_EQ(Sample(metrics, "scanprep_jobs_rejected_total{reason=\"queue_full\"}"), 1);
-  EXPECT_EQ(Sample(metrics, "scanprep_rpcs_handled_total{method=\"Process\",code=\"RESOURCE_EXHAUSTED\"}"), 1);
+  EXPECT_EQ(Sample(metrics, GrpcHandled("Process", "ResourceExhausted")), 1);
 }
 
 TEST(Admission, ACallWhoseDeadlineIsShorterThanTheExpectedWaitFailsAtOnce) {

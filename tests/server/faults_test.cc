@@ -57,9 +57,7 @@ server::ServerOptions WithMetrics(server::ServerOptions options = {}) {
   return options;
 }
 
-std::string Handled(const std::string& code) {
-  return "scanprep_rpcs_handled_total{method=\"Process\",code=\"" + code + "\"}";
-}
+std::string Handled(const std::string& code) { return GrpcHandled("Process", code); }
 
 v1::JobHeader OutliersHeader() {
   v1::JobHeader header = SimpleHeader(0.5);
@@ -126,7 +124,7 @@ TEST(Faults, ClientsThatVanishMidUploadOrMidDownloadLeaveNoMemoryBehind) {
                                   .canceller = &canceller});
     EXPECT_EQ(result.status().code(), absl::StatusCode::kCancelled);
     // The server saw both calls end as cancelled and released them.
-    ASSERT_TRUE(WaitForSample(metrics, Handled("CANCELLED"), 2 * round)) << ScrapeText(metrics);
+    ASSERT_TRUE(WaitForSample(metrics, Handled("Canceled"), 2 * round)) << ScrapeText(metrics);
   }
   // One job of this size holds well over 30 MiB (cloud, neighbour graph, messages), its upload
   // messages alone 4 MiB: a leak of either in each of the 10 calls ends far above the limit. Live
@@ -200,7 +198,7 @@ TEST(Faults, ADeadlineExpiringInsideEveryStageEndsWithDeadlineExceeded) {
     EXPECT_EQ(result.status().code(), absl::StatusCode::kDeadlineExceeded);
     EXPECT_TRUE(hold.held) << "the job never reached the stage";
     // The server's own answer, not only the client's timer.
-    EXPECT_TRUE(WaitForSample(metrics, Handled("DEADLINE_EXCEEDED"), ++expired));
+    EXPECT_TRUE(WaitForSample(metrics, Handled("DeadlineExceeded"), ++expired));
   }
   {
     std::lock_guard lock(hold.mu);
@@ -225,7 +223,7 @@ TEST(Faults, ADeadlineExpiringDuringUploadOrDownloadEndsWithDeadlineExceeded) {
     while (stream->Read(&response)) {
     }
     EXPECT_EQ(stream->Finish().error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
-    EXPECT_TRUE(WaitForSample(metrics, Handled("DEADLINE_EXCEEDED"), 1));
+    EXPECT_TRUE(WaitForSample(metrics, Handled("DeadlineExceeded"), 1));
   }
   {  // Download: the client stops reading at the first result chunk until its deadline passed.
      // gRPC completes the server's writes into the transport's buffers, so the server may well
@@ -249,7 +247,7 @@ TEST(Faults, ADeadlineExpiringDuringUploadOrDownloadEndsWithDeadlineExceeded) {
       const auto it = samples.find(Handled(code));
       return it == samples.end() ? 0.0 : it->second;
     };
-    EXPECT_EQ(count("OK") + count("DEADLINE_EXCEEDED"), 2) << ScrapeText(metrics);
+    EXPECT_EQ(count("OK") + count("DeadlineExceeded"), 2) << ScrapeText(metrics);
   }
   EXPECT_TRUE(RawCall(*stub, {HeaderRequest(OutliersHeader()), ChunkRequest(LineChunk(100))}).ok());
 }

@@ -79,10 +79,17 @@ TEST_F(MetricsEndpoint, ConfigurationAndProcessMetricsAreExportedBeforeAnyCall) 
   EXPECT_EQ(Get("scanprep_jobs_in_flight"), 0);
   EXPECT_EQ(Get("scanprep_jobs_queued"), 0);
   EXPECT_EQ(Get(Key("scanprep_jobs_rejected_total", "reason=\"queue_full\"")), 0);
-  EXPECT_EQ(Get(Key("scanprep_budget_overruns_total", "stage=\"total\"")), 0);
+  for (const char* outcome : {"met", "missed", "none"}) {
+    EXPECT_EQ(Get(Key("scanprep_job_budget_total", std::string("outcome=\"") + outcome + "\"")), 0);
+  }
+  for (const char* phase : {"queue", "upload", "processing", "download"}) {
+    EXPECT_EQ(Get(Key("scanprep_phase_seconds_count", std::string("phase=\"") + phase + "\"")), 0);
+  }
+  EXPECT_EQ(Get(GrpcHandled("Process", "OK")), 0);
+  EXPECT_EQ(Get(Key("scanprep_build_info", "version=\"" SCANPREP_VERSION "\"")), 1);
   EXPECT_GT(Get("process_resident_memory_bytes"), 0);
   EXPECT_GT(Get("process_start_time_seconds"), 0);
-  EXPECT_EQ(samples_.count(Key("scanprep_rpcs_started_total", "method=\"Process\"")), 0u);
+  EXPECT_EQ(Get(GrpcKey("grpc_server_started_total", "Process")), 0);
 }
 
 TEST_F(MetricsEndpoint, JobsMoveCountersAndHistogramsByWhatTheReportsSay) {
@@ -121,12 +128,18 @@ TEST_F(MetricsEndpoint, JobsMoveCountersAndHistogramsByWhatTheReportsSay) {
   for (const v1::StageReport& s : r2.stages()) EXPECT_TRUE(s.budget_met()) << s.name();
 
   samples_ = Scrape(port_);
-  EXPECT_EQ(Get(Key("scanprep_rpcs_started_total", "method=\"Process\"")), 3);
-  EXPECT_EQ(Get(Key("scanprep_rpcs_handled_total", "method=\"Process\",code=\"OK\"")), 2);
-  EXPECT_EQ(Get(Key("scanprep_rpcs_handled_total", "method=\"Process\",code=\"INVALID_ARGUMENT\"")),
-            1);
-  EXPECT_EQ(Get(Key("scanprep_rpcs_started_total", "method=\"GetInfo\"")), 1);
-  EXPECT_EQ(Get(Key("scanprep_rpcs_handled_total", "method=\"GetInfo\",code=\"OK\"")), 1);
+  EXPECT_EQ(Get(GrpcKey("grpc_server_started_total", "Process")), 3);
+  EXPECT_EQ(Get(GrpcHandled("Process", "OK")), 2);
+  EXPECT_EQ(Get(GrpcHandled("Process", "InvalidArgument")), 1);
+  EXPECT_EQ(Get(GrpcKey("grpc_server_handling_seconds_count", "Process")), 3);
+  EXPECT_EQ(Get(GrpcKey("grpc_server_started_total", "GetInfo")), 1);
+  EXPECT_EQ(Get(GrpcHandled("GetInfo", "OK")), 1);
+  EXPECT_EQ(Get(GrpcKey("grpc_server_msg_received_total", "GetInfo")), 1);
+  EXPECT_EQ(Get(GrpcKey("grpc_server_msg_sent_total", "GetInfo")), 1);
+  // Process: a header and the chunks of two jobs, the header of the third; at least a chunk,
+  // the report and the end message back per processed job.
+  EXPECT_GE(Get(GrpcKey("grpc_server_msg_received_total", "Process")), 5);
+  EXPECT_GE(Get(GrpcKey("grpc_server_msg_sent_total", "Process")), 6);
   EXPECT_EQ(Get(Key("scanprep_jobs_rejected_total", "reason=\"invalid\"")), 1);
   EXPECT_EQ(Get(Key("scanprep_jobs_rejected_total", "reason=\"queue_full\"")), 0);
 
@@ -140,10 +153,19 @@ TEST_F(MetricsEndpoint, JobsMoveCountersAndHistogramsByWhatTheReportsSay) {
   EXPECT_GE(Get("scanprep_bytes_sent_total"),
             12.0 * (r1.points_returned() + r2.points_returned()));
 
-  EXPECT_EQ(Get("scanprep_job_duration_seconds_count"), 2);
-  EXPECT_NEAR(Get("scanprep_job_duration_seconds_sum"),
+  const std::string processing = "phase=\"processing\"";
+  EXPECT_EQ(Get(Key("scanprep_phase_seconds_count", processing)), 2);
+  EXPECT_NEAR(Get(Key("scanprep_phase_seconds_sum", processing)),
               r1.processing_seconds() + r2.processing_seconds(), 1e-9);
-  EXPECT_EQ(Get(Key("scanprep_job_duration_seconds_bucket", "le=\"+Inf\"")), 2);
+  EXPECT_EQ(Get(Key("scanprep_phase_seconds_bucket", processing + ",le=\"+Inf\"")), 2);
+  // Upload and download of the two processed jobs, each within the whole call's time.
+  for (const char* phase : {"upload", "download"}) {
+    const std::string label = std::string("phase=\"") + phase + "\"";
+    EXPECT_EQ(Get(Key("scanprep_phase_seconds_count", label)), 2) << phase;
+    EXPECT_LE(Get(Key("scanprep_phase_seconds_sum", label)),
+              Get(GrpcKey("grpc_server_handling_seconds_sum", "Process")))
+        << phase;
+  }
   std::map<std::string, double> stage_seconds;
   for (const v1::Report* r : {&r1, &r2}) {
     for (const v1::StageReport& s : r->stages()) stage_seconds[s.name()] += s.seconds();
@@ -156,12 +178,20 @@ TEST_F(MetricsEndpoint, JobsMoveCountersAndHistogramsByWhatTheReportsSay) {
     EXPECT_EQ(Get(Key("scanprep_stage_duration_seconds_bucket", label + ",le=\"+Inf\"")), 2);
   }
   // Both admitted jobs found a free slot at once: two zero waits, in the lowest bucket.
-  EXPECT_EQ(Get("scanprep_queue_wait_seconds_count"), 2);
-  EXPECT_EQ(Get(Key("scanprep_queue_wait_seconds_bucket", "le=\"0.001\"")), 2);
+  EXPECT_EQ(Get(Key("scanprep_phase_seconds_count", "phase=\"queue\"")), 2);
+  EXPECT_EQ(Get(Key("scanprep_phase_seconds_bucket", "phase=\"queue\",le=\"0.001\"")), 2);
   EXPECT_EQ(Get("scanprep_jobs_in_flight"), 0);
 
   EXPECT_EQ(Get(Key("scanprep_budget_overruns_total", "stage=\"outliers\"")), 1);
-  EXPECT_EQ(Get(Key("scanprep_budget_overruns_total", "stage=\"total\"")), 1);
+  // Job 1 met the server's 30 s default, job 2 missed its own budget; the used share of the
+  // budget is observed for both, job 2's above 1.
+  EXPECT_EQ(Get(Key("scanprep_job_budget_total", "outcome=\"met\"")), 1);
+  EXPECT_EQ(Get(Key("scanprep_job_budget_total", "outcome=\"missed\"")), 1);
+  EXPECT_EQ(Get(Key("scanprep_job_budget_total", "outcome=\"none\"")), 0);
+  EXPECT_EQ(Get("scanprep_job_budget_used_ratio_count"), 2);
+  EXPECT_EQ(Get(Key("scanprep_job_budget_used_ratio_bucket", "le=\"1\"")), 1);
+  EXPECT_DOUBLE_EQ(Get("scanprep_job_budget_used_ratio_sum"),
+                   r1.processing_seconds() / 30 + r2.processing_seconds() / kAlwaysMissed);
 
   if (std::system("command -v promtool >/dev/null 2>&1") != 0) {
     GTEST_SKIP() << "promtool not installed (Debian package 'prometheus'): lint skipped";
@@ -186,10 +216,8 @@ TEST(MetricsEndpointLimits, AJobOverTheSizeLimitCountsAsRejectedForTheLimit) {
   const auto samples = Scrape(server.server().metrics_port());
   EXPECT_EQ(samples.at(Key("scanprep_jobs_rejected_total", "reason=\"limit\"")), 1);
   EXPECT_EQ(samples.at(Key("scanprep_jobs_rejected_total", "reason=\"invalid\"")), 0);
-  EXPECT_EQ(samples.at(Key("scanprep_rpcs_handled_total",
-                           "method=\"Process\",code=\"RESOURCE_EXHAUSTED\"")),
-            1);
-  EXPECT_EQ(samples.at("scanprep_queue_wait_seconds_count"), 0);  // never admitted
+  EXPECT_EQ(samples.at(GrpcHandled("Process", "ResourceExhausted")), 1);
+  EXPECT_EQ(samples.at(Key("scanprep_phase_seconds_count", "phase=\"queue\"")), 0);  // never admitted
 }
 
 }  // namespace

@@ -16,6 +16,19 @@
 
 namespace scanprep::testing {
 
+// The key of a grpc_server_* series of the ScanPrep service: `method` is "Process" or "GetInfo";
+// with `code` (the gRPC ecosystem's spelling: "OK", "InvalidArgument", "Canceled", ...) the
+// grpc_server_handled_total series, else `metric`'s.
+inline std::string GrpcKey(const std::string& metric, const std::string& method,
+                           const std::string& code = "") {
+  const std::string type = method == "Process" ? "bidi_stream" : "unary";
+  return metric + "{grpc_type=\"" + type + "\",grpc_service=\"scanprep.v1.ScanPrep\",grpc_method=\"" +
+         method + "\"" + (code.empty() ? "" : ",grpc_code=\"" + code + "\"") + "}";
+}
+inline std::string GrpcHandled(const std::string& method, const std::string& code) {
+  return GrpcKey("grpc_server_handled_total", method, code);
+}
+
 inline std::string ScrapeText(int port) {
   httplib::Client client("127.0.0.1", port);
   client.set_read_timeout(5, 0);

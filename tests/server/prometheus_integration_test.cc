@@ -130,8 +130,8 @@ TEST(Prometheus, ScrapesTheServerAndAnswersQueriesWithItsValues) {
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
   ASSERT_EQ(stage_count, kJobs) << "prometheus log:\n" << prometheus.Log();
-  EXPECT_EQ(QueryValue(prometheus.port(), "scanprep_rpcs_handled_total",
-                       "\"method\":\"Process\""),
+  EXPECT_EQ(QueryValue(prometheus.port(), "grpc_server_handled_total{grpc_method=\"Process\",grpc_code=\"OK\"}",
+                       "\"job\":\"scanprep\""),
             kJobs);
   EXPECT_EQ(QueryValue(prometheus.port(), "scanprep_points_received_total",
                        "\"job\":\"scanprep\""),
