@@ -92,7 +92,9 @@ int RunProcess(const ParsedArgs& args) {
     if (!timeout.ok()) return Fail("process", std::string(timeout.status().message()));
     call.timeout = *timeout;
   }
-  ProgressView view(std::cerr, isatty(STDERR_FILENO) != 0);
+  auto mode = ParseProgressMode(args.Get("progress", "auto"), isatty(STDERR_FILENO) != 0);
+  if (!mode.ok()) return FailUsage("process", std::string(mode.status().message()));
+  ProgressView view(std::cerr, *mode);
   call.progress = [&view](const v1::Progress& p) { view.Update(p); };
 
   auto target = ChannelTarget(args.Get("server", "localhost:50051"));
@@ -156,6 +158,10 @@ Command ProcessCommand() {
   flags.push_back({"fail_on_budget_miss", FlagSpec::kBool,
                    "exit 5 when the job ran over its time budget (--budget or the server's "
                    "default); the output is written all the same"});
+  flags.push_back({"progress", FlagSpec::kValue,
+                   "progress on stderr: auto (default: live on a terminal, else plain), live (one "
+                   "line redrawn), plain (a line when a phase or stage starts, at each quarter "
+                   "of it and at least every 10 s) or off"});
   flags.push_back({"report_json", FlagSpec::kValue,
                    "also write the full report as JSON, with the phase timings under \"phases\""});
   return Command{

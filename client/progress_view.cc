@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "client/progress_view.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <map>
@@ -13,25 +14,81 @@ namespace scanprep::client {
 
 namespace v1 = ::scanprep::v1;
 
-void ProgressView::Update(const v1::Progress& p) {
-  if (!live_) return;
-  std::string line;
+absl::StatusOr<ProgressMode> ParseProgressMode(const std::string& text, bool terminal) {
+  if (text == "auto") return terminal ? ProgressMode::kLive : ProgressMode::kPlain;
+  if (text == "live") return ProgressMode::kLive;
+  if (text == "plain") return ProgressMode::kPlain;
+  if (text == "off") return ProgressMode::kOff;
+  return absl::InvalidArgumentError(
+      absl::StrCat("--progress ", text, ": expected auto, live, plain or off"));
+}
+
+ProgressView::ProgressView(std::ostream& out, ProgressMode mode, Clock now)
+    : out_(out), mode_(mode), now_(std::move(now)), start_(now_()) {}
+
+namespace {
+
+// The ETA needs a little progress and time to extrapolate from; before that it says so.
+constexpr double kEtaMinFraction = 0.02;
+constexpr absl::Duration kEtaMinTime = absl::Seconds(1);
+constexpr absl::Duration kPlainHeartbeat = absl::Seconds(10);
+
+std::string Seconds(absl::Duration d) { return absl::StrFormat("%.1f s", absl::ToDoubleSeconds(d)); }
+
+}  // namespace
+
+std::string ProgressView::Describe(const v1::Progress& p, absl::Time now) {
   switch (p.phase()) {
     case v1::Progress::PHASE_UPLOAD:
-      line = absl::StrFormat("upload     %3.0f%%  %d points", 100 * p.fraction(), p.points());
-      break;
-    case v1::Progress::PHASE_PROCESSING:
-      line = absl::StrFormat("processing %3.0f%%  %s", 100 * p.fraction(), p.stage());
-      break;
+      return absl::StrFormat("upload     %3.0f%%  %d points", 100 * p.fraction(), p.points());
     case v1::Progress::PHASE_DOWNLOAD:
-      line = absl::StrFormat("download   %3.0f%%  %d points", 100 * p.fraction(), p.points());
-      break;
+      return absl::StrFormat("download   %3.0f%%  %d points", 100 * p.fraction(), p.points());
+    case v1::Progress::PHASE_PROCESSING: {
+      if (!processing_start_) processing_start_ = now;
+      // Remaining time from the job fraction so far: the stages are weighted by their typical
+      // cost, so the rate is close to even across the job.
+      const double f = p.job_fraction();
+      const absl::Duration spent = now - *processing_start_;
+      const std::string eta = f >= kEtaMinFraction && spent >= kEtaMinTime
+                                  ? absl::StrCat("ETA ", Seconds(spent * ((1 - f) / f)))
+                                  : std::string("ETA ...");
+      return absl::StrFormat("processing %3.0f%%  %s  [%d/%d] %s %.0f%%", 100 * f, eta,
+                             p.stage_index() + 1, p.stage_count(), p.stage(),
+                             100 * p.fraction());
+    }
     default:
-      return;
+      return "";
   }
+}
+
+// A line when the phase or stage changed, when the stage passed the next quarter, or when the
+// last line is 10 s old (so a log shows the job is alive).
+bool ProgressView::PlainLineDue(const v1::Progress& p, absl::Time now) {
+  const std::string step = absl::StrCat(p.phase(), "/", p.stage());
+  const int quarter = std::min(3, static_cast<int>(4 * p.fraction()));
+  const bool due = step != last_step_ || quarter > last_quarter_ || now - last_line_ >= kPlainHeartbeat;
+  if (due) {
+    if (step != last_step_) last_quarter_ = -1;
+    last_step_ = step;
+    last_quarter_ = std::max(last_quarter_, quarter);
+    last_line_ = now;
+  }
+  return due;
+}
+
+void ProgressView::Update(const v1::Progress& p) {
+  if (mode_ == ProgressMode::kOff) return;
   std::lock_guard lock(mu_);
-  out_ << "\r\033[K" << line << std::flush;
-  drawn_ = true;
+  const absl::Time now = now_();
+  const std::string text = Describe(p, now);
+  if (text.empty()) return;
+  const std::string elapsed = Seconds(now - start_);
+  if (mode_ == ProgressMode::kLive) {
+    out_ << "\r\033[K" << text << "  elapsed " << elapsed << std::flush;
+    drawn_ = true;
+  } else if (PlainLineDue(p, now)) {
+    out_ << absl::StrFormat("[%8s] ", elapsed) << text << "\n" << std::flush;
+  }
 }
 
 void ProgressView::Done() {

@@ -161,6 +161,7 @@ class CorrectionStage : public Stage {
     };
     size_t removed = 0;
     int round = 0;
+    ctx.ExpectWork(double(max_rounds) * n);  // at most; a round that removes nothing ends it
     while (round < max_rounds) {
       // Index order: the cached balls are stored by index.
       absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
@@ -252,6 +253,9 @@ StageInfo CorrectionStageInfo() {
                                "radius_scale·√(Δs² + u² + Δp²) per scan", LeftOpen(0, 1e4)),
           },
       .make = [] { return std::make_unique<CorrectionStage>(); },
+      .prerequisites = [](const JobContext&) { return std::vector<std::string>{"measures"}; },
+      .work_per_point = 1,
+      .cost_weight = 0.72,
   };
 }
 

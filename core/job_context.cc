@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -14,7 +15,7 @@ namespace scanprep {
 
 JobContext::JobContext(PointCloud& cloud, const ParamOverrides& overrides,
                        const CancelToken& cancel, ProgressFn progress)
-    : cloud_(cloud), overrides_(overrides), cancel_(cancel), progress_(std::move(progress)) {}
+    : cloud_(cloud), overrides_(overrides), cancel_(cancel, *this), progress_(std::move(progress)) {}
 
 std::optional<double> JobContext::Overridden(std::string_view name) const {
   auto it = overrides_.find(name);
@@ -105,8 +106,64 @@ double JobContext::Recorded(std::string_view name, double value) {
 
 void JobContext::Warn(std::string message) { report_.warnings.push_back(std::move(message)); }
 
-void JobContext::Progress(double fraction) const {
-  if (progress_) progress_(report_.stages[current_stage_].name, fraction);
+double JobContext::PlannedNumber(std::string_view name) const {
+  const ParamSpec* spec = FindParam(name);
+  return Overridden(name).value_or(spec->default_value.value_or(0));
+}
+
+std::string JobContext::PlannedChoice(std::string_view name) const {
+  auto it = overrides_.find(name);
+  return it != overrides_.end() ? it->second : FindParam(name)->choices.front();
+}
+
+std::vector<const StageInfo*> JobContext::Plan(const std::vector<std::string>& requested) {
+  plan_.clear();
+  // Depth-first: a stage's prerequisites (theirs first) before it. The graph is fixed and acyclic
+  // (stage_plan_test), so the recursion ends.
+  std::function<void(const StageInfo&)> add = [&](const StageInfo& info) {
+    if (std::find(plan_.begin(), plan_.end(), &info) != plan_.end()) return;
+    if (info.prerequisites) {
+      for (const std::string& name : info.prerequisites(*this)) add(*FindStage(name));
+    }
+    plan_.push_back(&info);
+  };
+  for (const std::string& name : requested) add(*FindStage(name));
+  plan_weight_ = 0;
+  for (const StageInfo* info : plan_) plan_weight_ += info->cost_weight;
+  done_weight_ = 0;
+  return plan_;
+}
+
+// A stage's loops take it to at most this fraction: its end says 1.
+constexpr double kLoopCeiling = 0.99;
+
+void JobContext::Worked(size_t items) {
+  const uint64_t done = meter_.done.fetch_add(items, std::memory_order_relaxed) + items;
+  Emit(std::min(kLoopCeiling, static_cast<double>(done) / meter_.expected));
+}
+
+void JobContext::Progress(double fraction) { Emit(std::clamp(fraction, 0.0, 1.0)); }
+
+void JobContext::ExpectWork(double items) { meter_.expected = std::max(1.0, items); }
+
+void JobContext::Emit(double stage_fraction) {
+  if (!progress_) return;
+  const int step = static_cast<int>(stage_fraction * 50);
+  if (step <= meter_.step.load(std::memory_order_relaxed)) return;
+  std::lock_guard lock(progress_mu_);
+  if (step <= meter_.step.load(std::memory_order_relaxed)) return;
+  meter_.step.store(step, std::memory_order_relaxed);
+  const std::string& stage = report_.stages[current_stage_].name;
+  const bool planned = plan_index_ < plan_.size() && plan_[plan_index_]->name == stage;
+  if (plan_weight_ > 0) {
+    const double running = planned ? plan_[plan_index_]->cost_weight * stage_fraction : 0;
+    job_fraction_ = std::max(job_fraction_, std::min(1.0, (done_weight_ + running) / plan_weight_));
+  }
+  progress_({.stage = stage,
+             .stage_index = plan_index_,
+             .stage_count = plan_.size(),
+             .stage_fraction = stage_fraction,
+             .job_fraction = job_fraction_});
 }
 
 absl::StatusOr<const Neighbourhoods*> JobContext::neighbourhoods() {
@@ -167,7 +224,18 @@ absl::Status JobContext::RunStage(const StageInfo& info) {
   report_.stages.insert(report_.stages.begin() + slot, StageReport{.name = info.name});
   current_stage_ = slot;
   report_.stages[slot].points_in = KeptInputPoints();
-  Progress(0.0);
+  // A nested stage meters its own work; the outer one's count resumes after it.
+  const uint64_t outer_done = meter_.done.load(std::memory_order_relaxed);
+  const double outer_expected = meter_.expected;
+  const int outer_step = meter_.step.load(std::memory_order_relaxed);
+  const size_t outer_index = plan_index_;
+  for (size_t i = 0; i < plan_.size(); ++i) {
+    if (plan_[i]->name == info.name) plan_index_ = i;
+  }
+  meter_.done.store(0, std::memory_order_relaxed);
+  meter_.step.store(-1, std::memory_order_relaxed);
+  ExpectWork(info.work_per_point * static_cast<double>(cloud_.size()));
+  Emit(0.0);
 
   running_ = true;
   const auto start = std::chrono::steady_clock::now();
@@ -183,8 +251,17 @@ absl::Status JobContext::RunStage(const StageInfo& info) {
   done.points_out = KeptInputPoints();
   if (nested) report_.stages[current_stage_ + 1].seconds -= seconds;
   if (status.ok()) {
-    Progress(1.0);
+    Emit(1.0);
     if (info.name != "neighbourhoods") completed_.push_back(info.name);
+    if (plan_index_ < plan_.size() && plan_[plan_index_]->name == info.name) {
+      done_weight_ += info.cost_weight;
+    }
+  }
+  if (nested) {
+    meter_.done.store(outer_done, std::memory_order_relaxed);
+    meter_.expected = outer_expected;
+    meter_.step.store(outer_step, std::memory_order_relaxed);
+    plan_index_ = outer_index;
   }
   if (nested) ++current_stage_;
   return status;

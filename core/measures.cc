@@ -247,6 +247,9 @@ StageInfo MeasuresStageInfo() {
                                LeftOpen(0, 1e4)),
           },
       .make = [] { return std::make_unique<MeasuresStage>(); },
+      .prerequisites = [](const JobContext&) { return std::vector<std::string>{"normals"}; },
+      .work_per_point = 2,
+      .cost_weight = 0.65,
   };
 }
 

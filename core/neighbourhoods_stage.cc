@@ -113,6 +113,8 @@ StageInfo NeighbourhoodsStageInfo() {
                                Closed(0, 1e4)),
           },
       .make = [] { return std::make_unique<NeighbourhoodsStage>(); },
+      .work_per_point = 5,
+      .cost_weight = 1.33,
   };
 }
 

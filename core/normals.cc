@@ -200,6 +200,9 @@ StageInfo NormalsStageInfo() {
                                "5·r_g", LeftOpen(0, 1e4)),
           },
       .make = [] { return std::make_unique<NormalsStage>(); },
+      .prerequisites = [](const JobContext&) { return std::vector<std::string>{"neighbourhoods"}; },
+      .work_per_point = 2,
+      .cost_weight = 1.78,
   };
 }
 

@@ -216,6 +216,18 @@ StageInfo OutliersStageInfo() {
                         "outlier", 0.8, Closed(0, 1)),
           },
       .make = [] { return std::make_unique<OutliersStage>(); },
+      .prerequisites = [](const JobContext& ctx) {
+        // The surface test needs the normals, fitted before anything is removed; LoOP removes
+        // its outliers first, so it asks for them itself (Require) after that.
+        std::vector<std::string> need = {"neighbourhoods"};
+        if (ctx.PlannedNumber("outliers.surface_sigmas") > 0 &&
+            ctx.PlannedChoice("outliers.method") == "nn") {
+          need.push_back("normals");
+        }
+        return need;
+      },
+      .work_per_point = 2,
+      .cost_weight = 2.71,
   };
 }
 

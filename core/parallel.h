@@ -17,7 +17,8 @@
 namespace scanprep {
 
 // Calls body(begin, end) over [0, n) in blocks of grain/2 to grain indices; blocks that start
-// after cancellation are skipped. Returns CANCELLED if the token fired at any point of the loop.
+// after cancellation are skipped, and each finished block is counted in the token's work meter
+// (progress). Returns CANCELLED if the token fired at any point of the loop.
 // The simple partitioner keeps blocks at the grain: TBB's default one hands a thread ranges of
 // many grains when nothing is stolen, so a cancel waited for tens of thousands of points.
 template <typename Body>
@@ -28,7 +29,10 @@ absl::Status ParallelFor(size_t n, const CancelToken& cancel, Body&& body, size_
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, grain),
                     [&](const tbb::blocked_range<size_t>& r) {
                       HappensAfter(&fork);
-                      if (!cancel.cancelled()) body(r.begin(), r.end());
+                      if (!cancel.cancelled()) {
+                        body(r.begin(), r.end());
+                        cancel.Worked(r.size());
+                      }
                       HappensBefore(&join);
                     },
                     tbb::simple_partitioner());

@@ -48,9 +48,9 @@ absl::StatusOr<PipelineReport> RunStages(PointCloud& cloud, const PipelineOption
   JobContext ctx(cloud, options.params, cancel, std::move(progress));
   ctx.SetDuplicates(&duplicates);
   const std::vector<std::string> stages = options.stages.empty() ? DefaultStages() : options.stages;
-  for (const std::string& name : stages) {
-    if (ctx.HasRun(name)) continue;  // already pulled in by an earlier stage's Require()
-    if (absl::Status s = ctx.RunStage(*FindStage(name)); !s.ok()) return s;
+  for (const StageInfo* stage : ctx.Plan(stages)) {
+    if (ctx.HasRun(stage->name)) continue;  // pulled in early by a stage's Require()
+    if (absl::Status s = ctx.RunStage(*stage); !s.ok()) return s;
   }
   return std::move(ctx.report());
 }

@@ -314,6 +314,9 @@ StageInfo SimplificationStageInfo() {
                           {"sequential", "tiled"}),
           },
       .make = [] { return std::make_unique<SimplificationStage>(); },
+      .prerequisites = [](const JobContext&) { return std::vector<std::string>{"measures"}; },
+      .work_per_point = 1,
+      .cost_weight = 0.4,
   };
 }
 

@@ -3,8 +3,10 @@
 #pragma once
 
 #include <cstdint>
+#include <atomic>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -20,8 +22,17 @@
 
 namespace scanprep {
 
-// Called with the running stage's name and its progress in [0,1]; may be called from any thread.
-using ProgressFn = std::function<void(std::string_view stage, double fraction)>;
+// Where a running job is: its stage, that stage's place in the plan (execution order) and
+// progress, and the whole job's progress (the plan's stages weighted by their typical cost).
+struct ProgressEvent {
+  std::string_view stage;
+  size_t stage_index = 0;  // in the plan, 0-based
+  size_t stage_count = 0;  // stages in the plan
+  double stage_fraction = 0;  // in [0,1]; non-decreasing within a stage
+  double job_fraction = 0;    // in [0,1]; non-decreasing within a job
+};
+// Called from any thread, serialised; at most once per 2 % of a stage.
+using ProgressFn = std::function<void(const ProgressEvent&)>;
 
 class JobContext;
 
@@ -36,6 +47,14 @@ struct StageInfo {
   std::string summary;
   std::vector<ParamSpec> params;
   std::function<std::unique_ptr<Stage>()> make;
+  // The stages this one needs run before it with the job's parameters (the plan puts them
+  // first, so progress and the report follow execution order); empty = none.
+  std::function<std::vector<std::string>(const JobContext&)> prerequisites;
+  // Progress: the parallel-loop items the stage meters per point, and its typical cost, which
+  // weights the job fraction: both measured on the 1 M-point two-scan simulated job (`scanprep
+  // simulate`, default pipeline, 2 threads; cost_weight = the stage's seconds there).
+  double work_per_point = 1;
+  double cost_weight = 1;
 };
 
 // Every stage the service offers, in the paper's execution order.
@@ -53,12 +72,13 @@ struct PointMeasures {
   std::vector<float> fit_rms;            // √λ0 (mm): RMS offset of the normal fit from its plane
 };
 
-class JobContext {
+class JobContext : private WorkMeter {
  public:
   JobContext(PointCloud& cloud, const ParamOverrides& overrides, const CancelToken& cancel,
              ProgressFn progress);
 
   PointCloud& cloud() { return cloud_; }
+  // The job's token, which also meters the stages' loops for progress.
   const CancelToken& cancel() const { return cancel_; }
   PointMeasures& measures() { return measures_; }
 
@@ -87,7 +107,16 @@ class JobContext {
   // part of the cloud. A cap is counted in the running stage's report as <stage>.radii_capped;
   // the stage's first is warned about, naming the likely causes.
   double CapRadius(std::string_view what, double radius, double limit);
-  void Progress(double fraction) const;
+  // The running stage has done at least `fraction` of its work (loops are metered anyway; this is
+  // for stages whose work the meter cannot see, e.g. sequential passes).
+  void Progress(double fraction);
+  // The running stage will work through `items` loop items instead of work_per_point × n (for
+  // work that depends on parameters, e.g. iterations).
+  void ExpectWork(double items);
+  // The value a numeric or choice parameter will have (override, else default), not recorded;
+  // for planning before any stage runs.
+  double PlannedNumber(std::string_view name) const;
+  std::string PlannedChoice(std::string_view name) const;
 
   // Shared neighbourhoods, built on first use and reused by every later stage.
   absl::StatusOr<const Neighbourhoods*> neighbourhoods();
@@ -107,12 +136,18 @@ class JobContext {
   void SetDuplicates(const DuplicateGroups* duplicates) { duplicates_ = duplicates; }
   size_t duplicates_collapsed() const { return duplicates_ ? duplicates_->collapsed() : 0; }
 
+  // The requested stages with their prerequisites first, each once, in execution order; kept
+  // for the progress events' stage_index and job_fraction.
+  std::vector<const StageInfo*> Plan(const std::vector<std::string>& requested);
   // Runs one stage with timing, counts and its own report entry.
   absl::Status RunStage(const StageInfo& info);
   PipelineReport& report() { return report_; }
 
  private:
   StageReport& current() { return report_.stages[current_stage_]; }
+  void Worked(size_t items) override;
+  // Sends a progress event when the running stage's fraction passed the next 2 % step.
+  void Emit(double stage_fraction);
   // Records and warns about the balls the running stage capped (Neighbourhoods::Within).
   void RecordCappedBalls(const std::string& stage);
   // Unremoved input points, each duplicate group counted with its multiplicity.
@@ -123,8 +158,20 @@ class JobContext {
 
   PointCloud& cloud_;
   const ParamOverrides& overrides_;
-  const CancelToken& cancel_;
+  CancelToken cancel_;  // the caller's, metered by this context
   ProgressFn progress_;
+  // Progress of the running stage: loop items done and expected, the last 2 % step sent.
+  struct Meter {
+    std::atomic<uint64_t> done{0};
+    double expected = 1;
+    std::atomic<int> step{-1};
+  };
+  Meter meter_;
+  std::mutex progress_mu_;
+  std::vector<const StageInfo*> plan_;
+  double plan_weight_ = 0, done_weight_ = 0;  // of the plan's stages: all, and those finished
+  double job_fraction_ = 0;
+  size_t plan_index_ = 0;
   const DuplicateGroups* duplicates_ = nullptr;
   uint64_t capped_reported_ = 0, cut_reported_ = 0;  // Neighbourhoods' cap counters, reported
   PointMeasures measures_;

@@ -20,13 +20,18 @@ std::vector<StageProgress> RunningJob::DrainProgress() {
   return std::exchange(progress_, {});
 }
 
-void RunningJob::OnProgress(std::string_view stage, double fraction) {
-  if (hook_) hook_(stage, fraction);
+void RunningJob::OnProgress(const ProgressEvent& e) {
+  if (hook_) hook_(e.stage, e.stage_fraction);
+  const StageProgress p{.stage = std::string(e.stage),
+                        .fraction = e.stage_fraction,
+                        .stage_index = static_cast<uint32_t>(e.stage_index),
+                        .stage_count = static_cast<uint32_t>(e.stage_count),
+                        .job_fraction = e.job_fraction};
   std::lock_guard lock(mu_);
-  if (!progress_.empty() && progress_.back().stage == stage) {
-    progress_.back().fraction = fraction;
+  if (!progress_.empty() && progress_.back().stage == p.stage) {
+    progress_.back() = p;
   } else {
-    progress_.push_back({std::string(stage), fraction});
+    progress_.push_back(p);
   }
 }
 
@@ -34,7 +39,7 @@ void RunningJob::Run() {
   absl::StatusOr<PipelineReport> result;
   try {
     result = RunPipeline(cloud_, options_, cancel_,
-                         [this](std::string_view stage, double f) { OnProgress(stage, f); });
+                         [this](const ProgressEvent& e) { OnProgress(e); });
   } catch (const std::bad_alloc&) {
     result = absl::ResourceExhaustedError("the server ran out of memory processing this job");
   } catch (const std::exception& e) {

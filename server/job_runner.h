@@ -31,6 +31,8 @@ using ProgressHook = std::function<void(std::string_view stage, double fraction)
 struct StageProgress {
   std::string stage;
   double fraction = 0;
+  uint32_t stage_index = 0, stage_count = 0;
+  double job_fraction = 0;
 };
 
 // One job's state shared by the arena task that computes it and the RPC thread that waits for
@@ -52,7 +54,7 @@ class RunningJob {
  private:
   friend class JobRunner;
   void Run();
-  void OnProgress(std::string_view stage, double fraction);
+  void OnProgress(const ProgressEvent& event);
 
   PointCloud cloud_;
   PipelineOptions options_;

@@ -115,14 +115,25 @@ bool ScanPrepService::Send(Stream* stream, const v1::ProcessResponse& response) 
   return stream->Write(response);
 }
 
-bool ScanPrepService::SendProgress(Stream* stream, v1::Progress::Phase phase,
-                                   std::string_view stage, double fraction, uint64_t points) {
+bool ScanPrepService::SendProgress(Stream* stream, v1::Progress::Phase phase, double fraction,
+                                   uint64_t points) {
   v1::ProcessResponse response;
   v1::Progress* p = response.mutable_progress();
   p->set_phase(phase);
-  p->set_stage(std::string(stage));
   p->set_fraction(fraction);
   p->set_points(points);
+  return Send(stream, response);
+}
+
+bool ScanPrepService::SendStageProgress(Stream* stream, const StageProgress& stage) {
+  v1::ProcessResponse response;
+  v1::Progress* p = response.mutable_progress();
+  p->set_phase(v1::Progress::PHASE_PROCESSING);
+  p->set_stage(stage.stage);
+  p->set_fraction(stage.fraction);
+  p->set_stage_index(stage.stage_index);
+  p->set_stage_count(stage.stage_count);
+  p->set_job_fraction(stage.job_fraction);
   return Send(stream, response);
 }
 
@@ -171,7 +182,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     }
     const uint64_t received = assembler.points_received();
     const double fraction = static_cast<double>(received) / assembler.total_points();
-    if (!SendProgress(stream, v1::Progress::PHASE_UPLOAD, "", fraction, received)) {
+    if (!SendProgress(stream, v1::Progress::PHASE_UPLOAD, fraction, received)) {
       return Gone(*context, "upload");
     }
     watch.Expect(timeouts_.idle, "idle_timeout",
@@ -201,7 +212,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     }
     for (const StageProgress& p : running->DrainProgress()) {
       if (client_gone) break;
-      if (!SendProgress(stream, v1::Progress::PHASE_PROCESSING, p.stage, p.fraction, 0)) {
+      if (!SendStageProgress(stream, p)) {
         client_gone = true;
         running->Cancel();
       }
@@ -232,7 +243,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     if (job->packed_results) PackArrays(*response.mutable_points());
     sent.Add(response.points());
     if (!Send(stream, response) ||
-        !SendProgress(stream, v1::Progress::PHASE_DOWNLOAD, "",
+        !SendProgress(stream, v1::Progress::PHASE_DOWNLOAD,
                       static_cast<double>(end) / indices.size(), end)) {
       return Gone(*context, "download");
     }

@@ -62,8 +62,10 @@ class ScanPrepService final : public v1::ScanPrep::Service {
                const grpc::Status& status, absl::Duration elapsed);
   // Writes one response and counts it; false when the client is gone.
   bool Send(Stream* stream, const v1::ProcessResponse& response);
-  bool SendProgress(Stream* stream, v1::Progress::Phase phase, std::string_view stage,
-                    double fraction, uint64_t points);
+  // Upload or download progress: the phase's fraction and the points moved so far.
+  bool SendProgress(Stream* stream, v1::Progress::Phase phase, double fraction, uint64_t points);
+  // Processing progress: the stage, its place in the plan and the job's fraction.
+  bool SendStageProgress(Stream* stream, const StageProgress& stage);
   // The status of a call that ended during `phase` other than by its own fault: the server's
   // grace period ended (UNAVAILABLE), its deadline passed, or the client cancelled it or vanished.
   grpc::Status Gone(const grpc::ServerContext& context, std::string_view phase) const;

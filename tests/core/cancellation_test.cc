@@ -69,8 +69,8 @@ Outcome CancelDuring(const Case& c, double delay) {
   bool started = false, finished = false;
   std::optional<Clock::time_point> cancelled_at;
   double cpu_at_cancel = 0;
-  auto progress = [&](std::string_view stage, double fraction) {
-    if (stage != c.stages.back() || fraction != c.from) return;
+  auto progress = [&](const ProgressEvent& e) {
+    if (e.stage != c.stages.back() || e.stage_fraction < c.from) return;
     std::lock_guard lock(mu);
     started = true;
     started_cv.notify_all();

@@ -149,7 +149,7 @@ TEST(Params, AWrongValueStopsTheJobBeforeAnyStage) {
       cloud,
       {.stages = {"outliers", "normals", "measures", "correction", "smoothing"},
        .params = {{"smoothing.lambda", "1.5"}}},
-      cancel, [&](std::string_view stage, double) { started.emplace_back(stage); });
+      cancel, [&](const ProgressEvent& e) { started.emplace_back(e.stage); });
   EXPECT_EQ(report.status(),
             FieldError("options.params['smoothing.lambda']", "1.5 is outside [0, 1]"));
   EXPECT_TRUE(started.empty()) << started.front();

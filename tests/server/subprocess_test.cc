@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
+#include <regex>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -310,6 +312,63 @@ TEST(Cli, ProcessesTwoRegisteredBunnyScans) {
   // 64-bit integers are JSON strings in protobuf's JSON mapping.
   EXPECT_EQ(parsed.fields().at("limits").struct_value().fields().at("max_chunk_points")
                 .string_value(), "65536");
+  EXPECT_EQ(server.Terminate(), 0);
+}
+
+// A 4 M-point job (the issue's case: stages in a jumbled order, 0 % through 25 s stages, nothing
+// when not on a terminal): with stderr a pipe the CLI prints plain lines, and they reach every
+// stage of the plan in execution order, each with progress strictly inside it, while the job's
+// percentage never goes back and an ETA appears. The summary lists the stages in the same order.
+TEST(Cli, ProgressOfAFourMillionPointJobReachesEveryStageInOrder) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("progress_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const CommandResult sim =
+      RunCli("simulate --points 4000000 --scans 2 -o " + (dir / "big.ply").string());
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  const CommandResult r = RunCli(
+      "process " + (dir / "big_frontal.ply").string() + " " + (dir / "big_oblique.ply").string() +
+      " --job " + (dir / "big.job.json").string() + " -o " + (dir / "out.ply").string() +
+      " --timeout 600s --server " + server.target());
+  fs::remove_all(dir);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+
+  // "[  12.3 s] processing  41%  ETA 9.8 s  [3/7] normals 62%"
+  const std::regex line(
+      R"(\[ *[0-9.]+ s\] processing +([0-9]+)%  ETA ([0-9.]+ s|\.\.\.)  \[([0-9]+)/([0-9]+)\] ([a-z]+) ([0-9]+)%)");
+  std::vector<std::string> order;           // stages as their lines first appear
+  std::map<std::string, int> inside;        // lines strictly inside each stage (0 < % < 100)
+  int last_job = 0, last_index = 0, count = 0;
+  bool eta = false;
+  std::istringstream in(r.output);
+  for (std::string text; std::getline(in, text);) {
+    std::smatch m;
+    if (!std::regex_search(text, m, line)) continue;
+    const int job = std::stoi(m[1]), index = std::stoi(m[3]), stage_pct = std::stoi(m[6]);
+    count = std::stoi(m[4]);
+    EXPECT_GE(job, last_job) << text;
+    EXPECT_GE(index, last_index) << text;
+    last_job = job, last_index = index;
+    eta = eta || m[2] != "...";
+    if (order.empty() || order.back() != m[5]) order.push_back(m[5]);
+    if (stage_pct > 0 && stage_pct < 100) ++inside[m[5]];
+  }
+  const std::vector<std::string> plan = {"neighbourhoods", "normals",    "outliers",
+                                         "measures",       "correction", "smoothing",
+                                         "simplification"};
+  EXPECT_EQ(order, plan) << r.output;
+  EXPECT_EQ(count, static_cast<int>(plan.size()));
+  for (const std::string& stage : plan) EXPECT_GT(inside[stage], 0) << stage << "\n" << r.output;
+  EXPECT_TRUE(eta) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("] upload "));
+  EXPECT_THAT(r.output, HasSubstr("] download "));
+  // The summary table: the same stages, in the same order.
+  size_t at = r.output.find("stage ");
+  for (const std::string& stage : plan) {
+    at = r.output.find("\n" + stage + " ", at);
+    EXPECT_NE(at, std::string::npos) << stage << " not in order in the summary";
+  }
   EXPECT_EQ(server.Terminate(), 0);
 }
 
