@@ -74,6 +74,8 @@ int RunProcess(const ParsedArgs& args) {
   if (absl::Status s = CheckOutputName(args.Get("out")); !s.ok()) {
     return FailUsage("process", std::string(s.message()));
   }
+  auto mode = ParseProgressMode(args.Get("progress", "auto"), isatty(STDERR_FILENO) != 0);
+  if (!mode.ok()) return FailUsage("process", std::string(mode.status().message()));
   const absl::Time start = absl::Now();
   PhaseSeconds phases;
   auto job = BuildJob(args);
@@ -92,8 +94,6 @@ int RunProcess(const ParsedArgs& args) {
     if (!timeout.ok()) return Fail("process", std::string(timeout.status().message()));
     call.timeout = *timeout;
   }
-  auto mode = ParseProgressMode(args.Get("progress", "auto"), isatty(STDERR_FILENO) != 0);
-  if (!mode.ok()) return FailUsage("process", std::string(mode.status().message()));
   ProgressView view(std::cerr, *mode);
   call.progress = [&view](const v1::Progress& p) { view.Update(p); };
 

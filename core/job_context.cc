@@ -118,8 +118,9 @@ std::string JobContext::PlannedChoice(std::string_view name) const {
 
 std::vector<const StageInfo*> JobContext::Plan(const std::vector<std::string>& requested) {
   plan_.clear();
-  // Depth-first: a stage's prerequisites (theirs first) before it. The graph is fixed and acyclic
-  // (stage_plan_test), so the recursion ends.
+  // Depth-first: a stage's prerequisites (theirs first) before it. Prerequisites only name stages
+  // whose own ones lead back to neighbourhoods, never to the asking stage (Progress tests check
+  // every stage), so the recursion ends.
   std::function<void(const StageInfo&)> add = [&](const StageInfo& info) {
     if (std::find(plan_.begin(), plan_.end(), &info) != plan_.end()) return;
     if (info.prerequisites) {

@@ -2,6 +2,7 @@
 // Progress a person can follow: the stages in the order they run (prerequisites first, as the
 // plan says), each reporting progress inside it, and one job fraction that never goes back and
 // ends at 1.
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -78,6 +79,30 @@ TEST(Progress, ThePlanFollowsTheParameters) {
   }
   EXPECT_EQ(order, (std::vector<std::string>{"neighbourhoods", "outliers", "normals", "measures",
                                              "correction", "smoothing", "simplification"}));
+}
+
+// Every stage's plan: it comes last, each prerequisite before the stage that needs it, every stage
+// once, neighbourhoods first. (A cycle would never return.)
+TEST(Progress, EveryStagesPlanPutsPrerequisitesFirst) {
+  PointCloud cloud;
+  const ParamOverrides none;
+  CancelToken cancel;
+  for (const StageInfo& info : StageRegistry()) {
+    JobContext ctx(cloud, none, cancel, {});
+    const std::vector<const StageInfo*> plan = ctx.Plan({info.name});
+    ASSERT_FALSE(plan.empty());
+    EXPECT_EQ(plan.back(), &info);
+    EXPECT_EQ(plan.front()->name, "neighbourhoods") << info.name;
+    for (size_t i = 0; i < plan.size(); ++i) {
+      for (size_t j = i + 1; j < plan.size(); ++j) EXPECT_NE(plan[i], plan[j]) << info.name;
+      if (!plan[i]->prerequisites) continue;
+      for (const std::string& need : plan[i]->prerequisites(ctx)) {
+        const auto at = std::find_if(plan.begin(), plan.begin() + i,
+                                     [&](const StageInfo* s) { return s->name == need; });
+        EXPECT_NE(at, plan.begin() + i) << need << " after " << plan[i]->name;
+      }
+    }
+  }
 }
 
 }  // namespace

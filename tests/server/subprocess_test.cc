@@ -467,6 +467,10 @@ TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.output, HasSubstr("unknown flag '--frobnicate'"));
 
+  r = RunCli(base + " --progress loud");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.output, HasSubstr("--progress loud: expected auto, live, plain or off"));
+
   // The output: required, PLY only (a usage error, 2), and a report that cannot be written fails
   // the command.
   r = RunCli("process " + scan.string() + " --server " + server.target());
