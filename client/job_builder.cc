@@ -16,6 +16,7 @@
 #include "core/io/conf.h"
 #include "core/io/read_file.h"
 #include "core/io/scan_file.h"
+#include "core/status_macros.h"
 
 namespace scanprep::client {
 namespace {
@@ -241,7 +242,7 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
                                                    "' but no scan file has that stem"));
   }
   if (args.Has("conf")) {
-    if (absl::Status s = ApplyConf(args.Get("conf"), scan_files, job.header); !s.ok()) return s;
+    SCANPREP_RETURN_IF_ERROR(ApplyConf(args.Get("conf"), scan_files, job.header));
   }
   if (!args.Has("unit") && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED) {
     // PCL's convention (REP 103) is metres, so a PCD file read as mm is likely 1000x too small.
@@ -253,7 +254,7 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
                                      pcd ? " (PCL writes PCD files in metres: pass --unit m if so)"
                                          : ""));
   }
-  if (absl::Status s = ApplyOptionFlags(args, job.header); !s.ok()) return s;
+  SCANPREP_RETURN_IF_ERROR(ApplyOptionFlags(args, job.header));
 
   // The service wants an optional array in every chunk or none, so keep one only when every
   // file has it.
@@ -312,7 +313,7 @@ absl::StatusOr<Job> BuildJobFromCloud(const ParsedArgs& args, PointCloud cloud) 
   job.header.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
   job.header.set_scanner_kind(cloud.kind == ScannerKind::kLine ? v1::SCANNER_KIND_LINE : v1::SCANNER_KIND_FLEXIBLE);
   for (const ScanMeta& meta : cloud.scans) *job.header.add_scans() = ScanHeaderFromMeta(meta);
-  if (absl::Status s = ApplyOptionFlags(args, job.header); !s.ok()) return s;
+  SCANPREP_RETURN_IF_ERROR(ApplyOptionFlags(args, job.header));
   job.points = std::move(cloud);
   return job;
 }

@@ -9,7 +9,8 @@
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
 #include "core/io/read_file.h"
-#include "core/stage.h"
+#include "core/pipeline/job_context.h"
+#include "core/status_macros.h"
 
 namespace scanprep::server {
 namespace {
@@ -78,7 +79,7 @@ absl::Status ParseBudgetConfig(std::string_view text, std::string_view source,
       return absl::InvalidArgumentError(
           absl::StrCat(where, ": expected 'stage seconds' (or 'total seconds')"));
     }
-    if (absl::Status s = AddEntry(fields[0], fields[1], where, true, defaults); !s.ok()) return s;
+    SCANPREP_RETURN_IF_ERROR(AddEntry(fields[0], fields[1], where, true, defaults));
   }
   return absl::OkStatus();
 }

@@ -11,9 +11,9 @@
 #include <Eigen/Geometry>
 
 #include "absl/status/statusor.h"
-#include "core/pipeline.h"
+#include "core/pipeline/pipeline.h"
 #include "core/point_cloud.h"
-#include "core/report.h"
+#include "core/pipeline/report.h"
 #include "scanprep/v1/scanprep.pb.h"
 
 namespace scanprep::server {

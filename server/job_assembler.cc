@@ -7,6 +7,7 @@
 #include "absl/strings/str_format.h"
 #include "proto/chunk_arrays.h"
 #include "server/error_details.h"
+#include "core/status_macros.h"
 
 namespace scanprep::server {
 namespace {
@@ -93,7 +94,7 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
                                             " chunks; a job has exactly one header"));
   }
   has_header_ = true;
-  if (absl::Status s = CheckHeaderSize(header); !s.ok()) return s;
+  SCANPREP_RETURN_IF_ERROR(CheckHeaderSize(header));
   auto mm = MillimetresPerUnit(header.unit());
   if (!mm.ok()) return mm.status();
   if (header.scans().empty()) {
@@ -156,7 +157,7 @@ absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
                                            most, " are accepted"));
     }
   }
-  if (auto s = CheckString("header.job_id", "the job id", header.job_id()); !s.ok()) return s;
+  SCANPREP_RETURN_IF_ERROR(CheckString("header.job_id", "the job id", header.job_id()));
   for (int i = 0; i < header.scans_size(); ++i) {
     if (auto s = CheckString(absl::StrCat("header.scans[", i, "].scan_id"), "the scan id",
                              header.scans(i).scan_id());
@@ -171,7 +172,7 @@ absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
   }
   // A long name is refused without naming its entry, which would echo it.
   for (const auto& [name, value] : header.options().params()) {
-    if (auto s = CheckString("header.options.params", "a parameter name", name); !s.ok()) return s;
+    SCANPREP_RETURN_IF_ERROR(CheckString("header.options.params", "a parameter name", name));
     if (auto s = CheckString(absl::StrCat("header.options.params['", name, "']"), "the value",
                              value);
         !s.ok())
@@ -182,7 +183,7 @@ absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
       return s;
   }
   for (const auto& [key, value] : header.labels()) {
-    if (auto s = CheckString("header.labels", "a label key", key); !s.ok()) return s;
+    SCANPREP_RETURN_IF_ERROR(CheckString("header.labels", "a label key", key));
     if (auto s = CheckString(absl::StrCat("header.labels['", key, "']"), "the value", value);
         !s.ok())
       return s;
@@ -192,10 +193,10 @@ absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
 
 absl::Status JobAssembler::CheckChunk(const v1::PointChunk& chunk, size_t n) const {
   const uint64_t id = chunks_;
-  if (absl::Status s = CheckLength(id, "scan_index", chunk.scan_index_size(), n); !s.ok()) return s;
-  if (absl::Status s = CheckLength(id, "scanline", chunk.scanline_size(), n); !s.ok()) return s;
-  if (absl::Status s = CheckLength(id, "quality", chunk.quality_size(), n); !s.ok()) return s;
-  if (absl::Status s = CheckLength(id, "intensity", chunk.intensity_size(), n); !s.ok()) return s;
+  SCANPREP_RETURN_IF_ERROR(CheckLength(id, "scan_index", chunk.scan_index_size(), n));
+  SCANPREP_RETURN_IF_ERROR(CheckLength(id, "scanline", chunk.scanline_size(), n));
+  SCANPREP_RETURN_IF_ERROR(CheckLength(id, "quality", chunk.quality_size(), n));
+  SCANPREP_RETURN_IF_ERROR(CheckLength(id, "intensity", chunk.intensity_size(), n));
   if (chunk.normal_size() > 0 || !chunk.flags().empty()) {
     return BadChunk(id, chunk.normal_size() > 0 ? "normal" : "flags",
                     "normal and flags are result-only fields");
@@ -259,7 +260,7 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
     return BadChunk(chunks_, "xyz",
                     absl::StrCat("more points than header.total_points = ", total_points_));
   }
-  if (absl::Status s = CheckChunk(chunk, n); !s.ok()) return s;
+  SCANPREP_RETURN_IF_ERROR(CheckChunk(chunk, n));
   checksum_.Add(chunk);
   ++chunks_;
   if (n == 0) return absl::OkStatus();

@@ -11,7 +11,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "core/pipeline.h"
+#include "core/pipeline/pipeline.h"
 #include "core/point_cloud.h"
 #include "proto/stream_checksum.h"
 #include "scanprep/v1/scanprep.pb.h"

@@ -17,10 +17,10 @@
 #include <tbb/task_arena.h>
 
 #include "absl/status/statusor.h"
-#include "core/cancel.h"
-#include "core/pipeline.h"
+#include "core/pipeline/cancel.h"
+#include "core/pipeline/pipeline.h"
 #include "core/point_cloud.h"
-#include "core/report.h"
+#include "core/pipeline/report.h"
 
 namespace scanprep::server {
 

@@ -18,6 +18,7 @@
 #include "server/memory_budget.h"
 #include "server/scanprep_server.h"
 #include "server/transport_security.h"
+#include "core/status_macros.h"
 
 ABSL_FLAG(std::string, listen, "0.0.0.0:50051", "HOST:PORT to listen on (port 0 = any free port)");
 ABSL_FLAG(std::string, tls_cert, "", "PEM certificate chain of the gRPC port (TLS)");
@@ -92,7 +93,7 @@ namespace {
 absl::StatusOr<scanprep::server::BudgetDefaults> BudgetsFromFlags() {
   scanprep::server::BudgetDefaults budgets;
   if (const std::string path = absl::GetFlag(FLAGS_budget_config); !path.empty()) {
-    if (absl::Status s = scanprep::server::ReadBudgetConfig(path, budgets); !s.ok()) return s;
+    SCANPREP_RETURN_IF_ERROR(scanprep::server::ReadBudgetConfig(path, budgets));
   }
   if (absl::Status s =
           scanprep::server::ParseStageBudgets(absl::GetFlag(FLAGS_stage_budgets), budgets);

@@ -27,7 +27,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
-#include "core/params.h"
+#include "core/pipeline/params.h"
 
 namespace scanprep::server {
 

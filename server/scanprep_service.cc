@@ -11,7 +11,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "core/stage.h"
+#include "core/pipeline/job_context.h"
 #include "proto/chunk_arrays.h"
 #include "proto/stream_checksum.h"
 #include "server/convert.h"

@@ -12,7 +12,7 @@
 
 #include <grpcpp/support/status.h>
 
-#include "core/report.h"
+#include "core/pipeline/report.h"
 #include "server/metrics/registry.h"
 
 namespace scanprep::server {

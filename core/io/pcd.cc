@@ -19,6 +19,7 @@
 #include "core/io/pcd_header.h"
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
+#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {
@@ -212,12 +213,12 @@ absl::Status ReadPoints(const Header& header, const Layout& layout, Source& sour
   const bool intensity = layout.field[kIntensity].has_value();
   const bool organised = header.height > 1;
   for (uint64_t i = 0; i < header.points; ++i) {
-    if (absl::Status s = source.BeginPoint(i); !s.ok()) return s;
+    SCANPREP_RETURN_IF_ERROR(source.BeginPoint(i));
     std::array<float, kSlots> value{};
     for (int slot = 0; slot < kSlots; ++slot) {
       if (!layout.field[slot]) continue;
       double v = 0.0;
-      if (absl::Status s = source.Get(*layout.field[slot], v); !s.ok()) return s;
+      SCANPREP_RETURN_IF_ERROR(source.Get(*layout.field[slot], v));
       value[slot] = NarrowToFloat(v);
     }
     if (!std::isfinite(value[kX]) || !std::isfinite(value[kY]) || !std::isfinite(value[kZ])) {

@@ -9,6 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "core/io/text_fields.h"
+#include "core/status_macros.h"
 
 namespace scanprep::io::pcd {
 namespace {
@@ -55,7 +56,7 @@ class HeaderParser {
     if (keyword == "HEIGHT") return Count(keyword, values, header_.height);
     if (keyword == "POINTS") {
       uint64_t points = 0;
-      if (absl::Status s = Count(keyword, values, points); !s.ok()) return s;
+      SCANPREP_RETURN_IF_ERROR(Count(keyword, values, points));
       declared_points_ = points;
       return absl::OkStatus();
     }

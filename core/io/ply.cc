@@ -16,6 +16,7 @@
 #include "core/io/ply_header.h"
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
+#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {
@@ -348,30 +349,30 @@ absl::Status ReadElements(const Header& header, Source& source, VertexBuilder& v
     const bool is_vertex = element.name == "vertex";
     const bool is_grid = vertices.is_grid(element);
     for (uint64_t i = 0; i < element.count; ++i) {
-      if (absl::Status s = source.BeginEntry(element, i); !s.ok()) return s;
+      SCANPREP_RETURN_IF_ERROR(source.BeginEntry(element, i));
       for (size_t p = 0; p < element.properties.size(); ++p) {
         const Property& property = element.properties[p];
         double value = 0.0;
         if (!property.is_list) {
-          if (absl::Status s = source.Read(property.type, property, value); !s.ok()) return s;
+          SCANPREP_RETURN_IF_ERROR(source.Read(property.type, property, value));
           if (!is_vertex) continue;
           if (const char* why = vertices.Store(p, i, value)) return Invalid(source, property, value, why);
           continue;
         }
-        if (absl::Status s = source.Read(property.count_type, property, value); !s.ok()) return s;
+        SCANPREP_RETURN_IF_ERROR(source.Read(property.count_type, property, value));
         uint64_t items = 0;
         if (!ToIndex(value, kUint32Limit, items)) {
           return Invalid(source, property, value, "list length is not a non-negative integer");
         }
-        if (absl::Status s = source.CheckList(items, property); !s.ok()) return s;
+        SCANPREP_RETURN_IF_ERROR(source.CheckList(items, property));
         const bool grid_indices = is_grid && property.name == "vertex_indices";
         for (uint64_t k = 0; k < items; ++k) {
-          if (absl::Status s = source.Read(property.type, property, value); !s.ok()) return s;
+          SCANPREP_RETURN_IF_ERROR(source.Read(property.type, property, value));
           if (!grid_indices) continue;
           if (const char* why = vertices.GridEntry(i, value)) return Invalid(source, property, value, why);
         }
       }
-      if (absl::Status s = source.EndEntry(); !s.ok()) return s;
+      SCANPREP_RETURN_IF_ERROR(source.EndEntry());
     }
   }
   return source.Finish();

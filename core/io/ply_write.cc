@@ -9,6 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/io/byte_order.h"
 #include "core/io/ply.h"
+#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {
@@ -52,7 +53,7 @@ class RecordPacker {
 }  // namespace
 
 absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const PlyWriteOptions& options) {
-  if (absl::Status s = CheckCloud(cloud); !s.ok()) return s;
+  SCANPREP_RETURN_IF_ERROR(CheckCloud(cloud));
   const size_t n = cloud.size();
   auto written = [&](size_t i) { return options.include_removed || cloud.flags.empty() || !cloud.removed(i); };
   size_t count = 0;

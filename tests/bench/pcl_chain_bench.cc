@@ -21,7 +21,7 @@
 #include <pcl/search/kdtree.h>
 #include <pcl/surface/mls.h>
 
-#include "core/kdtree.h"
+#include "tests/support/kdtree.h"
 #include "tests/bench/bench_cloud.h"
 
 namespace scanprep::bench {

@@ -11,8 +11,8 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
-#include "core/kdtree.h"
-#include "core/neighbourhoods.h"
+#include "tests/support/kdtree.h"
+#include "core/spatial/neighbourhoods.h"
 #include "tests/bench/bench_cloud.h"
 #include "tests/bench/pipeline_case.h"
 

@@ -5,8 +5,8 @@
 
 #include <tbb/task_arena.h>
 
-#include "core/cancel.h"
-#include "core/pipeline.h"
+#include "core/pipeline/cancel.h"
+#include "core/pipeline/pipeline.h"
 
 namespace scanprep::bench {
 

@@ -7,7 +7,7 @@
 
 #include <benchmark/benchmark.h>
 
-#include "core/params.h"
+#include "core/pipeline/params.h"
 #include "core/point_cloud.h"
 #include "tests/bench/bench_cloud.h"
 

@@ -8,8 +8,8 @@
 
 #include <gtest/gtest.h>
 
-#include "core/neighbourhoods.h"
-#include "core/pipeline.h"
+#include "core/spatial/neighbourhoods.h"
+#include "core/pipeline/pipeline.h"
 
 namespace scanprep {
 namespace {

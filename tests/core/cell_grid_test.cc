@@ -3,16 +3,16 @@
 // the same squared distances, every k-NN list the same distances. Checked on a simulated scan
 // pair, on a cloud with far-flung points (wide bounding box, few occupied cells) and on one with
 // coincident points, and again after points moved.
-#include "core/cell_grid.h"
+#include "core/spatial/cell_grid.h"
 
 #include <algorithm>
 #include <random>
 
 #include <gtest/gtest.h>
 
-#include "core/kdtree.h"
-#include "core/neighbourhoods.h"
-#include "core/stage.h"
+#include "tests/support/kdtree.h"
+#include "core/spatial/neighbourhoods.h"
+#include "core/pipeline/job_context.h"
 #include "core/sim/scan_simulator.h"
 
 namespace scanprep {

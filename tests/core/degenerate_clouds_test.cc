@@ -12,7 +12,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/pipeline.h"
+#include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 
 namespace scanprep {

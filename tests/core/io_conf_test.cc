@@ -8,7 +8,7 @@
 
 #include "core/io/conf.h"
 #include "core/io/ply.h"
-#include "core/kdtree.h"
+#include "tests/support/kdtree.h"
 #include "tests/support/test_data.h"
 
 namespace scanprep::io {

@@ -8,7 +8,7 @@
 #include <string>
 #include <string_view>
 
-#include "core/pipeline.h"
+#include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 
 namespace scanprep {

@@ -5,10 +5,12 @@
 
 #include <gtest/gtest.h>
 
-#include "core/pipeline.h"
-#include "core/scanline_curvature.h"
+#include "core/pipeline/pipeline.h"
+#include "core/stages/scanline_curvature.h"
 #include "core/sim/scan_simulator.h"
 #include "tests/support/sim_checks.h"
+#include "core/status_macros.h"
+#include "core/pipeline/job_context.h"
 
 namespace scanprep::testing {
 using namespace scanprep::sim;
@@ -20,7 +22,7 @@ absl::StatusOr<PipelineReport> RunMeasures(PointCloud& cloud, PointMeasures* out
   // running the stage through a context the test owns.
   ParamOverrides none;
   JobContext ctx(cloud, none, cancel, {});
-  if (absl::Status s = ctx.Require("measures"); !s.ok()) return s;
+  SCANPREP_RETURN_IF_ERROR(ctx.Require("measures"));
   *out = ctx.measures();
   return std::move(ctx.report());
 }

@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "core/io/ply.h"
-#include "core/pipeline.h"
+#include "core/pipeline/pipeline.h"
 #include "tests/support/test_data.h"
 #include "core/sim/scan_simulator.h"
 #include "tests/support/sim_checks.h"

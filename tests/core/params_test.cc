@@ -10,8 +10,8 @@
 
 #include <gtest/gtest.h>
 
-#include "core/field_error.h"
-#include "core/pipeline.h"
+#include "core/pipeline/field_error.h"
+#include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 
 namespace scanprep {

@@ -7,8 +7,8 @@
 #include <gtest/gtest.h>
 
 #include "absl/strings/str_cat.h"
-#include "core/kdtree.h"
-#include "core/pipeline.h"
+#include "tests/support/kdtree.h"
+#include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 #include "tests/support/test_data.h"
 

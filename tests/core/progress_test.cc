@@ -8,8 +8,9 @@
 
 #include <gtest/gtest.h>
 
-#include "core/pipeline.h"
+#include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "core/pipeline/job_context.h"
 
 namespace scanprep {
 namespace {

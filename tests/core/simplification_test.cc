@@ -8,9 +8,10 @@
 
 #include <gtest/gtest.h>
 
-#include "core/kdtree.h"
-#include "core/pipeline.h"
+#include "tests/support/kdtree.h"
+#include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "core/pipeline/job_context.h"
 
 namespace scanprep {
 namespace {

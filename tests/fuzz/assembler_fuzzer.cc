@@ -13,8 +13,8 @@
 
 #include <google/protobuf/stubs/logging.h>
 
-#include "core/cancel.h"
-#include "core/pipeline.h"
+#include "core/pipeline/cancel.h"
+#include "core/pipeline/pipeline.h"
 #include "server/job_assembler.h"
 #include "tests/fuzz/fuzz_checks.h"
 

@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "core/io/ply.h"
-#include "core/kdtree.h"
+#include "tests/support/kdtree.h"
 #include "tests/server/bunny_job.h"
 #include "tests/server/service_fixtures.h"
 #include "tests/support/test_data.h"

@@ -9,8 +9,8 @@
 #include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
-#include "core/kdtree.h"
-#include "core/pipeline.h"
+#include "tests/support/kdtree.h"
+#include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 #include "tests/server/bunny_job.h"
 #include "tests/server/service_fixtures.h"

@@ -10,7 +10,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/stage.h"
+#include "core/pipeline/job_context.h"
 #include "server/peer_limiter.h"
 #include "tests/server/service_fixtures.h"
 

@@ -15,7 +15,6 @@
 #include <gmock/gmock.h>
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
-#include <set>
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>

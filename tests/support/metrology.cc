@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <atomic>
 
-#include "core/kdtree.h"
-#include "core/parallel.h"
+#include "tests/support/kdtree.h"
+#include "core/pipeline/parallel.h"
 
 namespace scanprep::testing {
 namespace {

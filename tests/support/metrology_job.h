@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "core/pipeline.h"
+#include "core/pipeline/pipeline.h"
 #include "core/point_cloud.h"
 #include "core/sim/scan_simulator.h"
 

@@ -1,6 +1,0 @@
-// SPDX-License-Identifier: Apache-2.0
-#pragma once
-#include "core/stage.h"
-namespace scanprep {
-StageInfo NeighbourhoodsStageInfo();
-}

@@ -1,7 +1,0 @@
-// SPDX-License-Identifier: Apache-2.0
-#pragma once
-#include "core/stage.h"
-namespace scanprep {
-// Statistical outlier removal (paper §2.3, algorithms.md §5).
-StageInfo OutliersStageInfo();
-}

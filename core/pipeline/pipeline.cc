@@ -1,0 +1,92 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "core/pipeline/pipeline.h"
+
+#include <algorithm>
+#include <chrono>
+#include <set>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "core/spatial/duplicates.h"
+#include "core/pipeline/field_error.h"
+#include "core/status_macros.h"
+#include "core/pipeline/job_context.h"
+
+namespace scanprep {
+
+std::vector<std::string> DefaultStages() {
+  return {"outliers", "correction", "smoothing", "simplification"};
+}
+
+absl::Status ValidateOptions(const PipelineOptions& options) {
+  std::set<std::string> seen;
+  for (const std::string& name : options.stages) {
+    if (FindStage(name) == nullptr) {
+      std::vector<std::string> known;
+      for (const StageInfo& s : StageRegistry()) known.push_back(s.name);
+      return FieldError("options.stages", absl::StrCat("unknown stage '", name, "' (known: ",
+                                                       absl::StrJoin(known, ", "), ")"));
+    }
+    if (!seen.insert(name).second) {
+      return FieldError("options.stages", absl::StrCat("stage '", name, "' is listed twice"));
+    }
+  }
+  for (const auto& [name, seconds] : options.stage_budget_seconds) {
+    const std::string field = absl::StrCat("budget.stage_seconds['", name, "']");
+    if (FindStage(name) == nullptr) return FieldError(field, "unknown stage");
+    if (!(seconds >= 0)) return FieldError(field, "must be >= 0");
+  }
+  if (!(options.budget_seconds >= 0)) {
+    return FieldError("budget.total_seconds", "must be >= 0");
+  }
+  return ValidateOverrides(options.params, AllParamSpecs());
+}
+
+namespace {
+
+absl::StatusOr<PipelineReport> RunStages(PointCloud& cloud, const PipelineOptions& options,
+                                         const CancelToken& cancel, ProgressFn progress,
+                                         const DuplicateGroups& duplicates) {
+  JobContext ctx(cloud, options.params, cancel, std::move(progress));
+  ctx.SetDuplicates(&duplicates);
+  const std::vector<std::string> stages = options.stages.empty() ? DefaultStages() : options.stages;
+  for (const StageInfo* stage : ctx.Plan(stages)) {
+    if (ctx.HasRun(stage->name)) continue;  // pulled in early by a stage's Require()
+    SCANPREP_RETURN_IF_ERROR(ctx.RunStage(*stage));
+  }
+  return std::move(ctx.report());
+}
+
+}  // namespace
+
+absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOptions& options,
+                                           const CancelToken& cancel, ProgressFn progress) {
+  SCANPREP_RETURN_IF_ERROR(ValidateOptions(options));
+  if (cloud.flags.size() != cloud.size()) cloud.FinishLoading();
+  const auto start = std::chrono::steady_clock::now();
+  absl::StatusOr<DuplicateGroups> duplicates = FindDuplicates(cloud, cancel);
+  if (!duplicates.ok()) return duplicates.status();
+  absl::StatusOr<PipelineReport> result;
+  if (duplicates->collapsed() == 0) {
+    result = RunStages(cloud, options, cancel, std::move(progress), *duplicates);
+  } else {
+    PointCloud compact = CompactDuplicates(cloud, *duplicates);
+    result = RunStages(compact, options, cancel, std::move(progress), *duplicates);
+    if (result.ok()) ExpandDuplicates(compact, *duplicates, cloud);
+  }
+  if (!result.ok()) return result.status();
+  PipelineReport report = *std::move(result);
+  report.total_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (StageReport& stage : report.stages) {
+    auto it = options.stage_budget_seconds.find(stage.name);
+    if (it == options.stage_budget_seconds.end() || it->second <= 0) continue;
+    stage.budget_seconds = it->second;
+    stage.budget_met = stage.seconds <= it->second;
+  }
+  report.budget_seconds = options.budget_seconds;
+  report.budget_met = options.budget_seconds <= 0 || report.total_seconds <= options.budget_seconds;
+  return report;
+}
+
+}  // namespace scanprep

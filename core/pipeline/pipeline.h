@@ -1,0 +1,38 @@
+// SPDX-License-Identifier: Apache-2.0
+// Runs a job's stages in order on the calling thread's TBB arena.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "core/pipeline/cancel.h"
+#include "core/pipeline/params.h"
+#include "core/point_cloud.h"
+#include "core/pipeline/report.h"
+#include "core/pipeline/progress.h"
+#include "core/pipeline/stage.h"
+
+namespace scanprep {
+
+struct PipelineOptions {
+  std::vector<std::string> stages;  // empty = DefaultStages()
+  ParamOverrides params;
+  double budget_seconds = 0;                        // whole pipeline; 0 = none
+  std::map<std::string, double> stage_budget_seconds;  // per stage name
+};
+
+// The paper's case-study order: outliers → correction → smoothing → simplification; normals and
+// measures run where a stage needs them.
+std::vector<std::string> DefaultStages();
+
+// Checks stage names (known, not repeated), parameter overrides and budgets before any work.
+absl::Status ValidateOptions(const PipelineOptions& options);
+
+// Runs the stages over `cloud` (coordinates in mm). Removed points stay in the cloud, labelled in
+// `cloud.flags`. Returns CANCELLED promptly when `cancel` fires.
+absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOptions& options,
+                                           const CancelToken& cancel, ProgressFn progress = {});
+
+}  // namespace scanprep

@@ -1,8 +1,0 @@
-// SPDX-License-Identifier: Apache-2.0
-#pragma once
-#include "core/stage.h"
-namespace scanprep {
-// Curvature-adaptive or uniform thinning to a target spacing (paper §3.3, Eq. 13;
-// algorithms.md §12).
-StageInfo SimplificationStageInfo();
-}

@@ -1,7 +1,0 @@
-// SPDX-License-Identifier: Apache-2.0
-#pragma once
-#include "core/stage.h"
-namespace scanprep {
-// Edge- and quality-preserving smoothing (paper §3.1, Eqs. 6-10; algorithms.md §11).
-StageInfo SmoothingStageInfo();
-}

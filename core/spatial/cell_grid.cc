@@ -1,0 +1,167 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "core/spatial/cell_grid.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <limits>
+
+#include "core/pipeline/parallel.h"
+#include "core/status_macros.h"
+
+namespace scanprep {
+namespace {
+
+constexpr int kMaxBitsPerAxis = 21;
+
+
+struct Keyed {
+  uint64_t key;
+  uint32_t id;
+};
+
+// LSD radix sort on the low `bits` bits of the keys, 11 bits a pass; stable, so equal keys keep
+// index order.
+void RadixSort(std::vector<Keyed>& items, int bits) {
+  constexpr int kDigit = 11;
+  std::vector<Keyed> buffer(items.size());
+  std::vector<size_t> count(size_t{1} << kDigit);
+  for (int shift = 0; shift < bits; shift += kDigit) {
+    std::fill(count.begin(), count.end(), 0);
+    const uint64_t mask = (uint64_t{1} << kDigit) - 1;
+    for (const Keyed& item : items) ++count[(item.key >> shift) & mask];
+    if (count[(items.front().key >> shift) & mask] == items.size()) continue;  // one bucket
+    size_t sum = 0;
+    for (size_t& c : count) sum += std::exchange(c, sum);
+    for (const Keyed& item : items) buffer[count[(item.key >> shift) & mask]++] = item;
+    items.swap(buffer);
+  }
+}
+
+// The box the grid covers: per axis the 1st to 99th percentile of a strided sample, widened by
+// half that span on each side and clipped to the bounding box. A stray point far outside (a
+// reflection at 1e8 mm) no longer stretches the cells until the whole scan shares one; it is
+// kept in the outermost cell layer, which ForEachRun treats as reaching to infinity.
+void RobustBox(const PointCloud& cloud, double lo[3], double hi[3]) {
+  const size_t n = cloud.size();
+  const size_t sample = std::min<size_t>(n, 8192);
+  std::vector<float> v(sample);
+  const std::vector<float>* axes[3] = {&cloud.x, &cloud.y, &cloud.z};
+  for (int a = 0; a < 3; ++a) {
+    const std::vector<float>& values = *axes[a];
+    const auto [min, max] = std::minmax_element(values.begin(), values.end());
+    for (size_t s = 0; s < sample; ++s) v[s] = values[s * n / sample];
+    const size_t low = sample / 100, high = sample - 1 - sample / 100;
+    std::nth_element(v.begin(), v.begin() + low, v.end());
+    const double q_low = v[low];
+    std::nth_element(v.begin(), v.begin() + high, v.end());
+    const double q_high = v[high];
+    const double margin = 0.5 * (q_high - q_low);
+    lo[a] = std::max(double(*min), q_low - margin);
+    hi[a] = std::min(double(*max), q_high + margin);
+  }
+}
+
+}  // namespace
+
+absl::Status CellGrid::Build(const PointCloud& cloud, float cell_edge, const CancelToken& cancel) {
+  const size_t n = cloud.size();
+  entries_.clear();
+  id_.clear();
+  cell_start_.assign(1, 0);
+  cell_z_.clear();
+  column_start_.assign(2, 0);
+  cells_[0] = cells_[1] = cells_[2] = 1;
+  if (n == 0) return absl::OkStatus();
+
+  double lo[3], hi[3];
+  RobustBox(cloud, lo, hi);
+  const double extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+  double volume = 1;
+  for (int a = 0; a < 3; ++a) volume *= std::max(hi[a] - lo[a], 1e-3 * extent);
+  const double edge = cell_edge > 0 ? double(cell_edge) : std::cbrt(8 * volume / double(n));
+  edge_ = std::max(edge, extent / double((1 << kMaxBitsPerAxis) - 2));
+  // Bound the column table by 4 entries a point.
+  const double table = (hi[0] - lo[0]) * (hi[1] - lo[1]);
+  edge_ = std::max(edge_, std::sqrt(table / double(4 * n + 4096)));
+  if (!(edge_ > 0) || !std::isfinite(edge_)) edge_ = 1;  // all points coincide
+  inverse_edge_ = 1 / edge_;
+  for (int a = 0; a < 3; ++a) {
+    origin_[a] = lo[a];
+    cells_[a] = static_cast<int64_t>(std::floor((hi[a] - lo[a]) * inverse_edge_)) + 1;
+  }
+  const int z_bits = std::bit_width(uint64_t(cells_[2] - 1));
+  const uint64_t columns = uint64_t(cells_[0] * cells_[1]);
+
+  std::vector<Keyed> keyed(n);
+  absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      const float p[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+      uint64_t c[3];
+      for (int a = 0; a < 3; ++a) c[a] = static_cast<uint64_t>(PointCell(p[a], a));
+      keyed[i] = {(c[0] * cells_[1] + c[1]) << z_bits | c[2], static_cast<uint32_t>(i)};
+    }
+  });
+  if (!status.ok()) return status;
+  RadixSort(keyed, z_bits + std::bit_width(columns - 1));
+  SCANPREP_RETURN_IF_ERROR(cancel.Check());
+
+  entries_.resize(n);
+  id_.resize(n);
+  status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
+    for (size_t e = begin; e < end; ++e) {
+      const uint32_t i = keyed[e].id;
+      entries_[e] = {cloud.x[i], cloud.y[i], cloud.z[i], i};
+      id_[e] = i;
+    }
+  });
+  if (!status.ok()) return status;
+
+  cell_z_.clear();
+  cell_start_.clear();
+  column_start_.assign(columns + 1, 0);
+  const uint64_t z_mask = (uint64_t{1} << z_bits) - 1;
+  for (size_t e = 0; e < n; ++e) {
+    if (e > 0 && keyed[e].key == keyed[e - 1].key) continue;
+    cell_z_.push_back(static_cast<uint32_t>(keyed[e].key & z_mask));
+    cell_start_.push_back(static_cast<uint32_t>(e));
+    ++column_start_[(keyed[e].key >> z_bits) + 1];
+  }
+  cell_start_.push_back(static_cast<uint32_t>(n));
+  for (size_t c = 0; c < columns; ++c) column_start_[c + 1] += column_start_[c];
+  return absl::OkStatus();
+}
+
+size_t CellGrid::Knn(const float q[3], size_t k, uint32_t exclude, float guess, uint32_t* idx,
+                     float* dist_sq, std::vector<uint64_t>& scratch) const {
+  const size_t available = entries_.size() - (exclude < entries_.size() ? 1 : 0);
+  k = std::min(k, available);
+  if (k == 0) return 0;
+  // Candidates as (squared distance bits, index): non-negative floats order like their bits,
+  // so one integer sort ranks by distance with ties to the lower index.
+  float radius = guess > 0 && std::isfinite(guess) ? guess : cell_edge();
+  while (true) {
+    scratch.clear();
+    const float r2 = radius * radius;
+    auto collect = [&](uint32_t begin, uint32_t end, float limit) {
+      AppendInside(q, begin, end, limit, exclude, scratch, [](uint32_t id, float d2) {
+        return uint64_t(std::bit_cast<uint32_t>(d2)) << 32 | id;
+      });
+    };
+    // All points within `radius` are in scratch; if there are k, they hold the k nearest.
+    const bool ranged =
+        ForEachRun(q, radius, [&](uint32_t begin, uint32_t end) { collect(begin, end, r2); });
+    if (!ranged) collect(0, static_cast<uint32_t>(entries_.size()), std::numeric_limits<float>::infinity());
+    if (!ranged || scratch.size() >= k) break;
+    radius *= 2;
+  }
+  if (scratch.size() > k) std::nth_element(scratch.begin(), scratch.begin() + (k - 1), scratch.end());
+  std::sort(scratch.begin(), scratch.begin() + k);
+  for (size_t m = 0; m < k; ++m) {
+    idx[m] = static_cast<uint32_t>(scratch[m]);
+    dist_sq[m] = std::bit_cast<float>(static_cast<uint32_t>(scratch[m] >> 32));
+  }
+  return k;
+}
+
+}  // namespace scanprep

@@ -1,0 +1,161 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "core/spatial/neighbourhoods.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "core/pipeline/parallel.h"
+#include "core/status_macros.h"
+
+namespace scanprep {
+
+double MinRadiusFromScanlineSpacing(double scanline_spacing, double epsilon_u) {
+  return std::sqrt(3.0) * scanline_spacing + epsilon_u;
+}
+
+namespace {
+
+// Cell edge of the grid in units of the typical d_k: balls of d_k (the graph) up to ~2.5·d_k
+// (r_min) then read a handful of short runs.
+constexpr float kCellEdgePerDk = 1.0f;
+
+// Median d_k over an evenly strided sample, from a grid of any cell size.
+float SampleDk(const PointCloud& cloud, const CellGrid& grid, uint32_t k) {
+  const size_t n = cloud.size();
+  const size_t sample = std::min<size_t>(n, 1000);
+  std::vector<float> dk(sample);
+  std::vector<uint32_t> idx(k);
+  std::vector<float> d2(k);
+  std::vector<uint64_t> scratch;
+  for (size_t s = 0; s < sample; ++s) {
+    const size_t i = s * n / sample;
+    const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+    const size_t found = grid.Knn(q, k, static_cast<uint32_t>(i), 0.f, idx.data(), d2.data(), scratch);
+    dk[s] = found ? std::sqrt(d2[found - 1]) : 0.f;
+  }
+  std::nth_element(dk.begin(), dk.begin() + sample / 2, dk.end());
+  return dk[sample / 2];
+}
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
+    const PointCloud& cloud, const NeighbourhoodOptions& options, const CancelToken& cancel) {
+  std::unique_ptr<Neighbourhoods> nb(new Neighbourhoods());
+  const size_t n = cloud.size();
+  nb->k_ = static_cast<uint32_t>(std::min<size_t>(options.k, n > 0 ? n - 1 : 0));
+  nb->min_radius_ = options.min_radius;
+  nb->scan_ = cloud.scan;
+  const uint32_t k = nb->k_;
+  SCANPREP_RETURN_IF_ERROR(nb->grid_.Build(cloud, 0.f, cancel));
+  if (k == 0) return nb;
+  const float typical_dk = SampleDk(cloud, nb->grid_, k);
+  if (typical_dk > 0) {
+    SCANPREP_RETURN_IF_ERROR(nb->grid_.Build(cloud, kCellEdgePerDk * typical_dk, cancel));
+  }
+  nb->index_.resize(n * k);
+  nb->dk_.resize(n);
+
+  // In grid order, so consecutive queries read the same cells, and each starts from a radius
+  // just above its predecessor's d_k.
+  const std::span<const uint32_t> order = nb->grid_.order();
+  absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
+    std::vector<uint32_t> idx(k);
+    std::vector<float> d2(k);
+    std::vector<uint64_t> scratch;
+    float guess = typical_dk;
+    for (size_t v = begin; v < end; ++v) {
+      const uint32_t i = order[v];
+      const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+      nb->grid_.Knn(q, k, i, guess * 1.2f, &nb->index_[size_t(i) * k], d2.data(), scratch);
+      nb->dk_[i] = std::sqrt(d2[k - 1]);
+      guess = nb->dk_[i];
+    }
+  });
+  if (!status.ok()) return status;
+
+  nb->ComputeGlobalRadius();
+  // r_g only sets defaults, r_max = 5·r_g among them (algorithms.md §2). A minimum radius far
+  // beyond it — a scanline spacing stated in the wrong unit, or a cluster of coincident points
+  // with d_k = 0 — would make every ball hold most of the cloud and each stage quadratic.
+  for (double& r : nb->min_radius_) r = std::min(r, kMaxRadiusPerGlobalRadius * nb->global_radius_);
+  return nb;
+}
+
+// r_g from a seeded 1 % sample (at least min(n, 500) points): the paper's cheap global scale.
+void Neighbourhoods::ComputeGlobalRadius() {
+  const size_t n = dk_.size();
+  const size_t sample = std::min(n, std::max<size_t>((n + 99) / 100, 500));
+  std::vector<float> d(sample);
+  std::mt19937_64 rng(0x5ca9);
+  std::uniform_int_distribution<size_t> pick(0, n - 1);
+  for (size_t s = 0; s < sample; ++s) d[s] = dk(sample == n ? s : pick(rng));
+  std::nth_element(d.begin(), d.begin() + sample / 2, d.end());
+  global_radius_ = d[sample / 2];
+  density_ = global_radius_ > 0 ? k_ / (std::numbers::pi * global_radius_ * global_radius_) : 0.0;
+}
+
+absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shift,
+                                         const CancelToken& cancel) {
+  if (max_shift == 0) return absl::OkStatus();
+  moved_ = true;
+  SCANPREP_RETURN_IF_ERROR(grid_.Build(cloud, grid_.cell_edge(), cancel));
+  if (k_ == 0) return absl::OkStatus();
+  absl::Status status = ParallelFor(cloud.size(), cancel, [&](size_t begin, size_t end) {
+    std::vector<float> dist(k_);
+    for (size_t i = begin; i < end; ++i) {
+      uint32_t* idx = &index_[i * k_];
+      // Insertion sort: small moves leave the list nearly ordered.
+      for (uint32_t m = 0; m < k_; ++m) {
+        const uint32_t j = idx[m];
+        const float d = std::sqrt(cloud.squared_distance(i, j));
+        uint32_t at = m;
+        for (; at > 0 && dist[at - 1] > d; --at) {
+          idx[at] = idx[at - 1];
+          dist[at] = dist[at - 1];
+        }
+        idx[at] = j;
+        dist[at] = d;
+      }
+      dk_[i] = dist[k_ - 1];
+    }
+  });
+  if (!status.ok()) return status;
+  ComputeGlobalRadius();
+  return absl::OkStatus();
+}
+
+void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
+                            uint8_t skip) const {
+  WithinUncapped(cloud, i, radius, out, skip);
+  const size_t cap = max_ball_points();
+  if (out.size() <= cap) return;
+  std::nth_element(out.begin(), out.begin() + (cap - 1), out.end(), [](const auto& a, const auto& b) {
+    return a.second < b.second || (a.second == b.second && a.first < b.first);
+  });
+  capped_balls_.fetch_add(1, std::memory_order_relaxed);
+  capped_points_.fetch_add(out.size() - cap, std::memory_order_relaxed);
+  out.resize(cap);
+}
+
+void Neighbourhoods::WithinUncapped(const PointCloud& cloud, size_t i, float radius,
+                                    RadiusMatches& out, uint8_t skip) const {
+  out.clear();
+  auto skipped = [&](size_t j) { return (cloud.flags[j] & skip) != 0; };
+  if (k_ > 0 && !moved_ && radius <= dk(i)) {
+    if (!skipped(i)) out.emplace_back(static_cast<uint32_t>(i), 0.f);
+    for (const uint32_t j : knn(i)) {
+      const float d2 = cloud.squared_distance(i, j);
+      if (!(d2 < radius * radius)) break;  // the list is nearest first
+      if (!skipped(j)) out.emplace_back(j, d2);
+    }
+    return;
+  }
+  const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+  grid_.Within(q, radius, out);
+  std::erase_if(out, [&](const auto& m) { return skipped(m.first); });
+}
+
+}  // namespace scanprep

@@ -1,0 +1,126 @@
+// SPDX-License-Identifier: Apache-2.0
+// Neighbourhoods computed once per job and shared by every stage (paper §2.1, algorithms.md
+// §1-§4): the spatial index (a uniform grid), the k-nearest-neighbour graph, the global radius
+// and density, and the minimum radius from the scanline spacing.
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "core/pipeline/cancel.h"
+#include "core/spatial/cell_grid.h"
+#include "core/point_cloud.h"
+
+namespace scanprep {
+
+struct NeighbourhoodOptions {
+  uint32_t k = 20;  // graph degree, also k_g for the global radius
+  // r_min of Eq. (2) per scan, indexed like cloud.scans (a mixed job's finer sensor gets its own
+  // smaller one); missing entries and 0 = no lower bound.
+  std::vector<double> min_radius;
+};
+
+// The minimum radius is capped at this multiple of the global radius r_g.
+inline constexpr double kMaxRadiusPerGlobalRadius = 5.0;
+// A ball keeps at most this many times k points, the nearest: on a surface a ball of
+// kMaxRadiusPerGlobalRadius·r_g holds about 25·k, and the per-scan widening of normals in an
+// overlap up to about twice that; beyond it lie only radii far off the data's scale (a unit slip,
+// an override) and clusters far denser than the rest. It bounds every stage at O(n·k) work.
+inline constexpr uint32_t kMaxBallPointsPerK = 32;
+
+// Where scans overlap, a ball of one scan's points is widened once so that it holds about k + 1
+// of them, as r_p = d_k would on that scan alone: by √((k+1)/own) for `own` found, at most 2×
+// (4× the area; a point with hardly any of its own scan around it is judged on what is there,
+// not on a ball reaching into hundreds of another scan's points).
+inline float OwnScanWidening(size_t own, uint32_t k) {
+  const float wanted =
+      std::sqrt(static_cast<float>(k + 1) / static_cast<float>(std::max<size_t>(own, 1)));
+  return std::min(2.f, wanted);
+}
+
+class Neighbourhoods {
+ public:
+  // Builds the grid and the k-NN graph over all points of `cloud` (removed ones included: the
+  // graph is built once, stages skip removed neighbours). The cloud must outlive this object and
+  // its coordinates must not move while it is in use.
+  static absl::StatusOr<std::unique_ptr<Neighbourhoods>> Build(const PointCloud& cloud,
+                                                               const NeighbourhoodOptions& options,
+                                                               const CancelToken& cancel);
+
+  const CellGrid& grid() const { return grid_; }
+  // Every point index once, in grid order. A loop that asks a ball per point runs in this order
+  // so that consecutive balls read the same cells from cache (the order changes when points move).
+  std::span<const uint32_t> order() const { return grid_.order(); }
+  uint32_t k() const { return k_; }
+  // The k nearest other points of i, nearest first.
+  std::span<const uint32_t> knn(size_t i) const { return {&index_[i * k_], k_}; }
+  // Distance from i to knn(i)[m], from the current coordinates. Not stored: at k = 20 the
+  // distances would double the graph's memory, and recomputing one is three subtractions.
+  float knn_dist(const PointCloud& cloud, size_t i, uint32_t m) const {
+    return std::sqrt(cloud.squared_distance(i, index_[i * k_ + m]));
+  }
+  // d_k(i): distance to the k-th nearest other point.
+  float dk(size_t i) const { return k_ ? dk_[i] : 0.f; }
+
+  // r_g: median d_k over a seeded 1 % sample (at least min(n, 500) points).
+  double global_radius() const { return global_radius_; }
+  // ρ_g = k / (π r_g²), points per mm² assuming a locally planar surface.
+  double density() const { return density_; }
+  // r_min of scan s as used: the requested one, capped at kMaxRadiusPerGlobalRadius·r_g.
+  double scan_min_radius(size_t s) const { return s < min_radius_.size() ? min_radius_[s] : 0; }
+  // r_min of point i's scan.
+  float min_radius(size_t i) const {
+    return static_cast<float>(scan_min_radius(scan_.empty() ? 0 : scan_[i]));
+  }
+  // r_p = max(r_min, d_k(p)): the adaptive radius used by normals and smoothing.
+  float adaptive_radius(size_t i) const { return std::max(min_radius(i), dk(i)); }
+
+  // Unremoved points within `radius` of point i (i itself included), as (index, squared
+  // distance), at most max_ball_points() of them: a fuller ball keeps its nearest (ties to the
+  // lower index) and is counted in capped_balls(). Answers from the k-NN list when the radius
+  // fits inside it and no point has moved since the build, else asks the grid. `skip`: the removal
+  // flags that leave a point out (smoothing still fits to the points merging took out).
+  void Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
+              uint8_t skip = kRemovedMask) const;
+  // Every unremoved point within `radius`, for a caller whose total work stays O(n) however full
+  // the balls (simplification: each point lies in the balls of a bounded number of kept centres).
+  void WithinUncapped(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
+                      uint8_t skip = kRemovedMask) const;
+  uint32_t max_ball_points() const { return std::max<uint32_t>(kMaxBallPointsPerK * k_, 64); }
+  // Balls capped so far, and the points they left out.
+  uint64_t capped_balls() const { return capped_balls_.load(std::memory_order_relaxed); }
+  uint64_t capped_points() const { return capped_points_.load(std::memory_order_relaxed); }
+
+  // The points moved by at most `max_shift` each (smoothing bounds it by δ, Eq. 10). Instead of
+  // a rebuild of the graph (a full k-NN pass) every k-NN list is re-ranked by its new distances,
+  // so knn() stays nearest first and dk() follows the points; the grid is re-sorted on the new positions, so
+  // Within() stays exact. The lists may now miss a point that moved into the k nearest from
+  // outside (at 1 M points a smoothing move is half the spacing), so Within() stops answering
+  // from them.
+  absl::Status PointsMoved(const PointCloud& cloud, float max_shift, const CancelToken& cancel);
+
+ private:
+  Neighbourhoods() = default;
+  void ComputeGlobalRadius();
+  CellGrid grid_;
+  uint32_t k_ = 0;
+  std::vector<uint32_t> index_;
+  std::vector<float> dk_;
+  double global_radius_ = 0, density_ = 0;
+  std::vector<double> min_radius_;     // per scan
+  std::span<const uint32_t> scan_;     // the cloud's scan index per point
+  bool moved_ = false;  // points moved since the graph was built
+  mutable std::atomic<uint64_t> capped_balls_{0}, capped_points_{0};
+};
+
+// Eq. (2): r_min = √3·Δs + ε_u (the circumsphere of a cube of edge 2Δs, which reaches both
+// neighbouring scanlines, plus a margin for measurement uncertainty).
+double MinRadiusFromScanlineSpacing(double scanline_spacing, double epsilon_u);
+
+}  // namespace scanprep

@@ -1,0 +1,262 @@
+// SPDX-License-Identifier: Apache-2.0
+// Where scans overlap, the worse-viewed layer goes: inside N_{r_c}(p) every point whose viewing
+// quality q̂ lies below the neighbourhood mean q̄ is removed. r_c = ‖(Δs, u, Δp)‖ (Eq. 11) is the
+// smallest ball that reliably reaches the other layer: Δs alone is too large, u alone too small.
+//
+// Gather form (default): each point decides from its own neighbourhood and the labels of the
+// previous round, so the result is parallel and independent of visiting order; rounds repeat
+// until nothing changes. Guard: only where N holds points of ≥ 2 scans, and never a point of the
+// scan that owns the best point of N, so regions seen by one scan are not thinned. Scatter form (the paper's literal reading): centres in descending q̂
+// remove their below-mean neighbours immediately.
+#include "core/stages/correction.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "core/spatial/ball_cache.h"
+#include "core/stages/measures.h"
+#include "core/pipeline/parallel.h"
+#include "core/status_macros.h"
+#include "core/pipeline/job_context.h"
+
+namespace scanprep {
+namespace {
+
+// r_c is held to this multiple of r_g. Each term of Eq. (11) is about one sampling step, and r_g
+// (d_k at k = 20) about 2.5 steps on a surface, so an honest r_c stays near r_g; one of 2·r_g
+// already reaches ~5 steps, and a larger one comes from a unit slip or an override.
+constexpr double kMaxMergeRadiusPerGlobalRadius = 2.0;
+
+// What N_{r_c}(p) says: its mean quality, the scan of its best point, whether it spans scans.
+struct Verdict {
+  float mean_quality = 0;
+  uint32_t best_scan = 0;
+  bool overlap = false;
+};
+
+bool SpansScans(const PointCloud& cloud, const RadiusMatches& matches) {
+  return std::any_of(matches.begin(), matches.end(), [&](const auto& m) {
+    return cloud.scan[m.first] != cloud.scan[matches.front().first];
+  });
+}
+
+Verdict Judge(const PointCloud& cloud, const std::vector<float>& quality,
+              const RadiusMatches& matches) {
+  Verdict v;
+  double sum = 0;
+  uint32_t best = matches.front().first;
+  for (const auto& [j, d2] : matches) {
+    sum += quality[j];
+    if (quality[j] > quality[best] || (quality[j] == quality[best] && j < best)) best = j;
+  }
+  v.mean_quality = static_cast<float>(sum / static_cast<double>(matches.size()));
+  v.overlap = SpansScans(cloud, matches);
+  v.best_scan = cloud.scan[best];
+  return v;
+}
+
+bool ShouldGo(const PointCloud& cloud, const std::vector<float>& quality, const Verdict& v,
+              uint32_t j) {
+  return v.overlap && cloud.scan[j] != v.best_scan && quality[j] < v.mean_quality;
+}
+
+class CorrectionStage : public Stage {
+ public:
+  absl::Status Run(JobContext& ctx) override {
+    PointCloud& cloud = ctx.cloud();
+    ctx.Record("correction.single_scan", cloud.scans.size() < 2 ? 1 : 0);
+    if (cloud.scans.size() < 2) {  // nothing can overlap
+      ctx.Record("correction.removed", 0);
+      ctx.Warn("correction: the job has one scan, so there is no overlap to merge and nothing "
+               "was changed; send each scan as its own scan (one file per scan, or a per-point "
+               "scan column)");
+      return absl::OkStatus();
+    }
+    const std::vector<float>& quality = ctx.measures().quality;
+    if (quality.size() != cloud.size()) {
+      return absl::InternalError("correction: the measures stage left no viewing quality");
+    }
+    // Without sensor poses or a scanner quality every q̂ is the same, no point is below its
+    // neighbourhood's mean, and the merge would run to no effect: say so instead.
+    const bool uniform = UniformQuality(cloud, quality);
+    ctx.Record("correction.without_quality", uniform ? 1 : 0);
+    if (uniform) {
+      ctx.Record("correction.removed", 0);
+      ctx.Warn("correction: every point has the same viewing quality (no scan has sensor poses "
+               "or a per-point quality), so overlapping scans cannot be told apart and were not "
+               "merged; give view or camera/projector directions, or quality per point");
+      return absl::OkStatus();
+    }
+    SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
+    const Neighbourhoods& nb = *shared;
+
+    absl::StatusOr<std::vector<float>> radius = Radii(ctx, nb);
+    if (!radius.ok()) return radius.status();
+    const std::string mode = ctx.Choice("correction.mode");
+    absl::StatusOr<size_t> removed;
+    if (mode == "scatter") {
+      removed = Scatter(ctx, nb, quality, *radius);
+    } else {
+      const int rounds = static_cast<int>(ctx.Integer("correction.rounds"));
+      removed = Gather(ctx, nb, quality, *radius, rounds);
+    }
+    if (!removed.ok()) return removed.status();
+    ctx.Record("correction.removed", static_cast<double>(*removed));
+    return absl::OkStatus();
+  }
+
+ private:
+  // r_c per scan, scaled; recorded per scan when there are several.
+  static absl::StatusOr<std::vector<float>> Radii(JobContext& ctx, const Neighbourhoods& nb) {
+    const PointCloud& cloud = ctx.cloud();
+    const double scale = ctx.Number("correction.radius_scale");
+    const std::optional<double> forced = ctx.Overridden("correction.radius_mm");
+    const std::vector<double> spacing = ScanPointSpacing(ctx);
+    std::vector<float> radius;
+    for (size_t s = 0; s < cloud.scans.size(); ++s) {
+      const ScanMeta& scan = cloud.scans[s];
+      const double ds = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
+      const double r_c = std::sqrt(ds * ds + scan.uncertainty * scan.uncertainty +
+                                   spacing[s] * spacing[s]);  // Eq. (11)
+      radius.push_back(static_cast<float>(
+          ctx.CapRadius(absl::StrCat("the merge radius r_c (Eq. 11) of scan '", scan.id, "'"),
+                        forced.value_or(scale * r_c),
+                        kMaxMergeRadiusPerGlobalRadius * nb.global_radius())));
+      ctx.RecordForScan("correction.radius_mm", s, radius.back());
+    }
+    return radius;
+  }
+
+  // Rounds of the gather rule, each from the previous round's labels, until nothing changes.
+  // One round thins every layer of a multi-scan overlap by about half; later rounds see the
+  // raised mean of what is left and strip the worse layers completely, as the scatter form does.
+  static absl::StatusOr<size_t> Gather(JobContext& ctx, const Neighbourhoods& nb,
+                                       const std::vector<float>& quality,
+                                       const std::vector<float>& radius, int max_rounds) {
+    PointCloud& cloud = ctx.cloud();
+    const size_t n = cloud.size();
+    std::vector<uint8_t> go(n, 0), fresh(n, 0);  // fresh: removed in the previous round
+    // Balls only lose points from round to round, so a ball that holds one scan never spans two
+    // again: its centre is settled for good, and its ball is not worth keeping.
+    std::vector<uint8_t> settled(n, 0);
+    // Points whose r_c exceeds d_k are re-judged every round; their balls come from the grid
+    // once instead of once per round.
+    BallCache balls;
+    if (absl::Status s = balls.Gather(
+            cloud, nb, radius, [&](const RadiusMatches& m) { return SpansScans(cloud, m); },
+            ctx.cancel()); !s.ok()) {
+      return s;
+    }
+    // Only a point whose neighbourhood lost a point can change its verdict; when r_c exceeds
+    // the k-NN list the list cannot tell, so the point is re-judged.
+    auto touched = [&](size_t i) {
+      const float r = radius[cloud.scan[i]];
+      if (r > nb.dk(i)) return true;
+      for (const uint32_t j : nb.knn(i)) {
+        if (!(cloud.squared_distance(i, j) < r * r)) break;  // nearest first
+        if (fresh[j]) return true;
+      }
+      return false;
+    };
+    size_t removed = 0;
+    int round = 0;
+    ctx.ExpectWork(double(max_rounds) * n);  // at most; a round that removes nothing ends it
+    while (round < max_rounds) {
+      // Index order: the cached balls are stored by index.
+      absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+        RadiusMatches matches;
+        for (size_t i = begin; i < end; ++i) {
+          go[i] = 0;
+          if (cloud.removed(i) || settled[i] || (round > 0 && !touched(i))) continue;
+          const float r = radius[cloud.scan[i]];
+          if (r <= nb.dk(i)) {
+            nb.Within(cloud, i, r, matches);
+          } else if (!balls.Within(cloud, i, matches)) {
+            settled[i] = 1;  // gathered, but not kept: one scan
+            continue;
+          }
+          const Verdict v = Judge(cloud, quality, matches);
+          settled[i] = !v.overlap;
+          go[i] = ShouldGo(cloud, quality, v, uint32_t(i));
+        }
+      });
+      if (!status.ok()) return status;
+      ++round;
+      size_t now = 0;
+      for (size_t i = 0; i < n; ++i) {
+        fresh[i] = go[i];
+        if (!go[i]) continue;
+        cloud.flags[i] |= kRemovedMerge;
+        ++now;
+      }
+      removed += now;
+      ctx.Progress(double(round) / max_rounds);
+      if (now == 0) break;
+    }
+    ctx.Record("correction.rounds_run", round);
+    return removed;
+  }
+
+  static absl::StatusOr<size_t> Scatter(JobContext& ctx, const Neighbourhoods& nb,
+                                        const std::vector<float>& quality,
+                                        const std::vector<float>& radius) {
+    PointCloud& cloud = ctx.cloud();
+    std::vector<uint64_t> keys(cloud.size());
+    for (uint32_t i = 0; i < cloud.size(); ++i) keys[i] = DescendingQualityKey(quality[i], i);
+    SCANPREP_RETURN_IF_ERROR(CancellableSort(keys, ctx.cancel()));
+    std::vector<uint32_t> order(keys.size());
+    for (size_t v = 0; v < keys.size(); ++v) order[v] = static_cast<uint32_t>(keys[v]);
+    RadiusMatches matches;
+    size_t removed = 0;
+    for (size_t visited = 0; visited < order.size(); ++visited) {
+      // Before the skip of removed centres: a run of them must not skip the check too.
+      if (ctx.cancel().CancelledAt(visited)) return ctx.cancel().Check();
+      if ((visited & 0xffff) == 0) ctx.Progress(double(visited) / order.size());
+      const uint32_t i = order[visited];
+      if (cloud.removed(i)) continue;
+      nb.Within(cloud, i, radius[cloud.scan[i]], matches);
+      if (matches.size() < 2) continue;
+      const Verdict v = Judge(cloud, quality, matches);
+      for (const auto& [j, d2] : matches) {
+        if (!ShouldGo(cloud, quality, v, j)) continue;
+        cloud.flags[j] |= kRemovedMerge;
+        ++removed;
+      }
+    }
+    return removed;
+  }
+};
+
+}  // namespace
+
+StageInfo CorrectionStageInfo() {
+  return {
+      .name = "correction",
+      .summary = "merge overlapping scans: in N_{r_c}(p) spanning ≥ 2 scans, remove points of "
+                 "other scans than the best point's whose quality is below the mean (Eq. 11)",
+      .params =
+          {
+              ChoiceParam("correction.mode",
+                          "gather: each point decides from its own neighbourhood (parallel, "
+                          "order-free); scatter: centres in descending quality remove "
+                          "neighbours at once (paper)",
+                          {"gather", "scatter"}),
+              IntegerParam("correction.rounds",
+                           "most gather rounds, each from the previous round's labels (1 = a "
+                           "single pass); stops early when a round removes nothing",
+                           10, Closed(1, 1000)),
+              RealParam("correction.radius_scale",
+                        "factor on r_c, for registration residuals larger than r_c", 1,
+                        LeftOpen(0, 100)),
+              DerivedRealParam("correction.radius_mm", "r_c of Eq. (11) for every scan",
+                               "radius_scale·√(Δs² + u² + Δp²) per scan", LeftOpen(0, 1e4)),
+          },
+      .make = [] { return std::make_unique<CorrectionStage>(); },
+      .prerequisites = [](const JobContext&) { return std::vector<std::string>{"measures"}; },
+      .work_per_point = 1,
+      .cost_weight = 0.72,
+  };
+}
+
+}  // namespace scanprep

@@ -1,0 +1,122 @@
+// SPDX-License-Identifier: Apache-2.0
+// The "neighbourhoods" stage: builds the shared grid and k-NN graph and reports the derived
+// global radius, density and minimum radius. Other stages pull it in through
+// JobContext::neighbourhoods(); listing it explicitly only makes its timing visible.
+#include "core/stages/neighbourhoods_stage.h"
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "core/pipeline/job_context.h"
+
+namespace scanprep {
+namespace {
+
+// Names the scans (the first few, then a count) for a warning.
+std::string ScanList(const PointCloud& cloud, const std::vector<size_t>& scans) {
+  constexpr size_t kNamed = 3;
+  std::vector<std::string> names;
+  for (size_t k = 0; k < std::min(scans.size(), kNamed); ++k) {
+    names.push_back(absl::StrCat("'", cloud.scans[scans[k]].id, "'"));
+  }
+  std::string list = absl::StrJoin(names, ", ");
+  if (scans.size() > kNamed) absl::StrAppend(&list, " and ", scans.size() - kNamed, " more");
+  return list;
+}
+
+// A line scanner without Δs loses Eq. 2's √3·Δs term (r_min = ε_u only, so the balls at the
+// scanline gaps may hold one line); a scan without u runs on the 0.1 mm default for ε_u, the
+// curvature window and the smoothing limit δ. Both are counted and warned about, not assumed.
+void WarnAboutMissingMetadata(JobContext& ctx, bool radius_forced) {
+  const PointCloud& cloud = ctx.cloud();
+  std::vector<size_t> no_spacing, no_uncertainty;
+  for (size_t s = 0; s < cloud.scans.size(); ++s) {
+    const ScanMeta& scan = cloud.scans[s];
+    if (cloud.kind == ScannerKind::kLine && !(scan.scanline_spacing > 0)) no_spacing.push_back(s);
+    if (!scan.uncertainty_stated) no_uncertainty.push_back(s);
+  }
+  ctx.Record("neighbourhoods.scans_without_spacing", static_cast<double>(no_spacing.size()));
+  ctx.Record("neighbourhoods.scans_default_uncertainty",
+             static_cast<double>(no_uncertainty.size()));
+  if (!no_spacing.empty() && !radius_forced) {
+    ctx.Warn(absl::StrCat("neighbourhoods: line scan(s) ", ScanList(cloud, no_spacing),
+                          " state no scanline spacing, so r_min (Eq. 2) is ε_u alone; give "
+                          "scanline_spacing, or neighbourhoods.min_radius_mm"));
+  }
+  if (!no_uncertainty.empty()) {
+    ctx.Warn(absl::StrCat("neighbourhoods: scan(s) ", ScanList(cloud, no_uncertainty),
+                          " state no measuring uncertainty u; the default ", ScanMeta{}.uncertainty,
+                          " mm is used for ε_u, the curvature window and the smoothing limit; "
+                          "give the scanner's uncertainty"));
+  }
+}
+
+class NeighbourhoodsStage : public Stage {
+ public:
+  absl::Status Run(JobContext& ctx) override {
+    const PointCloud& cloud = ctx.cloud();
+    NeighbourhoodOptions options;
+    options.k = static_cast<uint32_t>(ctx.Integer("neighbourhoods.k"));
+    // Per scan: a job mixing sensors would otherwise give the finer one the coarser one's r_min.
+    const std::optional<double> forced_epsilon = ctx.Overridden("neighbourhoods.epsilon_u_mm");
+    const std::optional<double> forced_radius = ctx.Overridden("neighbourhoods.min_radius_mm");
+    for (size_t s = 0; s < cloud.scans.size(); ++s) {
+      const ScanMeta& scan = cloud.scans[s];
+      const double spacing = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
+      const double epsilon_u = forced_epsilon.value_or(scan.uncertainty);
+      // Flexible scanners have no fixed spacing: r_min = ε_u and r_p = max(r_min, d_k) grows
+      // the ball until it holds k points (algorithms.md §4).
+      options.min_radius.push_back(
+          forced_radius.value_or(MinRadiusFromScanlineSpacing(spacing, epsilon_u)));
+      ctx.RecordForScan("neighbourhoods.epsilon_u_mm", s, epsilon_u);
+      ctx.RecordForScan("neighbourhoods.min_radius_mm", s, options.min_radius.back());
+    }
+    WarnAboutMissingMetadata(ctx, forced_radius.has_value());
+    auto nb = Neighbourhoods::Build(cloud, options, ctx.cancel());
+    if (!nb.ok()) return nb.status();
+    for (size_t s = 0; s < cloud.scans.size(); ++s) {
+      // Build() already held r_min to kMaxRadiusPerGlobalRadius·r_g; this reports it.
+      ctx.CapRadius(absl::StrCat("the minimum radius r_min (Eq. 2, from scanline spacing and "
+                                 "uncertainty) of scan '", cloud.scans[s].id, "'"),
+                    options.min_radius[s], (*nb)->scan_min_radius(s));
+      ctx.RecordForScan("neighbourhoods.min_radius_used_mm", s, (*nb)->scan_min_radius(s));
+    }
+    if (const size_t collapsed = ctx.duplicates_collapsed(); collapsed > 0) {
+      ctx.Warn(absl::StrCat("neighbourhoods: ", collapsed, " points coincide exactly with another "
+                            "point of their scan; each group was processed once and every "
+                            "point of it returned with that result"));
+    }
+    ctx.Record("neighbourhoods.duplicates_collapsed", static_cast<double>(ctx.duplicates_collapsed()));
+    ctx.Record("neighbourhoods.global_radius_mm", (*nb)->global_radius());
+    ctx.Record("neighbourhoods.density_per_mm2", (*nb)->density());
+    ctx.SetNeighbourhoods(*std::move(nb));
+    return absl::OkStatus();
+  }
+};
+
+}  // namespace
+
+StageInfo NeighbourhoodsStageInfo() {
+  return {
+      .name = "neighbourhoods",
+      .summary = "spatial grid and k-NN graph shared by all stages; global radius r_g and density",
+      .params =
+          {
+              IntegerParam("neighbourhoods.k", "neighbours per point in the shared graph (k_g)",
+                           20, Closed(3, 64)),
+              DerivedRealParam("neighbourhoods.epsilon_u_mm", "ε_u of Eq. (2), uncertainty margin",
+                               "the scan's uncertainty u", Closed(0, 1e4)),
+              DerivedRealParam("neighbourhoods.min_radius_mm", "r_min of Eq. (2): √3·Δs + ε_u",
+                               "per scan from its scanline spacing; ε_u for flexible scanners",
+                               Closed(0, 1e4)),
+          },
+      .make = [] { return std::make_unique<NeighbourhoodsStage>(); },
+      .work_per_point = 5,
+      .cost_weight = 1.33,
+  };
+}
+
+}  // namespace scanprep

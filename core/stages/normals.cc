@@ -1,0 +1,210 @@
+// SPDX-License-Identifier: Apache-2.0
+// Per point: the ball N_{r_p}(p), r_p = max(r_min, d_k) (or the Mitra radius), Gaussian weights
+// with h = r_p/2 relative to p, the central-moment tensor in double and its smallest eigenvector.
+// In overlaps only the point's own scan contributes, so a second, misregistered layer from
+// another sensor does not tilt the normal that its viewing quality is later judged by.
+#include "core/stages/normals.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "core/spatial/local_moments.h"
+#include "core/stages/mitra_radius.h"
+#include "core/stages/normal_orientation.h"
+#include "core/pipeline/parallel.h"
+#include "core/status_macros.h"
+#include "core/pipeline/job_context.h"
+
+namespace scanprep {
+namespace {
+
+// Neighbours per point in the orientation graph unless the request says otherwise.
+constexpr uint32_t kOrientationK = 10;
+
+struct Scratch {
+  RadiusMatches matches;
+  RadiusMatches mitra;
+};
+
+class NormalsStage : public Stage {
+ public:
+  absl::Status Run(JobContext& ctx) override {
+    SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
+    const Neighbourhoods& nb = *shared;
+    PointCloud& cloud = ctx.cloud();
+    const size_t n = cloud.size();
+    const std::string mode = ctx.Choice("normals.radius_mode");
+    const double weight_scale = ctx.Number("normals.gaussian_h_factor");
+    // At most neighbourhoods.k (ValidateOverrides): orientation walks the shared graph.
+    const int64_t orientation_k =
+        ctx.Integer("normals.orientation_k", std::min(kOrientationK, nb.k()));
+    const bool per_scan = cloud.scans.size() > 1;
+    MitraOptions mitra;
+    if (mode == "mitra") {
+      mitra.c1 = ctx.Number("normals.mitra_c1");
+      mitra.c2 = ctx.Number("normals.mitra_c2");
+      mitra.epsilon = ctx.Number("normals.mitra_epsilon");
+      const double r_max_limit = kMaxRadiusPerGlobalRadius * nb.global_radius();
+      mitra.r_max = ctx.CapRadius("normals.mitra_max_radius_mm",
+                                  ctx.Number("normals.mitra_max_radius_mm", r_max_limit),
+                                  r_max_limit);
+      ctx.Record("normals.mitra_max_radius_mm", mitra.r_max);  // the value used
+    }
+    const std::optional<double> sigma_override = ctx.Overridden("normals.mitra_sigma_mm");
+    for (size_t s = 0; mode == "mitra" && s < cloud.scans.size(); ++s) {
+      ctx.RecordForScan("normals.mitra_sigma_mm", s,
+                        sigma_override.value_or(cloud.scans[s].uncertainty));
+    }
+
+    cloud.nx.assign(n, 0.f);
+    cloud.ny.assign(n, 0.f);
+    cloud.nz.assign(n, 0.f);
+    std::vector<float>& variation = ctx.measures().surface_variation;
+    variation.assign(n, 0.f);
+    std::vector<float>& fit_rms = ctx.measures().fit_rms;
+    fit_rms.assign(n, 0.f);
+    std::vector<float> radius(n, 0.f);
+    std::atomic<size_t> invalid{0};
+    // Flags are applied after the loop: other blocks read flags[j] of their neighbours
+    // (removed()) while this one would write flags[i] of the same byte.
+    std::vector<uint8_t> no_normal(n, 0);
+
+    const std::span<const uint32_t> order = nb.order();
+    // A Mitra radius costs up to 5 balls of up to 5·r_g (25·k points) with a quadric fit each:
+    // smaller blocks, so that a cancel does not wait for 1024 of them.
+    const size_t grain = mode == "mitra" ? 128 : 1024;
+    absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+      Scratch scratch;
+      size_t local_invalid = 0;
+      for (size_t v = begin; v < end; ++v) {
+        const size_t i = order[v];
+        // Removed points get no normal; the flag tells clients that asked for them too.
+        if (cloud.removed(i)) {
+          no_normal[i] = 1;
+          continue;
+        }
+        float r = nb.adaptive_radius(i);
+        if (mode == "mitra") {
+          const double sigma = sigma_override.value_or(cloud.scans[cloud.scan[i]].uncertainty);
+          r = MitraRadius(cloud, nb, i, sigma, mitra, scratch.mitra);
+        }
+        // In an overlap part of the k-NN ball belongs to other scans: widen it once
+        // (OwnScanWidening). Only the widened ball is fitted. (One query reaching past r_p for
+        // both balls costs more than two: a radius search grows faster than the ball.)
+        Gather(cloud, nb, i, r, per_scan, scratch.matches);
+        const size_t own = scratch.matches.size();
+        if (per_scan && own < nb.k() + 1) {
+          r *= OwnScanWidening(own, nb.k());
+          Gather(cloud, nb, i, r, per_scan, scratch.matches);
+        }
+        const LocalFrame frame = Fit(cloud, i, r, weight_scale, scratch.matches);
+        radius[i] = r;
+        if (!frame.valid) {
+          no_normal[i] = 1;
+          ++local_invalid;
+          continue;
+        }
+        const Eigen::Vector3d normal = frame.normal();
+        cloud.nx[i] = static_cast<float>(normal.x());
+        cloud.ny[i] = static_cast<float>(normal.y());
+        cloud.nz[i] = static_cast<float>(normal.z());
+        variation[i] = static_cast<float>(frame.surface_variation());
+        fit_rms[i] = static_cast<float>(std::sqrt(frame.eigenvalues[0]));
+      }
+      invalid += local_invalid;
+    }, grain);
+    if (!status.ok()) return status;
+    for (size_t i = 0; i < n; ++i) {
+      cloud.flags[i] = no_normal[i] ? cloud.flags[i] | kNormalInvalid
+                                    : cloud.flags[i] & static_cast<uint8_t>(~kNormalInvalid);
+    }
+
+    ctx.Progress(0.5);  // the normals are fitted; orientation follows
+    OrientationCounts counts;
+    status = OrientNormals(cloud, nb, static_cast<uint32_t>(orientation_k), ctx.cancel(), counts);
+    if (!status.ok()) return status;
+
+    std::vector<float> kept;
+    for (size_t i = 0; i < n; ++i) {
+      if (!cloud.removed(i)) kept.push_back(radius[i]);
+    }
+    if (!kept.empty()) {
+      std::nth_element(kept.begin(), kept.begin() + kept.size() / 2, kept.end());
+      ctx.Record("normals.median_radius_mm", kept[kept.size() / 2]);
+    }
+    ctx.Record("normals.invalid", static_cast<double>(invalid));
+    ctx.Record("normals.oriented_toward_sensor", static_cast<double>(counts.toward_sensor));
+    ctx.Record("normals.oriented_by_tree", static_cast<double>(counts.propagated));
+    ctx.Record("normals.tree_bridges", static_cast<double>(counts.bridges));
+    ctx.Record("normals.bridge_work", static_cast<double>(counts.bridge_work));
+    if (counts.propagated > 0) {
+      ctx.Warn(absl::StrCat("normals: ", counts.propagated,
+                            " normals oriented by spanning-tree propagation (no sensor pose); "
+                            "their sign is consistent but may be globally inverted"));
+    }
+    return absl::OkStatus();
+  }
+
+ private:
+  // The unremoved points within `radius` of i, of i's own scan when `per_scan`.
+  static void Gather(const PointCloud& cloud, const Neighbourhoods& nb, size_t i, float radius,
+                     bool per_scan, RadiusMatches& matches) {
+    nb.Within(cloud, i, radius, matches);
+    if (per_scan) {
+      std::erase_if(matches, [&](const auto& m) { return cloud.scan[m.first] != cloud.scan[i]; });
+    }
+  }
+
+  // Eq. (4): weights exp(−‖p_j − p‖²/(2h²)), h = factor·r, moments relative to p.
+  static LocalFrame Fit(const PointCloud& cloud, size_t i, float r, double h_factor,
+                        const RadiusMatches& matches) {
+    const double h = h_factor * r;
+    const double inv_two_h2 = h > 0 ? 1.0 / (2 * h * h) : 0.0;
+    const Eigen::Vector3d p = cloud.point(i).cast<double>();
+    MomentAccumulator moments;
+    for (const auto& [j, d2] : matches) {
+      // A weight needs no more than float precision, and expf is several times cheaper.
+      const float w = std::exp(static_cast<float>(-d2 * inv_two_h2));
+      moments.Add(cloud.point(j).cast<double>() - p, w);
+    }
+    return moments.Solve();
+  }
+};
+
+}  // namespace
+
+StageInfo NormalsStageInfo() {
+  return {
+      .name = "normals",
+      .summary = "Gaussian-weighted PCA normals (Eq. 4), oriented toward the sensor (Eq. 3) or "
+                 "along a minimum spanning tree (Eq. 5)",
+      .params =
+          {
+              ChoiceParam("normals.radius_mode", "PCA ball radius: adaptive r_p = max(r_min, "
+                          "d_k), or the Mitra et al. radius of Eq. (1)", {"adaptive", "mitra"}),
+              RealParam("normals.gaussian_h_factor",
+                        "Gaussian width h as a fraction of the ball radius", 0.5, LeftOpen(0, 10)),
+              DerivedIntegerParam("normals.orientation_k",
+                                  "neighbours per point in the orientation graph (Eq. 5)",
+                                  absl::StrCat("min(", kOrientationK, ", neighbourhoods.k)"),
+                                  Closed(1, 64))
+                  .AtMost("neighbourhoods.k"),
+              RealParam("normals.mitra_c1", "c1 of Eq. (1)", 1, Closed(0, 1000)),
+              RealParam("normals.mitra_c2", "c2 of Eq. (1)", 1, Closed(0, 1000)),
+              RealParam("normals.mitra_epsilon", "ε of Eq. (1): the normal bound fails with this "
+                        "probability", 0.05, Open(0, 1)),
+              DerivedRealParam("normals.mitra_sigma_mm", "noise σ_n of Eq. (1)",
+                               "the scan's uncertainty u", Closed(0, 1e4)),
+              DerivedRealParam("normals.mitra_max_radius_mm", "upper clamp of the Mitra radius",
+                               "5·r_g", LeftOpen(0, 1e4)),
+          },
+      .make = [] { return std::make_unique<NormalsStage>(); },
+      .prerequisites = [](const JobContext&) { return std::vector<std::string>{"neighbourhoods"}; },
+      .work_per_point = 2,
+      .cost_weight = 1.78,
+  };
+}
+
+}  // namespace scanprep

@@ -1,0 +1,163 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "core/stages/scanline_curvature.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Cholesky>
+
+#include "core/spatial/local_moments.h"
+#include "core/pipeline/parallel.h"
+
+namespace scanprep {
+namespace {
+
+// [begin, end) index ranges of consecutive points sharing (scan, scanline).
+std::vector<std::pair<size_t, size_t>> ScanlineRuns(const PointCloud& cloud) {
+  std::vector<std::pair<size_t, size_t>> runs;
+  if (!cloud.has_scanlines()) return runs;
+  size_t start = 0;
+  for (size_t i = 1; i <= cloud.size(); ++i) {
+    if (i == cloud.size() || cloud.scanline[i] != cloud.scanline[start] ||
+        cloud.scan[i] != cloud.scan[start]) {
+      runs.emplace_back(start, i);
+      start = i;
+    }
+  }
+  return runs;
+}
+
+double Distance(const PointCloud& cloud, size_t a, size_t b) {
+  return (cloud.point(a) - cloud.point(b)).cast<double>().norm();
+}
+
+struct LineScratch {
+  std::vector<uint32_t> idx;
+  std::vector<double> arc, gaps;
+  std::vector<uint32_t> segment;
+  // prefix[t]: moments of points [0, t) of the line relative to its first point.
+  std::vector<MomentAccumulator> prefix;
+};
+
+// The weighted quadratic y = a0 + a1·x + a2·x² in the window's own PCA frame.
+float WindowCurvature(const PointCloud& cloud, const LineScratch& s, size_t centre, size_t lo,
+                      size_t hi, double h) {
+  const Eigen::Vector3d p = cloud.point(s.idx[centre]).cast<double>();
+  const LocalFrame frame = s.prefix[hi + 1].Without(s.prefix[lo]).Solve();
+  if (!(frame.eigenvalues[2] > 0)) return std::numeric_limits<float>::quiet_NaN();
+  const Eigen::Vector3d tangent = frame.axes.col(2), across = frame.axes.col(1);
+  const double inv_two_var = 1.0 / (2 * (h / 2) * (h / 2));
+  // The normal equations of rows (1, x, x²) hold only the weighted power sums Σw·xᵏ, k <= 4,
+  // and Σw·y·xᵏ, k <= 2.
+  double sx[5] = {0, 0, 0, 0, 0}, sy[3] = {0, 0, 0};
+  for (size_t t = lo; t <= hi; ++t) {
+    const Eigen::Vector3d d = cloud.point(s.idx[t]).cast<double>() - p;
+    const double x = d.dot(tangent), y = d.dot(across), x2 = x * x;
+    const double w = std::exp(static_cast<float>(-x2 * inv_two_var));  // float: a weight
+    const double wx = w * x, wx2 = w * x2;
+    sx[0] += w, sx[1] += wx, sx[2] += wx2, sx[3] += wx2 * x, sx[4] += wx2 * x2;
+    sy[0] += w * y, sy[1] += wx * y, sy[2] += wx2 * y;
+  }
+  Eigen::Matrix3d normal_eq;
+  normal_eq << sx[0], sx[1], sx[2], sx[1], sx[2], sx[3], sx[2], sx[3], sx[4];
+  const Eigen::Vector3d a = normal_eq.ldlt().solve(Eigen::Vector3d(sy[0], sy[1], sy[2]));
+  const double kappa = std::abs(2 * a[2]) / std::pow(1 + a[1] * a[1], 1.5);
+  return std::isfinite(kappa) ? static_cast<float>(kappa) : std::numeric_limits<float>::quiet_NaN();
+}
+
+void LineCurvature(const PointCloud& cloud, size_t begin, size_t end, double h,
+                   const CancelToken& cancel, LineScratch& s, std::vector<float>& kappa,
+                   ScanlineCurvatureCounts& counts) {
+  s.idx.clear();
+  for (size_t i = begin; i < end; ++i) {
+    if (!cloud.removed(i)) s.idx.push_back(static_cast<uint32_t>(i));
+  }
+  const size_t m = s.idx.size();
+  if (m < 5) return;
+  s.gaps.resize(m - 1);
+  for (size_t t = 0; t + 1 < m; ++t) s.gaps[t] = Distance(cloud, s.idx[t], s.idx[t + 1]);
+  s.arc.assign(s.gaps.begin(), s.gaps.end());
+  std::nth_element(s.arc.begin(), s.arc.begin() + s.arc.size() / 2, s.arc.end());
+  const double max_gap = 3 * s.arc[s.arc.size() / 2];
+  s.arc.resize(m);
+  s.segment.resize(m);
+  s.arc[0] = 0;
+  s.segment[0] = 0;
+  for (size_t t = 1; t < m; ++t) {
+    s.arc[t] = s.arc[t - 1] + s.gaps[t - 1];
+    s.segment[t] = s.segment[t - 1] + (s.gaps[t - 1] > max_gap ? 1 : 0);
+  }
+  // Central moments do not depend on the reference point, and a line spans at most a few
+  // hundred mm, so prefix sums in double keep the window's noise-level eigenvalues.
+  const Eigen::Vector3d origin = cloud.point(s.idx[0]).cast<double>();
+  s.prefix.resize(m + 1);
+  s.prefix[0] = MomentAccumulator();
+  for (size_t t = 0; t < m; ++t) {
+    s.prefix[t + 1] = s.prefix[t];
+    s.prefix[t + 1].Add(cloud.point(s.idx[t]).cast<double>() - origin, 1.0);
+  }
+  // The window [lo, hi] by arc length, then cut to kMaxWindowSide points a side; `reach` is
+  // the uncut upper end, kept so that both ends still move forward only.
+  size_t lo = 0, reach = 0;
+  for (size_t t = 0; t < m; ++t) {
+    if (cancel.CancelledAt(t)) return;
+    while (s.segment[lo] != s.segment[t] || s.arc[t] - s.arc[lo] > h) ++lo;
+    if (reach < t) reach = t;
+    while (reach + 1 < m && s.segment[reach + 1] == s.segment[t] &&
+           s.arc[reach + 1] - s.arc[t] <= h) {
+      ++reach;
+    }
+    const size_t first = std::max(lo, t - std::min(t, kMaxWindowSide));
+    const size_t last = std::min(reach, t + kMaxWindowSide);
+    if (t - first < 2 || last - t < 2) continue;  // a segment end: the caller falls back
+    counts.windows_capped += first != lo || last != reach;
+    counts.window_points += last - first + 1;
+    kappa[s.idx[t]] = WindowCurvature(cloud, s, t, first, last, h);
+  }
+}
+
+}  // namespace
+
+std::vector<double> MedianScanlineSpacing(const PointCloud& cloud) {
+  std::vector<std::vector<float>> gaps(cloud.scans.size());
+  for (const auto& [begin, end] : ScanlineRuns(cloud)) {
+    size_t previous = end;
+    for (size_t i = begin; i < end; ++i) {
+      if (cloud.removed(i)) continue;
+      if (previous != end) gaps[cloud.scan[i]].push_back(static_cast<float>(Distance(cloud, previous, i)));
+      previous = i;
+    }
+  }
+  std::vector<double> spacing(cloud.scans.size(), 0.0);
+  for (size_t s = 0; s < gaps.size(); ++s) {
+    if (gaps[s].empty()) continue;
+    std::nth_element(gaps[s].begin(), gaps[s].begin() + gaps[s].size() / 2, gaps[s].end());
+    spacing[s] = gaps[s][gaps[s].size() / 2];
+  }
+  return spacing;
+}
+
+absl::Status ScanlineCurvature(const PointCloud& cloud, const std::vector<double>& window,
+                               const CancelToken& cancel, std::vector<float>& kappa,
+                               ScanlineCurvatureCounts& counts) {
+  kappa.assign(cloud.size(), std::numeric_limits<float>::quiet_NaN());
+  const std::vector<std::pair<size_t, size_t>> runs = ScanlineRuns(cloud);
+  std::atomic<size_t> capped{0}, points{0};
+  absl::Status status = ParallelFor(runs.size(), cancel, [&](size_t begin, size_t end) {
+    LineScratch scratch;
+    ScanlineCurvatureCounts local;
+    for (size_t r = begin; r < end; ++r) {
+      const auto [first, last] = runs[r];
+      LineCurvature(cloud, first, last, window[cloud.scan[first]], cancel, scratch, kappa, local);
+    }
+    capped += local.windows_capped;
+    points += local.window_points;
+  }, 8);
+  counts.windows_capped = capped;
+  counts.window_points = points;
+  return status;
+}
+
+}  // namespace scanprep

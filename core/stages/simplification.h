@@ -1,0 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+#include "core/pipeline/stage.h"
+namespace scanprep {
+// Curvature-adaptive or uniform thinning to a target spacing (paper §3.3, Eq. 13;
+// algorithms.md §12).
+StageInfo SimplificationStageInfo();
+}

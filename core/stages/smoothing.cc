@@ -1,0 +1,191 @@
+// SPDX-License-Identifier: Apache-2.0
+// Edge-preserving smoothing (paper §3.1, Eqs. 6-10; algorithms.md §11; docs/algorithms.md for the
+// deviation). Every point's weights combine viewing quality and flatness (Eq. 6) with a distance
+// fall-off (Eq. 9). By default each point is projected onto the plane of its own side of the
+// surface, fitted to the neighbours within a few noise σ of it, and σ is measured from the data
+// (the normals' fit residuals), not taken from the scanner's stated u: with an honest u the paper's
+// rule δ = u rejects most noise-sized moves, and with an inflated one it lets edges round off.
+// The paper's weighted mean with δ = u (Eqs. 8, 10) is `smoothing.method = mean`.
+#include "core/stages/smoothing.h"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+#include "absl/strings/str_cat.h"
+#include "core/stages/measures.h"
+#include "core/pipeline/parallel.h"
+#include "core/stages/scan_noise.h"
+#include "core/stages/smoothing_kernels.h"
+#include "core/status_macros.h"
+#include "core/pipeline/job_context.h"
+
+namespace scanprep {
+namespace {
+
+// Progress: parallel-loop items per point that one iteration meters (its pass, and the
+// neighbourhoods rebuilt for the points it moved), measured on the simulated scans.
+constexpr double kLoopItemsPerIteration = 4;
+
+class SmoothingStage : public Stage {
+ public:
+  absl::Status Run(JobContext& ctx) override {
+    PointCloud& cloud = ctx.cloud();
+    const PointMeasures& m = ctx.measures();
+    const size_t n = cloud.size();
+    if (m.quality.size() != n || m.curvature.size() != n || m.fit_rms.size() != n) {
+      return absl::InternalError("smoothing: the measures stage left no quality/curvature/fit");
+    }
+    const SmoothingSettings settings = ReadSettings(ctx);
+    // Without poses every q̂ is the same and Eq. (6) weighs by flatness alone.
+    const bool uniform = UniformQuality(cloud, m.quality);
+    ctx.Record("smoothing.without_quality", uniform ? 1 : 0);
+    if (uniform && settings.lambda > 0) {
+      ctx.Warn("smoothing: every point has the same viewing quality (no sensor poses), so the "
+               "weights of Eq. (6) tell points apart by flatness alone");
+    }
+    const int iterations = static_cast<int>(ctx.Integer("smoothing.iterations"));
+    ctx.ExpectWork(kLoopItemsPerIteration * iterations * double(n));
+
+    std::vector<Eigen::Vector3f> next(n);
+    std::vector<uint8_t> outcome(n);
+    std::vector<uint8_t> moved_ever(n, 0);
+    size_t counts[5] = {};
+    double shift_sum = 0;
+    for (int it = 0; it < iterations; ++it) {
+      auto nb = ctx.neighbourhoods();
+      if (!nb.ok()) return nb.status();
+      const SmoothingInputs in{cloud, **nb, m, settings};
+      const std::span<const uint32_t> order = (*nb)->order();
+      absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+        SmoothingScratch scratch;
+        for (size_t v = begin; v < end; ++v) {
+          const size_t i = order[v];
+          outcome[i] = SmoothPoint(in, i, scratch, next[i]);
+        }
+      });
+      if (!status.ok()) return status;
+      float max_shift = 0;
+      for (size_t i = 0; i < n; ++i) {
+        ++counts[outcome[i]];
+        if (outcome[i] != kMoved && outcome[i] != kClamped) continue;
+        moved_ever[i] = 1;
+        const float shift = (cloud.point(i) - next[i]).norm();
+        shift_sum += shift;
+        max_shift = std::max(max_shift, shift);
+      }
+      // Jacobi update: every new position came from the pre-pass positions.
+      for (size_t i = 0; i < n; ++i) {
+        cloud.x[i] = next[i].x(), cloud.y[i] = next[i].y(), cloud.z[i] = next[i].z();
+      }
+      SCANPREP_RETURN_IF_ERROR(ctx.PointsMoved(max_shift));
+      ctx.Progress((it + 1.0) / iterations);
+    }
+    for (size_t i = 0; i < n; ++i) {
+      if (moved_ever[i]) cloud.flags[i] |= kSmoothed;
+    }
+    const size_t shifted = counts[kMoved] + counts[kClamped];
+    ctx.Record("smoothing.moved", static_cast<double>(counts[kMoved]));
+    ctx.Record("smoothing.clamped", static_cast<double>(counts[kClamped]));
+    ctx.Record("smoothing.rejected", static_cast<double>(counts[kRejected]));
+    ctx.Record("smoothing.unfitted", static_cast<double>(counts[kUnfitted]));
+    ctx.Record("smoothing.mean_shift_mm", shifted > 0 ? shift_sum / double(shifted) : 0.0);
+    return absl::OkStatus();
+  }
+
+ private:
+  static SmoothingSettings ReadSettings(JobContext& ctx) {
+    SmoothingSettings s;
+    s.own_side = ctx.Choice("smoothing.method") == "own_side";
+    s.lambda = static_cast<float>(ctx.Number("smoothing.lambda"));
+    const std::string influence = ctx.Choice("smoothing.influence");
+    s.influence = influence == "gauss"     ? Influence::kGauss
+                  : influence == "average" ? Influence::kAverage
+                                           : Influence::kCubic;
+    s.blend = ctx.Choice("smoothing.mode") == "blend";
+    s.clamp = ctx.Choice("smoothing.tolerance") == "clamp";
+    const PointCloud& cloud = ctx.cloud();
+    const size_t scans = std::max<size_t>(cloud.scans.size(), 1);
+    const std::optional<double> forced = ctx.Overridden("smoothing.tolerance_mm");
+    const std::optional<double> forced_noise = ctx.Overridden("smoothing.noise_mm");
+    s.fixed_tolerance = forced.has_value() || !s.own_side;
+    const std::vector<std::optional<double>> measured =
+        MeasuredScanNoise(cloud, ctx.measures(), scans);
+    size_t tolerance_from_default = 0;
+    for (size_t scan = 0; scan < scans; ++scan) {
+      const double u = scan < cloud.scans.size() ? cloud.scans[scan].uncertainty : 0.1;
+      double noise = forced_noise.value_or(measured[scan].value_or(u));
+      if (s.own_side && !forced_noise && !measured[scan]) {
+        ctx.Warn(absl::StrCat("smoothing: scan ", scan, " has too few normal fits to measure its "
+                              "noise; its stated uncertainty u = ", u, " mm stands in"));
+      }
+      if (s.own_side && !forced_noise && measured[scan] && noise > 3 * u) {
+        ctx.Warn(absl::StrCat("smoothing: scan ", scan, " is noisier (σ̂ = ", noise,
+                              " mm) than three times its stated uncertainty u = ", u,
+                              " mm: is the unit or u right?"));
+      }
+      s.noise.push_back(static_cast<float>(noise));
+      // δ = u (the paper), or kMoveSigmas·σ̂ at the scan's typical noise (own side).
+      s.tolerance.push_back(
+          static_cast<float>(forced.value_or(s.own_side ? kMoveSigmas * noise : u)));
+      if (s.own_side) ctx.RecordForScan("smoothing.noise_mm", scan, noise);
+      const bool default_u = scan < cloud.scans.size() && !cloud.scans[scan].uncertainty_stated;
+      if (!forced && s.fixed_tolerance && default_u) {
+        ++tolerance_from_default;
+        ctx.Warn(absl::StrCat("smoothing: scan ", scan, " states no uncertainty; δ is the default "
+                              "u = ", u, " mm (smoothing.method = own_side measures the noise)"));
+      }
+      ctx.RecordForScan("smoothing.tolerance_mm", scan, s.tolerance.back());
+    }
+    ctx.Record("smoothing.tolerance_from_default_u", static_cast<double>(tolerance_from_default));
+    return s;
+  }
+};
+
+}  // namespace
+
+StageInfo SmoothingStageInfo() {
+  return {
+      .name = "smoothing",
+      .summary = "edge-sharpening smoothing: each point projected onto its own side's plane, "
+                 "fitted with the weights of Eqs. 6 and 9 within 3 measured σ; or the paper's "
+                 "weighted mean with moves longer than u rejected (Eqs. 6-10)",
+      .params =
+          {
+              ChoiceParam("smoothing.method",
+                          "own_side: projection onto the plane of the point's own side, δ = 3σ "
+                          "from the data; mean: the paper's Eq. (8) with δ = u",
+                          {"own_side", "mean"}),
+              RealParam("smoothing.lambda",
+                        "λ of Eq. (6): share of viewing quality vs. flatness in w_j", 0.5,
+                        Closed(0, 1)),
+              ChoiceParam("smoothing.influence", "distance fall-off Φ: 1-0.8x³, e^{-2x²} or none",
+                          {"cubic", "gauss", "average"}),
+              ChoiceParam("smoothing.mode",
+                          "mean method: p' of Eq. (8), or blend: p + w_p·(p' - p), each point's "
+                          "move scaled by its own weight",
+                          {"mean", "blend"}),
+              ChoiceParam("smoothing.tolerance",
+                          "a move longer than δ is rejected (Eq. 10) or clamped to δ",
+                          {"reject", "clamp"}),
+              DerivedRealParam("smoothing.noise_mm",
+                               "own_side: the noise σ the gates and δ are set in",
+                               "per scan, the median RMS residual of its normal fits (u when "
+                               "fewer than 32 fits)",
+                               LeftOpen(0, 1e4)),
+              DerivedRealParam("smoothing.tolerance_mm", "δ of Eq. (10)",
+                               "own_side: 3σ per point, σ its fit residual within [σ̂, 2σ̂] of "
+                               "its scan; mean: the scan's uncertainty u",
+                               Closed(0, 1e4)),
+              IntegerParam("smoothing.iterations",
+                           "Jacobi passes, each from the previous pass's positions", 1,
+                           Closed(0, 100)),
+          },
+      .make = [] { return std::make_unique<SmoothingStage>(); },
+      .prerequisites = [](const JobContext&) { return std::vector<std::string>{"measures"}; },
+      .work_per_point = kLoopItemsPerIteration,  // one iteration, the default
+      .cost_weight = 3.17,
+  };
+}
+
+}  // namespace scanprep

@@ -1,0 +1,65 @@
+// SPDX-License-Identifier: Apache-2.0
+// The new position of one point, by either smoothing method (algorithms.md §11 and the project's
+// deviations in docs): the paper's weighted mean (Eq. 8) or the projection onto the plane of the
+// point's own side of the surface. Both read only pre-pass positions, so points can be done in
+// any order and in parallel.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/spatial/neighbourhoods.h"
+#include "core/point_cloud.h"
+#include "core/point_measures.h"
+
+namespace scanprep {
+
+enum class Influence { kCubic, kGauss, kAverage };
+// kUnfitted: own_side found no plane within the gate of the point (too few points, or none of
+// the candidate planes passes near it); the point keeps its position.
+enum SmoothingOutcome : uint8_t { kKept = 0, kMoved, kClamped, kRejected, kUnfitted };
+
+// Φ(x) of Fig. 3: 20 % (cubic) and 13.5 % (Gaussian) weight at the rim of the neighbourhood.
+float InfluenceAt(Influence kind, float x);
+
+struct SmoothingSettings {
+  bool own_side = true;  // project onto the own side's plane; false = the paper's mean (Eq. 8)
+  float lambda = 0.5f;
+  Influence influence = Influence::kCubic;
+  bool blend = false;  // mean: scale each point's own displacement by its weight w_p
+  bool clamp = false;  // shorten a long move to δ instead of rejecting it
+  // own_side: per scan, the noise σ̂ the gates are set in; a point's local σ lies in
+  // [σ̂, kLocalNoiseCap·σ̂].
+  std::vector<float> noise;
+  // δ per scan: the paper's u, or kMoveSigmas·σ for own_side (then per point, from its local σ)
+  // unless the request fixed it (fixed_tolerance).
+  std::vector<float> tolerance;
+  bool fixed_tolerance = false;
+};
+
+// A point's own fit may be noisier than its scan's median (oblique view, curvature), but never
+// counts as more than this many times it: an edge's mixed fit must not widen the gates.
+inline constexpr float kLocalNoiseCap = 2.f;
+// own_side: a move longer than this many local σ is not noise.
+inline constexpr float kMoveSigmas = 3.f;
+
+struct SmoothingScratch {
+  RadiusMatches matches;
+  std::vector<float> base;                       // w_j·Φ per match
+  std::vector<std::pair<float, uint32_t>> seeds;  // (surface variation, point index)
+};
+
+struct SmoothingInputs {
+  const PointCloud& cloud;
+  const Neighbourhoods& nb;
+  const PointMeasures& m;
+  const SmoothingSettings& s;
+};
+
+// Writes the new position of point i to `out` and says what happened to it.
+SmoothingOutcome SmoothPoint(const SmoothingInputs& in, size_t i, SmoothingScratch& scratch,
+                             Eigen::Vector3f& out);
+
+}  // namespace scanprep
