@@ -145,12 +145,25 @@ grpc::Status ScanPrepService::Refuse(const absl::Status& status) {
 
 grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* stream,
                                          CallRecord& record) {
-  // Upload: validate each message as it arrives; the first error ends the call without reading
-  // the rest. The call queues for a slot once its header is valid, before any points arrive.
+  // Declared so that they are destroyed in this order: the job's data, then the memory it freed
+  // is returned to the system, then the slot frees its reservation.
   std::optional<AdmissionQueue::Slot> slot;
-  absl::Time upload_start;
-  // Destroyed after everything the job allocated below and before its slot frees its reservation.
   const ReturnFreedMemoryOnExit return_freed_memory;
+  absl::StatusOr<AssembledJob> job = absl::UnknownError("not uploaded");
+  if (grpc::Status s = Upload(context, stream, record, slot, job); !s.ok()) return s;
+  std::shared_ptr<RunningJob> running = runner_.Start(std::move(job->cloud), std::move(job->options));
+  if (grpc::Status s = Relay(context, stream, *running); !s.ok()) return s;
+  metrics_.JobProcessed(*running->result());
+  return Download(context, stream, *job, *running, record);
+}
+
+grpc::Status ScanPrepService::Upload(grpc::ServerContext* context, Stream* stream,
+                                     CallRecord& record,
+                                     std::optional<AdmissionQueue::Slot>& slot,
+                                     absl::StatusOr<AssembledJob>& job) {
+  // Validates each message as it arrives; the first error ends the call without reading the
+  // rest. The call queues for a slot once its header is valid, before any points arrive.
+  absl::Time upload_start;
   JobAssembler assembler(limits_);
   v1::ProcessRequest request;
   IdleWatch::Call watch = idle_.Watch(context);
@@ -196,51 +209,57 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
                         absl::StrCat(reason, "; the server ended the call"));
   }
   if (context->IsCancelled()) return Gone(*context, "upload");
-  auto job = assembler.Finish();
+  job = assembler.Finish();
   if (!job.ok()) return Refuse(job.status());
   metrics_.PhaseEnded(Phase::kUpload, absl::ToDoubleSeconds(absl::Now() - upload_start));
+  return grpc::Status::OK;
+}
 
-  // Processing on the shared arena; this thread only relays progress and cancellation.
-  std::shared_ptr<RunningJob> running =
-      runner_.Start(std::move(job->cloud), std::move(job->options));
+grpc::Status ScanPrepService::Relay(grpc::ServerContext* context, Stream* stream,
+                                    RunningJob& running) {
+  // The job runs on the shared arena; this thread only relays progress and cancellation.
   bool client_gone = false;
   for (bool done = false; !done;) {
-    done = running->WaitFor(kPollInterval);
+    done = running.WaitFor(kPollInterval);
     if (!client_gone && context->IsCancelled()) {
       client_gone = true;
-      running->Cancel();
+      running.Cancel();
     }
-    for (const StageProgress& p : running->DrainProgress()) {
+    for (const StageProgress& p : running.DrainProgress()) {
       if (client_gone) break;
       if (!SendStageProgress(stream, p)) {
         client_gone = true;
-        running->Cancel();
+        running.Cancel();
       }
     }
   }
   if (client_gone) return Gone(*context, "processing");
-  const absl::StatusOr<PipelineReport>& result = running->result();
+  const absl::StatusOr<PipelineReport>& result = running.result();
   if (!result.ok()) {
     return runner_.cancelled_all() ? Gone(*context, "processing")
                                    : ToGrpc(OptionsError(result.status()));
   }
-  metrics_.JobProcessed(*result);
-  const absl::Time download_start = absl::Now();
+  return grpc::Status::OK;
+}
 
-  // Download: the kept points (all of them with include_removed), the report, then the end
-  // message with the points' count and CRC-32.
-  const PointCloud& cloud = running->cloud();
+grpc::Status ScanPrepService::Download(grpc::ServerContext* context, Stream* stream,
+                                       const AssembledJob& job, const RunningJob& running,
+                                       const CallRecord& record) {
+  // The kept points (all of them with include_removed), the report, then the end message with
+  // the points' count and CRC-32.
+  const absl::Time download_start = absl::Now();
+  const PointCloud& cloud = running.cloud();
   std::vector<uint32_t> indices;
   indices.reserve(cloud.size());
   for (uint32_t i = 0; i < cloud.size(); ++i) {
-    if (job->include_removed || !cloud.removed(i)) indices.push_back(i);
+    if (job.include_removed || !cloud.removed(i)) indices.push_back(i);
   }
   StreamChecksum sent;
   for (size_t begin = 0; begin < indices.size(); begin += kRecommendedChunkPoints) {
     const size_t end = std::min(indices.size(), begin + kRecommendedChunkPoints);
     v1::ProcessResponse response;
-    ResultChunk(cloud, indices, begin, end, job->mm_per_unit, response.mutable_points());
-    if (job->packed_results) PackArrays(*response.mutable_points());
+    ResultChunk(cloud, indices, begin, end, job.mm_per_unit, response.mutable_points());
+    if (job.packed_results) PackArrays(*response.mutable_points());
     sent.Add(response.points());
     if (!Send(stream, response) ||
         !SendProgress(stream, v1::Progress::PHASE_DOWNLOAD,
@@ -249,24 +268,28 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
     }
   }
   v1::ProcessResponse response;
-  v1::Report* report = response.mutable_report();
-  report->set_job_id(job->job_id);
-  report->set_points_received(job->points_received);
-  report->set_points_invalid(job->points_invalid);
-  report->set_points_processed(job->points_received - job->points_invalid);
-  report->set_points_returned(indices.size());
-  for (const std::string& w : job->warnings) report->add_warnings(w);
-  ReportToProto(*result, report);
-  report->mutable_labels()->insert(job->labels.begin(), job->labels.end());
-  report->set_server_version(SCANPREP_VERSION);
-  *report->mutable_started() = TimeUtil::NanosecondsToTimestamp(absl::ToUnixNanos(record.start));
-  *report->mutable_finished() = TimeUtil::NanosecondsToTimestamp(absl::ToUnixNanos(absl::Now()));
+  FillReport(job, *running.result(), indices.size(), record, *response.mutable_report());
   if (!Send(stream, response)) return Gone(*context, "download");
   response.Clear();
   *response.mutable_end() = sent.End();
   if (!Send(stream, response)) return Gone(*context, "download");
   metrics_.PhaseEnded(Phase::kDownload, absl::ToDoubleSeconds(absl::Now() - download_start));
   return grpc::Status::OK;
+}
+
+void ScanPrepService::FillReport(const AssembledJob& job, const PipelineReport& result,
+                                 size_t returned, const CallRecord& record, v1::Report& report) {
+  report.set_job_id(job.job_id);
+  report.set_points_received(job.points_received);
+  report.set_points_invalid(job.points_invalid);
+  report.set_points_processed(job.points_received - job.points_invalid);
+  report.set_points_returned(returned);
+  for (const std::string& w : job.warnings) report.add_warnings(w);
+  ReportToProto(result, &report);
+  report.mutable_labels()->insert(job.labels.begin(), job.labels.end());
+  report.set_server_version(SCANPREP_VERSION);
+  *report.mutable_started() = TimeUtil::NanosecondsToTimestamp(absl::ToUnixNanos(record.start));
+  *report.mutable_finished() = TimeUtil::NanosecondsToTimestamp(absl::ToUnixNanos(absl::Now()));
 }
 
 grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoRequest*,

@@ -2,6 +2,8 @@
 // The ScanPrep gRPC service: protocol handling around JobAssembler, AdmissionQueue and JobRunner.
 #pragma once
 
+#include <memory>
+#include <optional>
 #include <string>
 
 #include <grpcpp/grpcpp.h>
@@ -57,7 +59,17 @@ class ScanPrepService final : public v1::ScanPrep::Service {
     std::string job_id;
     uint64_t points = 0;
   };
+  // A Process call's phases: upload (validated as it arrives, a slot taken once the header is
+  // valid), processing (progress relayed, cancellation passed on), download (points, report,
+  // end). Each returns OK to go on, else the call's status.
   grpc::Status ProcessJob(grpc::ServerContext* context, Stream* stream, CallRecord& record);
+  grpc::Status Upload(grpc::ServerContext* context, Stream* stream, CallRecord& record,
+                      std::optional<AdmissionQueue::Slot>& slot, absl::StatusOr<AssembledJob>& job);
+  grpc::Status Relay(grpc::ServerContext* context, Stream* stream, RunningJob& running);
+  grpc::Status Download(grpc::ServerContext* context, Stream* stream, const AssembledJob& job,
+                        const RunningJob& running, const CallRecord& record);
+  static void FillReport(const AssembledJob& job, const PipelineReport& result, size_t returned,
+                         const CallRecord& record, v1::Report& report);
   void LogCall(const std::string& peer, const CallRecord& record,
                const grpc::Status& status, absl::Duration elapsed);
   // Writes one response and counts it; false when the client is gone.
