@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // What a failed call's standard error details say (google.rpc.ErrorInfo reason, RetryInfo delay,
-// BadRequest field violations) and what the CLI makes of them: a line to print and an exit code a script can act on.
+// BadRequest field violations) and what the CLI makes of them: a line to print and an exit code a
+// script can act on.
 #pragma once
 
 #include <optional>
@@ -19,12 +20,12 @@ namespace scanprep::client {
 // `scanprep` exit codes (documented in the README's CLI section).
 enum ExitCode : int {
   kExitOk = 0,
-  kExitFailure = 1,     // anything not below
-  kExitUsage = 2,       // bad command line
+  kExitFailure = 1,  // anything not below
+  kExitUsage = 2,    // bad command line
   // The server said a retry can succeed (RetryInfo), or it was UNAVAILABLE, or the transfer was
   // corrupted (DATA_LOSS: a count or checksum mismatch on the way up or down).
   kExitRetryLater = 3,
-  kExitFixInput = 4,    // INVALID_ARGUMENT, or RESOURCE_EXHAUSTED without RetryInfo (too large)
+  kExitFixInput = 4,  // INVALID_ARGUMENT, or RESOURCE_EXHAUSTED without RetryInfo (too large)
   // `process --fail_on_budget_miss`: the job ran and its output was written, over its budget.
   kExitBudgetMissed = 5,
 };
@@ -36,7 +37,7 @@ struct FieldViolation {
 
 struct CallErrorDetails {
   std::string reason;  // ErrorInfo.reason, e.g. "QUEUE_FULL"; empty when none was sent
-  std::optional<absl::Duration> retry_delay;  // RetryInfo.retry_delay
+  std::optional<absl::Duration> retry_delay;     // RetryInfo.retry_delay
   std::vector<FieldViolation> field_violations;  // BadRequest.field_violations
 };
 

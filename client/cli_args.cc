@@ -44,9 +44,8 @@ absl::StatusOr<ParsedArgs> ParseArgs(const std::vector<std::string>& args,
       CLI::Option* option = app.add_option(names, slot);
       // One value per use ("--param a=1 file.ply": file.ply stays positional).
       option->expected(1)->allow_extra_args(false)->type_size(1);
-      option->multi_option_policy(spec.kind == FlagSpec::kRepeated
-                                      ? CLI::MultiOptionPolicy::TakeAll
-                                      : CLI::MultiOptionPolicy::Throw);
+      option->multi_option_policy(spec.kind == FlagSpec::kRepeated ? CLI::MultiOptionPolicy::TakeAll
+                                                                   : CLI::MultiOptionPolicy::Throw);
     }
   }
   app.add_option("positional", parsed.positional);
@@ -54,8 +53,8 @@ absl::StatusOr<ParsedArgs> ParseArgs(const std::vector<std::string>& args,
   try {
     app.parse(reversed);
   } catch (const CLI::ExtrasError& e) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "unknown flag '", absl::StrJoin(app.remaining(), "', '"), "'"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("unknown flag '", absl::StrJoin(app.remaining(), "', '"), "'"));
   } catch (const CLI::ParseError& e) {
     return absl::InvalidArgumentError(e.what());
   }
@@ -75,8 +74,8 @@ absl::StatusOr<absl::Duration> GetDuration(const ParsedArgs& args, const std::st
   if (!args.Has(name)) return fallback;
   absl::Duration value;
   if (!absl::ParseDuration(args.Get(name), &value) || value <= absl::ZeroDuration()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "--", name, ": '", args.Get(name), "' is not a positive duration (e.g. 90s, 5m)"));
+    return absl::InvalidArgumentError(absl::StrCat("--", name, ": '", args.Get(name),
+                                                   "' is not a positive duration (e.g. 90s, 5m)"));
   }
   return value;
 }

@@ -15,7 +15,7 @@ namespace scanprep::client {
 
 struct FlagSpec {
   enum Kind { kValue, kBool, kRepeated };
-  std::string name;   // without dashes
+  std::string name;  // without dashes
   Kind kind = kValue;
   std::string help;
   std::string alias;  // e.g. "o" for -o; may be empty

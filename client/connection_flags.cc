@@ -6,12 +6,14 @@
 namespace scanprep::client {
 
 void AddTlsFlags(std::vector<FlagSpec>& flags) {
-  flags.insert(flags.end(), {
-      {"tls_ca", FlagSpec::kValue,
-       "PEM CA that signed the server's certificate: connect with TLS (default: plaintext)"},
-      {"tls_cert", FlagSpec::kValue, "PEM client certificate for mutual TLS (needs --tls_ca)"},
-      {"tls_key", FlagSpec::kValue, "PEM private key of --tls_cert"},
-  });
+  flags.insert(
+      flags.end(),
+      {
+          {"tls_ca", FlagSpec::kValue,
+           "PEM CA that signed the server's certificate: connect with TLS (default: plaintext)"},
+          {"tls_cert", FlagSpec::kValue, "PEM client certificate for mutual TLS (needs --tls_ca)"},
+          {"tls_key", FlagSpec::kValue, "PEM private key of --tls_cert"},
+      });
 }
 
 absl::StatusOr<std::shared_ptr<grpc::ChannelCredentials>> CredentialsFromArgs(

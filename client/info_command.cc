@@ -7,8 +7,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
-#include "client/commands.h"
 #include "client/call_error.h"
+#include "client/commands.h"
 #include "client/connection_flags.h"
 #include "client/scanprep_client.h"
 
@@ -20,7 +20,8 @@ std::string Admits(const v1::ParameterInfo& p) {
   if (p.kind() == v1::PARAMETER_KIND_CHOICE) {
     return absl::StrCat("one of {", absl::StrJoin(p.choices(), ", "), "}");
   }
-  std::string text = absl::StrCat(p.kind() == v1::PARAMETER_KIND_INTEGER ? "integer" : "real", " in ", p.range());
+  std::string text =
+      absl::StrCat(p.kind() == v1::PARAMETER_KIND_INTEGER ? "integer" : "real", " in ", p.range());
   if (!p.at_most().empty()) absl::StrAppend(&text, ", at most ", p.at_most());
   return text;
 }
@@ -60,10 +61,10 @@ int RunInfo(const ParsedArgs& args) {
                    limits.max_queued_jobs(), limits.max_calls_per_peer(),
                    limits.header_timeout_seconds(), limits.idle_timeout_seconds(),
                    limits.min_upload_bytes_per_second())
-            << absl::StrFormat("        memory budget %.0f MiB for the running jobs, a job "
-                               "estimated at %d B/point\n",
-                               limits.memory_budget_bytes() / 1048576.0,
-                               limits.bytes_per_point())
+            << absl::StrFormat(
+                   "        memory budget %.0f MiB for the running jobs, a job "
+                   "estimated at %d B/point\n",
+                   limits.memory_budget_bytes() / 1048576.0, limits.bytes_per_point())
             << "default budget: "
             << (info->default_budget_seconds() > 0
                     ? absl::StrCat(info->default_budget_seconds(), " s")
@@ -92,7 +93,8 @@ Command InfoCommand() {
   AddTlsFlags(flags);
   return Command{
       .name = "info",
-      .synopsis = "info [--server HOST:PORT] [--json] [--tls_ca CA.pem [--tls_cert C.pem --tls_key K.pem]]",
+      .synopsis =
+          "info [--server HOST:PORT] [--json] [--tls_ca CA.pem [--tls_cert C.pem --tls_key K.pem]]",
       .summary = "show the server's version, limits, stages and parameters",
       .flags = std::move(flags),
       .run = RunInfo,

@@ -42,8 +42,8 @@ void AppendOptional(bool keep, const std::vector<T>& from, std::vector<T>& to) {
 // The scans of one file: a per-point scan column (PLY `scan`, `scan_id`, `scan_index`) with
 // several values makes one scan per value, in order of first appearance; else the file is one.
 struct FileScans {
-  std::vector<uint32_t> values;     // the column's values, one per scan
-  std::vector<uint32_t> of_point;   // index into `values` per point; empty = all scan 0
+  std::vector<uint32_t> values;    // the column's values, one per scan
+  std::vector<uint32_t> of_point;  // index into `values` per point; empty = all scan 0
 };
 
 FileScans SplitByScanColumn(const PointCloud& cloud) {
@@ -101,8 +101,7 @@ absl::Status ApplyOptionFlags(const ParsedArgs& args, v1::JobHeader& header) {
   for (const std::string& param : args.All("param")) {
     const size_t eq = param.find('=');
     if (eq == std::string::npos || eq == 0) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("--param '", param, "': expected name=value"));
+      return absl::InvalidArgumentError(absl::StrCat("--param '", param, "': expected name=value"));
     }
     (*options->mutable_params())[param.substr(0, eq)] = param.substr(eq + 1);
   }
@@ -163,8 +162,7 @@ absl::StatusOr<v1::LengthUnit> ParseUnit(const std::string& text) {
 // "unit": "METRE" and "scannerKind": "LINE"; those values are read as the prefixed ones.
 std::string WithPrefixedEnumValues(const std::string& json) {
   static const std::regex kUnit(R"re(("unit"\s*:\s*")(MILLIMETRE|METRE|MICROMETRE|INCH)")re");
-  static const std::regex kKind(
-      R"re(("scanner_?[kK]ind"\s*:\s*")(LINE|FLEXIBLE)")re");
+  static const std::regex kKind(R"re(("scanner_?[kK]ind"\s*:\s*")(LINE|FLEXIBLE)")re");
   return std::regex_replace(std::regex_replace(json, kUnit, "$1LENGTH_UNIT_$2\""), kKind,
                             "$1SCANNER_KIND_$2\"");
 }
@@ -200,7 +198,7 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   job.header.clear_scans();
   std::vector<PointCloud> clouds;
   std::vector<FileScans> split;
-  std::vector<uint32_t> first_scan;      // per file: its first scan's index in the header
+  std::vector<uint32_t> first_scan;     // per file: its first scan's index in the header
   std::vector<std::string> scan_files;  // per scan: the file it came from
   for (const std::string& file : files) {
     auto cloud = io::ReadScanFile(file, job.notes);
@@ -249,10 +247,10 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
     const bool pcd = std::any_of(files.begin(), files.end(), [](const std::string& f) {
       return absl::AsciiStrToLower(fs::path(f).extension().string()) == ".pcd";
     });
-    job.notes.push_back(absl::StrCat("no --unit and no unit in the job file: coordinates are taken "
-                                     "as millimetres",
-                                     pcd ? " (PCL writes PCD files in metres: pass --unit m if so)"
-                                         : ""));
+    job.notes.push_back(
+        absl::StrCat("no --unit and no unit in the job file: coordinates are taken "
+                     "as millimetres",
+                     pcd ? " (PCL writes PCD files in metres: pass --unit m if so)" : ""));
   }
   SCANPREP_RETURN_IF_ERROR(ApplyOptionFlags(args, job.header));
 
@@ -311,7 +309,8 @@ absl::StatusOr<Job> BuildJobFromCloud(const ParsedArgs& args, PointCloud cloud) 
   }
   Job job;
   job.header.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
-  job.header.set_scanner_kind(cloud.kind == ScannerKind::kLine ? v1::SCANNER_KIND_LINE : v1::SCANNER_KIND_FLEXIBLE);
+  job.header.set_scanner_kind(cloud.kind == ScannerKind::kLine ? v1::SCANNER_KIND_LINE
+                                                               : v1::SCANNER_KIND_FLEXIBLE);
   for (const ScanMeta& meta : cloud.scans) *job.header.add_scans() = ScanHeaderFromMeta(meta);
   SCANPREP_RETURN_IF_ERROR(ApplyOptionFlags(args, job.header));
   job.points = std::move(cloud);

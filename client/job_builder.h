@@ -16,7 +16,7 @@ namespace scanprep::client {
 
 struct Job {
   scanprep::v1::JobHeader header;
-  PointCloud points;  // points.scan indexes header.scans
+  PointCloud points;               // points.scan indexes header.scans
   std::vector<std::string> notes;  // things the user should know (dropped optional arrays)
 };
 

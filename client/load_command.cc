@@ -55,8 +55,9 @@ absl::StatusOr<LoadOptions> ParseLoadOptions(const ParsedArgs& args) {
   auto chunk = GetNumber(args, "chunk_points", kDefaultChunkPoints, 1);
   if (!chunk.ok()) return chunk.status();
   if (*chunk != std::floor(*chunk) || *chunk > 1e9) {
-    return absl::InvalidArgumentError("--chunk_points: a whole number from 1 (the server's "
-                                      "limit is in `scanprep info`)");
+    return absl::InvalidArgumentError(
+        "--chunk_points: a whole number from 1 (the server's "
+        "limit is in `scanprep info`)");
   }
   options.chunk_points = static_cast<size_t>(*chunk);
   return options;
@@ -120,8 +121,7 @@ int RunLoadCommand(const ParsedArgs& args) {
 
 Command LoadCommand() {
   std::vector<FlagSpec> flags = {
-      {"server", FlagSpec::kValue,
-       kServerFlagHelp},
+      {"server", FlagSpec::kValue, kServerFlagHelp},
       {"concurrency", FlagSpec::kValue, "workers, i.e. calls in flight at most (default 1)"},
       {"duration", FlagSpec::kValue, "no call starts after this, e.g. 60s (default 60s)"},
       {"max_jobs", FlagSpec::kValue, "also stop after starting this many calls"},

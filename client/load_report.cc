@@ -89,8 +89,7 @@ void PrintLoadReport(std::ostream& out, const LoadReport& r) {
     out << absl::StrFormat("late starts: %d (all %d workers busy at the scheduled time)\n",
                            res.late_starts, o.concurrency);
   }
-  out << absl::StrFormat("retries: %d (attempts that ended UNAVAILABLE, sent again)\n",
-                         res.retries)
+  out << absl::StrFormat("retries: %d (attempts that ended UNAVAILABLE, sent again)\n", res.retries)
       << absl::StrFormat("errors: %d (%d RESOURCE_EXHAUSTED)\n", res.error_count(),
                          ResourceExhausted(res));
   for (const auto& [code, tally] : res.errors) {
@@ -125,8 +124,7 @@ std::string LoadReportJson(const LoadReport& r) {
       r.budget_seconds ? absl::StrFormat("%g", *r.budget_seconds) : std::string("null"), ",\n",
       absl::StrFormat("  \"budget_misses\": %d,\n  \"late_starts\": %d,\n", res.budget_misses,
                       res.late_starts),
-      absl::StrFormat("  \"aborted_uploads\": %d,\n  \"retries\": %d,\n", res.aborted,
-                      res.retries),
+      absl::StrFormat("  \"aborted_uploads\": %d,\n  \"retries\": %d,\n", res.aborted, res.retries),
       absl::StrFormat("  \"passed\": %s\n}\n", r.failures.empty() ? "true" : "false"));
 }
 

@@ -105,7 +105,8 @@ LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job
       }
       if (!r.ok()) {
         ErrorTally& tally = result.errors[absl::StatusCodeToString(r.status().code())];
-        if (tally.count++ == 0) tally.example = absl::StrCat(r.status().message(), DetailsText(r.status()));
+        if (tally.count++ == 0)
+          tally.example = absl::StrCat(r.status().message(), DetailsText(r.status()));
         pause = options.rate <= 0;
         continue;
       }

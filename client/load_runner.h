@@ -48,7 +48,7 @@ struct LoadResult {
   uint64_t budget_misses = 0;                // successful calls with Report.budget_met false
   double report_budget_seconds = 0;          // largest Report.budget_seconds seen (0 = none)
   uint64_t late_starts = 0;                  // open loop: started > kLateStart after schedule
-  uint64_t aborted = 0;  // --abort_uploads calls that ended CANCELLED, as meant
+  uint64_t aborted = 0;                      // --abort_uploads calls that ended CANCELLED, as meant
   uint64_t retries = 0;  // attempts that ended UNAVAILABLE and were sent again (CallOptions)
 
   uint64_t error_count() const;

@@ -60,14 +60,16 @@ int main(int argc, char** argv) {
     if (std::find_if(words.begin(), words.end(), [](const std::string& w) {
           return w == "--help" || w == "-h";
         }) != words.end()) {
-      std::cout << "usage: scanprep " << command.synopsis << "\n" << command.summary << "\n\n"
+      std::cout << "usage: scanprep " << command.synopsis << "\n"
+                << command.summary << "\n\n"
                 << FlagHelp(command.flags);
       return kExitOk;
     }
     auto args = ParseArgs(words, command.flags);
     if (!args.ok()) {
       std::cerr << "scanprep " << name << ": " << args.status().message() << "\nusage: scanprep "
-                << command.synopsis << "\n" << FlagHelp(command.flags);
+                << command.synopsis << "\n"
+                << FlagHelp(command.flags);
       return kExitUsage;
     }
     return command.run(*args);

@@ -31,10 +31,12 @@ absl::StatusOr<std::string> ReportJson(const v1::Report& report, const PhaseSeco
   std::string json;
   pb::Struct root;
   if (auto s = pb::util::MessageToJsonString(report, &json); !s.ok()) {
-    return absl::InternalError(absl::StrCat("the report cannot be written as JSON: ", s.ToString()));
+    return absl::InternalError(
+        absl::StrCat("the report cannot be written as JSON: ", s.ToString()));
   }
   if (auto s = pb::util::JsonStringToMessage(json, &root); !s.ok()) {
-    return absl::InternalError(absl::StrCat("the report's JSON cannot be read back: ", s.ToString()));
+    return absl::InternalError(
+        absl::StrCat("the report's JSON cannot be read back: ", s.ToString()));
   }
   pb::Struct& out = *(*root.mutable_fields())["phases"].mutable_struct_value();
   const std::pair<const char*, double> values[] = {
@@ -45,12 +47,14 @@ absl::StatusOr<std::string> ReportJson(const v1::Report& report, const PhaseSeco
       {"writeSeconds", phases.write},
       {"totalSeconds", phases.total},
   };
-  for (const auto& [name, seconds] : values) (*out.mutable_fields())[name].set_number_value(seconds);
+  for (const auto& [name, seconds] : values)
+    (*out.mutable_fields())[name].set_number_value(seconds);
   pb::util::JsonPrintOptions options;
   options.add_whitespace = true;
   json.clear();
   if (auto s = pb::util::MessageToJsonString(root, &json, options); !s.ok()) {
-    return absl::InternalError(absl::StrCat("the report cannot be written as JSON: ", s.ToString()));
+    return absl::InternalError(
+        absl::StrCat("the report cannot be written as JSON: ", s.ToString()));
   }
   return json;
 }
@@ -59,8 +63,9 @@ absl::StatusOr<std::string> ReportJson(const v1::Report& report, const PhaseSeco
 // content under a misleading extension, and "-" is not (yet) standard output.
 absl::Status CheckOutputName(const std::string& out) {
   if (out == "-") {
-    return absl::InvalidArgumentError("-o -: writing to standard output is not supported; give "
-                                      "a file name ending in .ply");
+    return absl::InvalidArgumentError(
+        "-o -: writing to standard output is not supported; give "
+        "a file name ending in .ply");
   }
   if (!absl::EndsWithIgnoreCase(out, ".ply")) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -167,8 +172,9 @@ Command ProcessCommand() {
   return Command{
       .name = "process",
       .synopsis = "process SCAN... -o OUT.ply [flags]",
-      .summary = "send scans (one scan per file, .ply or .xyz) through the service; write the "
-                 "result as binary PLY with normals and flags",
+      .summary =
+          "send scans (one scan per file, .ply or .xyz) through the service; write the "
+          "result as binary PLY with normals and flags",
       .flags = std::move(flags),
       .run = RunProcess,
   };

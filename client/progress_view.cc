@@ -33,7 +33,9 @@ constexpr double kEtaMinFraction = 0.02;
 constexpr absl::Duration kEtaMinTime = absl::Seconds(1);
 constexpr absl::Duration kPlainHeartbeat = absl::Seconds(10);
 
-std::string Seconds(absl::Duration d) { return absl::StrFormat("%.1f s", absl::ToDoubleSeconds(d)); }
+std::string Seconds(absl::Duration d) {
+  return absl::StrFormat("%.1f s", absl::ToDoubleSeconds(d));
+}
 
 }  // namespace
 
@@ -53,8 +55,7 @@ std::string ProgressView::Describe(const v1::Progress& p, absl::Time now) {
                                   ? absl::StrCat("ETA ", Seconds(spent * ((1 - f) / f)))
                                   : std::string("ETA ...");
       return absl::StrFormat("processing %3.0f%%  %s  [%d/%d] %s %.0f%%", 100 * f, eta,
-                             p.stage_index() + 1, p.stage_count(), p.stage(),
-                             100 * p.fraction());
+                             p.stage_index() + 1, p.stage_count(), p.stage(), 100 * p.fraction());
     }
     default:
       return "";
@@ -66,7 +67,8 @@ std::string ProgressView::Describe(const v1::Progress& p, absl::Time now) {
 bool ProgressView::PlainLineDue(const v1::Progress& p, absl::Time now) {
   const std::string step = absl::StrCat(p.phase(), "/", p.stage());
   const int quarter = std::min(3, static_cast<int>(4 * p.fraction()));
-  const bool due = step != last_step_ || quarter > last_quarter_ || now - last_line_ >= kPlainHeartbeat;
+  const bool due =
+      step != last_step_ || quarter > last_quarter_ || now - last_line_ >= kPlainHeartbeat;
   if (due) {
     if (step != last_step_) last_quarter_ = -1;
     last_step_ = step;

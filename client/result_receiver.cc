@@ -67,8 +67,8 @@ absl::Status ResultReceiver::AddMessage(v1::ProcessResponse& response) {
       received_.Add(response.points());
       std::string bad_array;
       if (!UnpackArrays(*response.mutable_points(), bad_array).ok()) {
-        return absl::DataLossError(absl::StrCat("the server sent a result chunk whose ",
-                                                bad_array, " is malformed"));
+        return absl::DataLossError(
+            absl::StrCat("the server sent a result chunk whose ", bad_array, " is malformed"));
       }
       return AppendResultChunk(response.points(), result_.cloud);
     }
@@ -92,11 +92,10 @@ absl::StatusOr<ProcessResult> ResultReceiver::Finish() && {
     return absl::DataLossError(absl::StrCat("the result ended without its end message after ",
                                             received_.points(), " points: the stream was cut"));
   }
-  if (end_.points() != received_.points() ||
-      end_.points() != result_.report.points_returned()) {
-    return absl::DataLossError(absl::StrCat(
-        "the result's end message declares ", end_.points(), " points and the report ",
-        result_.report.points_returned(), ", but ", received_.points(), " arrived"));
+  if (end_.points() != received_.points() || end_.points() != result_.report.points_returned()) {
+    return absl::DataLossError(
+        absl::StrCat("the result's end message declares ", end_.points(), " points and the report ",
+                     result_.report.points_returned(), ", but ", received_.points(), " arrived"));
   }
   if (end_.crc32() != received_.crc32()) {
     return absl::DataLossError(absl::StrFormat(

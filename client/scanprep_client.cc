@@ -89,7 +89,8 @@ absl::StatusOr<std::string> ChannelTarget(const std::string& servers) {
   for (absl::string_view server : absl::StrSplit(servers, ',')) {
     if (!std::regex_match(server.begin(), server.end(), kIpv4HostPort)) {
       return absl::InvalidArgumentError(absl::StrCat(
-          "--server: '", std::string(server), "' in a list is not an IPv4 address:port; list "
+          "--server: '", std::string(server),
+          "' in a list is not an IPv4 address:port; list "
           "addresses (10.0.0.1:50051,10.0.0.2:50051) or give one name (dns:///name:50051 "
           "spreads over every address of the name)"));
     }

@@ -40,7 +40,7 @@ struct ScanMeta {
   // False when the job stated no u and the 0.1 mm default above stands in for it (the stages
   // that use u then say so in the report).
   bool uncertainty_stated = true;
-  double point_spacing = 0.0;     // nominal spacing along a scanline; 0 = derive from data
+  double point_spacing = 0.0;  // nominal spacing along a scanline; 0 = derive from data
 };
 
 struct PointCloud {

@@ -50,8 +50,8 @@ absl::Status UnpackArrays(v1::PointChunk& chunk, std::string& bad_array) {
       return;
     }
     if (packed.size() % 4 != 0) {
-      status = absl::InvalidArgumentError(absl::StrCat(
-          pair.name, "_packed has ", packed.size(), " bytes, not a multiple of 4"));
+      status = absl::InvalidArgumentError(
+          absl::StrCat(pair.name, "_packed has ", packed.size(), " bytes, not a multiple of 4"));
       return;
     }
     repeated.Resize(static_cast<int>(packed.size() / 4), {});

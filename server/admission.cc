@@ -34,8 +34,8 @@ AdmissionQueue::Slot::~Slot() {
   if (queue_ != nullptr) queue_->Release(since_, bytes_);
 }
 
-absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(
-    uint64_t bytes, absl::Time deadline, const std::function<bool()>& cancelled) {
+absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(uint64_t bytes, absl::Time deadline,
+                                                           const std::function<bool()>& cancelled) {
   const absl::Time arrived = options_.now();
   std::unique_lock lock(mu_);
   if (draining_) {
@@ -86,8 +86,7 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(
     metrics_.Rejected(RejectReason::kDeadline);
     return absl::DeadlineExceededError(absl::StrFormat(
         "expected wait %.3g s exceeds the deadline %.3g s (%d jobs queued, mean job time %.3g s)",
-        expected, std::max(0.0, remaining), static_cast<int>(waiting_.size()),
-        mean_hold_seconds_));
+        expected, std::max(0.0, remaining), static_cast<int>(waiting_.size()), mean_hold_seconds_));
   }
 
   Waiter self{.bytes = bytes};

@@ -37,8 +37,8 @@ absl::Status AddEntry(const std::string& name, const std::string& value, const s
   if (FindStage(name) == nullptr) {
     std::vector<std::string> known;
     for (const StageInfo& s : StageRegistry()) known.push_back(s.name);
-    return absl::InvalidArgumentError(absl::StrCat(where, ": unknown stage '", name, "' (known: ",
-                                                   absl::StrJoin(known, ", "), ")"));
+    return absl::InvalidArgumentError(absl::StrCat(where, ": unknown stage '", name,
+                                                   "' (known: ", absl::StrJoin(known, ", "), ")"));
   }
   defaults.stage_seconds[name] = *seconds;
   return absl::OkStatus();
@@ -54,9 +54,9 @@ absl::Status ParseStageBudgets(std::string_view spec, BudgetDefaults& defaults) 
     if (kv.size() != 2) {
       return absl::InvalidArgumentError(absl::StrCat(where, ": expected stage=seconds"));
     }
-    if (absl::Status s = AddEntry(std::string(absl::StripAsciiWhitespace(kv[0])),
-                                  std::string(absl::StripAsciiWhitespace(kv[1])), where, false,
-                                  defaults);
+    if (absl::Status s =
+            AddEntry(std::string(absl::StripAsciiWhitespace(kv[0])),
+                     std::string(absl::StripAsciiWhitespace(kv[1])), where, false, defaults);
         !s.ok()) {
       return s;
     }
@@ -67,8 +67,7 @@ absl::Status ParseStageBudgets(std::string_view spec, BudgetDefaults& defaults) 
 absl::Status ParseBudgetConfig(std::string_view text, std::string_view source,
                                BudgetDefaults& defaults) {
   int line_number = 0;
-  for (absl::string_view line :
-       absl::StrSplit(absl::string_view(text.data(), text.size()), '\n')) {
+  for (absl::string_view line : absl::StrSplit(absl::string_view(text.data(), text.size()), '\n')) {
     ++line_number;
     line = line.substr(0, line.find('#'));
     const std::vector<std::string> fields =

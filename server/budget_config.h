@@ -13,7 +13,7 @@
 namespace scanprep::server {
 
 struct BudgetDefaults {
-  double total_seconds = 0;                       // 0 = none
+  double total_seconds = 0;                     // 0 = none
   std::map<std::string, double> stage_seconds;  // by stage name
 };
 

@@ -45,7 +45,8 @@ absl::StatusOr<Eigen::Vector3d> Position(const v1::Vec3& v, const ScanFrame& fra
   const Eigen::Vector3d mm = frame.Point(p);
   if (!(mm.array().abs() <= kMaxCoordinateMm).all()) {
     return BadField(field, name,
-                    absl::StrCat("must be within ", kMaxCoordinateMm, " mm of the origin in the "
+                    absl::StrCat("must be within ", kMaxCoordinateMm,
+                                 " mm of the origin in the "
                                  "common frame"));
   }
   return mm;
@@ -67,10 +68,14 @@ absl::StatusOr<Eigen::Vector3d> Direction(const v1::Vec3& v, const ScanFrame& fr
 
 absl::StatusOr<double> MillimetresPerUnit(v1::LengthUnit unit) {
   switch (unit) {
-    case v1::LENGTH_UNIT_MILLIMETRE: return 1.0;
-    case v1::LENGTH_UNIT_METRE: return 1000.0;
-    case v1::LENGTH_UNIT_MICROMETRE: return 0.001;
-    case v1::LENGTH_UNIT_INCH: return 25.4;
+    case v1::LENGTH_UNIT_MILLIMETRE:
+      return 1.0;
+    case v1::LENGTH_UNIT_METRE:
+      return 1000.0;
+    case v1::LENGTH_UNIT_MICROMETRE:
+      return 0.001;
+    case v1::LENGTH_UNIT_INCH:
+      return 25.4;
     default:
       return WithFieldViolation(
           absl::InvalidArgumentError("header.unit: the length unit must be stated (MILLIMETRE, "
@@ -145,8 +150,10 @@ absl::StatusOr<ScanMeta> ScanMetaFromProto(const v1::ScanHeader& scan, const Sca
 
 ScannerKind KindFromHeader(const v1::JobHeader& header) {
   switch (header.scanner_kind()) {
-    case v1::SCANNER_KIND_LINE: return ScannerKind::kLine;
-    case v1::SCANNER_KIND_FLEXIBLE: return ScannerKind::kFlexible;
+    case v1::SCANNER_KIND_LINE:
+      return ScannerKind::kLine;
+    case v1::SCANNER_KIND_FLEXIBLE:
+      return ScannerKind::kFlexible;
     default:
       for (const v1::ScanHeader& scan : header.scans()) {
         if (scan.scanline_spacing() > 0) return ScannerKind::kLine;
@@ -161,7 +168,7 @@ PipelineOptions OptionsFromHeader(const v1::JobHeader& header, double default_bu
   options.stages.assign(header.options().stages().begin(), header.options().stages().end());
   for (const auto& [name, value] : header.options().params()) options.params[name] = value;
   options.budget_seconds = header.budget().total_seconds() != 0 ? header.budget().total_seconds()
-                                                                  : default_budget_seconds;
+                                                                : default_budget_seconds;
   options.stage_budget_seconds = default_stage_seconds;
   for (const auto& [name, seconds] : header.budget().stage_seconds()) {
     options.stage_budget_seconds[name] = seconds;
@@ -197,9 +204,15 @@ void ParamSpecToProto(const ParamSpec& spec, v1::ParameterInfo* out) {
   out->set_default_value(spec.default_text);
   for (const std::string& c : spec.choices) out->add_choices(c);
   switch (spec.kind) {
-    case ParamKind::kReal: out->set_kind(v1::PARAMETER_KIND_REAL); break;
-    case ParamKind::kInteger: out->set_kind(v1::PARAMETER_KIND_INTEGER); break;
-    case ParamKind::kChoice: out->set_kind(v1::PARAMETER_KIND_CHOICE); return;
+    case ParamKind::kReal:
+      out->set_kind(v1::PARAMETER_KIND_REAL);
+      break;
+    case ParamKind::kInteger:
+      out->set_kind(v1::PARAMETER_KIND_INTEGER);
+      break;
+    case ParamKind::kChoice:
+      out->set_kind(v1::PARAMETER_KIND_CHOICE);
+      return;
   }
   out->set_default_derived(!spec.default_value.has_value());
   out->set_min(spec.range.min);

@@ -12,8 +12,8 @@
 
 #include "absl/status/statusor.h"
 #include "core/pipeline/pipeline.h"
-#include "core/point_cloud.h"
 #include "core/pipeline/report.h"
+#include "core/point_cloud.h"
 #include "scanprep/v1/scanprep.pb.h"
 
 namespace scanprep::server {

@@ -5,9 +5,9 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "core/status_macros.h"
 #include "proto/chunk_arrays.h"
 #include "server/error_details.h"
-#include "core/status_macros.h"
 
 namespace scanprep::server {
 namespace {
@@ -36,26 +36,26 @@ absl::Status BadHeader(std::string_view field, std::string message) {
 // A header string within kMaxHeaderStringBytes; `field` names it without echoing it.
 absl::Status CheckString(std::string_view field, std::string_view what, const std::string& text) {
   if (text.size() <= kMaxHeaderStringBytes) return absl::OkStatus();
-  return BadHeader(field, absl::StrCat(std::string(field), ": ", std::string(what), " is ",
-                                       text.size(), " bytes long; at most ",
-                                       kMaxHeaderStringBytes, " are accepted"));
+  return BadHeader(field,
+                   absl::StrCat(std::string(field), ": ", std::string(what), " is ", text.size(),
+                                " bytes long; at most ", kMaxHeaderStringBytes, " are accepted"));
 }
 
 // Checks that an optional per-point array is absent or has one value per point.
 absl::Status CheckLength(uint64_t chunk, std::string_view name, int size, size_t n) {
   if (size == 0 || static_cast<size_t>(size) == n) return absl::OkStatus();
-  return BadChunk(chunk, name,
-                  absl::StrCat(std::string(name), " has ", size, " values but xyz has ", n,
-                               " points"));
+  return BadChunk(
+      chunk, name,
+      absl::StrCat(std::string(name), " has ", size, " values but xyz has ", n, " points"));
 }
 
 absl::Status CheckPresence(uint64_t chunk, std::string_view name, bool expected, bool present) {
   if (expected == present) return absl::OkStatus();
-  return BadChunk(chunk, name,
-                  absl::StrCat(std::string(name), " is ", present ? "present" : "missing",
-                               " but earlier chunks ",
-                               expected ? "carried it"
-                                        : "did not; an array must be in every chunk or none"));
+  return BadChunk(
+      chunk, name,
+      absl::StrCat(std::string(name), " is ", present ? "present" : "missing",
+                   " but earlier chunks ",
+                   expected ? "carried it" : "did not; an array must be in every chunk or none"));
 }
 
 }  // namespace
@@ -63,23 +63,26 @@ absl::Status CheckPresence(uint64_t chunk, std::string_view name, bool expected,
 absl::Status JobAssembler::Add(const v1::ProcessRequest& request) {
   bytes_ += request.ByteSizeLong();
   if (bytes_ > limits_.max_bytes_per_call) {
-    return WithReason(absl::ResourceExhaustedError(absl::StrCat(
-                          "the call's request messages total ", bytes_,
-                          " bytes, over the server's limit of ", limits_.max_bytes_per_call,
-                          " bytes per call (max_bytes_per_call)")),
-                      "CALL_TOO_LARGE");
+    return WithReason(
+        absl::ResourceExhaustedError(absl::StrCat(
+            "the call's request messages total ", bytes_, " bytes, over the server's limit of ",
+            limits_.max_bytes_per_call, " bytes per call (max_bytes_per_call)")),
+        "CALL_TOO_LARGE");
   }
   if (ended_) {
     return WithFieldViolation(
-        absl::InvalidArgumentError(absl::StrCat(
-            "a message after the end message (which declared ", job_.points_received,
-            " points); the end message must be the upload's last")),
+        absl::InvalidArgumentError(
+            absl::StrCat("a message after the end message (which declared ", job_.points_received,
+                         " points); the end message must be the upload's last")),
         "INVALID_CHUNK", "end");
   }
   switch (request.kind_case()) {
-    case v1::ProcessRequest::kHeader: return AddHeader(request.header());
-    case v1::ProcessRequest::kPoints: return AddChunk(request.points());
-    case v1::ProcessRequest::kEnd: return AddEnd(request.end());
+    case v1::ProcessRequest::kHeader:
+      return AddHeader(request.header());
+    case v1::ProcessRequest::kPoints:
+      return AddChunk(request.points());
+    case v1::ProcessRequest::kEnd:
+      return AddEnd(request.end());
     default:
       return has_header_ ? BadChunk(chunks_, "", "empty request message")
                          : BadHeader("header",
@@ -128,28 +131,27 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
                      "declared, so that a truncated upload is refused instead of processed");
   }
   if (total_points_ > limits_.max_points_per_job) {
-    return WithReason(absl::ResourceExhaustedError(absl::StrCat(
-                          "header.total_points = ", total_points_,
-                          " exceeds the server's limit of ", limits_.max_points_per_job,
-                          " points per job (max_points_per_job)")),
-                      "JOB_TOO_LARGE");
+    return WithReason(
+        absl::ResourceExhaustedError(
+            absl::StrCat("header.total_points = ", total_points_, " exceeds the server's limit of ",
+                         limits_.max_points_per_job, " points per job (max_points_per_job)")),
+        "JOB_TOO_LARGE");
   }
   return absl::OkStatus();
 }
 
 absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
   if (static_cast<uint64_t>(header.scans_size()) > limits_.max_scans_per_job) {
-    return WithReason(absl::ResourceExhaustedError(absl::StrCat(
-                          "header.scans has ", header.scans_size(),
-                          " scans, over the server's limit of ", limits_.max_scans_per_job,
-                          " scans per job (max_scans_per_job)")),
-                      "TOO_MANY_SCANS");
+    return WithReason(
+        absl::ResourceExhaustedError(absl::StrCat(
+            "header.scans has ", header.scans_size(), " scans, over the server's limit of ",
+            limits_.max_scans_per_job, " scans per job (max_scans_per_job)")),
+        "TOO_MANY_SCANS");
   }
   const std::tuple<std::string_view, int, int> lists[] = {
       {"header.options.stages", header.options().stages_size(), kMaxHeaderListEntries},
       {"header.options.params", header.options().params_size(), kMaxHeaderListEntries},
-      {"header.budget.stage_seconds", header.budget().stage_seconds_size(),
-       kMaxHeaderListEntries},
+      {"header.budget.stage_seconds", header.budget().stage_seconds_size(), kMaxHeaderListEntries},
       {"header.labels", header.labels_size(), kMaxLabels}};
   for (const auto& [field, size, most] : lists) {
     if (size > most) {
@@ -173,8 +175,8 @@ absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
   // A long name is refused without naming its entry, which would echo it.
   for (const auto& [name, value] : header.options().params()) {
     SCANPREP_RETURN_IF_ERROR(CheckString("header.options.params", "a parameter name", name));
-    if (auto s = CheckString(absl::StrCat("header.options.params['", name, "']"), "the value",
-                             value);
+    if (auto s =
+            CheckString(absl::StrCat("header.options.params['", name, "']"), "the value", value);
         !s.ok())
       return s;
   }
@@ -203,9 +205,9 @@ absl::Status JobAssembler::CheckChunk(const v1::PointChunk& chunk, size_t n) con
   }
   const size_t scans = job_.cloud.scans.size();
   if (n > 0 && chunk.scan_index_size() == 0 && scans > 1) {
-    return BadChunk(id, "scan_index",
-                    absl::StrCat("scan_index is required because the header declares ", scans,
-                                 " scans"));
+    return BadChunk(
+        id, "scan_index",
+        absl::StrCat("scan_index is required because the header declares ", scans, " scans"));
   }
   for (int i = 0; i < chunk.scan_index_size(); ++i) {
     if (chunk.scan_index(i) >= scans) {
@@ -298,12 +300,11 @@ absl::Status JobAssembler::AddEnd(const v1::StreamEnd& end) {
     return BadHeader("header", "first message must be a header (got the end message)");
   }
   if (end.points() != job_.points_received || end.points() != total_points_) {
-    return WithFieldViolation(
-        absl::InvalidArgumentError(absl::StrCat(
-            "end.points = ", end.points(), " but ", job_.points_received,
-            " points were received and header.total_points = ", total_points_,
-            "; the three must agree")),
-        "POINT_COUNT_MISMATCH", "end.points");
+    return WithFieldViolation(absl::InvalidArgumentError(absl::StrCat(
+                                  "end.points = ", end.points(), " but ", job_.points_received,
+                                  " points were received and header.total_points = ", total_points_,
+                                  "; the three must agree")),
+                              "POINT_COUNT_MISMATCH", "end.points");
   }
   if (end.crc32() != checksum_.crc32()) {
     // Corrupted on the way: the same upload can succeed again.
@@ -322,25 +323,26 @@ absl::StatusOr<AssembledJob> JobAssembler::Finish() {
     return WithFieldViolation(
         absl::InvalidArgumentError(absl::StrCat(
             "first message must be a header (the stream ended before one arrived: none was sent, "
-            "or ", kUnparsed, ")")),
+            "or ",
+            kUnparsed, ")")),
         "INCOMPLETE_UPLOAD", "header");
   }
   // gRPC ends a stream at a message that fails to parse just as at the client's half-close, so
   // only the end message tells a cut upload from a complete one.
   if (!ended_) {
-    return WithFieldViolation(
-        absl::InvalidArgumentError(absl::StrCat(
-            "the upload ended without its end message after ", job_.points_received,
-            " of header.total_points = ", total_points_, " points: the stream was cut (the client "
-            "half-closed early, or ", kUnparsed, ")")),
-        "INCOMPLETE_UPLOAD", "end");
+    return WithFieldViolation(absl::InvalidArgumentError(absl::StrCat(
+                                  "the upload ended without its end message after ",
+                                  job_.points_received, " of header.total_points = ", total_points_,
+                                  " points: the stream was cut (the client "
+                                  "half-closed early, or ",
+                                  kUnparsed, ")")),
+                              "INCOMPLETE_UPLOAD", "end");
   }
   if (job_.points_invalid == job_.points_received) {
     return WithFieldViolation(
-        absl::InvalidArgumentError(absl::StrCat("the job has no valid points: all ",
-                                                job_.points_received,
-                                                " have NaN, infinite or out-of-range (> ",
-                                                kMaxCoordinateMm, " mm) coordinates")),
+        absl::InvalidArgumentError(absl::StrCat(
+            "the job has no valid points: all ", job_.points_received,
+            " have NaN, infinite or out-of-range (> ", kMaxCoordinateMm, " mm) coordinates")),
         "INVALID_CHUNK", "points");
   }
   if (job_.points_invalid > 0) {

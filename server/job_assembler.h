@@ -87,7 +87,7 @@ class JobAssembler {
   bool has_header_ = false;
   uint64_t total_points_ = 0;
   uint64_t chunks_ = 0;
-  uint64_t bytes_ = 0;  // serialized size of the messages so far
+  uint64_t bytes_ = 0;       // serialized size of the messages so far
   StreamChecksum checksum_;  // over the accepted chunks
   bool ended_ = false;       // the StreamEnd arrived and matched
   // Which optional arrays the first non-empty chunk carried; later chunks must agree.

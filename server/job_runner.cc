@@ -38,8 +38,8 @@ void RunningJob::OnProgress(const ProgressEvent& e) {
 void RunningJob::Run() {
   absl::StatusOr<PipelineReport> result;
   try {
-    result = RunPipeline(cloud_, options_, cancel_,
-                         [this](const ProgressEvent& e) { OnProgress(e); });
+    result =
+        RunPipeline(cloud_, options_, cancel_, [this](const ProgressEvent& e) { OnProgress(e); });
   } catch (const std::bad_alloc&) {
     result = absl::ResourceExhaustedError("the server ran out of memory processing this job");
   } catch (const std::exception& e) {

@@ -19,8 +19,8 @@
 #include "absl/status/statusor.h"
 #include "core/pipeline/cancel.h"
 #include "core/pipeline/pipeline.h"
-#include "core/point_cloud.h"
 #include "core/pipeline/report.h"
+#include "core/point_cloud.h"
 
 namespace scanprep::server {
 

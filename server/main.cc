@@ -14,11 +14,11 @@
 #include "absl/strings/match.h"
 #include "absl/synchronization/notification.h"
 #include "absl/time/time.h"
+#include "core/status_macros.h"
 #include "server/budget_config.h"
 #include "server/memory_budget.h"
 #include "server/scanprep_server.h"
 #include "server/transport_security.h"
-#include "core/status_macros.h"
 
 ABSL_FLAG(std::string, listen, "0.0.0.0:50051", "HOST:PORT to listen on (port 0 = any free port)");
 ABSL_FLAG(std::string, tls_cert, "", "PEM certificate chain of the gRPC port (TLS)");
@@ -195,8 +195,7 @@ int main(int argc, char** argv) {
             << " (" << transport->description << ")" << std::endl;
   std::cout << "scanprep-server: memory budget " << memory->budget.bytes << " bytes ("
             << memory->budget.source << "), " << scanprep::server::kBytesPerPoint
-            << " B/point estimated, max_points_per_job " << memory->max_points_per_job
-            << std::endl;
+            << " B/point estimated, max_points_per_job " << memory->max_points_per_job << std::endl;
   if ((*server)->metrics_port() != 0) {
     std::cout << "scanprep-server: metrics on port " << (*server)->metrics_port() << std::endl;
   }

@@ -40,8 +40,8 @@ absl::StatusOr<HostPort> ParseHostPort(const std::string& text, const std::strin
 // gRPC reads durations as int milliseconds, INT_MAX meaning "never".
 int Millis(absl::Duration d) {
   if (d == absl::InfiniteDuration()) return std::numeric_limits<int>::max();
-  return static_cast<int>(std::min<int64_t>(absl::ToInt64Milliseconds(d),
-                                            std::numeric_limits<int>::max()));
+  return static_cast<int>(
+      std::min<int64_t>(absl::ToInt64Milliseconds(d), std::numeric_limits<int>::max()));
 }
 
 void AddConnectionArguments(const ConnectionOptions& c, grpc::ServerBuilder& builder) {
@@ -66,9 +66,11 @@ absl::Status CheckCallsPerPeer(const ServerOptions& options) {
   const int per_peer = CallsPerPeer(options);
   const int places = options.max_concurrent_jobs + options.max_queued_jobs;
   if (per_peer == 1 || per_peer < places) return absl::OkStatus();
-  return absl::InvalidArgumentError(absl::StrCat(
-      "--max_calls_per_peer=", per_peer, " would let one client host take every slot and queue "
-      "place (max_concurrent_jobs + max_queued_jobs = ", places, "); it must be below ", places));
+  return absl::InvalidArgumentError(
+      absl::StrCat("--max_calls_per_peer=", per_peer,
+                   " would let one client host take every slot and queue "
+                   "place (max_concurrent_jobs + max_queued_jobs = ",
+                   places, "); it must be below ", places));
 }
 
 ScanPrepServer::ScanPrepServer(const ServerOptions& options)
@@ -93,8 +95,8 @@ absl::Status CheckConnectionOptions(const ConnectionOptions& c) {
   for (const auto& [flag, d] : durations) {
     // gRPC counts whole milliseconds; below 1 ms would turn into 0, "immediately".
     if (d < absl::Milliseconds(1)) {
-      return absl::InvalidArgumentError(absl::StrCat("--", flag, " must be at least 1ms (got ",
-                                                     absl::FormatDuration(d), ")"));
+      return absl::InvalidArgumentError(
+          absl::StrCat("--", flag, " must be at least 1ms (got ", absl::FormatDuration(d), ")"));
     }
   }
   return absl::OkStatus();
@@ -113,9 +115,9 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
     return absl::InvalidArgumentError("header_timeout and idle_timeout must be positive");
   }
   if (!(options.timeouts.min_upload_rate >= 0 && options.timeouts.min_upload_rate < 1e12)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "min_upload_rate must be in [0, 1e12) bytes per second, got ",
-        options.timeouts.min_upload_rate));
+    return absl::InvalidArgumentError(
+        absl::StrCat("min_upload_rate must be in [0, 1e12) bytes per second, got ",
+                     options.timeouts.min_upload_rate));
   }
   if (options.max_calls_per_peer < 0) {
     return absl::InvalidArgumentError("max_calls_per_peer must be at least 0 (0 = the default)");

@@ -59,7 +59,7 @@ struct ServerOptions {
   std::shared_ptr<grpc::ServerCredentials> credentials;
   std::ostream* log = nullptr;  // where CallLog writes; null = no log
   int max_log_lines_per_second = CallLog::kMaxLinesPerSecond;  // beyond: dropped and counted
-  ProgressHook on_progress;     // test hook, see ProgressHook
+  ProgressHook on_progress;                                    // test hook, see ProgressHook
 };
 
 // The per-host limit in force: max_calls_per_peer, or when 0 half the slots (at least 1), so

@@ -58,17 +58,17 @@ grpc::Status ScanPrepService::Gone(const grpc::ServerContext& context,
   if (runner_.cancelled_all()) {
     return ToGrpc(WithReason(
         absl::UnavailableError(absl::StrCat("the server shut down at the end of its grace period "
-                                            "during ", std::string(phase),
-                                            "; retry on another replica")),
+                                            "during ",
+                                            std::string(phase), "; retry on another replica")),
         "SHUTTING_DOWN", kRetryOnAnotherReplica));
   }
   if (absl::Now() + kDeadlineSkew >= CallDeadline(context)) {
     return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
                         absl::StrCat("the call's deadline passed during ", std::string(phase)));
   }
-  return grpc::Status(grpc::StatusCode::CANCELLED,
-                      absl::StrCat("the call was cancelled by the client during ",
-                                   std::string(phase)));
+  return grpc::Status(
+      grpc::StatusCode::CANCELLED,
+      absl::StrCat("the call was cancelled by the client during ", std::string(phase)));
 }
 
 grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stream) {
@@ -99,14 +99,15 @@ void ScanPrepService::LogCall(const std::string& peer, const CallRecord& record,
   // A client that hangs up is routine; every other failure is worth a look.
   const bool routine = status.ok() || status.error_code() == grpc::StatusCode::CANCELLED;
   const std::string outcome =
-      status.ok() ? "OK"
-                  : absl::StrCat(absl::StatusCodeToString(
-                                     static_cast<absl::StatusCode>(status.error_code())),
-                                 ": ", Quoted(status.error_message(), 300));
-  log_.Write(routine ? CallLog::kInfo : CallLog::kWarning,
-             absl::StrCat("process peer=", peer, " job=", Quoted(record.job_id),
-                          " points=", record.points, " ", outcome, " ",
-                          absl::StrFormat("%.3fs", absl::ToDoubleSeconds(elapsed))));
+      status.ok()
+          ? "OK"
+          : absl::StrCat(
+                absl::StatusCodeToString(static_cast<absl::StatusCode>(status.error_code())), ": ",
+                Quoted(status.error_message(), 300));
+  log_.Write(
+      routine ? CallLog::kInfo : CallLog::kWarning,
+      absl::StrCat("process peer=", peer, " job=", Quoted(record.job_id), " points=", record.points,
+                   " ", outcome, " ", absl::StrFormat("%.3fs", absl::ToDoubleSeconds(elapsed))));
 }
 
 bool ScanPrepService::Send(Stream* stream, const v1::ProcessResponse& response) {
@@ -151,15 +152,15 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   const ReturnFreedMemoryOnExit return_freed_memory;
   absl::StatusOr<AssembledJob> job = absl::UnknownError("not uploaded");
   if (grpc::Status s = Upload(context, stream, record, slot, job); !s.ok()) return s;
-  std::shared_ptr<RunningJob> running = runner_.Start(std::move(job->cloud), std::move(job->options));
+  std::shared_ptr<RunningJob> running =
+      runner_.Start(std::move(job->cloud), std::move(job->options));
   if (grpc::Status s = Relay(context, stream, *running); !s.ok()) return s;
   metrics_.JobProcessed(*running->result());
   return Download(context, stream, *job, *running, record);
 }
 
 grpc::Status ScanPrepService::Upload(grpc::ServerContext* context, Stream* stream,
-                                     CallRecord& record,
-                                     std::optional<AdmissionQueue::Slot>& slot,
+                                     CallRecord& record, std::optional<AdmissionQueue::Slot>& slot,
                                      absl::StatusOr<AssembledJob>& job) {
   // Validates each message as it arrives; the first error ends the call without reading the
   // rest. The call queues for a slot once its header is valid, before any points arrive.
@@ -177,10 +178,10 @@ grpc::Status ScanPrepService::Upload(grpc::ServerContext* context, Stream* strea
     record.points = assembler.points_received();
     if (!added.ok()) return Refuse(added);
     if (!slot.has_value()) {  // the assembler accepts only a header first
-      watch.Pause();              // waiting for a slot is the server's time, not the client's
-      auto admitted = admission_.Admit(
-          EstimateJobBytes(assembler.total_points(), assembler.options().params),
-          CallDeadline(*context), [context] { return context->IsCancelled(); });
+      watch.Pause();          // waiting for a slot is the server's time, not the client's
+      auto admitted =
+          admission_.Admit(EstimateJobBytes(assembler.total_points(), assembler.options().params),
+                           CallDeadline(*context), [context] { return context->IsCancelled(); });
       if (!admitted.ok()) {
         // Cancelled while waiting: by the client, or by gRPC because the deadline passed.
         return admitted.status().code() == absl::StatusCode::kCancelled
@@ -261,9 +262,8 @@ grpc::Status ScanPrepService::Download(grpc::ServerContext* context, Stream* str
     ResultChunk(cloud, indices, begin, end, job.mm_per_unit, response.mutable_points());
     if (job.packed_results) PackArrays(*response.mutable_points());
     sent.Add(response.points());
-    if (!Send(stream, response) ||
-        !SendProgress(stream, v1::Progress::PHASE_DOWNLOAD,
-                      static_cast<double>(end) / indices.size(), end)) {
+    if (!Send(stream, response) || !SendProgress(stream, v1::Progress::PHASE_DOWNLOAD,
+                                                 static_cast<double>(end) / indices.size(), end)) {
       return Gone(*context, "download");
     }
   }
@@ -327,7 +327,8 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
   for (const auto& [stage, seconds] : limits_.default_stage_budget_seconds) {
     (*info->mutable_default_stage_budget_seconds())[stage] = seconds;
   }
-  metrics_.RpcHandled(kGetInfoRpc, grpc::StatusCode::OK, absl::ToDoubleSeconds(absl::Now() - start));
+  metrics_.RpcHandled(kGetInfoRpc, grpc::StatusCode::OK,
+                      absl::ToDoubleSeconds(absl::Now() - start));
   return grpc::Status::OK;
 }
 

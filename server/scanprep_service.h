@@ -70,8 +70,8 @@ class ScanPrepService final : public v1::ScanPrep::Service {
                         const RunningJob& running, const CallRecord& record);
   static void FillReport(const AssembledJob& job, const PipelineReport& result, size_t returned,
                          const CallRecord& record, v1::Report& report);
-  void LogCall(const std::string& peer, const CallRecord& record,
-               const grpc::Status& status, absl::Duration elapsed);
+  void LogCall(const std::string& peer, const CallRecord& record, const grpc::Status& status,
+               absl::Duration elapsed);
   // Writes one response and counts it; false when the client is gone.
   bool Send(Stream* stream, const v1::ProcessResponse& response);
   // Upload or download progress: the phase's fraction and the points moved so far.

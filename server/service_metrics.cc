@@ -10,22 +10,32 @@ namespace {
 
 const char* ReasonLabel(RejectReason reason) {
   switch (reason) {
-    case RejectReason::kQueueFull: return "queue_full";
-    case RejectReason::kDeadline: return "deadline";
-    case RejectReason::kDraining: return "draining";
-    case RejectReason::kLimit: return "limit";
-    case RejectReason::kInvalid: return "invalid";
-    case RejectReason::kMemory: return "memory";
+    case RejectReason::kQueueFull:
+      return "queue_full";
+    case RejectReason::kDeadline:
+      return "deadline";
+    case RejectReason::kDraining:
+      return "draining";
+    case RejectReason::kLimit:
+      return "limit";
+    case RejectReason::kInvalid:
+      return "invalid";
+    case RejectReason::kMemory:
+      return "memory";
   }
   return "unknown";
 }
 
 const char* PhaseLabel(Phase phase) {
   switch (phase) {
-    case Phase::kQueue: return "queue";
-    case Phase::kUpload: return "upload";
-    case Phase::kProcessing: return "processing";
-    case Phase::kDownload: return "download";
+    case Phase::kQueue:
+      return "queue";
+    case Phase::kUpload:
+      return "upload";
+    case Phase::kProcessing:
+      return "processing";
+    case Phase::kDownload:
+      return "download";
   }
   return "unknown";
 }
@@ -33,17 +43,17 @@ const char* PhaseLabel(Phase phase) {
 // grpc_code as the gRPC ecosystem spells it (Go's codes.Code names), not the C++ enum's.
 const char* CodeLabel(grpc::StatusCode code) {
   static constexpr const char* kNames[] = {
-      "OK",       "Canceled",          "Unknown",          "InvalidArgument", "DeadlineExceeded",
-      "NotFound", "AlreadyExists",     "PermissionDenied", "ResourceExhausted",
-      "FailedPrecondition", "Aborted", "OutOfRange",       "Unimplemented",   "Internal",
-      "Unavailable", "DataLoss",       "Unauthenticated"};
+      "OK",       "Canceled",       "Unknown",          "InvalidArgument",   "DeadlineExceeded",
+      "NotFound", "AlreadyExists",  "PermissionDenied", "ResourceExhausted", "FailedPrecondition",
+      "Aborted",  "OutOfRange",     "Unimplemented",    "Internal",          "Unavailable",
+      "DataLoss", "Unauthenticated"};
   const int i = static_cast<int>(code);
   return i >= 0 && i < static_cast<int>(std::size(kNames)) ? kNames[i] : "Unknown";
 }
 
 constexpr RejectReason kAllReasons[] = {RejectReason::kQueueFull, RejectReason::kDeadline,
-                                        RejectReason::kDraining, RejectReason::kLimit,
-                                        RejectReason::kInvalid, RejectReason::kMemory};
+                                        RejectReason::kDraining,  RejectReason::kLimit,
+                                        RejectReason::kInvalid,   RejectReason::kMemory};
 constexpr Phase kAllPhases[] = {Phase::kQueue, Phase::kUpload, Phase::kProcessing,
                                 Phase::kDownload};
 constexpr const char* kBudgetOutcomes[] = {"met", "missed", "none"};
@@ -59,14 +69,14 @@ const std::vector<std::string> kRpcLabelNames = {"grpc_type", "grpc_service", "g
 }  // namespace
 
 std::vector<double> BudgetBuckets() {
-  return {0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.2, 0.3,  0.4,  0.5, 0.75,
-          1,     1.25,   1.5,   1.75, 2,     2.5,  3,   3.5, 4,    4.5,  5,   6,
-          7,     8,      9,     10,   12.5,  15,   20,  30,  45,   60,   120, 300};
+  return {0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.75,
+          1,     1.25,   1.5,   1.75, 2,     2.5,  3,   3.5, 4,   4.5, 5,   6,
+          7,     8,      9,     10,   12.5,  15,   20,  30,  45,  60,  120, 300};
 }
 
 ServiceMetrics::ServiceMetrics(metrics::Registry& r)
-    : started_(r.AddCounter("grpc_server_started_total", "RPCs started on the server.",
-                            kRpcLabelNames)),
+    : started_(
+          r.AddCounter("grpc_server_started_total", "RPCs started on the server.", kRpcLabelNames)),
       handled_(r.AddCounter("grpc_server_handled_total",
                             "RPCs completed on the server, regardless of success or failure.",
                             {"grpc_type", "grpc_service", "grpc_method", "grpc_code"})),
@@ -95,12 +105,12 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r)
                                   {0.1, 0.25, 0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.95, 1, 1.05, 1.1,
                                    1.25, 1.5, 2, 3, 5, 10})
                        .WithLabels({})),
-      points_received_(r.AddCounter("scanprep_points_received_total",
-                                    "Points received in request chunks.")
-                           .WithLabels({})),
-      points_returned_(r.AddCounter("scanprep_points_returned_total",
-                                    "Points sent back in result chunks.")
-                           .WithLabels({})),
+      points_received_(
+          r.AddCounter("scanprep_points_received_total", "Points received in request chunks.")
+              .WithLabels({})),
+      points_returned_(
+          r.AddCounter("scanprep_points_returned_total", "Points sent back in result chunks.")
+              .WithLabels({})),
       bytes_received_(r.AddCounter("scanprep_bytes_received_total",
                                    "Serialized size of the Process request messages received.")
                           .WithLabels({})),
@@ -111,9 +121,9 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r)
                             "Jobs holding a slot: uploading, processing or downloading.")
                      .WithLabels({})),
       queued_(r.AddGauge("scanprep_jobs_queued", "Jobs waiting for a slot.").WithLabels({})),
-      queue_capacity_(r.AddGauge("scanprep_queue_capacity",
-                                 "Jobs that may wait for a slot (max_queued_jobs).")
-                          .WithLabels({})),
+      queue_capacity_(
+          r.AddGauge("scanprep_queue_capacity", "Jobs that may wait for a slot (max_queued_jobs).")
+              .WithLabels({})),
       budget_(r.AddGauge("scanprep_budget_seconds",
                          "The server's default total cycle-time budget per job; 0 = none.")
                   .WithLabels({})),
@@ -175,7 +185,9 @@ void ServiceMetrics::RpcHandled(const RpcMethod& rpc, grpc::StatusCode code, dou
   handled_.WithLabels(labels).Inc();
 }
 
-void ServiceMetrics::Rejected(RejectReason reason) { rejected_.WithLabels({ReasonLabel(reason)}).Inc(); }
+void ServiceMetrics::Rejected(RejectReason reason) {
+  rejected_.WithLabels({ReasonLabel(reason)}).Inc();
+}
 
 void ServiceMetrics::SetAdmissionState(int in_flight, int queued) {
   in_flight_.Set(in_flight);

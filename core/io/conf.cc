@@ -24,16 +24,18 @@ absl::StatusOr<std::vector<ConfEntry>> ParseConf(std::string_view text, const st
     SplitFields(line, /*commas=*/false, fields);
     if (fields.empty() || fields[0].front() == '#' || fields[0] == "camera") continue;
     if (fields[0] != "bmesh" && fields[0] != "mesh") {
-      return error(absl::StrCat("unknown keyword '", std::string(fields[0]), "' (expected bmesh or camera)"));
+      return error(absl::StrCat("unknown keyword '", std::string(fields[0]),
+                                "' (expected bmesh or camera)"));
     }
     if (fields.size() != 9) {
-      return error(absl::StrCat("expected '", std::string(fields[0]), " <file> tx ty tz qx qy qz qw', found ",
-                                fields.size(), " fields"));
+      return error(absl::StrCat("expected '", std::string(fields[0]),
+                                " <file> tx ty tz qx qy qz qw', found ", fields.size(), " fields"));
     }
     double v[7];
     for (int k = 0; k < 7; ++k) {
       if (!ParseDouble(fields[2 + k], v[k]) || !std::isfinite(v[k])) {
-        return error(absl::StrCat("field ", 3 + k, " '", std::string(fields[2 + k]), "' is not a finite number"));
+        return error(absl::StrCat("field ", 3 + k, " '", std::string(fields[2 + k]),
+                                  "' is not a finite number"));
       }
     }
     Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);  // Eigen takes (w, x, y, z)
@@ -42,8 +44,9 @@ absl::StatusOr<std::vector<ConfEntry>> ParseConf(std::string_view text, const st
     const double norm = q.coeffs().stableNorm();
     if (!(norm > 1e-6)) return error("quaternion has (near) zero length");
     q.coeffs() /= norm;
-    entries.push_back(ConfEntry{.file = std::string(fields[1]),
-                                .pose = RigidPose{.rotation = q.conjugate(), .translation = {v[0], v[1], v[2]}}});
+    entries.push_back(
+        ConfEntry{.file = std::string(fields[1]),
+                  .pose = RigidPose{.rotation = q.conjugate(), .translation = {v[0], v[1], v[2]}}});
   }
   return entries;
 }
@@ -56,7 +59,8 @@ absl::StatusOr<std::vector<ConfEntry>> ReadConf(const std::filesystem::path& pat
   return ParseConf(*text, path.string());
 }
 
-absl::StatusOr<std::vector<ConfEntry>> ReadConf(std::istream& in, const std::string& name_for_errors) {
+absl::StatusOr<std::vector<ConfEntry>> ReadConf(std::istream& in,
+                                                const std::string& name_for_errors) {
   absl::StatusOr<std::string> text = ReadStreamToString(in, name_for_errors);
   if (!text.ok()) return text.status();
   return ParseConf(*text, name_for_errors);

@@ -32,6 +32,7 @@ struct ConfEntry {
 // comments are ignored. scanalyze stores the inverse rotation: X_world = R(q)^T X_scan + t for
 // q = (qx,qy,qz,qw), so the returned rotation is the conjugate of the normalised q.
 absl::StatusOr<std::vector<ConfEntry>> ReadConf(const std::filesystem::path& path);
-absl::StatusOr<std::vector<ConfEntry>> ReadConf(std::istream& in, const std::string& name_for_errors);
+absl::StatusOr<std::vector<ConfEntry>> ReadConf(std::istream& in,
+                                                const std::string& name_for_errors);
 
 }  // namespace scanprep::io

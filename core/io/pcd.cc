@@ -45,20 +45,29 @@ double DecodeBinary(const Field& field, const char* p) {
     return static_cast<double>(kHostIsBigEndian ? ByteSwapped(value) : value);
   };
   switch (field.type) {
-    case 'F': return field.size == 4 ? load(float{}) : load(double{});
+    case 'F':
+      return field.size == 4 ? load(float{}) : load(double{});
     case 'I':
       switch (field.size) {
-        case 1: return load(int8_t{});
-        case 2: return load(int16_t{});
-        case 4: return load(int32_t{});
-        default: return load(int64_t{});
+        case 1:
+          return load(int8_t{});
+        case 2:
+          return load(int16_t{});
+        case 4:
+          return load(int32_t{});
+        default:
+          return load(int64_t{});
       }
     default:
       switch (field.size) {
-        case 1: return load(uint8_t{});
-        case 2: return load(uint16_t{});
-        case 4: return load(uint32_t{});
-        default: return load(uint64_t{});
+        case 1:
+          return load(uint8_t{});
+        case 2:
+          return load(uint16_t{});
+        case 4:
+          return load(uint32_t{});
+        default:
+          return load(uint64_t{});
       }
   }
 }

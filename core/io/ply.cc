@@ -48,8 +48,9 @@ class AsciiSource {
     std::string_view line;
     do {
       if (!cursor_.Next(line)) {
-        return absl::InvalidArgumentError(absl::StrCat(name_, ": data ends before ", element.name, " ", index,
-                                                       " of ", element.count, " (truncated file or wrong count)"));
+        return absl::InvalidArgumentError(absl::StrCat(name_, ": data ends before ", element.name,
+                                                       " ", index, " of ", element.count,
+                                                       " (truncated file or wrong count)"));
       }
       SplitFields(line, /*commas=*/false, fields_);
     } while (fields_.empty());
@@ -57,9 +58,11 @@ class AsciiSource {
   }
 
   absl::Status Read(ScalarType, const Property& property, double& out) {
-    if (next_ >= fields_.size()) return Error(absl::StrCat("too few values (no value for '", property.name, "')"));
+    if (next_ >= fields_.size())
+      return Error(absl::StrCat("too few values (no value for '", property.name, "')"));
     if (!ParseDouble(fields_[next_], out)) {
-      return Error(absl::StrCat("'", property.name, "' value '", std::string(fields_[next_]), "' is not a number"));
+      return Error(absl::StrCat("'", property.name, "' value '", std::string(fields_[next_]),
+                                "' is not a number"));
     }
     ++next_;
     return absl::OkStatus();
@@ -67,8 +70,9 @@ class AsciiSource {
 
   absl::Status CheckList(uint64_t items, const Property& property) const {
     if (items <= fields_.size() - next_) return absl::OkStatus();
-    return Error(absl::StrCat("list '", property.name, "' declares ", items, " items but the line has only ",
-                              fields_.size() - next_, " more values"));
+    return Error(absl::StrCat("list '", property.name, "' declares ", items,
+                              " items but the line has only ", fields_.size() - next_,
+                              " more values"));
   }
 
   absl::Status EndEntry() const {
@@ -81,16 +85,18 @@ class AsciiSource {
     while (cursor_.Next(line)) {
       SplitFields(line, /*commas=*/false, fields_);
       if (!fields_.empty()) {
-        return absl::InvalidArgumentError(absl::StrCat(name_, ": line ", cursor_.line_number(),
-                                                       ": data after the last declared element (counts disagree)"));
+        return absl::InvalidArgumentError(
+            absl::StrCat(name_, ": line ", cursor_.line_number(),
+                         ": data after the last declared element (counts disagree)"));
       }
     }
     return absl::OkStatus();
   }
 
   absl::Status Error(std::string_view message) const {
-    return absl::InvalidArgumentError(absl::StrCat(name_, ": line ", cursor_.line_number(), ": ", element_->name,
-                                                   " ", index_, ": ", std::string(message)));
+    return absl::InvalidArgumentError(absl::StrCat(name_, ": line ", cursor_.line_number(), ": ",
+                                                   element_->name, " ", index_, ": ",
+                                                   std::string(message)));
   }
 
  private:
@@ -105,7 +111,10 @@ class AsciiSource {
 class BinarySource {
  public:
   BinarySource(std::string_view body, size_t body_offset, bool big_endian, const std::string& name)
-      : body_(body), body_offset_(body_offset), swap_(big_endian != kHostIsBigEndian), name_(name) {}
+      : body_(body),
+        body_offset_(body_offset),
+        swap_(big_endian != kHostIsBigEndian),
+        name_(name) {}
 
   absl::Status BeginEntry(const Element& element, uint64_t index) {
     element_ = &element;
@@ -133,13 +142,15 @@ class BinarySource {
 
   absl::Status Finish() const {
     if (pos_ == body_.size()) return absl::OkStatus();
-    return absl::InvalidArgumentError(absl::StrCat(name_, ": byte ", body_offset_ + pos_, ": ", body_.size() - pos_,
-                                                   " bytes after the last declared element (counts disagree)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(name_, ": byte ", body_offset_ + pos_, ": ", body_.size() - pos_,
+                     " bytes after the last declared element (counts disagree)"));
   }
 
   absl::Status Error(std::string_view message) const {
-    return absl::InvalidArgumentError(absl::StrCat(name_, ": byte ", body_offset_ + pos_, ": ", element_->name, " ",
-                                                   index_, ": ", std::string(message)));
+    return absl::InvalidArgumentError(absl::StrCat(name_, ": byte ", body_offset_ + pos_, ": ",
+                                                   element_->name, " ", index_, ": ",
+                                                   std::string(message)));
   }
 
  private:
@@ -152,14 +163,22 @@ class BinarySource {
 
   double Decode(ScalarType type, const char* p) const {
     switch (type) {
-      case ScalarType::kInt8: return Load<int8_t>(p);
-      case ScalarType::kUint8: return Load<uint8_t>(p);
-      case ScalarType::kInt16: return Load<int16_t>(p);
-      case ScalarType::kUint16: return Load<uint16_t>(p);
-      case ScalarType::kInt32: return Load<int32_t>(p);
-      case ScalarType::kUint32: return Load<uint32_t>(p);
-      case ScalarType::kFloat32: return Load<float>(p);
-      case ScalarType::kFloat64: return Load<double>(p);
+      case ScalarType::kInt8:
+        return Load<int8_t>(p);
+      case ScalarType::kUint8:
+        return Load<uint8_t>(p);
+      case ScalarType::kInt16:
+        return Load<int16_t>(p);
+      case ScalarType::kUint16:
+        return Load<uint16_t>(p);
+      case ScalarType::kInt32:
+        return Load<int32_t>(p);
+      case ScalarType::kUint32:
+        return Load<uint32_t>(p);
+      case ScalarType::kFloat32:
+        return Load<float>(p);
+      case ScalarType::kFloat64:
+        return Load<double>(p);
     }
     return 0.0;
   }
@@ -174,7 +193,20 @@ class BinarySource {
 };
 
 // Where a vertex property's values go.
-enum class Slot : uint8_t { kSkip, kX, kY, kZ, kNx, kNy, kNz, kIntensity, kQuality, kScan, kScanline, kFlags };
+enum class Slot : uint8_t {
+  kSkip,
+  kX,
+  kY,
+  kZ,
+  kNx,
+  kNy,
+  kNz,
+  kIntensity,
+  kQuality,
+  kScan,
+  kScanline,
+  kFlags
+};
 
 Slot VertexSlot(std::string_view name) {
   if (name == "x") return Slot::kX;
@@ -202,7 +234,8 @@ class VertexBuilder {
       if (element.name == "vertex") vertex = &element;
       if (element.name == "range_grid") builder.grid_ = &element;
     }
-    if (vertex == nullptr) return absl::InvalidArgumentError(absl::StrCat(name, ": no 'vertex' element"));
+    if (vertex == nullptr)
+      return absl::InvalidArgumentError(absl::StrCat(name, ": no 'vertex' element"));
     builder.count_ = vertex->count;
     bool has[static_cast<size_t>(Slot::kFlags) + 1] = {};
     for (const Property& property : vertex->properties) {
@@ -216,21 +249,26 @@ class VertexBuilder {
             absl::StrCat(name, ": vertex element has no scalar property '", axis, "'"));
       }
     }
-    const bool has_normals = has[static_cast<size_t>(Slot::kNx)] || has[static_cast<size_t>(Slot::kNy)] ||
+    const bool has_normals = has[static_cast<size_t>(Slot::kNx)] ||
+                             has[static_cast<size_t>(Slot::kNy)] ||
                              has[static_cast<size_t>(Slot::kNz)];
-    if (has_normals && !(has[static_cast<size_t>(Slot::kNx)] && has[static_cast<size_t>(Slot::kNy)] &&
-                         has[static_cast<size_t>(Slot::kNz)])) {
-      return absl::InvalidArgumentError(absl::StrCat(name, ": vertex element has only some of nx, ny, nz"));
+    if (has_normals &&
+        !(has[static_cast<size_t>(Slot::kNx)] && has[static_cast<size_t>(Slot::kNy)] &&
+          has[static_cast<size_t>(Slot::kNz)])) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(name, ": vertex element has only some of nx, ny, nz"));
     }
     if (builder.grid_ != nullptr) {
       if (!header.num_cols) {
-        return absl::InvalidArgumentError(absl::StrCat(name, ": range_grid element without 'obj_info num_cols'"));
+        return absl::InvalidArgumentError(
+            absl::StrCat(name, ": range_grid element without 'obj_info num_cols'"));
       }
       const uint64_t cols = *header.num_cols;
-      if (header.num_rows && (builder.grid_->count % cols != 0 || builder.grid_->count / cols != *header.num_rows)) {
-        return absl::InvalidArgumentError(absl::StrCat(name, ": range_grid has ", builder.grid_->count,
-                                                       " entries but num_cols*num_rows = ", cols, "*",
-                                                       *header.num_rows));
+      if (header.num_rows &&
+          (builder.grid_->count % cols != 0 || builder.grid_->count / cols != *header.num_rows)) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(name, ": range_grid has ", builder.grid_->count,
+                         " entries but num_cols*num_rows = ", cols, "*", *header.num_rows));
       }
       builder.num_cols_ = *header.num_cols;
     }
@@ -256,17 +294,30 @@ class VertexBuilder {
   const char* Store(size_t property, uint64_t i, double value) {
     uint64_t index = 0;
     switch (slots_[property]) {
-      case Slot::kSkip: return nullptr;
-      case Slot::kX: return StoreCoordinate(cloud_.x[i], value);
-      case Slot::kY: return StoreCoordinate(cloud_.y[i], value);
-      case Slot::kZ: return StoreCoordinate(cloud_.z[i], value);
-      case Slot::kNx: cloud_.nx[i] = NarrowToFloat(value); return nullptr;
-      case Slot::kNy: cloud_.ny[i] = NarrowToFloat(value); return nullptr;
-      case Slot::kNz: cloud_.nz[i] = NarrowToFloat(value); return nullptr;
-      case Slot::kIntensity: cloud_.intensity[i] = NarrowToFloat(value); return nullptr;
+      case Slot::kSkip:
+        return nullptr;
+      case Slot::kX:
+        return StoreCoordinate(cloud_.x[i], value);
+      case Slot::kY:
+        return StoreCoordinate(cloud_.y[i], value);
+      case Slot::kZ:
+        return StoreCoordinate(cloud_.z[i], value);
+      case Slot::kNx:
+        cloud_.nx[i] = NarrowToFloat(value);
+        return nullptr;
+      case Slot::kNy:
+        cloud_.ny[i] = NarrowToFloat(value);
+        return nullptr;
+      case Slot::kNz:
+        cloud_.nz[i] = NarrowToFloat(value);
+        return nullptr;
+      case Slot::kIntensity:
+        cloud_.intensity[i] = NarrowToFloat(value);
+        return nullptr;
       case Slot::kQuality:
         // NaN confidence means "unknown": treat it as untrustworthy.
-        cloud_.quality[i] = std::isnan(value) ? 0.f : static_cast<float>(std::clamp(value, 0.0, 1.0));
+        cloud_.quality[i] =
+            std::isnan(value) ? 0.f : static_cast<float>(std::clamp(value, 0.0, 1.0));
         return nullptr;
       case Slot::kScan:
         // Bounding scan ids by the vertex count bounds the ScanMeta list built from them.
@@ -277,7 +328,8 @@ class VertexBuilder {
         max_scan_ = std::max(max_scan_, index);
         return nullptr;
       case Slot::kScanline:
-        if (!ToIndex(value, kUint32Limit, index)) return "scanline must be a non-negative 32-bit integer";
+        if (!ToIndex(value, kUint32Limit, index))
+          return "scanline must be a non-negative 32-bit integer";
         cloud_.scanline[i] = static_cast<uint32_t>(index);
         return nullptr;
       case Slot::kFlags:
@@ -291,7 +343,8 @@ class VertexBuilder {
   // `entry` is the range_grid entry index, `value` one of its vertex indices.
   const char* GridEntry(uint64_t entry, double value) {
     uint64_t vertex = 0;
-    if (!ToIndex(value, static_cast<double>(count_), vertex)) return "vertex index is not a valid vertex";
+    if (!ToIndex(value, static_cast<double>(count_), vertex))
+      return "vertex index is not a valid vertex";
     if (grid_vertices_ > 0 && vertex <= last_grid_vertex_) {
       return "vertex indices must increase with the grid index (each vertex listed once)";
     }
@@ -307,14 +360,16 @@ class VertexBuilder {
 
   absl::StatusOr<PointCloud> Finish(const std::string& name) && {
     if (grid_ != nullptr && grid_vertices_ != count_) {
-      return absl::InvalidArgumentError(absl::StrCat(name, ": range_grid lists ", grid_vertices_, " of the ",
-                                                     count_, " vertices; every vertex needs a grid cell"));
+      return absl::InvalidArgumentError(absl::StrCat(name, ": range_grid lists ", grid_vertices_,
+                                                     " of the ", count_,
+                                                     " vertices; every vertex needs a grid cell"));
     }
     const std::string stem = std::filesystem::path(name).stem().string();
     if (max_scan_ == 0) {
       cloud_.scans.push_back(ScanMeta{.id = stem});
     } else {
-      for (uint64_t k = 0; k <= max_scan_; ++k) cloud_.scans.push_back(ScanMeta{.id = absl::StrCat(stem, ":", k)});
+      for (uint64_t k = 0; k <= max_scan_; ++k)
+        cloud_.scans.push_back(ScanMeta{.id = absl::StrCat(stem, ":", k)});
     }
     cloud_.FinishLoading();
     if (!flags_.empty()) cloud_.flags = std::move(flags_);
@@ -339,7 +394,8 @@ class VertexBuilder {
 };
 
 template <class Source>
-absl::Status Invalid(const Source& source, const Property& property, double value, const char* why) {
+absl::Status Invalid(const Source& source, const Property& property, double value,
+                     const char* why) {
   return source.Error(absl::StrCat("'", property.name, "' value ", value, ": ", why));
 }
 
@@ -356,7 +412,8 @@ absl::Status ReadElements(const Header& header, Source& source, VertexBuilder& v
         if (!property.is_list) {
           SCANPREP_RETURN_IF_ERROR(source.Read(property.type, property, value));
           if (!is_vertex) continue;
-          if (const char* why = vertices.Store(p, i, value)) return Invalid(source, property, value, why);
+          if (const char* why = vertices.Store(p, i, value))
+            return Invalid(source, property, value, why);
           continue;
         }
         SCANPREP_RETURN_IF_ERROR(source.Read(property.count_type, property, value));
@@ -369,7 +426,8 @@ absl::Status ReadElements(const Header& header, Source& source, VertexBuilder& v
         for (uint64_t k = 0; k < items; ++k) {
           SCANPREP_RETURN_IF_ERROR(source.Read(property.type, property, value));
           if (!grid_indices) continue;
-          if (const char* why = vertices.GridEntry(i, value)) return Invalid(source, property, value, why);
+          if (const char* why = vertices.GridEntry(i, value))
+            return Invalid(source, property, value, why);
         }
       }
       SCANPREP_RETURN_IF_ERROR(source.EndEntry());
@@ -389,7 +447,8 @@ absl::StatusOr<PointCloud> ParsePly(std::string_view data, const std::string& na
     AsciiSource source(body, header->body_first_line, name);
     status = ReadElements(*header, source, *vertices);
   } else {
-    BinarySource source(body, header->body_offset, header->format == Format::kBinaryBigEndian, name);
+    BinarySource source(body, header->body_offset, header->format == Format::kBinaryBigEndian,
+                        name);
     status = ReadElements(*header, source, *vertices);
   }
   if (!status.ok()) return status;

@@ -34,6 +34,7 @@ struct PlyWriteOptions {
 // skipped unless include_removed.
 absl::Status WritePly(const std::filesystem::path& path, const PointCloud& cloud,
                       const PlyWriteOptions& options = {});
-absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const PlyWriteOptions& options = {});
+absl::Status WritePly(std::ostream& out, const PointCloud& cloud,
+                      const PlyWriteOptions& options = {});
 
 }  // namespace scanprep::io

@@ -11,14 +11,22 @@ namespace scanprep::io::ply {
 namespace {
 
 constexpr std::array<std::pair<std::string_view, ScalarType>, 16> kTypeNames = {{
-    {"char", ScalarType::kInt8},     {"int8", ScalarType::kInt8},
-    {"uchar", ScalarType::kUint8},   {"uint8", ScalarType::kUint8},
-    {"short", ScalarType::kInt16},   {"int16", ScalarType::kInt16},
-    {"ushort", ScalarType::kUint16}, {"uint16", ScalarType::kUint16},
-    {"int", ScalarType::kInt32},     {"int32", ScalarType::kInt32},
-    {"uint", ScalarType::kUint32},   {"uint32", ScalarType::kUint32},
-    {"float", ScalarType::kFloat32}, {"float32", ScalarType::kFloat32},
-    {"double", ScalarType::kFloat64}, {"float64", ScalarType::kFloat64},
+    {"char", ScalarType::kInt8},
+    {"int8", ScalarType::kInt8},
+    {"uchar", ScalarType::kUint8},
+    {"uint8", ScalarType::kUint8},
+    {"short", ScalarType::kInt16},
+    {"int16", ScalarType::kInt16},
+    {"ushort", ScalarType::kUint16},
+    {"uint16", ScalarType::kUint16},
+    {"int", ScalarType::kInt32},
+    {"int32", ScalarType::kInt32},
+    {"uint", ScalarType::kUint32},
+    {"uint32", ScalarType::kUint32},
+    {"float", ScalarType::kFloat32},
+    {"float32", ScalarType::kFloat32},
+    {"double", ScalarType::kFloat64},
+    {"float64", ScalarType::kFloat64},
 }};
 
 std::optional<ScalarType> LookupType(std::string_view name) {
@@ -44,12 +52,14 @@ uint64_t MinEntryBytes(const Element& element, Format format) {
 
 class HeaderParser {
  public:
-  HeaderParser(std::string_view data, const std::string& name) : cursor_(data), data_(data), name_(name) {}
+  HeaderParser(std::string_view data, const std::string& name)
+      : cursor_(data), data_(data), name_(name) {}
 
   absl::StatusOr<Header> Parse() {
     std::string_view line;
     if (!cursor_.Next(line) || line != "ply") {
-      return absl::InvalidArgumentError(absl::StrCat(name_, ": not a PLY file (first line is not \"ply\")"));
+      return absl::InvalidArgumentError(
+          absl::StrCat(name_, ": not a PLY file (first line is not \"ply\")"));
     }
     bool have_format = false;
     while (cursor_.Next(line)) {
@@ -96,7 +106,8 @@ class HeaderParser {
     } else {
       return Error(absl::StrCat("unsupported format '", std::string(fields_[1]), "'"));
     }
-    if (fields_[2] != "1.0") return Error(absl::StrCat("unsupported PLY version '", std::string(fields_[2]), "'"));
+    if (fields_[2] != "1.0")
+      return Error(absl::StrCat("unsupported PLY version '", std::string(fields_[2]), "'"));
     return absl::OkStatus();
   }
 
@@ -104,10 +115,12 @@ class HeaderParser {
     if (fields_.size() != 3) return Error("expected 'element <name> <count>'");
     Element element{.name = std::string(fields_[1])};
     if (!ParseUint64(fields_[2], element.count)) {
-      return Error(absl::StrCat("element count '", std::string(fields_[2]), "' is not a non-negative integer"));
+      return Error(absl::StrCat("element count '", std::string(fields_[2]),
+                                "' is not a non-negative integer"));
     }
     for (const Element& other : header_.elements) {
-      if (other.name == element.name) return Error(absl::StrCat("duplicate element '", element.name, "'"));
+      if (other.name == element.name)
+        return Error(absl::StrCat("duplicate element '", element.name, "'"));
     }
     header_.elements.push_back(std::move(element));
     return absl::OkStatus();
@@ -118,7 +131,8 @@ class HeaderParser {
     Property property;
     if (fields_.size() == 3) {
       const auto type = LookupType(fields_[1]);
-      if (!type) return Error(absl::StrCat("unknown property type '", std::string(fields_[1]), "'"));
+      if (!type)
+        return Error(absl::StrCat("unknown property type '", std::string(fields_[1]), "'"));
       property.type = *type;
       property.name = std::string(fields_[2]);
     } else if (fields_.size() == 5 && fields_[1] == "list") {
@@ -131,12 +145,14 @@ class HeaderParser {
       property.type = *item_type;
       property.name = std::string(fields_[4]);
     } else {
-      return Error("expected 'property <type> <name>' or 'property list <count type> <item type> <name>'");
+      return Error(
+          "expected 'property <type> <name>' or 'property list <count type> <item type> <name>'");
     }
     Element& element = header_.elements.back();
     for (const Property& other : element.properties) {
       if (other.name == property.name) {
-        return Error(absl::StrCat("duplicate property '", property.name, "' in element '", element.name, "'"));
+        return Error(absl::StrCat("duplicate property '", property.name, "' in element '",
+                                  element.name, "'"));
       }
     }
     element.properties.push_back(std::move(property));
@@ -144,10 +160,12 @@ class HeaderParser {
   }
 
   absl::Status ParseObjInfo() {
-    if (fields_.size() != 3 || (fields_[1] != "num_cols" && fields_[1] != "num_rows")) return absl::OkStatus();
+    if (fields_.size() != 3 || (fields_[1] != "num_cols" && fields_[1] != "num_rows"))
+      return absl::OkStatus();
     uint64_t value = 0;
     if (!ParseUint64(fields_[2], value) || value == 0) {
-      return Error(absl::StrCat("obj_info ", std::string(fields_[1]), " must be a positive integer"));
+      return Error(
+          absl::StrCat("obj_info ", std::string(fields_[1]), " must be a positive integer"));
     }
     (fields_[1] == "num_cols" ? header_.num_cols : header_.num_rows) = value;
     return absl::OkStatus();
@@ -166,9 +184,10 @@ class HeaderParser {
       }
       const uint64_t min_bytes = MinEntryBytes(element, header_.format);
       if (element.count > budget / min_bytes) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            name_, ": element '", element.name, "' declares ", element.count, " entries but the data section (",
-            body_bytes, " bytes) cannot hold them (at least ", min_bytes, " bytes each)"));
+        return absl::InvalidArgumentError(
+            absl::StrCat(name_, ": element '", element.name, "' declares ", element.count,
+                         " entries but the data section (", body_bytes,
+                         " bytes) cannot hold them (at least ", min_bytes, " bytes each)"));
       }
       budget -= element.count * min_bytes;
     }
@@ -202,7 +221,9 @@ size_t SizeOf(ScalarType type) {
   return 0;
 }
 
-bool IsInteger(ScalarType type) { return type != ScalarType::kFloat32 && type != ScalarType::kFloat64; }
+bool IsInteger(ScalarType type) {
+  return type != ScalarType::kFloat32 && type != ScalarType::kFloat64;
+}
 
 absl::StatusOr<Header> ParseHeader(std::string_view data, const std::string& name) {
   return HeaderParser(data, name).Parse();

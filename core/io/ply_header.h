@@ -14,7 +14,16 @@
 namespace scanprep::io::ply {
 
 enum class Format { kAscii, kBinaryLittleEndian, kBinaryBigEndian };
-enum class ScalarType : uint8_t { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, kFloat64 };
+enum class ScalarType : uint8_t {
+  kInt8,
+  kUint8,
+  kInt16,
+  kUint16,
+  kInt32,
+  kUint32,
+  kFloat32,
+  kFloat64
+};
 
 size_t SizeOf(ScalarType type);
 bool IsInteger(ScalarType type);

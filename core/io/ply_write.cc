@@ -18,18 +18,20 @@ namespace {
 template <class T>
 absl::Status CheckSize(const std::vector<T>& values, const char* field, size_t n, bool optional) {
   if (values.size() == n || (optional && values.empty())) return absl::OkStatus();
-  return absl::InvalidArgumentError(
-      absl::StrCat("cannot write PLY: cloud.", field, " has ", values.size(), " entries for ", n, " points"));
+  return absl::InvalidArgumentError(absl::StrCat("cannot write PLY: cloud.", field, " has ",
+                                                 values.size(), " entries for ", n, " points"));
 }
 
 absl::Status CheckCloud(const PointCloud& cloud) {
   const size_t n = cloud.size();
-  for (absl::Status s : {CheckSize(cloud.y, "y", n, false), CheckSize(cloud.z, "z", n, false),
-                         CheckSize(cloud.nx, "nx", n, true), CheckSize(cloud.ny, "ny", n, !cloud.has_normals()),
-                         CheckSize(cloud.nz, "nz", n, !cloud.has_normals()), CheckSize(cloud.flags, "flags", n, true),
-                         CheckSize(cloud.scan, "scan", n, true), CheckSize(cloud.scanline, "scanline", n, true),
-                         CheckSize(cloud.quality, "quality", n, true),
-                         CheckSize(cloud.intensity, "intensity", n, true)}) {
+  for (absl::Status s :
+       {CheckSize(cloud.y, "y", n, false), CheckSize(cloud.z, "z", n, false),
+        CheckSize(cloud.nx, "nx", n, true), CheckSize(cloud.ny, "ny", n, !cloud.has_normals()),
+        CheckSize(cloud.nz, "nz", n, !cloud.has_normals()),
+        CheckSize(cloud.flags, "flags", n, true), CheckSize(cloud.scan, "scan", n, true),
+        CheckSize(cloud.scanline, "scanline", n, true),
+        CheckSize(cloud.quality, "quality", n, true),
+        CheckSize(cloud.intensity, "intensity", n, true)}) {
     if (!s.ok()) return s;
   }
   return absl::OkStatus();
@@ -55,14 +57,17 @@ class RecordPacker {
 absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const PlyWriteOptions& options) {
   SCANPREP_RETURN_IF_ERROR(CheckCloud(cloud));
   const size_t n = cloud.size();
-  auto written = [&](size_t i) { return options.include_removed || cloud.flags.empty() || !cloud.removed(i); };
+  auto written = [&](size_t i) {
+    return options.include_removed || cloud.flags.empty() || !cloud.removed(i);
+  };
   size_t count = 0;
   for (size_t i = 0; i < n; ++i) count += written(i);
 
-  std::string header = absl::StrCat("ply\nformat binary_little_endian 1.0\ncomment written by scanprep\n",
-                                    "element vertex ", count, "\n",
-                                    "property float x\nproperty float y\nproperty float z\n");
-  if (cloud.has_normals()) absl::StrAppend(&header, "property float nx\nproperty float ny\nproperty float nz\n");
+  std::string header = absl::StrCat(
+      "ply\nformat binary_little_endian 1.0\ncomment written by scanprep\n", "element vertex ",
+      count, "\n", "property float x\nproperty float y\nproperty float z\n");
+  if (cloud.has_normals())
+    absl::StrAppend(&header, "property float nx\nproperty float ny\nproperty float nz\n");
   absl::StrAppend(&header, "property uchar flags\nproperty uint scan\n");
   if (cloud.has_scanlines()) absl::StrAppend(&header, "property uint scanline\n");
   if (!cloud.quality.empty()) absl::StrAppend(&header, "property float quality\n");
@@ -98,7 +103,8 @@ absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const PlyWrite
   return absl::OkStatus();
 }
 
-absl::Status WritePly(const std::filesystem::path& path, const PointCloud& cloud, const PlyWriteOptions& options) {
+absl::Status WritePly(const std::filesystem::path& path, const PointCloud& cloud,
+                      const PlyWriteOptions& options) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) return absl::UnavailableError(absl::StrCat(path.string(), ": cannot open for writing"));
   if (absl::Status s = WritePly(out, cloud, options); !s.ok()) {

@@ -3,8 +3,8 @@
 
 #include <fstream>
 #include <sstream>
-#include <utility>
 #include <system_error>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 
@@ -22,7 +22,9 @@ absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path) 
   std::ifstream in(path, std::ios::binary);
   if (!in) return absl::UnavailableError(absl::StrCat(path.string(), ": cannot open for reading"));
   const uintmax_t size = std::filesystem::file_size(path, ec);
-  if (ec) return absl::UnavailableError(absl::StrCat(path.string(), ": cannot get the file size: ", ec.message()));
+  if (ec)
+    return absl::UnavailableError(
+        absl::StrCat(path.string(), ": cannot get the file size: ", ec.message()));
   std::string data(static_cast<size_t>(size), '\0');
   in.read(data.data(), static_cast<std::streamsize>(data.size()));
   if (in.bad()) return absl::UnavailableError(absl::StrCat(path.string(), ": read error"));
@@ -30,10 +32,12 @@ absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path) 
   return data;
 }
 
-absl::StatusOr<std::string> ReadStreamToString(std::istream& in, const std::string& name_for_errors) {
+absl::StatusOr<std::string> ReadStreamToString(std::istream& in,
+                                               const std::string& name_for_errors) {
   std::ostringstream buffer;
   buffer << in.rdbuf();
-  if (in.bad() || buffer.bad()) return absl::UnavailableError(absl::StrCat(name_for_errors, ": read error"));
+  if (in.bad() || buffer.bad())
+    return absl::UnavailableError(absl::StrCat(name_for_errors, ": read error"));
   return std::move(buffer).str();
 }
 

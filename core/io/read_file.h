@@ -11,8 +11,10 @@
 
 namespace scanprep::io {
 
-// NotFound when the file does not exist; InvalidArgument for a directory; Unavailable on I/O errors.
+// NotFound when the file does not exist; InvalidArgument for a directory; Unavailable on I/O
+// errors.
 absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path);
-absl::StatusOr<std::string> ReadStreamToString(std::istream& in, const std::string& name_for_errors);
+absl::StatusOr<std::string> ReadStreamToString(std::istream& in,
+                                               const std::string& name_for_errors);
 
 }  // namespace scanprep::io

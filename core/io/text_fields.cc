@@ -21,8 +21,9 @@ bool LineCursor::Next(std::string_view& line) {
   if (pos_ >= text_.size()) return false;
   const char* begin = text_.data() + pos_;
   const void* newline = std::memchr(begin, '\n', text_.size() - pos_);
-  const size_t length =
-      newline != nullptr ? static_cast<size_t>(static_cast<const char*>(newline) - begin) : text_.size() - pos_;
+  const size_t length = newline != nullptr
+                            ? static_cast<size_t>(static_cast<const char*>(newline) - begin)
+                            : text_.size() - pos_;
   line = std::string_view(begin, length);
   if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
   pos_ += length + (newline != nullptr ? 1 : 0);

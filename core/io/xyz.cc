@@ -30,9 +30,11 @@ void SplitProfiles(PointCloud& cloud, double gap) {
   }
 }
 
-absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& name, double profile_gap) {
+absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& name,
+                                    double profile_gap) {
   if (!(profile_gap >= 0.0) || !std::isfinite(profile_gap)) {
-    return absl::InvalidArgumentError(absl::StrCat("profile_gap must be a finite value >= 0, got ", profile_gap));
+    return absl::InvalidArgumentError(
+        absl::StrCat("profile_gap must be a finite value >= 0, got ", profile_gap));
   }
   PointCloud cloud;
   // The shortest point line, "0 0 0\n", has 6 bytes.
@@ -55,20 +57,22 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
       continue;
     }
     if (fields.size() < 3) {
-      return absl::InvalidArgumentError(absl::StrCat(name, ": line ", cursor.line_number(), ": expected x y z, found ",
-                                                     fields.size(), " value(s)"));
+      return absl::InvalidArgumentError(absl::StrCat(name, ": line ", cursor.line_number(),
+                                                     ": expected x y z, found ", fields.size(),
+                                                     " value(s)"));
     }
     float xyz[3];
     for (int k = 0; k < 3; ++k) {
       double value = 0.0;
       if (!ParseDouble(fields[k], value)) {
-        return absl::InvalidArgumentError(absl::StrCat(name, ": line ", cursor.line_number(), ": column ", k + 1,
-                                                       " '", std::string(fields[k]), "' is not a number"));
+        return absl::InvalidArgumentError(
+            absl::StrCat(name, ": line ", cursor.line_number(), ": column ", k + 1, " '",
+                         std::string(fields[k]), "' is not a number"));
       }
       xyz[k] = NarrowToFloat(value);
       if (!std::isfinite(xyz[k])) {
-        return absl::InvalidArgumentError(absl::StrCat(name, ": line ", cursor.line_number(), ": column ", k + 1,
-                                                       " is not a finite float"));
+        return absl::InvalidArgumentError(absl::StrCat(
+            name, ": line ", cursor.line_number(), ": column ", k + 1, " is not a finite float"));
       }
     }
     cloud.x.push_back(xyz[0]);
@@ -93,7 +97,8 @@ absl::StatusOr<PointCloud> ReadXyz(const std::filesystem::path& path, double pro
   return ParseXyz(*text, path.string(), profile_gap);
 }
 
-absl::StatusOr<PointCloud> ReadXyz(std::istream& in, const std::string& name_for_errors, double profile_gap) {
+absl::StatusOr<PointCloud> ReadXyz(std::istream& in, const std::string& name_for_errors,
+                                   double profile_gap) {
   absl::StatusOr<std::string> text = ReadStreamToString(in, name_for_errors);
   if (!text.ok()) return text.status();
   return ParseXyz(*text, name_for_errors, profile_gap);

@@ -18,6 +18,7 @@ namespace scanprep::io {
 // otherwise the cloud has no scanlines. Coordinates stay in the file's units. One scan, id = file
 // stem; FinishLoading() has been called.
 absl::StatusOr<PointCloud> ReadXyz(const std::filesystem::path& path, double profile_gap = 0.0);
-absl::StatusOr<PointCloud> ReadXyz(std::istream& in, const std::string& name_for_errors, double profile_gap = 0.0);
+absl::StatusOr<PointCloud> ReadXyz(std::istream& in, const std::string& name_for_errors,
+                                   double profile_gap = 0.0);
 
 }  // namespace scanprep::io

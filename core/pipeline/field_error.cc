@@ -12,8 +12,8 @@ constexpr absl::string_view kFieldPayload = "scanprep/field";
 }  // namespace
 
 absl::Status FieldError(std::string_view field, std::string_view problem) {
-  absl::Status status = absl::InvalidArgumentError(
-      absl::StrCat(std::string(field), ": ", std::string(problem)));
+  absl::Status status =
+      absl::InvalidArgumentError(absl::StrCat(std::string(field), ": ", std::string(problem)));
   status.SetPayload(kFieldPayload, absl::Cord(std::string(field)));
   return status;
 }

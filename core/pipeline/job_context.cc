@@ -16,7 +16,10 @@ namespace scanprep {
 
 JobContext::JobContext(PointCloud& cloud, const ParamOverrides& overrides,
                        const CancelToken& cancel, ProgressFn progress)
-    : cloud_(cloud), overrides_(overrides), cancel_(cancel, *this), progress_(std::move(progress)) {}
+    : cloud_(cloud),
+      overrides_(overrides),
+      cancel_(cancel, *this),
+      progress_(std::move(progress)) {}
 
 std::optional<double> JobContext::Overridden(std::string_view name) const {
   auto it = overrides_.find(name);
@@ -79,10 +82,11 @@ double JobContext::CapRadius(std::string_view what, double radius, double limit)
   // One warning per stage (a job of 1,000 scans would otherwise say it 1,000 times); the
   // counter has them all.
   if (current().parameters[absl::StrCat(stage, ".radii_capped")]++ > 0) return limit;
-  Warn(absl::StrFormat("%s: %s of %g mm is more than the data's own scale allows (%g mm, a "
-                       "multiple of the global radius r_g); capped at %g mm. Check the job's "
-                       "unit, the scanner metadata (spacing, uncertainty) and radius overrides",
-                       stage, what, radius, limit, limit));
+  Warn(
+      absl::StrFormat("%s: %s of %g mm is more than the data's own scale allows (%g mm, a "
+                      "multiple of the global radius r_g); capped at %g mm. Check the job's "
+                      "unit, the scanner metadata (spacing, uncertainty) and radius overrides",
+                      stage, what, radius, limit, limit));
   return limit;
 }
 
@@ -194,7 +198,8 @@ bool JobContext::HasRun(std::string_view stage) const {
 
 absl::Status JobContext::Require(std::string_view stage) {
   const StageInfo* info = FindStage(stage);
-  if (info == nullptr) return absl::InternalError(absl::StrCat("no stage named ", std::string(stage)));
+  if (info == nullptr)
+    return absl::InternalError(absl::StrCat("no stage named ", std::string(stage)));
   for (const StageInfo* step : Order({info->name})) {
     if (!HasRun(step->name)) SCANPREP_RETURN_IF_ERROR(RunStage(*step));
   }
@@ -221,7 +226,8 @@ void JobContext::RecordCappedBalls(const std::string& stage) {
   }
   Warn(absl::StrCat(stage, ": ", capped, " neighbourhoods held more than ",
                     neighbourhoods_->max_ball_points(), " points and kept their nearest ",
-                    neighbourhoods_->max_ball_points(), " (", cut, " points left out); many "
+                    neighbourhoods_->max_ball_points(), " (", cut,
+                    " points left out); many "
                     "point to a radius far beyond the data's spacing: check the job's unit and "
                     "radius overrides"));
 }

@@ -53,7 +53,8 @@ class JobContext : private WorkMeter {
   std::string Choice(std::string_view name);
   // Records a derived value that cannot be overridden (e.g. a count or a measured statistic).
   void Record(std::string_view name, double value);
-  // Records a value derived for scan `scan` as `name.scanN`, or as `name` when the job has one scan.
+  // Records a value derived for scan `scan` as `name.scanN`, or as `name` when the job has one
+  // scan.
   void RecordForScan(std::string_view name, size_t scan, double value);
   void Warn(std::string message);
   // A radius from scanner metadata or an override (`what` names it), held to at most `limit`, a

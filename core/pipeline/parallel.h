@@ -26,16 +26,17 @@ absl::Status ParallelFor(size_t n, const CancelToken& cancel, Body&& body, size_
   // Separate fork and join tags, so blocks are not ordered among themselves for TSan.
   const char fork = 0, join = 0;
   HappensBefore(&fork);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, grain),
-                    [&](const tbb::blocked_range<size_t>& r) {
-                      HappensAfter(&fork);
-                      if (!cancel.cancelled()) {
-                        body(r.begin(), r.end());
-                        cancel.Worked(r.size());
-                      }
-                      HappensBefore(&join);
-                    },
-                    tbb::simple_partitioner());
+  tbb::parallel_for(
+      tbb::blocked_range<size_t>(0, n, grain),
+      [&](const tbb::blocked_range<size_t>& r) {
+        HappensAfter(&fork);
+        if (!cancel.cancelled()) {
+          body(r.begin(), r.end());
+          cancel.Worked(r.size());
+        }
+        HappensBefore(&join);
+      },
+      tbb::simple_partitioner());
   HappensAfter(&join);
   return cancel.Check();
 }
@@ -49,22 +50,28 @@ absl::Status CancellableSort(std::vector<T>& items, const CancelToken& cancel) {
   constexpr size_t kBlock = size_t{1} << 16;
   const size_t n = items.size();
   const size_t blocks = (n + kBlock - 1) / kBlock;
-  absl::Status status = ParallelFor(blocks, cancel, [&](size_t begin, size_t end) {
-    for (size_t b = begin; b < end; ++b) {
-      std::sort(items.begin() + b * kBlock, items.begin() + std::min(n, (b + 1) * kBlock));
-    }
-  }, 1);
+  absl::Status status = ParallelFor(
+      blocks, cancel,
+      [&](size_t begin, size_t end) {
+        for (size_t b = begin; b < end; ++b) {
+          std::sort(items.begin() + b * kBlock, items.begin() + std::min(n, (b + 1) * kBlock));
+        }
+      },
+      1);
   if (!status.ok() || n <= kBlock) return status;
   std::vector<T> merged(n);
   for (size_t width = kBlock; width < n; width *= 2) {
-    status = ParallelFor((n + 2 * width - 1) / (2 * width), cancel, [&](size_t begin, size_t end) {
-      for (size_t p = begin; p < end; ++p) {
-        const size_t lo = 2 * width * p, mid = std::min(n, lo + width);
-        const size_t hi = std::min(n, mid + width);
-        std::merge(items.begin() + lo, items.begin() + mid, items.begin() + mid,
-                   items.begin() + hi, merged.begin() + lo);
-      }
-    }, 1);
+    status =
+        ParallelFor((n + 2 * width - 1) / (2 * width), cancel,
+                    [&](size_t begin, size_t end) {
+                      for (size_t p = begin; p < end; ++p) {
+                        const size_t lo = 2 * width * p, mid = std::min(n, lo + width);
+                        const size_t hi = std::min(n, mid + width);
+                        std::merge(items.begin() + lo, items.begin() + mid, items.begin() + mid,
+                                   items.begin() + hi, merged.begin() + lo);
+                      }
+                    },
+                    1);
     if (!status.ok()) return status;
     items.swap(merged);
   }

@@ -15,8 +15,7 @@ namespace scanprep {
 namespace {
 
 ParamSpec Numeric(std::string name, ParamKind kind, std::string description,
-                  std::optional<double> default_value, std::string default_text,
-                  ParamRange range) {
+                  std::optional<double> default_value, std::string default_text, ParamRange range) {
   return ParamSpec{.name = std::move(name),
                    .kind = kind,
                    .description = std::move(description),
@@ -26,8 +25,8 @@ ParamSpec Numeric(std::string name, ParamKind kind, std::string description,
 }
 
 const ParamSpec* Find(const std::vector<ParamSpec>& specs, std::string_view name) {
-  auto spec = std::find_if(specs.begin(), specs.end(),
-                           [&](const ParamSpec& s) { return s.name == name; });
+  auto spec =
+      std::find_if(specs.begin(), specs.end(), [&](const ParamSpec& s) { return s.name == name; });
   return spec == specs.end() ? nullptr : &*spec;
 }
 
@@ -102,8 +101,7 @@ ParamSpec DerivedIntegerParam(std::string name, std::string description, std::st
                  std::move(rule), range);
 }
 
-ParamSpec ChoiceParam(std::string name, std::string description,
-                      std::vector<std::string> choices) {
+ParamSpec ChoiceParam(std::string name, std::string description, std::vector<std::string> choices) {
   ParamSpec spec{.name = std::move(name),
                  .kind = ParamKind::kChoice,
                  .description = std::move(description),
@@ -118,7 +116,8 @@ std::string FormatNumber(double value) {
   return std::string(buffer, result.ptr);
 }
 
-absl::Status ValidateOverrides(const ParamOverrides& overrides, const std::vector<ParamSpec>& specs) {
+absl::Status ValidateOverrides(const ParamOverrides& overrides,
+                               const std::vector<ParamSpec>& specs) {
   for (const auto& override : overrides) {
     // Plain references, not a structured binding: clang < 16 cannot capture bindings in lambdas.
     const std::string& name = override.first;
@@ -130,8 +129,7 @@ absl::Status ValidateOverrides(const ParamOverrides& overrides, const std::vecto
     if (spec->kind != ParamKind::kChoice) {
       double value = 0;
       SCANPREP_RETURN_IF_ERROR(CheckNumber(*spec, text, value));
-    } else if (std::find(spec->choices.begin(), spec->choices.end(), text) ==
-               spec->choices.end()) {
+    } else if (std::find(spec->choices.begin(), spec->choices.end(), text) == spec->choices.end()) {
       return FieldError(Field(name), absl::StrCat("'", text, "' is not one of ",
                                                   absl::StrJoin(spec->choices, ", ")));
     }

@@ -39,7 +39,7 @@ struct ParamSpec {
   std::string description;
   // The numeric default; none when the default is derived from the data (default_text says how).
   std::optional<double> default_value;
-  std::string default_text;  // the default as shown: the number, the choice or the rule
+  std::string default_text;          // the default as shown: the number, the choice or the rule
   ParamRange range;                  // numeric kinds
   std::vector<std::string> choices;  // kChoice; the first is the default
   // Another integer parameter this one may not exceed (a subset of the shared k-NN graph).
@@ -68,6 +68,7 @@ using ParamOverrides = std::map<std::string, std::string, std::less<>>;
 // one of its choices; a number must parse, be finite, be whole for an integer parameter, lie in
 // the range and not exceed its `at_most` parameter. Integers are checked as doubles, so no
 // out-of-range value is ever converted.
-absl::Status ValidateOverrides(const ParamOverrides& overrides, const std::vector<ParamSpec>& specs);
+absl::Status ValidateOverrides(const ParamOverrides& overrides,
+                               const std::vector<ParamSpec>& specs);
 
 }  // namespace scanprep

@@ -7,10 +7,10 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
-#include "core/spatial/duplicates.h"
 #include "core/pipeline/field_error.h"
-#include "core/status_macros.h"
 #include "core/pipeline/job_context.h"
+#include "core/spatial/duplicates.h"
+#include "core/status_macros.h"
 
 namespace scanprep {
 
@@ -24,8 +24,9 @@ absl::Status ValidateOptions(const PipelineOptions& options) {
     if (FindStage(name) == nullptr) {
       std::vector<std::string> known;
       for (const StageInfo& s : StageRegistry()) known.push_back(s.name);
-      return FieldError("options.stages", absl::StrCat("unknown stage '", name, "' (known: ",
-                                                       absl::StrJoin(known, ", "), ")"));
+      return FieldError(
+          "options.stages",
+          absl::StrCat("unknown stage '", name, "' (known: ", absl::StrJoin(known, ", "), ")"));
     }
     if (!seen.insert(name).second) {
       return FieldError("options.stages", absl::StrCat("stage '", name, "' is listed twice"));

@@ -9,17 +9,17 @@
 #include "absl/status/statusor.h"
 #include "core/pipeline/cancel.h"
 #include "core/pipeline/params.h"
-#include "core/point_cloud.h"
-#include "core/pipeline/report.h"
 #include "core/pipeline/progress.h"
+#include "core/pipeline/report.h"
 #include "core/pipeline/stage.h"
+#include "core/point_cloud.h"
 
 namespace scanprep {
 
 struct PipelineOptions {
   std::vector<std::string> stages;  // empty = DefaultStages()
   ParamOverrides params;
-  double budget_seconds = 0;                        // whole pipeline; 0 = none
+  double budget_seconds = 0;                           // whole pipeline; 0 = none
   std::map<std::string, double> stage_budget_seconds;  // per stage name
 };
 

@@ -12,8 +12,8 @@ namespace scanprep {
 // progress, and the whole job's progress (the plan's stages weighted by their typical cost).
 struct ProgressEvent {
   std::string_view stage;
-  size_t stage_index = 0;  // in the plan, 0-based
-  size_t stage_count = 0;  // stages in the plan
+  size_t stage_index = 0;     // in the plan, 0-based
+  size_t stage_count = 0;     // stages in the plan
   double stage_fraction = 0;  // in [0,1]; non-decreasing within a stage
   double job_fraction = 0;    // in [0,1]; non-decreasing within a job
 };

@@ -2,6 +2,7 @@
 // The list of stages the service offers, in the paper's execution order (algorithms.md).
 #include <algorithm>
 
+#include "core/pipeline/job_context.h"
 #include "core/stages/correction.h"
 #include "core/stages/measures.h"
 #include "core/stages/neighbourhoods_stage.h"
@@ -9,18 +10,13 @@
 #include "core/stages/outliers.h"
 #include "core/stages/simplification.h"
 #include "core/stages/smoothing.h"
-#include "core/pipeline/job_context.h"
 
 namespace scanprep {
 
 const std::vector<StageInfo>& StageRegistry() {
   static const std::vector<StageInfo> registry = {
-      NeighbourhoodsStageInfo(),
-      OutliersStageInfo(),
-      NormalsStageInfo(),
-      MeasuresStageInfo(),
-      CorrectionStageInfo(),
-      SmoothingStageInfo(),
+      NeighbourhoodsStageInfo(), OutliersStageInfo(),   NormalsStageInfo(),
+      MeasuresStageInfo(),       CorrectionStageInfo(), SmoothingStageInfo(),
       SimplificationStageInfo(),
   };
   return registry;

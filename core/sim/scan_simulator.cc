@@ -34,9 +34,12 @@ Vector3d PartCentre(Part part) {
 
 double BoundingRadius(Part part) {
   switch (part) {
-    case Part::kPlane: return G::plane_half * std::sqrt(2.0);
-    case Part::kSphere: return G::sphere_radius;
-    case Part::kCylinder: return std::hypot(G::cylinder_radius, G::cylinder_half_length);
+    case Part::kPlane:
+      return G::plane_half * std::sqrt(2.0);
+    case Part::kSphere:
+      return G::sphere_radius;
+    case Part::kCylinder:
+      return std::hypot(G::cylinder_radius, G::cylinder_half_length);
     case Part::kBoxWithBore:
     case Part::kSteppedBlock:
       return Vector3d(G::box_half_x, G::box_half_y, G::box_height / 2).norm();
@@ -95,10 +98,14 @@ std::optional<Hit> IntersectBoxWithBore(const Vector3d& o, const Vector3d& d) {
 
 std::optional<Hit> Intersect(Part part, const Vector3d& o, const Vector3d& d) {
   switch (part) {
-    case Part::kPlane: return IntersectPlane(o, d);
-    case Part::kSphere: return IntersectSphere(o, d);
-    case Part::kCylinder: return IntersectCylinder(o, d);
-    case Part::kBoxWithBore: return IntersectBoxWithBore(o, d);
+    case Part::kPlane:
+      return IntersectPlane(o, d);
+    case Part::kSphere:
+      return IntersectSphere(o, d);
+    case Part::kCylinder:
+      return IntersectCylinder(o, d);
+    case Part::kBoxWithBore:
+      return IntersectBoxWithBore(o, d);
     case Part::kSteppedBlock:
       if (auto hit = stepped_block::Intersect(o, d)) return Hit{hit->t, hit->normal};
       return std::nullopt;
@@ -145,7 +152,8 @@ Closest ClosestOnSurface(Part part, const Vector3d& p) {
       const double y = std::clamp(p.y(), -G::cylinder_half_length, G::cylinder_half_length);
       return {G::cylinder_radius * n + Vector3d(0, y, 0), n};
     }
-    case Part::kBoxWithBore: return ClosestOnBox(p);
+    case Part::kBoxWithBore:
+      return ClosestOnBox(p);
     case Part::kSteppedBlock: {
       const auto c = stepped_block::Closest(p);
       return {c.point, c.normal};
@@ -159,9 +167,7 @@ Closest ClosestOnSurface(Part part, const Vector3d& p) {
 double BoxWithBoreEdgeDistance(const Vector3d& p) {
   const double hx = G::box_half_x, hy = G::box_half_y, h = G::box_height;
   double best = kInf;
-  auto corner = [&](int i) {
-    return Vector3d(i & 1 ? hx : -hx, i & 2 ? hy : -hy, i & 4 ? h : 0);
-  };
+  auto corner = [&](int i) { return Vector3d(i & 1 ? hx : -hx, i & 2 ? hy : -hy, i & 4 ? h : 0); };
   for (int i = 0; i < 8; ++i) {
     for (int bit : {1, 2, 4}) {
       if (!(i & bit)) best = std::min(best, DistanceToSegment(p, corner(i), corner(i | bit)));
@@ -173,11 +179,14 @@ double BoxWithBoreEdgeDistance(const Vector3d& p) {
 
 EdgeDistances Edges(Part part, const Vector3d& p) {
   switch (part) {
-    case Part::kBoxWithBore: return {BoxWithBoreEdgeDistance(p), kInf};
-    case Part::kSteppedBlock: return stepped_block::Edges(p);
+    case Part::kBoxWithBore:
+      return {BoxWithBoreEdgeDistance(p), kInf};
+    case Part::kSteppedBlock:
+      return stepped_block::Edges(p);
     case Part::kPlane:
     case Part::kSphere:
-    case Part::kCylinder: return {};
+    case Part::kCylinder:
+      return {};
   }
   return {};
 }
@@ -245,8 +254,8 @@ void ScanOne(Part part, const SimSensor& sensor, uint32_t scan_index, std::mt199
       double offset = sigma * gauss(rng);
       const bool spike = unit(rng) < sensor.outlier_fraction;
       if (spike) {
-        const double size = sensor.outlier_min_sigma +
-                            (spike_max - sensor.outlier_min_sigma) * unit(rng);
+        const double size =
+            sensor.outlier_min_sigma + (spike_max - sensor.outlier_min_sigma) * unit(rng);
         offset = (unit(rng) < 0.5 ? -1 : 1) * size * sigma;
       }
       const Vector3d measured = sensor.misregistration * Vector3d(p + offset * ray);
@@ -301,8 +310,7 @@ std::vector<SimSensor> TwoOverlappingSensors(Part part) {
   const Vector3d d = FrontalDirection(part);
   const Vector3d w = SheetFrame(d).second;
   const double tilt = 45 * std::numbers::pi / 180;
-  SimSensor oblique =
-      MakeSensor(part, std::cos(tilt) * d + std::sin(tilt) * w, -25, "oblique");
+  SimSensor oblique = MakeSensor(part, std::cos(tilt) * d + std::sin(tilt) * w, -25, "oblique");
   oblique.noise_sigma *= 2;
   oblique.misregistration.translation() = Vector3d(0, 0, 0.02);
   return {MakeSensor(part, d, 25, "frontal"), oblique};

@@ -63,13 +63,13 @@ struct PartGeometry {
 // `scanline_spacing` apart; points along each line `point_spacing` apart; the camera sits at an
 // offset from the laser (triangulation).
 struct SimSensor {
-  Eigen::Vector3d camera_position;   // camera centre (mm)
-  Eigen::Vector3d laser_position;    // where the laser sheet comes from (sets its direction)
-  double scanline_spacing = 0.2;     // Δs
-  double point_spacing = 0.1;        // along a line
-  double noise_sigma = 0.01;         // std of range noise at frontal view; grows like 1/cos(q)
-  double outlier_fraction = 0.0;     // spikes displaced along the viewing ray
-  double outlier_min_sigma = 5.0;    // spike displacement >= this many (local) sigma, up to 20
+  Eigen::Vector3d camera_position;  // camera centre (mm)
+  Eigen::Vector3d laser_position;   // where the laser sheet comes from (sets its direction)
+  double scanline_spacing = 0.2;    // Δs
+  double point_spacing = 0.1;       // along a line
+  double noise_sigma = 0.01;        // std of range noise at frontal view; grows like 1/cos(q)
+  double outlier_fraction = 0.0;    // spikes displaced along the viewing ray
+  double outlier_min_sigma = 5.0;   // spike displacement >= this many (local) sigma, up to 20
   Eigen::Isometry3d misregistration = Eigen::Isometry3d::Identity();  // applied to this scan
   std::string id;
 };

@@ -18,23 +18,26 @@ absl::Status BallCache::Gather(const PointCloud& cloud, const Neighbourhoods& nb
   const size_t blocks = (n + kBlock - 1) / kBlock;
   blocks_.assign(blocks, {});
   slots_.assign(n, Slot{});
-  return ParallelFor(blocks, cancel, [&](size_t first, size_t last) {
-    RadiusMatches matches;
-    for (size_t b = first; b < last; ++b) {
-      std::vector<uint32_t>& members = blocks_[b];
-      for (size_t v = b * kBlock; v < std::min(n, (b + 1) * kBlock); ++v) {
-        const uint32_t i = order[v];
-        const float radius = radius_of_scan[cloud.scan[i]];
-        if (cloud.removed(i) || radius <= nb.dk(i)) continue;
-        nb.Within(cloud, i, radius, matches);
-        if (!keep(matches)) continue;
-        slots_[i] = {static_cast<uint32_t>(b), static_cast<uint32_t>(members.size()),
-                     static_cast<uint32_t>(matches.size())};
-        for (const auto& match : matches) members.push_back(match.first);
-      }
-      members.shrink_to_fit();
-    }
-  }, /*grain=*/1);
+  return ParallelFor(
+      blocks, cancel,
+      [&](size_t first, size_t last) {
+        RadiusMatches matches;
+        for (size_t b = first; b < last; ++b) {
+          std::vector<uint32_t>& members = blocks_[b];
+          for (size_t v = b * kBlock; v < std::min(n, (b + 1) * kBlock); ++v) {
+            const uint32_t i = order[v];
+            const float radius = radius_of_scan[cloud.scan[i]];
+            if (cloud.removed(i) || radius <= nb.dk(i)) continue;
+            nb.Within(cloud, i, radius, matches);
+            if (!keep(matches)) continue;
+            slots_[i] = {static_cast<uint32_t>(b), static_cast<uint32_t>(members.size()),
+                         static_cast<uint32_t>(matches.size())};
+            for (const auto& match : matches) members.push_back(match.first);
+          }
+          members.shrink_to_fit();
+        }
+      },
+      /*grain=*/1);
 }
 
 bool BallCache::Within(const PointCloud& cloud, size_t i, RadiusMatches& out) const {

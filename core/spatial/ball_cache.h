@@ -10,8 +10,8 @@
 
 #include "absl/status/status.h"
 #include "core/pipeline/cancel.h"
-#include "core/spatial/neighbourhoods.h"
 #include "core/point_cloud.h"
+#include "core/spatial/neighbourhoods.h"
 
 namespace scanprep {
 

@@ -14,7 +14,6 @@ namespace {
 
 constexpr int kMaxBitsPerAxis = 21;
 
-
 struct Keyed {
   uint64_t key;
   uint32_t id;
@@ -151,11 +150,13 @@ size_t CellGrid::Knn(const float q[3], size_t k, uint32_t exclude, float guess, 
     // All points within `radius` are in scratch; if there are k, they hold the k nearest.
     const bool ranged =
         ForEachRun(q, radius, [&](uint32_t begin, uint32_t end) { collect(begin, end, r2); });
-    if (!ranged) collect(0, static_cast<uint32_t>(entries_.size()), std::numeric_limits<float>::infinity());
+    if (!ranged)
+      collect(0, static_cast<uint32_t>(entries_.size()), std::numeric_limits<float>::infinity());
     if (!ranged || scratch.size() >= k) break;
     radius *= 2;
   }
-  if (scratch.size() > k) std::nth_element(scratch.begin(), scratch.begin() + (k - 1), scratch.end());
+  if (scratch.size() > k)
+    std::nth_element(scratch.begin(), scratch.begin() + (k - 1), scratch.end());
   std::sort(scratch.begin(), scratch.begin() + k);
   for (size_t m = 0; m < k; ++m) {
     idx[m] = static_cast<uint32_t>(scratch[m]);

@@ -96,9 +96,9 @@ class CellGrid {
 
   double edge_ = 1, inverse_edge_ = 1;
   double origin_[3] = {0, 0, 0};
-  int64_t cells_[3] = {1, 1, 1};  // grid extent per axis
-  std::vector<Entry> entries_;     // sorted by (column x·cells_y + y, z)
-  std::vector<uint32_t> id_;       // entries_[e].id, for order()
+  int64_t cells_[3] = {1, 1, 1};        // grid extent per axis
+  std::vector<Entry> entries_;          // sorted by (column x·cells_y + y, z)
+  std::vector<uint32_t> id_;            // entries_[e].id, for order()
   std::vector<uint32_t> column_start_;  // column c: occupied cells [column_start_[c], [c+1])
   std::vector<uint32_t> cell_z_;        // per occupied cell, in entry order: its z
   std::vector<uint32_t> cell_start_;    // occupied cell c: entries [cell_start_[c], [c+1])
@@ -146,7 +146,8 @@ bool CellGrid::ForEachRun(const float q[3], float radius, Run&& run) const {
       const uint32_t last = column_start_[column + 1];
       if (last - first > 8) {
         first = static_cast<uint32_t>(
-            std::lower_bound(cell_z_.begin() + first, cell_z_.begin() + last, z0) - cell_z_.begin());
+            std::lower_bound(cell_z_.begin() + first, cell_z_.begin() + last, z0) -
+            cell_z_.begin());
       } else {
         while (first < last && cell_z_[first] < z0) ++first;
       }

@@ -106,8 +106,7 @@ PointCloud CompactDuplicates(const PointCloud& cloud, const DuplicateGroups& gro
   return compact;
 }
 
-void ExpandDuplicates(const PointCloud& compact, const DuplicateGroups& groups,
-                      PointCloud& cloud) {
+void ExpandDuplicates(const PointCloud& compact, const DuplicateGroups& groups, PointCloud& cloud) {
   const size_t n = cloud.size();
   if (compact.has_normals()) {
     cloud.nx.resize(n), cloud.ny.resize(n), cloud.nz.resize(n);

@@ -9,9 +9,9 @@
 #include <utility>
 #include <vector>
 
-#include "core/spatial/neighbourhoods.h"
 #include "core/point_cloud.h"
 #include "core/point_measures.h"
+#include "core/spatial/neighbourhoods.h"
 
 namespace scanprep {
 

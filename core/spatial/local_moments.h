@@ -26,8 +26,8 @@ class MomentAccumulator {
  public:
   void Add(const Eigen::Vector3d& d, double w) {
     const double wx = w * d.x(), wy = w * d.y(), wz = w * d.z();
-    const double terms[kSums] = {w,           wx,          wy,          wz,          wx * d.x(),
-                                 wx * d.y(),  wx * d.z(),  wy * d.y(),  wy * d.z(),  wz * d.z()};
+    const double terms[kSums] = {w,          wx,         wy,         wz,         wx * d.x(),
+                                 wx * d.y(), wx * d.z(), wy * d.y(), wy * d.z(), wz * d.z()};
     for (int t = 0; t < kSums; ++t) sums_[t] += terms[t];
     ++count_;
   }

@@ -32,7 +32,8 @@ float SampleDk(const PointCloud& cloud, const CellGrid& grid, uint32_t k) {
   for (size_t s = 0; s < sample; ++s) {
     const size_t i = s * n / sample;
     const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-    const size_t found = grid.Knn(q, k, static_cast<uint32_t>(i), 0.f, idx.data(), d2.data(), scratch);
+    const size_t found =
+        grid.Knn(q, k, static_cast<uint32_t>(i), 0.f, idx.data(), d2.data(), scratch);
     dk[s] = found ? std::sqrt(d2[found - 1]) : 0.f;
   }
   std::nth_element(dk.begin(), dk.begin() + sample / 2, dk.end());
@@ -132,9 +133,10 @@ void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius, Rad
   WithinUncapped(cloud, i, radius, out, skip);
   const size_t cap = max_ball_points();
   if (out.size() <= cap) return;
-  std::nth_element(out.begin(), out.begin() + (cap - 1), out.end(), [](const auto& a, const auto& b) {
-    return a.second < b.second || (a.second == b.second && a.first < b.first);
-  });
+  std::nth_element(out.begin(), out.begin() + (cap - 1), out.end(),
+                   [](const auto& a, const auto& b) {
+                     return a.second < b.second || (a.second == b.second && a.first < b.first);
+                   });
   capped_balls_.fetch_add(1, std::memory_order_relaxed);
   capped_points_.fetch_add(out.size() - cap, std::memory_order_relaxed);
   out.resize(cap);

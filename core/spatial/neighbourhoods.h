@@ -14,8 +14,8 @@
 
 #include "absl/status/statusor.h"
 #include "core/pipeline/cancel.h"
-#include "core/spatial/cell_grid.h"
 #include "core/point_cloud.h"
+#include "core/spatial/cell_grid.h"
 
 namespace scanprep {
 
@@ -99,10 +99,10 @@ class Neighbourhoods {
 
   // The points moved by at most `max_shift` each (smoothing bounds it by δ, Eq. 10). Instead of
   // a rebuild of the graph (a full k-NN pass) every k-NN list is re-ranked by its new distances,
-  // so knn() stays nearest first and dk() follows the points; the grid is re-sorted on the new positions, so
-  // Within() stays exact. The lists may now miss a point that moved into the k nearest from
-  // outside (at 1 M points a smoothing move is half the spacing), so Within() stops answering
-  // from them.
+  // so knn() stays nearest first and dk() follows the points; the grid is re-sorted on the new
+  // positions, so Within() stays exact. The lists may now miss a point that moved into the k
+  // nearest from outside (at 1 M points a smoothing move is half the spacing), so Within() stops
+  // answering from them.
   absl::Status PointsMoved(const PointCloud& cloud, float max_shift, const CancelToken& cancel);
 
  private:
@@ -113,9 +113,9 @@ class Neighbourhoods {
   std::vector<uint32_t> index_;
   std::vector<float> dk_;
   double global_radius_ = 0, density_ = 0;
-  std::vector<double> min_radius_;     // per scan
-  std::span<const uint32_t> scan_;     // the cloud's scan index per point
-  bool moved_ = false;  // points moved since the graph was built
+  std::vector<double> min_radius_;  // per scan
+  std::span<const uint32_t> scan_;  // the cloud's scan index per point
+  bool moved_ = false;              // points moved since the graph was built
   mutable std::atomic<uint64_t> capped_balls_{0}, capped_points_{0};
 };
 

@@ -6,19 +6,20 @@
 // Gather form (default): each point decides from its own neighbourhood and the labels of the
 // previous round, so the result is parallel and independent of visiting order; rounds repeat
 // until nothing changes. Guard: only where N holds points of ≥ 2 scans, and never a point of the
-// scan that owns the best point of N, so regions seen by one scan are not thinned. Scatter form (the paper's literal reading): centres in descending q̂
-// remove their below-mean neighbours immediately.
+// scan that owns the best point of N, so regions seen by one scan are not thinned. Scatter form
+// (the paper's literal reading): centres in descending q̂ remove their below-mean neighbours
+// immediately.
 #include "core/stages/correction.h"
 
 #include <algorithm>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "core/pipeline/job_context.h"
+#include "core/pipeline/parallel.h"
 #include "core/spatial/ball_cache.h"
 #include "core/stages/measures.h"
-#include "core/pipeline/parallel.h"
 #include "core/status_macros.h"
-#include "core/pipeline/job_context.h"
 
 namespace scanprep {
 namespace {
@@ -68,9 +69,10 @@ class CorrectionStage : public Stage {
     ctx.Record("correction.single_scan", cloud.scans.size() < 2 ? 1 : 0);
     if (cloud.scans.size() < 2) {  // nothing can overlap
       ctx.Record("correction.removed", 0);
-      ctx.Warn("correction: the job has one scan, so there is no overlap to merge and nothing "
-               "was changed; send each scan as its own scan (one file per scan, or a per-point "
-               "scan column)");
+      ctx.Warn(
+          "correction: the job has one scan, so there is no overlap to merge and nothing "
+          "was changed; send each scan as its own scan (one file per scan, or a per-point "
+          "scan column)");
       return absl::OkStatus();
     }
     const std::vector<float>& quality = ctx.measures().quality;
@@ -83,9 +85,10 @@ class CorrectionStage : public Stage {
     ctx.Record("correction.without_quality", uniform ? 1 : 0);
     if (uniform) {
       ctx.Record("correction.removed", 0);
-      ctx.Warn("correction: every point has the same viewing quality (no scan has sensor poses "
-               "or a per-point quality), so overlapping scans cannot be told apart and were not "
-               "merged; give view or camera/projector directions, or quality per point");
+      ctx.Warn(
+          "correction: every point has the same viewing quality (no scan has sensor poses "
+          "or a per-point quality), so overlapping scans cannot be told apart and were not "
+          "merged; give view or camera/projector directions, or quality per point");
       return absl::OkStatus();
     }
     SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
@@ -119,10 +122,9 @@ class CorrectionStage : public Stage {
       const double ds = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
       const double r_c = std::sqrt(ds * ds + scan.uncertainty * scan.uncertainty +
                                    spacing[s] * spacing[s]);  // Eq. (11)
-      radius.push_back(static_cast<float>(
-          ctx.CapRadius(absl::StrCat("the merge radius r_c (Eq. 11) of scan '", scan.id, "'"),
-                        forced.value_or(scale * r_c),
-                        kMaxMergeRadiusPerGlobalRadius * nb.global_radius())));
+      radius.push_back(static_cast<float>(ctx.CapRadius(
+          absl::StrCat("the merge radius r_c (Eq. 11) of scan '", scan.id, "'"),
+          forced.value_or(scale * r_c), kMaxMergeRadiusPerGlobalRadius * nb.global_radius())));
       ctx.RecordForScan("correction.radius_mm", s, radius.back());
     }
     return radius;
@@ -145,7 +147,8 @@ class CorrectionStage : public Stage {
     BallCache balls;
     if (absl::Status s = balls.Gather(
             cloud, nb, radius, [&](const RadiusMatches& m) { return SpansScans(cloud, m); },
-            ctx.cancel()); !s.ok()) {
+            ctx.cancel());
+        !s.ok()) {
       return s;
     }
     // Only a point whose neighbourhood lost a point can change its verdict; when r_c exceeds
@@ -233,8 +236,9 @@ class CorrectionStage : public Stage {
 StageInfo CorrectionStageInfo() {
   return {
       .name = "correction",
-      .summary = "merge overlapping scans: in N_{r_c}(p) spanning ≥ 2 scans, remove points of "
-                 "other scans than the best point's whose quality is below the mean (Eq. 11)",
+      .summary =
+          "merge overlapping scans: in N_{r_c}(p) spanning ≥ 2 scans, remove points of "
+          "other scans than the best point's whose quality is below the mean (Eq. 11)",
       .params =
           {
               ChoiceParam("correction.mode",

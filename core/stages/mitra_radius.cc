@@ -35,9 +35,8 @@ double QuadricCurvature(const PointCloud& cloud, size_t i, const RadiusMatches& 
   const Eigen::Matrix<double, 6, 1> coef = normal_eq.ldlt().solve(rhs);
   Eigen::Matrix2d hessian;
   hessian << 2 * coef[0], coef[1], coef[1], 2 * coef[2];
-  const Eigen::Vector2d eig = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(hessian,
-                                                                           Eigen::EigenvaluesOnly)
-                                  .eigenvalues();
+  const Eigen::Vector2d eig =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(hessian, Eigen::EigenvaluesOnly).eigenvalues();
   const double kappa = eig.cwiseAbs().maxCoeff();
   return std::isfinite(kappa) ? kappa : 0.0;
 }
@@ -56,10 +55,11 @@ float MitraRadius(const PointCloud& cloud, const Neighbourhoods& nb, size_t i, d
     nb.Within(cloud, i, static_cast<float>(r), scratch);
     const double rho = scratch.size() / (std::numbers::pi * r * r);
     const double kappa = std::max(options.kappa_min, QuadricCurvature(cloud, i, scratch));
-    const double next = std::clamp(
-        std::cbrt((options.c1 * sigma / std::sqrt(options.epsilon * rho) +
-                   options.c2 * sigma * sigma) / kappa),
-        r_floor, r_ceiling);
+    const double next =
+        std::clamp(std::cbrt((options.c1 * sigma / std::sqrt(options.epsilon * rho) +
+                              options.c2 * sigma * sigma) /
+                             kappa),
+                   r_floor, r_ceiling);
     const bool converged = std::abs(next - r) < options.tolerance * r;
     r = next;
     if (converged) break;

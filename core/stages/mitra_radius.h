@@ -4,19 +4,19 @@
 
 #include <cstddef>
 
-#include "core/spatial/neighbourhoods.h"
 #include "core/point_cloud.h"
+#include "core/spatial/neighbourhoods.h"
 
 namespace scanprep {
 
 struct MitraOptions {
-  double c1 = 1, c2 = 1;        // dimensionless constants of Eq. (1)
-  double epsilon = 0.05;        // probability that the normal-angle bound fails
-  double kappa_min = 1e-3;      // mm⁻¹; a plane would otherwise ask for r → ∞
-  double r_max = 0;             // clamp, 5·r_g by default
-  uint32_t min_points = 20;     // the ball holds at least this many neighbours
+  double c1 = 1, c2 = 1;     // dimensionless constants of Eq. (1)
+  double epsilon = 0.05;     // probability that the normal-angle bound fails
+  double kappa_min = 1e-3;   // mm⁻¹; a plane would otherwise ask for r → ∞
+  double r_max = 0;          // clamp, 5·r_g by default
+  uint32_t min_points = 20;  // the ball holds at least this many neighbours
   int max_iterations = 5;
-  double tolerance = 0.05;      // stop when r changes by less than 5 %
+  double tolerance = 0.05;  // stop when r changes by less than 5 %
 };
 
 // r(p) = ((c1·σ/√(ε·ρ) + c2·σ²) / κ)^(1/3), iterated from the 15 nearest neighbours: κ from a

@@ -80,16 +80,19 @@ class NeighbourhoodsStage : public Stage {
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
       // Build() already held r_min to kMaxRadiusPerGlobalRadius·r_g; this reports it.
       ctx.CapRadius(absl::StrCat("the minimum radius r_min (Eq. 2, from scanline spacing and "
-                                 "uncertainty) of scan '", cloud.scans[s].id, "'"),
+                                 "uncertainty) of scan '",
+                                 cloud.scans[s].id, "'"),
                     options.min_radius[s], (*nb)->scan_min_radius(s));
       ctx.RecordForScan("neighbourhoods.min_radius_used_mm", s, (*nb)->scan_min_radius(s));
     }
     if (const size_t collapsed = ctx.duplicates_collapsed(); collapsed > 0) {
-      ctx.Warn(absl::StrCat("neighbourhoods: ", collapsed, " points coincide exactly with another "
+      ctx.Warn(absl::StrCat("neighbourhoods: ", collapsed,
+                            " points coincide exactly with another "
                             "point of their scan; each group was processed once and every "
                             "point of it returned with that result"));
     }
-    ctx.Record("neighbourhoods.duplicates_collapsed", static_cast<double>(ctx.duplicates_collapsed()));
+    ctx.Record("neighbourhoods.duplicates_collapsed",
+               static_cast<double>(ctx.duplicates_collapsed()));
     ctx.Record("neighbourhoods.global_radius_mm", (*nb)->global_radius());
     ctx.Record("neighbourhoods.density_per_mm2", (*nb)->density());
     ctx.SetNeighbourhoods(*std::move(nb));
@@ -105,8 +108,8 @@ StageInfo NeighbourhoodsStageInfo() {
       .summary = "spatial grid and k-NN graph shared by all stages; global radius r_g and density",
       .params =
           {
-              IntegerParam("neighbourhoods.k", "neighbours per point in the shared graph (k_g)",
-                           20, Closed(3, 64)),
+              IntegerParam("neighbourhoods.k", "neighbours per point in the shared graph (k_g)", 20,
+                           Closed(3, 64)),
               DerivedRealParam("neighbourhoods.epsilon_u_mm", "ε_u of Eq. (2), uncertainty margin",
                                "the scan's uncertainty u", Closed(0, 1e4)),
               DerivedRealParam("neighbourhoods.min_radius_mm", "r_min of Eq. (2): √3·Δs + ε_u",

@@ -28,7 +28,8 @@ void Flip(PointCloud& cloud, size_t i) {
 }
 
 float AbsDot(const PointCloud& cloud, size_t i, size_t j) {
-  return std::abs(cloud.nx[i] * cloud.nx[j] + cloud.ny[i] * cloud.ny[j] + cloud.nz[i] * cloud.nz[j]);
+  return std::abs(cloud.nx[i] * cloud.nx[j] + cloud.ny[i] * cloud.ny[j] +
+                  cloud.nz[i] * cloud.nz[j]);
 }
 
 class DisjointSets {
@@ -83,7 +84,9 @@ struct SubsetAdaptor {
     return dim == 0 ? x[p] : dim == 1 ? y[p] : z[p];
   }
   template <class BBox>
-  bool kdtree_get_bbox(BBox&) const { return false; }
+  bool kdtree_get_bbox(BBox&) const {
+    return false;
+  }
 };
 using SubsetTree = nanoflann::KDTreeSingleIndexAdaptor<
     nanoflann::L2_Simple_Adaptor<float, SubsetAdaptor, float, uint32_t>, SubsetAdaptor, 3,
@@ -204,8 +207,8 @@ absl::Status CandidatePairs(const PointCloud& cloud, const Neighbourhoods& nb,
   std::vector<uint32_t> sample, owner, rim_members;
   for (uint32_t c = 0; c < count; ++c) {
     const std::span<const uint32_t> members = components.members(c);
-    std::vector<uint32_t> chosen = Stride(members, members.size() <= kSamples ? kSamples
-                                                                               : kSamples / 2);
+    std::vector<uint32_t> chosen =
+        Stride(members, members.size() <= kSamples ? kSamples : kSamples / 2);
     if (members.size() > kSamples) {
       rim_members.clear();
       for (uint32_t i : members) {
@@ -236,26 +239,29 @@ absl::Status CandidatePairs(const PointCloud& cloud, const Neighbourhoods& nb,
   constexpr size_t kAsk = 2 * kSamples + 1;
   std::vector<Near> near(sample.size() * kPartners, Near{kNone, 0, kNone});
   std::atomic<size_t> asked{0};
-  status = ParallelFor(sample.size(), cancel, [&](size_t begin, size_t end) {
-    std::vector<uint32_t> idx(kAsk);
-    std::vector<float> d2(kAsk);
-    size_t local_asked = 0;
-    for (size_t s = begin; s < end; ++s) {
-      const uint32_t i = sample[s], c = owner[s];
-      const size_t k = std::min(components.members(c).size(), kSamples) + kSamples + 1;
-      const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-      const size_t found = sample_tree.knnSearch(q, k, idx.data(), d2.data());
-      local_asked += k;
-      size_t partners = 0;
-      for (size_t m = 0; m < found && partners < kPartners; ++m) {
-        const uint32_t other = owner[idx[m]];
-        bool seen = other == c;
-        for (size_t p = 0; p < partners; ++p) seen |= near[s * kPartners + p].other == other;
-        if (!seen) near[s * kPartners + partners++] = {c, d2[m], other};
-      }
-    }
-    asked += local_asked;
-  }, 256);
+  status = ParallelFor(
+      sample.size(), cancel,
+      [&](size_t begin, size_t end) {
+        std::vector<uint32_t> idx(kAsk);
+        std::vector<float> d2(kAsk);
+        size_t local_asked = 0;
+        for (size_t s = begin; s < end; ++s) {
+          const uint32_t i = sample[s], c = owner[s];
+          const size_t k = std::min(components.members(c).size(), kSamples) + kSamples + 1;
+          const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+          const size_t found = sample_tree.knnSearch(q, k, idx.data(), d2.data());
+          local_asked += k;
+          size_t partners = 0;
+          for (size_t m = 0; m < found && partners < kPartners; ++m) {
+            const uint32_t other = owner[idx[m]];
+            bool seen = other == c;
+            for (size_t p = 0; p < partners; ++p) seen |= near[s * kPartners + p].other == other;
+            if (!seen) near[s * kPartners + partners++] = {c, d2[m], other};
+          }
+        }
+        asked += local_asked;
+      },
+      256);
   if (!status.ok()) return status;
   work += asked;
   std::erase_if(near, [](const Near& e) { return e.component == kNone; });
@@ -333,42 +339,48 @@ absl::Status PairBridges(const PointCloud& cloud, const Components& components,
   }
   std::vector<std::unique_ptr<SubsetAdaptor>> adaptors(with_tree.size());
   std::vector<std::unique_ptr<SubsetTree>> trees(with_tree.size());
-  absl::Status status = ParallelFor(with_tree.size(), cancel, [&](size_t begin, size_t end) {
-    for (size_t t = begin; t < end; ++t) {
-      const size_t size = target_start[t + 1] - target_start[t];
-      adaptors[t] = std::make_unique<SubsetAdaptor>(SubsetAdaptor{
-          cloud.x.data(), cloud.y.data(), cloud.z.data(),
-          std::span<const uint32_t>(targets).subspan(target_start[t], size), size});
-      trees[t] = std::make_unique<SubsetTree>(3, *adaptors[t],
-                                              nanoflann::KDTreeSingleIndexAdaptorParams(12));
-      trees[t]->buildIndex();
-    }
-  }, 1);
+  absl::Status status = ParallelFor(
+      with_tree.size(), cancel,
+      [&](size_t begin, size_t end) {
+        for (size_t t = begin; t < end; ++t) {
+          const size_t size = target_start[t + 1] - target_start[t];
+          adaptors[t] = std::make_unique<SubsetAdaptor>(SubsetAdaptor{
+              cloud.x.data(), cloud.y.data(), cloud.z.data(),
+              std::span<const uint32_t>(targets).subspan(target_start[t], size), size});
+          trees[t] = std::make_unique<SubsetTree>(3, *adaptors[t],
+                                                  nanoflann::KDTreeSingleIndexAdaptorParams(12));
+          trees[t]->buildIndex();
+        }
+      },
+      1);
   if (!status.ok()) return status;
   const size_t first = bridges.size();
   bridges.resize(first + pairs.size());
   std::atomic<size_t> queries{0};
-  status = ParallelFor(pairs.size(), cancel, [&](size_t begin, size_t end) {
-    size_t local_queries = 0;
-    for (size_t p = begin; p < end; ++p) {
-      const auto [larger, smaller] = pairs[p];
-      const size_t t = tree_of[larger];
-      Edge best{std::numeric_limits<float>::infinity(), kNone, kNone};
-      const std::span<const uint32_t> from = components.members(smaller);
-      for (size_t m = 0; m < from.size() && !cancel.CancelledAt(m); ++m) {
-        const uint32_t i = from[m];
-        const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-        uint32_t at = 0;
-        float d2 = 0;
-        trees[t]->knnSearch(q, 1, &at, &d2);
-        ++local_queries;
-        const uint32_t j = targets[target_start[t] + at];
-        if (const Edge edge{BridgeCost(cloud, i, j), i, j}; edge < best) best = edge;
-      }
-      bridges[first + p] = best;
-    }
-    queries += local_queries;
-  }, 16);
+  status = ParallelFor(
+      pairs.size(), cancel,
+      [&](size_t begin, size_t end) {
+        size_t local_queries = 0;
+        for (size_t p = begin; p < end; ++p) {
+          const auto [larger, smaller] = pairs[p];
+          const size_t t = tree_of[larger];
+          Edge best{std::numeric_limits<float>::infinity(), kNone, kNone};
+          const std::span<const uint32_t> from = components.members(smaller);
+          for (size_t m = 0; m < from.size() && !cancel.CancelledAt(m); ++m) {
+            const uint32_t i = from[m];
+            const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+            uint32_t at = 0;
+            float d2 = 0;
+            trees[t]->knnSearch(q, 1, &at, &d2);
+            ++local_queries;
+            const uint32_t j = targets[target_start[t] + at];
+            if (const Edge edge{BridgeCost(cloud, i, j), i, j}; edge < best) best = edge;
+          }
+          bridges[first + p] = best;
+        }
+        queries += local_queries;
+      },
+      16);
   work += queries;
   return status;
 }
@@ -379,9 +391,8 @@ absl::Status PairBridges(const PointCloud& cloud, const Components& components,
 // kd-trees; counts.bridge_work counts the neighbours asked for by kd-tree queries, at most
 // 2·kSamples + 1 per sample (kSamples a component) plus (kPartners + 1)·n for the bridges.
 absl::Status Bridge(const PointCloud& cloud, const Neighbourhoods& nb,
-                    const std::vector<uint8_t>& member, DisjointSets& sets,
-                    std::vector<Edge>& tree, const CancelToken& cancel,
-                    OrientationCounts& counts) {
+                    const std::vector<uint8_t>& member, DisjointSets& sets, std::vector<Edge>& tree,
+                    const CancelToken& cancel, OrientationCounts& counts) {
   Components components;
   SCANPREP_RETURN_IF_ERROR(FindComponents(member, sets, cancel, components));
   if (components.size() <= 1) return absl::OkStatus();
@@ -395,8 +406,8 @@ absl::Status Bridge(const PointCloud& cloud, const Neighbourhoods& nb,
     status = CandidatePairs(cloud, nb, components, groups, cancel, pairs, counts.bridge_work);
     if (!status.ok()) return status;
     std::vector<Edge> candidates;
-    status = PairBridges(cloud, components, std::move(pairs), cancel, candidates,
-                         counts.bridge_work);
+    status =
+        PairBridges(cloud, components, std::move(pairs), cancel, candidates, counts.bridge_work);
     if (!status.ok()) return status;
     SCANPREP_RETURN_IF_ERROR(CancellableSort(candidates, cancel));
     for (const Edge& e : candidates) {
@@ -466,7 +477,8 @@ absl::Status Propagate(PointCloud& cloud, const Neighbourhoods& nb, uint32_t k,
       if (visited[child]) continue;
       visited[child] = 1;
       if (cloud.nx[child] * cloud.nx[parent] + cloud.ny[child] * cloud.ny[parent] +
-              cloud.nz[child] * cloud.nz[parent] < 0) {
+              cloud.nz[child] * cloud.nz[parent] <
+          0) {
         Flip(cloud, child);
       }
       queue.push_back(child);

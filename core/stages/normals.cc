@@ -10,12 +10,12 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "core/pipeline/job_context.h"
+#include "core/pipeline/parallel.h"
 #include "core/spatial/local_moments.h"
 #include "core/stages/mitra_radius.h"
 #include "core/stages/normal_orientation.h"
-#include "core/pipeline/parallel.h"
 #include "core/status_macros.h"
-#include "core/pipeline/job_context.h"
 
 namespace scanprep {
 namespace {
@@ -47,9 +47,9 @@ class NormalsStage : public Stage {
       mitra.c2 = ctx.Number("normals.mitra_c2");
       mitra.epsilon = ctx.Number("normals.mitra_epsilon");
       const double r_max_limit = kMaxRadiusPerGlobalRadius * nb.global_radius();
-      mitra.r_max = ctx.CapRadius("normals.mitra_max_radius_mm",
-                                  ctx.Number("normals.mitra_max_radius_mm", r_max_limit),
-                                  r_max_limit);
+      mitra.r_max =
+          ctx.CapRadius("normals.mitra_max_radius_mm",
+                        ctx.Number("normals.mitra_max_radius_mm", r_max_limit), r_max_limit);
       ctx.Record("normals.mitra_max_radius_mm", mitra.r_max);  // the value used
     }
     const std::optional<double> sigma_override = ctx.Overridden("normals.mitra_sigma_mm");
@@ -75,46 +75,49 @@ class NormalsStage : public Stage {
     // A Mitra radius costs up to 5 balls of up to 5·r_g (25·k points) with a quadric fit each:
     // smaller blocks, so that a cancel does not wait for 1024 of them.
     const size_t grain = mode == "mitra" ? 128 : 1024;
-    absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
-      Scratch scratch;
-      size_t local_invalid = 0;
-      for (size_t v = begin; v < end; ++v) {
-        const size_t i = order[v];
-        // Removed points get no normal; the flag tells clients that asked for them too.
-        if (cloud.removed(i)) {
-          no_normal[i] = 1;
-          continue;
-        }
-        float r = nb.adaptive_radius(i);
-        if (mode == "mitra") {
-          const double sigma = sigma_override.value_or(cloud.scans[cloud.scan[i]].uncertainty);
-          r = MitraRadius(cloud, nb, i, sigma, mitra, scratch.mitra);
-        }
-        // In an overlap part of the k-NN ball belongs to other scans: widen it once
-        // (OwnScanWidening). Only the widened ball is fitted. (One query reaching past r_p for
-        // both balls costs more than two: a radius search grows faster than the ball.)
-        Gather(cloud, nb, i, r, per_scan, scratch.matches);
-        const size_t own = scratch.matches.size();
-        if (per_scan && own < nb.k() + 1) {
-          r *= OwnScanWidening(own, nb.k());
-          Gather(cloud, nb, i, r, per_scan, scratch.matches);
-        }
-        const LocalFrame frame = Fit(cloud, i, r, weight_scale, scratch.matches);
-        radius[i] = r;
-        if (!frame.valid) {
-          no_normal[i] = 1;
-          ++local_invalid;
-          continue;
-        }
-        const Eigen::Vector3d normal = frame.normal();
-        cloud.nx[i] = static_cast<float>(normal.x());
-        cloud.ny[i] = static_cast<float>(normal.y());
-        cloud.nz[i] = static_cast<float>(normal.z());
-        variation[i] = static_cast<float>(frame.surface_variation());
-        fit_rms[i] = static_cast<float>(std::sqrt(frame.eigenvalues[0]));
-      }
-      invalid += local_invalid;
-    }, grain);
+    absl::Status status = ParallelFor(
+        n, ctx.cancel(),
+        [&](size_t begin, size_t end) {
+          Scratch scratch;
+          size_t local_invalid = 0;
+          for (size_t v = begin; v < end; ++v) {
+            const size_t i = order[v];
+            // Removed points get no normal; the flag tells clients that asked for them too.
+            if (cloud.removed(i)) {
+              no_normal[i] = 1;
+              continue;
+            }
+            float r = nb.adaptive_radius(i);
+            if (mode == "mitra") {
+              const double sigma = sigma_override.value_or(cloud.scans[cloud.scan[i]].uncertainty);
+              r = MitraRadius(cloud, nb, i, sigma, mitra, scratch.mitra);
+            }
+            // In an overlap part of the k-NN ball belongs to other scans: widen it once
+            // (OwnScanWidening). Only the widened ball is fitted. (One query reaching past r_p for
+            // both balls costs more than two: a radius search grows faster than the ball.)
+            Gather(cloud, nb, i, r, per_scan, scratch.matches);
+            const size_t own = scratch.matches.size();
+            if (per_scan && own < nb.k() + 1) {
+              r *= OwnScanWidening(own, nb.k());
+              Gather(cloud, nb, i, r, per_scan, scratch.matches);
+            }
+            const LocalFrame frame = Fit(cloud, i, r, weight_scale, scratch.matches);
+            radius[i] = r;
+            if (!frame.valid) {
+              no_normal[i] = 1;
+              ++local_invalid;
+              continue;
+            }
+            const Eigen::Vector3d normal = frame.normal();
+            cloud.nx[i] = static_cast<float>(normal.x());
+            cloud.ny[i] = static_cast<float>(normal.y());
+            cloud.nz[i] = static_cast<float>(normal.z());
+            variation[i] = static_cast<float>(frame.surface_variation());
+            fit_rms[i] = static_cast<float>(std::sqrt(frame.eigenvalues[0]));
+          }
+          invalid += local_invalid;
+        },
+        grain);
     if (!status.ok()) return status;
     for (size_t i = 0; i < n; ++i) {
       cloud.flags[i] = no_normal[i] ? cloud.flags[i] | kNormalInvalid
@@ -178,23 +181,27 @@ class NormalsStage : public Stage {
 StageInfo NormalsStageInfo() {
   return {
       .name = "normals",
-      .summary = "Gaussian-weighted PCA normals (Eq. 4), oriented toward the sensor (Eq. 3) or "
-                 "along a minimum spanning tree (Eq. 5)",
+      .summary =
+          "Gaussian-weighted PCA normals (Eq. 4), oriented toward the sensor (Eq. 3) or "
+          "along a minimum spanning tree (Eq. 5)",
       .params =
           {
-              ChoiceParam("normals.radius_mode", "PCA ball radius: adaptive r_p = max(r_min, "
-                          "d_k), or the Mitra et al. radius of Eq. (1)", {"adaptive", "mitra"}),
+              ChoiceParam("normals.radius_mode",
+                          "PCA ball radius: adaptive r_p = max(r_min, "
+                          "d_k), or the Mitra et al. radius of Eq. (1)",
+                          {"adaptive", "mitra"}),
               RealParam("normals.gaussian_h_factor",
                         "Gaussian width h as a fraction of the ball radius", 0.5, LeftOpen(0, 10)),
-              DerivedIntegerParam("normals.orientation_k",
-                                  "neighbours per point in the orientation graph (Eq. 5)",
-                                  absl::StrCat("min(", kOrientationK, ", neighbourhoods.k)"),
-                                  Closed(1, 64))
+              DerivedIntegerParam(
+                  "normals.orientation_k", "neighbours per point in the orientation graph (Eq. 5)",
+                  absl::StrCat("min(", kOrientationK, ", neighbourhoods.k)"), Closed(1, 64))
                   .AtMost("neighbourhoods.k"),
               RealParam("normals.mitra_c1", "c1 of Eq. (1)", 1, Closed(0, 1000)),
               RealParam("normals.mitra_c2", "c2 of Eq. (1)", 1, Closed(0, 1000)),
-              RealParam("normals.mitra_epsilon", "ε of Eq. (1): the normal bound fails with this "
-                        "probability", 0.05, Open(0, 1)),
+              RealParam("normals.mitra_epsilon",
+                        "ε of Eq. (1): the normal bound fails with this "
+                        "probability",
+                        0.05, Open(0, 1)),
               DerivedRealParam("normals.mitra_sigma_mm", "noise σ_n of Eq. (1)",
                                "the scan's uncertainty u", Closed(0, 1e4)),
               DerivedRealParam("normals.mitra_max_radius_mm", "upper clamp of the Mitra radius",

@@ -6,4 +6,4 @@ namespace scanprep {
 // without sensor poses, along a minimum spanning tree (Eq. 5, §7). Also fills the surface
 // variation σ of every point into JobContext::measures().
 StageInfo NormalsStageInfo();
-}
+}  // namespace scanprep

@@ -6,9 +6,9 @@
 // ordinary grid points of the non-overlapping parts exceed μ + 2σ (five overlapping Happy Buddha
 // scans lost 3.8 % in one job against 0.35 % one by one).
 //
-// The rule is blind to two things, so the surface decides (core/stages/surface_spikes.h): a point above
-// the threshold that lies on a plane its own scan's neighbours support is a sparse sample of a
-// real surface, not an outlier (one threshold per scan otherwise removes the ordinary points of
+// The rule is blind to two things, so the surface decides (core/stages/surface_spikes.h): a point
+// above the threshold that lies on a plane its own scan's neighbours support is a sparse sample of
+// a real surface, not an outlier (one threshold per scan otherwise removes the ordinary points of
 // faces it meets obliquely: 8 % of a simulated box); and a spike a few σ off the surface has a
 // nearest neighbour as close as any grid point, so only its offset from the surface gives it away.
 #include "core/stages/outliers.h"
@@ -18,12 +18,12 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
-#include "core/stages/outliers_loop.h"
+#include "core/pipeline/job_context.h"
 #include "core/pipeline/parallel.h"
+#include "core/stages/outliers_loop.h"
 #include "core/stages/scan_noise.h"
 #include "core/stages/surface_spikes.h"
 #include "core/status_macros.h"
-#include "core/pipeline/job_context.h"
 
 namespace scanprep {
 namespace {
@@ -158,8 +158,8 @@ class OutliersStage : public Stage {
         }
       }
       SurfaceSpikeCounts counts;
-      absl::Status status = JudgeBySurface(cloud, nb, ctx.measures(), noise, sigmas,
-                                           ctx.cancel(), verdict, counts);
+      absl::Status status =
+          JudgeBySurface(cloud, nb, ctx.measures(), noise, sigmas, ctx.cancel(), verdict, counts);
       if (!status.ok()) return status;
       ctx.Record("outliers.surface_not_judged", static_cast<double>(counts.not_judged));
     }
@@ -190,13 +190,16 @@ class OutliersStage : public Stage {
 StageInfo OutliersStageInfo() {
   return {
       .name = "outliers",
-      .summary = "statistical outlier removal: d_1 > max(μ + 2σ, 1.5·median) per scan unless "
-                 "the point lies on a plane its neighbours support; and points more than 4σ off "
-                 "every such plane",
+      .summary =
+          "statistical outlier removal: d_1 > max(μ + 2σ, 1.5·median) per scan unless "
+          "the point lies on a plane its neighbours support; and points more than 4σ off "
+          "every such plane",
       .params =
           {
-              ChoiceParam("outliers.method", "nn: the paper's global d_1 rule; loop: Local "
-                          "Outlier Probabilities for strongly varying density", {"nn", "loop"}),
+              ChoiceParam("outliers.method",
+                          "nn: the paper's global d_1 rule; loop: Local "
+                          "Outlier Probabilities for strongly varying density",
+                          {"nn", "loop"}),
               IntegerParam("outliers.k", "neighbours averaged into d (1 = the paper's d_1)", 1,
                            Closed(1, 64))
                   .AtMost("neighbourhoods.k"),
@@ -204,31 +207,38 @@ StageInfo OutliersStageInfo() {
                         Closed(0, 100)),
               RealParam("outliers.surface_sigmas",
                         "a point farther than this many local σ from every plane its scan's "
-                        "neighbours support is a spike (0 = no surface test)", 4,
-                        Closed(0, 1000)),
+                        "neighbours support is a spike (0 = no surface test)",
+                        4, Closed(0, 1000)),
               RealParam("outliers.median_floor", "the threshold is at least this times median(d)",
                         1.5, Closed(0, 100)),
-              DerivedRealParam("outliers.threshold_mm", "distance above which a point is an "
-                               "outlier", "max(μ + m·σ, floor·median) per scan", LeftOpen(0, 1e4)),
-              DerivedIntegerParam("outliers.loop_k", "LoOP neighbourhood size",
-                                  "neighbourhoods.k", Closed(1, 64))
+              DerivedRealParam("outliers.threshold_mm",
+                               "distance above which a point is an "
+                               "outlier",
+                               "max(μ + m·σ, floor·median) per scan", LeftOpen(0, 1e4)),
+              DerivedIntegerParam("outliers.loop_k", "LoOP neighbourhood size", "neighbourhoods.k",
+                                  Closed(1, 64))
                   .AtMost("neighbourhoods.k"),
-              RealParam("outliers.loop_lambda", "LoOP λ (standard deviations of the probabilistic "
-                        "distance)", 3, LeftOpen(0, 100)),
-              RealParam("outliers.loop_threshold", "LoOP probability above which a point is an "
-                        "outlier", 0.8, Closed(0, 1)),
+              RealParam("outliers.loop_lambda",
+                        "LoOP λ (standard deviations of the probabilistic "
+                        "distance)",
+                        3, LeftOpen(0, 100)),
+              RealParam("outliers.loop_threshold",
+                        "LoOP probability above which a point is an "
+                        "outlier",
+                        0.8, Closed(0, 1)),
           },
       .make = [] { return std::make_unique<OutliersStage>(); },
-      .prerequisites = [](const JobContext& ctx) {
-        // The surface test needs the normals, fitted before anything is removed; LoOP removes
-        // its outliers first, so it asks for them itself (Require) after that.
-        std::vector<std::string> need = {"neighbourhoods"};
-        if (ctx.PlannedNumber("outliers.surface_sigmas") > 0 &&
-            ctx.PlannedChoice("outliers.method") == "nn") {
-          need.push_back("normals");
-        }
-        return need;
-      },
+      .prerequisites =
+          [](const JobContext& ctx) {
+            // The surface test needs the normals, fitted before anything is removed; LoOP removes
+            // its outliers first, so it asks for them itself (Require) after that.
+            std::vector<std::string> need = {"neighbourhoods"};
+            if (ctx.PlannedNumber("outliers.surface_sigmas") > 0 &&
+                ctx.PlannedChoice("outliers.method") == "nn") {
+              need.push_back("normals");
+            }
+            return need;
+          },
       .work_per_point = 2,
       .cost_weight = 2.71,
   };

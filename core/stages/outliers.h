@@ -4,4 +4,4 @@
 namespace scanprep {
 // Statistical outlier removal (paper §2.3, algorithms.md §5).
 StageInfo OutliersStageInfo();
-}
+}  // namespace scanprep

@@ -9,8 +9,8 @@
 #include <atomic>
 #include <cmath>
 
-#include "core/pipeline/parallel.h"
 #include "core/pipeline/job_context.h"
+#include "core/pipeline/parallel.h"
 
 namespace scanprep {
 

@@ -8,8 +8,8 @@
 
 #include <Eigen/Cholesky>
 
-#include "core/spatial/local_moments.h"
 #include "core/pipeline/parallel.h"
+#include "core/spatial/local_moments.h"
 
 namespace scanprep {
 namespace {
@@ -126,7 +126,8 @@ std::vector<double> MedianScanlineSpacing(const PointCloud& cloud) {
     size_t previous = end;
     for (size_t i = begin; i < end; ++i) {
       if (cloud.removed(i)) continue;
-      if (previous != end) gaps[cloud.scan[i]].push_back(static_cast<float>(Distance(cloud, previous, i)));
+      if (previous != end)
+        gaps[cloud.scan[i]].push_back(static_cast<float>(Distance(cloud, previous, i)));
       previous = i;
     }
   }
@@ -145,16 +146,20 @@ absl::Status ScanlineCurvature(const PointCloud& cloud, const std::vector<double
   kappa.assign(cloud.size(), std::numeric_limits<float>::quiet_NaN());
   const std::vector<std::pair<size_t, size_t>> runs = ScanlineRuns(cloud);
   std::atomic<size_t> capped{0}, points{0};
-  absl::Status status = ParallelFor(runs.size(), cancel, [&](size_t begin, size_t end) {
-    LineScratch scratch;
-    ScanlineCurvatureCounts local;
-    for (size_t r = begin; r < end; ++r) {
-      const auto [first, last] = runs[r];
-      LineCurvature(cloud, first, last, window[cloud.scan[first]], cancel, scratch, kappa, local);
-    }
-    capped += local.windows_capped;
-    points += local.window_points;
-  }, 8);
+  absl::Status status = ParallelFor(
+      runs.size(), cancel,
+      [&](size_t begin, size_t end) {
+        LineScratch scratch;
+        ScanlineCurvatureCounts local;
+        for (size_t r = begin; r < end; ++r) {
+          const auto [first, last] = runs[r];
+          LineCurvature(cloud, first, last, window[cloud.scan[first]], cancel, scratch, kappa,
+                        local);
+        }
+        capped += local.windows_capped;
+        points += local.window_points;
+      },
+      8);
   counts.windows_capped = capped;
   counts.window_points = points;
   return status;

@@ -17,21 +17,20 @@
 #include <numeric>
 #include <optional>
 
-
 #include "absl/strings/str_cat.h"
 #include "core/pipeline/field_error.h"
+#include "core/pipeline/job_context.h"
 #include "core/pipeline/parallel.h"
 #include "core/stages/measures.h"
 #include "core/status_macros.h"
-#include "core/pipeline/job_context.h"
 
 namespace scanprep {
 namespace {
 
 struct Plan {
-  float spacing = 0;      // r_s
-  float edge_threshold;   // τ_E; +inf in uniform mode (no edge set)
-  bool adaptive = true;   // false: m(p) = 0 everywhere
+  float spacing = 0;          // r_s
+  float edge_threshold;       // τ_E; +inf in uniform mode (no edge set)
+  bool adaptive = true;       // false: m(p) = 0 everywhere
   float curvature_floor = 0;  // κ̂ at or below this counts as flat in Eq. (13)
 };
 
@@ -106,8 +105,8 @@ class Thinner {
 
 // Centres in visiting order: edge set first, then descending q̂, then index, as packed keys.
 absl::StatusOr<std::vector<uint32_t>> VisitOrder(const PointCloud& cloud, const PointMeasures& m,
-                                                  const Thinner& thinner,
-                                                  const CancelToken& cancel) {
+                                                 const Thinner& thinner,
+                                                 const CancelToken& cancel) {
   std::vector<uint64_t> keys;
   keys.reserve(cloud.size());
   for (uint32_t i = 0; i < cloud.size(); ++i) {
@@ -209,8 +208,8 @@ absl::Status RunTiled(JobContext& ctx, Thinner& thinner, std::vector<uint32_t> o
   return absl::OkStatus();
 }
 
-// r_s at most this many r_g: a ball of it holds ~100·k points on a surface; plenty for thinning to a
-// tenth of the scanner's pitch and beyond, and still a bounded amount of work per centre.
+// r_s at most this many r_g: a ball of it holds ~100·k points on a surface; plenty for thinning to
+// a tenth of the scanner's pitch and beyond, and still a bounded amount of work per centre.
 constexpr double kMaxSpacingPerGlobalRadius = 10.0;
 
 // Default r_s: twice the scanner's own sampling pitch, √(Δs·Δp) per scan (the side of the square
@@ -234,8 +233,9 @@ double DefaultSpacing(JobContext& ctx, const Neighbourhoods& nb) {
   ctx.Record("simplification.spacing_from_density", pitch ? 0 : 1);
   if (pitch) return *pitch;
   if (!ctx.Overridden("simplification.spacing_mm")) {
-    ctx.Warn("simplification: no scan states a scanline spacing, so the thinning spacing is "
-             "derived from the cloud's density (2/√ρ) rather than the scanner's pitch");
+    ctx.Warn(
+        "simplification: no scan states a scanline spacing, so the thinning spacing is "
+        "derived from the cloud's density (2/√ρ) rather than the scanner's pitch");
   }
   return nb.density() > 0 ? 2.0 / std::sqrt(nb.density()) : 0.0;
 }
@@ -261,8 +261,7 @@ class SimplificationStage : public Stage {
     // r_s is held to kMaxSpacingPerGlobalRadius·r_g: a derived one beyond it comes from spacings
     // in the wrong unit, and where κ̂ keeps most points every centre's ball would be a large
     // part of the cloud. The report shows the spacing used.
-    const double spacing =
-        ctx.Number("simplification.spacing_mm", DefaultSpacing(ctx, **nb));
+    const double spacing = ctx.Number("simplification.spacing_mm", DefaultSpacing(ctx, **nb));
     plan.spacing = static_cast<float>(ctx.CapRadius(
         "the thinning spacing r_s", spacing, kMaxSpacingPerGlobalRadius * (*nb)->global_radius()));
     ctx.Record("simplification.spacing_mm", plan.spacing);
@@ -291,24 +290,25 @@ class SimplificationStage : public Stage {
 StageInfo SimplificationStageInfo() {
   return {
       .name = "simplification",
-      .summary = "thin to spacing r_s, keeping ⌊κ̂·n + 0.5⌋ neighbours per centre (Eq. 13): "
-                 "dense at edges, uniform on flat parts",
+      .summary =
+          "thin to spacing r_s, keeping ⌊κ̂·n + 0.5⌋ neighbours per centre (Eq. 13): "
+          "dense at edges, uniform on flat parts",
       .params =
           {
               ChoiceParam("simplification.mode",
                           "adaptive: Eq. (13) keeps points by curvature; uniform: κ̂ ignored",
                           {"adaptive", "uniform"}),
-              DerivedRealParam("simplification.spacing_mm",
-                               "target spacing r_s between kept points",
-                               "2·√(Δs·Δp), median over scans; 2/√density without scanlines",
-                               LeftOpen(0, 1e4)),
+              DerivedRealParam(
+                  "simplification.spacing_mm", "target spacing r_s between kept points",
+                  "2·√(Δs·Δp), median over scans; 2/√density without scanlines", LeftOpen(0, 1e4)),
               RealParam("simplification.edge_threshold",
                         "τ_E: centres with κ̂ ≥ τ_E form the edge set, processed first", 0.5,
                         Closed(0, 1)),
               RealParam("simplification.curvature_floor",
                         "κ̂ at or below which Eq. (13) keeps no neighbours (rescaled above): "
                         "suppresses the clusters that curvature noise on flat parts would keep "
-                        "(0 = the paper)", 0, RightOpen(0, 1)),
+                        "(0 = the paper)",
+                        0, RightOpen(0, 1)),
               ChoiceParam("simplification.order",
                           "sequential (the paper's order) or tiled: 8-colour cells of edge 2·r_s "
                           "in parallel",

@@ -5,4 +5,4 @@ namespace scanprep {
 // Curvature-adaptive or uniform thinning to a target spacing (paper §3.3, Eq. 13;
 // algorithms.md §12).
 StageInfo SimplificationStageInfo();
-}
+}  // namespace scanprep

@@ -13,12 +13,12 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
-#include "core/stages/measures.h"
+#include "core/pipeline/job_context.h"
 #include "core/pipeline/parallel.h"
+#include "core/stages/measures.h"
 #include "core/stages/scan_noise.h"
 #include "core/stages/smoothing_kernels.h"
 #include "core/status_macros.h"
-#include "core/pipeline/job_context.h"
 
 namespace scanprep {
 namespace {
@@ -41,8 +41,9 @@ class SmoothingStage : public Stage {
     const bool uniform = UniformQuality(cloud, m.quality);
     ctx.Record("smoothing.without_quality", uniform ? 1 : 0);
     if (uniform && settings.lambda > 0) {
-      ctx.Warn("smoothing: every point has the same viewing quality (no sensor poses), so the "
-               "weights of Eq. (6) tell points apart by flatness alone");
+      ctx.Warn(
+          "smoothing: every point has the same viewing quality (no sensor poses), so the "
+          "weights of Eq. (6) tell points apart by flatness alone");
     }
     const int iterations = static_cast<int>(ctx.Integer("smoothing.iterations"));
     ctx.ExpectWork(kLoopItemsPerIteration * iterations * double(n));
@@ -116,8 +117,10 @@ class SmoothingStage : public Stage {
       const double u = scan < cloud.scans.size() ? cloud.scans[scan].uncertainty : 0.1;
       double noise = forced_noise.value_or(measured[scan].value_or(u));
       if (s.own_side && !forced_noise && !measured[scan]) {
-        ctx.Warn(absl::StrCat("smoothing: scan ", scan, " has too few normal fits to measure its "
-                              "noise; its stated uncertainty u = ", u, " mm stands in"));
+        ctx.Warn(absl::StrCat("smoothing: scan ", scan,
+                              " has too few normal fits to measure its "
+                              "noise; its stated uncertainty u = ",
+                              u, " mm stands in"));
       }
       if (s.own_side && !forced_noise && measured[scan] && noise > 3 * u) {
         ctx.Warn(absl::StrCat("smoothing: scan ", scan, " is noisier (σ̂ = ", noise,
@@ -132,8 +135,10 @@ class SmoothingStage : public Stage {
       const bool default_u = scan < cloud.scans.size() && !cloud.scans[scan].uncertainty_stated;
       if (!forced && s.fixed_tolerance && default_u) {
         ++tolerance_from_default;
-        ctx.Warn(absl::StrCat("smoothing: scan ", scan, " states no uncertainty; δ is the default "
-                              "u = ", u, " mm (smoothing.method = own_side measures the noise)"));
+        ctx.Warn(absl::StrCat("smoothing: scan ", scan,
+                              " states no uncertainty; δ is the default "
+                              "u = ",
+                              u, " mm (smoothing.method = own_side measures the noise)"));
       }
       ctx.RecordForScan("smoothing.tolerance_mm", scan, s.tolerance.back());
     }
@@ -147,9 +152,10 @@ class SmoothingStage : public Stage {
 StageInfo SmoothingStageInfo() {
   return {
       .name = "smoothing",
-      .summary = "edge-sharpening smoothing: each point projected onto its own side's plane, "
-                 "fitted with the weights of Eqs. 6 and 9 within 3 measured σ; or the paper's "
-                 "weighted mean with moves longer than u rejected (Eqs. 6-10)",
+      .summary =
+          "edge-sharpening smoothing: each point projected onto its own side's plane, "
+          "fitted with the weights of Eqs. 6 and 9 within 3 measured σ; or the paper's "
+          "weighted mean with moves longer than u rejected (Eqs. 6-10)",
       .params =
           {
               ChoiceParam("smoothing.method",

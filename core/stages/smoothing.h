@@ -4,4 +4,4 @@
 namespace scanprep {
 // Edge- and quality-preserving smoothing (paper §3.1, Eqs. 6-10; algorithms.md §11).
 StageInfo SmoothingStageInfo();
-}
+}  // namespace scanprep

@@ -132,9 +132,12 @@ SmoothingOutcome OwnSide(const SmoothingInputs& in, size_t i, const Eigen::Vecto
 
 float InfluenceAt(Influence kind, float x) {
   switch (kind) {
-    case Influence::kCubic: return 1.f - 0.8f * x * x * x;
-    case Influence::kGauss: return std::exp(-2.f * x * x);
-    case Influence::kAverage: return 1.f;
+    case Influence::kCubic:
+      return 1.f - 0.8f * x * x * x;
+    case Influence::kGauss:
+      return std::exp(-2.f * x * x);
+    case Influence::kAverage:
+      return 1.f;
   }
   return 1.f;
 }

@@ -10,9 +10,9 @@
 
 #include <Eigen/Core>
 
-#include "core/spatial/neighbourhoods.h"
 #include "core/point_cloud.h"
 #include "core/point_measures.h"
+#include "core/spatial/neighbourhoods.h"
 
 namespace scanprep {
 
@@ -47,7 +47,7 @@ inline constexpr float kMoveSigmas = 3.f;
 
 struct SmoothingScratch {
   RadiusMatches matches;
-  std::vector<float> base;                       // w_j·Φ per match
+  std::vector<float> base;                        // w_j·Φ per match
   std::vector<std::pair<float, uint32_t>> seeds;  // (surface variation, point index)
 };
 

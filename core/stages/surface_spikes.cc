@@ -5,9 +5,9 @@
 #include <atomic>
 #include <cmath>
 
+#include "core/pipeline/parallel.h"
 #include "core/spatial/flattest_neighbours.h"
 #include "core/spatial/local_moments.h"
-#include "core/pipeline/parallel.h"
 
 namespace scanprep {
 namespace {
@@ -116,9 +116,8 @@ void OwnScanNeighbours(const PointCloud& cloud, const Neighbourhoods& nb, size_t
 }  // namespace
 
 absl::Status JudgeBySurface(const PointCloud& cloud, const Neighbourhoods& nb,
-                            const PointMeasures& m,
-                            const std::vector<std::optional<double>>& noise, double sigmas,
-                            const CancelToken& cancel, std::vector<uint8_t>& verdict,
+                            const PointMeasures& m, const std::vector<std::optional<double>>& noise,
+                            double sigmas, const CancelToken& cancel, std::vector<uint8_t>& verdict,
                             SurfaceSpikeCounts& counts) {
   const size_t n = cloud.size();
   verdict.assign(n, kNotJudged);
@@ -139,8 +138,8 @@ absl::Status JudgeBySurface(const PointCloud& cloud, const Neighbourhoods& nb,
       }
       FlattestNeighbours(cloud, m, scratch.matches, i, kCandidates, scratch.candidates);
       const float scan_sigma = static_cast<float>(*noise[scan]);
-      const std::optional<Judged> judged = NearestSupportedPlane(
-          cloud, i, kGateSigmas * kLocalNoiseCap * scan_sigma, scratch);
+      const std::optional<Judged> judged =
+          NearestSupportedPlane(cloud, i, kGateSigmas * kLocalNoiseCap * scan_sigma, scratch);
       if (!judged) {
         ++local_not_judged;
         continue;

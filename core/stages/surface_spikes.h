@@ -13,9 +13,9 @@
 
 #include "absl/status/status.h"
 #include "core/pipeline/cancel.h"
-#include "core/spatial/neighbourhoods.h"
 #include "core/point_cloud.h"
 #include "core/point_measures.h"
+#include "core/spatial/neighbourhoods.h"
 
 namespace scanprep {
 
@@ -33,9 +33,8 @@ struct SurfaceSpikeCounts {
 // surface when it lies more than sigmas·σ_i from the nearest supported plane, σ_i = the RMS
 // offset of that plane's supporters clamped to [σ̂, 2σ̂]. Needs normals and PointMeasures.
 absl::Status JudgeBySurface(const PointCloud& cloud, const Neighbourhoods& nb,
-                            const PointMeasures& m,
-                            const std::vector<std::optional<double>>& noise, double sigmas,
-                            const CancelToken& cancel, std::vector<uint8_t>& verdict,
+                            const PointMeasures& m, const std::vector<std::optional<double>>& noise,
+                            double sigmas, const CancelToken& cancel, std::vector<uint8_t>& verdict,
                             SurfaceSpikeCounts& counts);
 
 }  // namespace scanprep

@@ -17,8 +17,7 @@ constexpr size_t kWorkers = 16;
 
 }  // namespace
 
-absl::StatusOr<std::unique_ptr<HttpExporter>> HttpExporter::Start(const std::string& host,
-                                                                  int port,
+absl::StatusOr<std::unique_ptr<HttpExporter>> HttpExporter::Start(const std::string& host, int port,
                                                                   const Registry& registry) {
   std::unique_ptr<HttpExporter> exporter(new HttpExporter());
   exporter->server_ = std::make_unique<httplib::Server>();
@@ -41,7 +40,8 @@ absl::StatusOr<std::unique_ptr<HttpExporter>> HttpExporter::Start(const std::str
     return absl::UnavailableError(absl::StrCat("metrics: cannot listen on ", host, ":", port));
   }
   exporter->port_ = bound;
-  exporter->thread_ = std::thread([server = exporter->server_.get()] { server->listen_after_bind(); });
+  exporter->thread_ =
+      std::thread([server = exporter->server_.get()] { server->listen_after_bind(); });
   return exporter;
 }
 

@@ -25,10 +25,14 @@ std::string Escape(const std::string& text, bool quote) {
   std::string out;
   out.reserve(text.size());
   for (char c : text) {
-    if (c == '\\') out += "\\\\";
-    else if (c == '\n') out += "\\n";
-    else if (c == '"' && quote) out += "\\\"";
-    else out += c;
+    if (c == '\\')
+      out += "\\\\";
+    else if (c == '\n')
+      out += "\\n";
+    else if (c == '"' && quote)
+      out += "\\\"";
+    else
+      out += c;
   }
   return out;
 }
@@ -46,7 +50,8 @@ std::string LabelSet(const std::vector<std::string>& names, const std::vector<st
   for (size_t i = 0; i < names.size(); ++i) {
     out += (out.empty() ? "{" : ",") + names[i] + "=\"" + Escape(values[i], true) + "\"";
   }
-  if (!extra_name.empty()) out += (out.empty() ? "{" : ",") + extra_name + "=\"" + extra_value + "\"";
+  if (!extra_name.empty())
+    out += (out.empty() ? "{" : ",") + extra_name + "=\"" + extra_value + "\"";
   return out.empty() ? out : out + "}";
 }
 
@@ -67,8 +72,7 @@ Histogram::Histogram(std::vector<double> bounds)
 }
 
 void Histogram::Observe(double value) {
-  const size_t bucket =
-      std::lower_bound(bounds_.begin(), bounds_.end(), value) - bounds_.begin();
+  const size_t bucket = std::lower_bound(bounds_.begin(), bounds_.end(), value) - bounds_.begin();
   counts_[bucket].fetch_add(1, std::memory_order_relaxed);
   sum_.fetch_add(value, std::memory_order_relaxed);
 }
@@ -94,9 +98,9 @@ std::vector<double> ExponentialBuckets(double start, double factor, int count) {
 Family<Counter>& Registry::AddCounter(std::string name, std::string help,
                                       std::vector<std::string> label_names) {
   std::lock_guard lock(mu_);
-  counters_.push_back(std::make_unique<Family<Counter>>(
-      std::move(name), std::move(help), std::move(label_names),
-      [] { return std::make_unique<Counter>(); }));
+  counters_.push_back(
+      std::make_unique<Family<Counter>>(std::move(name), std::move(help), std::move(label_names),
+                                        [] { return std::make_unique<Counter>(); }));
   return *counters_.back();
 }
 
@@ -183,8 +187,8 @@ double BootTimeSeconds() {
 
 void AddProcessMetrics(Registry& registry) {
   const double ticks = static_cast<double>(sysconf(_SC_CLK_TCK));
-  registry.AddCallback("process_cpu_seconds_total", "Total user and system CPU time spent in seconds.",
-                       "counter", [ticks] {
+  registry.AddCallback("process_cpu_seconds_total",
+                       "Total user and system CPU time spent in seconds.", "counter", [ticks] {
                          const auto f = ProcStatFields();
                          return f.size() > 12 ? (std::stod(f[11]) + std::stod(f[12])) / ticks : 0.0;
                        });

@@ -27,10 +27,9 @@ constexpr int64_t kThreads = 2;
 
 void Register(const std::string& name, const PointCloud& (*workload)(size_t),
               ParamOverrides params = {}) {
-  benchmark::RegisterBenchmark(absl::StrCat("BM_Hostile/", name).c_str(),
-                               [workload, params](benchmark::State& state) {
-                                 RunPipelineCase(state, "", workload, params);
-                               })
+  benchmark::RegisterBenchmark(
+      absl::StrCat("BM_Hostile/", name).c_str(),
+      [workload, params](benchmark::State& state) { RunPipelineCase(state, "", workload, params); })
       ->Args({kPoints, kThreads})
       ->Apply(Timing)
       ->UseManualTime();

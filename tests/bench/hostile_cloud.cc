@@ -92,8 +92,7 @@ PointCloud MakeLine(size_t points) {
 
 PointCloud MakePlane(size_t points) {
   const auto part = sim::Part::kPlane;
-  return sim::SimulateWithPointCount(part, sim::TwoOverlappingSensors(part), points, 0.01, 1)
-      .cloud;
+  return sim::SimulateWithPointCount(part, sim::TwoOverlappingSensors(part), points, 0.01, 1).cloud;
 }
 
 PointCloud MakeNoPoseUnorganized(size_t points) {
@@ -166,9 +165,7 @@ const PointCloud& Coincident50PctCloud(size_t points) {
 const PointCloud& LineCloud(size_t points) { return Cached(MakeLine, points); }
 const PointCloud& PlaneCloud(size_t points) { return Cached(MakePlane, points); }
 const PointCloud& MetreDataAsMmCloud(size_t points) { return Cached(MakeMetreDataAsMm, points); }
-const PointCloud& MmDataAsMetresCloud(size_t points) {
-  return Cached(MakeMmDataAsMetres, points);
-}
+const PointCloud& MmDataAsMetresCloud(size_t points) { return Cached(MakeMmDataAsMetres, points); }
 const PointCloud& NoPoseUnorganizedCloud(size_t points) {
   return Cached(MakeNoPoseUnorganized, points);
 }

@@ -21,8 +21,8 @@
 #include <pcl/search/kdtree.h>
 #include <pcl/surface/mls.h>
 
-#include "tests/support/kdtree.h"
 #include "tests/bench/bench_cloud.h"
+#include "tests/support/kdtree.h"
 
 namespace scanprep::bench {
 namespace {

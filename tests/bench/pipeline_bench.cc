@@ -11,10 +11,10 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
-#include "tests/support/kdtree.h"
 #include "core/spatial/neighbourhoods.h"
 #include "tests/bench/bench_cloud.h"
 #include "tests/bench/pipeline_case.h"
+#include "tests/support/kdtree.h"
 
 namespace scanprep::bench {
 namespace {
@@ -64,11 +64,19 @@ BENCHMARK_CAPTURE(RunPipelineCase, DefaultPipelinePartsInARow, std::string(), Pa
     ->Args({4'000'000, 2})
     ->Apply(Timing)
     ->UseManualTime();
-BENCHMARK_CAPTURE(RunPipelineCase, outliers, std::string("outliers"))->Apply(Sizes)->UseManualTime();
+BENCHMARK_CAPTURE(RunPipelineCase, outliers, std::string("outliers"))
+    ->Apply(Sizes)
+    ->UseManualTime();
 BENCHMARK_CAPTURE(RunPipelineCase, normals, std::string("normals"))->Apply(Sizes)->UseManualTime();
-BENCHMARK_CAPTURE(RunPipelineCase, measures, std::string("measures"))->Apply(Sizes)->UseManualTime();
-BENCHMARK_CAPTURE(RunPipelineCase, correction, std::string("correction"))->Apply(Sizes)->UseManualTime();
-BENCHMARK_CAPTURE(RunPipelineCase, smoothing, std::string("smoothing"))->Apply(Sizes)->UseManualTime();
+BENCHMARK_CAPTURE(RunPipelineCase, measures, std::string("measures"))
+    ->Apply(Sizes)
+    ->UseManualTime();
+BENCHMARK_CAPTURE(RunPipelineCase, correction, std::string("correction"))
+    ->Apply(Sizes)
+    ->UseManualTime();
+BENCHMARK_CAPTURE(RunPipelineCase, smoothing, std::string("smoothing"))
+    ->Apply(Sizes)
+    ->UseManualTime();
 BENCHMARK_CAPTURE(RunPipelineCase, simplification, std::string("simplification"))
     ->Apply(Sizes)
     ->UseManualTime();

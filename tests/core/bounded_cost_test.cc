@@ -8,8 +8,8 @@
 
 #include <gtest/gtest.h>
 
-#include "core/spatial/neighbourhoods.h"
 #include "core/pipeline/pipeline.h"
+#include "core/spatial/neighbourhoods.h"
 
 namespace scanprep {
 namespace {
@@ -114,7 +114,8 @@ TEST(BoundedCost, BallsInADenseClusterKeepTheirNearest) {
     PointCloud cloud = Plane(60);
     std::mt19937 rng(3);
     std::uniform_real_distribution<float> jitter(-1e-3f, 1e-3f);
-    for (int b = 0; blob && b < 2000; ++b) AddPoint(cloud, 3.f + jitter(rng), 3.f + jitter(rng), jitter(rng));
+    for (int b = 0; blob && b < 2000; ++b)
+      AddPoint(cloud, 3.f + jitter(rng), 3.f + jitter(rng), jitter(rng));
     cloud.FinishLoading();
     PipelineOptions options;
     options.stages = {"normals", "smoothing"};

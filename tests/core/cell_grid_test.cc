@@ -10,10 +10,10 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/support/kdtree.h"
-#include "core/spatial/neighbourhoods.h"
 #include "core/pipeline/job_context.h"
 #include "core/sim/scan_simulator.h"
+#include "core/spatial/neighbourhoods.h"
+#include "tests/support/kdtree.h"
 
 namespace scanprep {
 namespace {
@@ -79,8 +79,8 @@ void ExpectSameKnn(const PointCloud& cloud, const CellGrid& grid, size_t k) {
   for (size_t i = 0; i < cloud.size(); i += 5) {
     const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
     const size_t expected = tree.Knn(q, k + 1, tree_idx.data(), tree_d2.data());
-    const size_t got = grid.Knn(q, k, static_cast<uint32_t>(i), 0.f, grid_idx.data(),
-                                grid_d2.data(), scratch);
+    const size_t got =
+        grid.Knn(q, k, static_cast<uint32_t>(i), 0.f, grid_idx.data(), grid_d2.data(), scratch);
     ASSERT_EQ(got, std::min(k, cloud.size() - 1));
     ASSERT_EQ(expected, got + 1);
     // The tree's list holds i itself at distance 0; duplicates of i too, so drop one zero.

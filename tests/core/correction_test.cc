@@ -7,9 +7,9 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/support/kdtree.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "tests/support/kdtree.h"
 
 namespace scanprep {
 namespace {
@@ -78,11 +78,11 @@ void ExpectMergesOverlap(const std::string& mode) {
       sim.cloud, {.stages = {"correction"}, .params = {{"correction.mode", mode}}}, cancel);
   ASSERT_TRUE(report.ok()) << report.status();
   const Outcome o = Evaluate(sim, original);
-  std::printf("%s: %zu of %zu removed (scan0 %zu, scan1 %zu), %.1f %% from the worse view; "
-              "%zu single-covered points, %zu of them removed\n",
-              mode.c_str(), o.removed, original.size(), o.removed_per_scan[0],
-              o.removed_per_scan[1], 100.0 * o.from_worse / std::max<size_t>(o.removed, 1),
-              o.single_covered, o.removed_single);
+  std::printf(
+      "%s: %zu of %zu removed (scan0 %zu, scan1 %zu), %.1f %% from the worse view; "
+      "%zu single-covered points, %zu of them removed\n",
+      mode.c_str(), o.removed, original.size(), o.removed_per_scan[0], o.removed_per_scan[1],
+      100.0 * o.from_worse / std::max<size_t>(o.removed, 1), o.single_covered, o.removed_single);
   EXPECT_GT(o.removed, original.size() / 10);
   EXPECT_GE(o.from_worse, 0.8 * o.removed);
   EXPECT_GT(o.single_covered, 300u);
@@ -176,12 +176,12 @@ TEST(Correction, RadiusScaleWidensTheMergeRadius) {
               2 * std::sqrt(s1.scanline_spacing * s1.scanline_spacing +
                             s1.uncertainty * s1.uncertainty + s1.point_spacing * s1.point_spacing),
               0.02);
-  EXPECT_EQ(RunPipeline(sim.cloud,
-                        {.stages = {"correction"}, .params = {{"correction.radius_scale", "-1"}}},
-                        cancel)
-                .status()
-                .code(),
-            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(
+      RunPipeline(sim.cloud,
+                  {.stages = {"correction"}, .params = {{"correction.radius_scale", "-1"}}}, cancel)
+          .status()
+          .code(),
+      absl::StatusCode::kInvalidArgument);
 }
 
 }  // namespace

@@ -23,9 +23,8 @@ const std::vector<std::string> kAllStages = {"outliers",   "normals",   "measure
 
 // A line-scanner scan seen from +z with the given scanline spacing.
 ScanMeta TopViewScan(const std::string& id, double scanline_spacing) {
-  return ScanMeta{.id = id,
-                  .view_direction = Eigen::Vector3d::UnitZ(),
-                  .scanline_spacing = scanline_spacing};
+  return ScanMeta{
+      .id = id, .view_direction = Eigen::Vector3d::UnitZ(), .scanline_spacing = scanline_spacing};
 }
 
 void AddPoint(PointCloud& cloud, float x, float y, float z, uint32_t scan = 0) {

@@ -27,7 +27,8 @@ TEST(Conf, ReadsEntriesAndConjugatesTheQuaternion) {
       "\n"
       "bmesh a.ply 0 0 0 0 0 0 1\n"
       "# comment\n"
-      "bmesh b.ply 1 2 3 0 0 " + std::to_string(2 * h) + " " + std::to_string(2 * h) + "\n");
+      "bmesh b.ply 1 2 3 0 0 " +
+      std::to_string(2 * h) + " " + std::to_string(2 * h) + "\n");
   ASSERT_TRUE(entries.ok()) << entries.status();
   ASSERT_EQ(entries->size(), 2u);
   EXPECT_EQ((*entries)[0].file, "a.ply");
@@ -50,7 +51,8 @@ TEST(Conf, MalformedLinesNameTheLine) {
             "reg.conf: line 1: quaternion has (near) zero length");
   EXPECT_EQ(ParseText("mesh_or_what a.ply\n").status().message(),
             "reg.conf: line 1: unknown keyword 'mesh_or_what' (expected bmesh or camera)");
-  EXPECT_EQ(ReadConf(std::filesystem::path("/nonexistent/bun.conf")).status().code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(ReadConf(std::filesystem::path("/nonexistent/bun.conf")).status().code(),
+            absl::StatusCode::kNotFound);
 }
 
 // Scan points transformed into the common frame, in millimetres.
@@ -81,7 +83,8 @@ Agreement NearestNeighbourAgreement(const PointCloud& moving, const PointCloud& 
     tree.Knn(p.data(), 1, &index, &dist_sq);
     distances.push_back(std::sqrt(dist_sq));
   }
-  const double within = std::count_if(distances.begin(), distances.end(), [](float d) { return d < 1.f; });
+  const double within =
+      std::count_if(distances.begin(), distances.end(), [](float d) { return d < 1.f; });
   std::nth_element(distances.begin(), distances.begin() + distances.size() / 2, distances.end());
   return {distances[distances.size() / 2], within / distances.size()};
 }
@@ -95,7 +98,9 @@ TEST(ConfBunny, RegistersBun045OntoBun000) {
   EXPECT_EQ(conf->front().file, "bun000.ply");
   EXPECT_EQ(conf->back().file, "ear_back.ply");
   auto pose_of = [&](const std::string& file) {
-    return std::find_if(conf->begin(), conf->end(), [&](const ConfEntry& e) { return e.file == file; })->pose;
+    return std::find_if(conf->begin(), conf->end(),
+                        [&](const ConfEntry& e) { return e.file == file; })
+        ->pose;
   };
   absl::StatusOr<PointCloud> bun000 = ReadPly(dir / "bun000.ply");
   absl::StatusOr<PointCloud> bun045 = ReadPly(dir / "bun045.ply");
@@ -110,7 +115,8 @@ TEST(ConfBunny, RegistersBun045OntoBun000) {
   RecordProperty("within_1mm", std::to_string(registered.within_1mm));
 
   // The quaternion as written (not conjugated) must be far off: this is what proves the convention.
-  const RigidPose as_written{.rotation = pose045.rotation.conjugate(), .translation = pose045.translation};
+  const RigidPose as_written{.rotation = pose045.rotation.conjugate(),
+                             .translation = pose045.translation};
   const Agreement wrong = NearestNeighbourAgreement(ToCommonFrameMm(*bun045, as_written), fixed);
   EXPECT_GT(wrong.median_mm, 5.0);
   RecordProperty("median_nn_mm_unconjugated", std::to_string(wrong.median_mm));

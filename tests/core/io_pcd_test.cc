@@ -77,16 +77,36 @@ void Put(std::string& bytes, T value) {
 // One point's fields in header order; `field` < 0 writes the whole record.
 void PutField(std::string& bytes, const Point& p, int field) {
   switch (field) {
-    case 0: Put(bytes, p.x); break;
-    case 1: Put(bytes, p.y); break;
-    case 2: Put(bytes, p.z); break;
-    case 3: Put(bytes, p.nx); break;
-    case 4: Put(bytes, p.ny); break;
-    case 5: Put(bytes, p.nz); break;
-    case 6: Put(bytes, p.intensity); break;
-    case 7: Put(bytes, p.rgb); break;
-    case 8: Put(bytes, p.curvature); break;
-    case 9: bytes.append(3, '\x7f'); break;  // padding
+    case 0:
+      Put(bytes, p.x);
+      break;
+    case 1:
+      Put(bytes, p.y);
+      break;
+    case 2:
+      Put(bytes, p.z);
+      break;
+    case 3:
+      Put(bytes, p.nx);
+      break;
+    case 4:
+      Put(bytes, p.ny);
+      break;
+    case 5:
+      Put(bytes, p.nz);
+      break;
+    case 6:
+      Put(bytes, p.intensity);
+      break;
+    case 7:
+      Put(bytes, p.rgb);
+      break;
+    case 8:
+      Put(bytes, p.curvature);
+      break;
+    case 9:
+      bytes.append(3, '\x7f');
+      break;  // padding
   }
 }
 

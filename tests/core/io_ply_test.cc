@@ -21,7 +21,8 @@
 namespace scanprep::io {
 namespace {
 
-absl::StatusOr<PointCloud> ParseText(const std::string& text, const std::string& name = "test.ply") {
+absl::StatusOr<PointCloud> ParseText(const std::string& text,
+                                     const std::string& name = "test.ply") {
   std::istringstream in(text);
   return ReadPly(in, name);
 }
@@ -101,7 +102,8 @@ TEST(Ply, MinimalCloudRoundTripsThroughAFile) {
   cloud.z = {7.f, 8.f};
   cloud.scans = {ScanMeta{.id = "x"}};
   cloud.FinishLoading();
-  const std::filesystem::path path = std::filesystem::path(::testing::TempDir()) / "minimal_scan.ply";
+  const std::filesystem::path path =
+      std::filesystem::path(::testing::TempDir()) / "minimal_scan.ply";
   ASSERT_TRUE(WritePly(path, cloud).ok());
   absl::StatusOr<PointCloud> back = ReadPly(path);
   ASSERT_TRUE(back.ok()) << back.status();
@@ -123,7 +125,8 @@ TEST(Ply, WriterRejectsInconsistentArrays) {
   std::ostringstream out;
   const absl::Status status = WritePly(out, cloud);
   EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(status.message().find("cloud.quality has 6 entries for 7 points"), std::string::npos) << status;
+  EXPECT_NE(status.message().find("cloud.quality has 6 entries for 7 points"), std::string::npos)
+      << status;
 }
 
 TEST(Ply, AsciiWithMixedTypesExtraPropertiesAndFaces) {
@@ -168,7 +171,9 @@ TEST(Ply, ScanAndScanlineColumnsUnderTheirCommonNames) {
     SCOPED_TRACE(scanline);
     const std::string text = absl::StrCat(
         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-        "property float z\nproperty uint scan_id\nproperty uint ", scanline, "\nend_header\n"
+        "property float z\nproperty uint scan_id\nproperty uint ",
+        scanline,
+        "\nend_header\n"
         "0 0 0 0 4\n1 0 0 1 5\n2 0 0 1 6\n");
     absl::StatusOr<PointCloud> cloud = ParseText(text);
     ASSERT_TRUE(cloud.ok()) << cloud.status();
@@ -236,9 +241,11 @@ TEST_P(PlyMalformed, FailsWithAPreciseMessage) {
   EXPECT_EQ(cloud.status().message().rfind("bad.ply", 0), 0u) << cloud.status();
 }
 
-const std::string kAscii = "ply\nformat ascii 1.0\n";                                      // lines 1-2
-const std::string kTwoVertices = "element vertex 2\nproperty float x\nproperty float y\nproperty float z\n";
-const std::string kGrid = "element range_grid 2\nproperty list uchar int vertex_indices\nend_header\n";
+const std::string kAscii = "ply\nformat ascii 1.0\n";  // lines 1-2
+const std::string kTwoVertices =
+    "element vertex 2\nproperty float x\nproperty float y\nproperty float z\n";
+const std::string kGrid =
+    "element range_grid 2\nproperty list uchar int vertex_indices\nend_header\n";
 const std::string kBody = "end_header\n1 2 3\n";  // end_header on line 7, vertex 0 on line 8
 
 INSTANTIATE_TEST_SUITE_P(
@@ -250,15 +257,20 @@ INSTANTIATE_TEST_SUITE_P(
                  "line 2: unsupported format 'binary_middle_endian'"},
         BadInput{"UnknownType", kAscii + "element vertex 1\nproperty float128 x\nend_header\n",
                  "line 4: unknown property type 'float128'"},
-        BadInput{"BadCount", kAscii + "element vertex -3\nend_header\n", "line 3: element count '-3'"},
-        BadInput{"MissingZ", kAscii + "element vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n",
+        BadInput{"BadCount", kAscii + "element vertex -3\nend_header\n",
+                 "line 3: element count '-3'"},
+        BadInput{"MissingZ",
+                 kAscii + "element vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n",
                  "no scalar property 'z'"},
         BadInput{"NoVertexElement", kAscii + "element face 0\nend_header\n", "no 'vertex' element"},
-        BadInput{"HugeCount",
-                 "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\nproperty float x\n"
-                 "property float y\nproperty float z\nend_header\n" + std::string(900, '\0'),
-                 "declares 1000000000000 entries but the data section (900 bytes) cannot hold them"},
-        BadInput{"TooFewLines", kAscii + kTwoVertices + "end_header\n1.00 2.00 3.00\n", "data ends before vertex 1 of 2"},
+        BadInput{
+            "HugeCount",
+            "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\nproperty float x\n"
+            "property float y\nproperty float z\nend_header\n" +
+                std::string(900, '\0'),
+            "declares 1000000000000 entries but the data section (900 bytes) cannot hold them"},
+        BadInput{"TooFewLines", kAscii + kTwoVertices + "end_header\n1.00 2.00 3.00\n",
+                 "data ends before vertex 1 of 2"},
         BadInput{"TooManyLines", kAscii + kTwoVertices + kBody + "4 5 6\n7 8 9\n",
                  "line 10: data after the last declared element"},
         BadInput{"Garbage", kAscii + kTwoVertices + kBody + "4 5.0abc 6\n",
@@ -270,7 +282,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadInput{"NanCoordinate", kAscii + kTwoVertices + "end_header\n1 nan 3\n4 5 6\n",
                  "line 8: vertex 0: 'y' value nan: coordinate is not a finite float"},
         BadInput{"ListTooLong",
-                 kAscii + kTwoVertices + "element face 1\nproperty list uchar int vertex_indices\n" + kBody +
+                 kAscii + kTwoVertices +
+                     "element face 1\nproperty list uchar int vertex_indices\n" + kBody +
                      "4 5 6\n4 0 1\n",
                  "list 'vertex_indices' declares 4 items but the line has only 2 more values"},
         BadInput{"GridWithoutCols", kAscii + kTwoVertices + kGrid + "1 2 3\n4 5 6\n1 0\n1 1\n",
@@ -278,12 +291,14 @@ INSTANTIATE_TEST_SUITE_P(
         BadInput{"GridMissesVertex",
                  kAscii + "obj_info num_cols 2\n" + kTwoVertices + kGrid + "1 2 3\n4 5 6\n0\n1 1\n",
                  "range_grid lists 1 of the 2 vertices"},
-        BadInput{"GridOutOfOrder",
-                 kAscii + "obj_info num_cols 2\n" + kTwoVertices + kGrid + "1 2 3\n4 5 6\n1 1\n1 0\n",
-                 "must increase with the grid index"},
-        BadInput{"GridIndexOutOfRange",
-                 kAscii + "obj_info num_cols 2\n" + kTwoVertices + kGrid + "1 2 3\n4 5 6\n1 0\n1 2\n",
-                 "line 14: range_grid 1: 'vertex_indices' value 2: vertex index is not a valid vertex"},
+        BadInput{
+            "GridOutOfOrder",
+            kAscii + "obj_info num_cols 2\n" + kTwoVertices + kGrid + "1 2 3\n4 5 6\n1 1\n1 0\n",
+            "must increase with the grid index"},
+        BadInput{
+            "GridIndexOutOfRange",
+            kAscii + "obj_info num_cols 2\n" + kTwoVertices + kGrid + "1 2 3\n4 5 6\n1 0\n1 2\n",
+            "line 14: range_grid 1: 'vertex_indices' value 2: vertex index is not a valid vertex"},
         BadInput{"GridSizeDisagrees",
                  kAscii + "obj_info num_cols 2\nobj_info num_rows 2\n" + kTwoVertices + kGrid +
                      "1 2 3\n4 5 6\n1 0\n1 1\n",
@@ -301,8 +316,9 @@ TEST(Ply, TruncatedBinaryIsCaughtBeforeAllocatingOrAtTheByteOffset) {
   const size_t body = bytes.size() - (bytes.find("end_header\n") + 11);
   absl::StatusOr<PointCloud> cloud = ParseText(bytes.substr(0, bytes.size() - 3));
   ASSERT_FALSE(cloud.ok());
-  const std::string where = absl::StrCat("element 'vertex' declares 7 entries but the data section (", body - 3,
-                                         " bytes) cannot hold them (at least ", body / 7, " bytes each)");
+  const std::string where =
+      absl::StrCat("element 'vertex' declares 7 entries but the data section (", body - 3,
+                   " bytes) cannot hold them (at least ", body / 7, " bytes each)");
   EXPECT_NE(cloud.status().message().find(where), std::string::npos) << cloud.status();
 
   // Lists have no fixed size, so a short list is only found while reading it.
@@ -316,7 +332,8 @@ TEST(Ply, TruncatedBinaryIsCaughtBeforeAllocatingOrAtTheByteOffset) {
   cloud = ParseText(listed);
   ASSERT_FALSE(cloud.ok());
   EXPECT_NE(cloud.status().message().find(absl::StrCat(
-                "byte ", header_size + 13, ": face 0: list 'vertex_indices' declares 3 items but only 8 bytes remain")),
+                "byte ", header_size + 13,
+                ": face 0: list 'vertex_indices' declares 3 items but only 8 bytes remain")),
             std::string::npos)
       << cloud.status();
 }
@@ -324,7 +341,8 @@ TEST(Ply, TruncatedBinaryIsCaughtBeforeAllocatingOrAtTheByteOffset) {
 TEST(Ply, BinaryWithTrailingBytesIsRejected) {
   absl::StatusOr<PointCloud> cloud = ParseText(ToBytes(FullCloud()) + "xyz");
   ASSERT_FALSE(cloud.ok());
-  EXPECT_NE(cloud.status().message().find("3 bytes after the last declared element"), std::string::npos)
+  EXPECT_NE(cloud.status().message().find("3 bytes after the last declared element"),
+            std::string::npos)
       << cloud.status();
 }
 
@@ -351,8 +369,10 @@ TEST(Ply, SurvivesTruncationAndCorruption) {
   for (size_t n = 0; n < binary.size(); ++n) EXPECT_FALSE(ParseText(binary.substr(0, n)).ok()) << n;
 
   const std::string ascii =
-      "ply\nformat ascii 1.0\nelement vertex 2\nproperty double x\nproperty float y\nproperty float z\n"
-      "property float confidence\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+      "ply\nformat ascii 1.0\nelement vertex 2\nproperty double x\nproperty float y\nproperty "
+      "float z\n"
+      "property float confidence\nelement face 1\nproperty list uchar int "
+      "vertex_indices\nend_header\n"
       "1 2 3 0.5\n4 5 6 0.25\n2 0 1\n";
   for (size_t n = 0; n <= ascii.size(); ++n) (void)ParseText(ascii.substr(0, n));
 

@@ -23,8 +23,9 @@ std::filesystem::path WriteTemp(const std::string& name, const std::string& text
 }
 
 TEST(ScanFile, DispatchesOnTheExtension) {
-  const std::string ply = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                          "property float z\nend_header\n1 2 3\n";
+  const std::string ply =
+      "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+      "property float z\nend_header\n1 2 3\n";
   for (const char* name : {"a.ply", "b.PLY"}) {
     absl::StatusOr<PointCloud> cloud = ReadScanFile(WriteTemp(name, ply));
     ASSERT_TRUE(cloud.ok()) << cloud.status();

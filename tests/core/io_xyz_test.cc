@@ -45,7 +45,8 @@ TEST(Xyz, PtsCountLineIsCheckedAgainstThePoints) {
   EXPECT_EQ(cloud->size(), 2u);
   cloud = ParseText("3\n1 2 3\n4 5 6\n");
   ASSERT_FALSE(cloud.ok());
-  EXPECT_NE(cloud.status().message().find("first line declares 3 points but the file has 2"), std::string::npos)
+  EXPECT_NE(cloud.status().message().find("first line declares 3 points but the file has 2"),
+            std::string::npos)
       << cloud.status();
 }
 
@@ -67,7 +68,8 @@ TEST(Xyz, ProfileGapStartsANewScanlineAtEachJump) {
   // Three profiles along x at 0.5 spacing, separated by jumps of 10 in y.
   std::string text;
   for (int line = 0; line < 3; ++line) {
-    for (int i = 0; i < 4 + line; ++i) text += std::to_string(0.5 * i) + " " + std::to_string(10 * line) + " 0\n";
+    for (int i = 0; i < 4 + line; ++i)
+      text += std::to_string(0.5 * i) + " " + std::to_string(10 * line) + " 0\n";
   }
   absl::StatusOr<PointCloud> cloud = ParseText(text, 2.0);
   ASSERT_TRUE(cloud.ok()) << cloud.status();
@@ -79,15 +81,17 @@ TEST(Xyz, ProfileGapStartsANewScanlineAtEachJump) {
 
 TEST(XyzCognex, SixLaserProfilesInMillimetres) {
   SCANPREP_REQUIRE_SHARED_DATA(data);
-  absl::StatusOr<PointCloud> cloud = ReadXyz(data / "cognex_laser_line_scan" / "triangulated.xyz", 5.0);
+  absl::StatusOr<PointCloud> cloud =
+      ReadXyz(data / "cognex_laser_line_scan" / "triangulated.xyz", 5.0);
   ASSERT_TRUE(cloud.ok()) << cloud.status();
   ASSERT_EQ(cloud->size(), 2628u);
   std::map<uint32_t, size_t> profile_sizes;
   for (uint32_t line : cloud->scanline) ++profile_sizes[line];
   ASSERT_EQ(profile_sizes.size(), 6u);
   // README: 291 to 518 points per profile.
-  const auto [smallest, largest] = std::minmax_element(
-      profile_sizes.begin(), profile_sizes.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
+  const auto [smallest, largest] =
+      std::minmax_element(profile_sizes.begin(), profile_sizes.end(),
+                          [](const auto& a, const auto& b) { return a.second < b.second; });
   EXPECT_EQ(smallest->second, 291u);
   EXPECT_EQ(largest->second, 518u);
 
@@ -100,7 +104,8 @@ TEST(XyzCognex, SixLaserProfilesInMillimetres) {
   }
   std::vector<float> steps;
   for (size_t i = 1; i < cloud->size(); ++i) {
-    if (cloud->scanline[i] == cloud->scanline[i - 1]) steps.push_back((cloud->point(i) - cloud->point(i - 1)).norm());
+    if (cloud->scanline[i] == cloud->scanline[i - 1])
+      steps.push_back((cloud->point(i) - cloud->point(i - 1)).norm());
   }
   std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
   EXPECT_NEAR(steps[steps.size() / 2], 0.40, 0.02);  // README: about 0.40 mm along each profile

@@ -5,12 +5,12 @@
 
 #include <gtest/gtest.h>
 
-#include "core/pipeline/pipeline.h"
-#include "core/stages/scanline_curvature.h"
-#include "core/sim/scan_simulator.h"
-#include "tests/support/sim_checks.h"
-#include "core/status_macros.h"
 #include "core/pipeline/job_context.h"
+#include "core/pipeline/pipeline.h"
+#include "core/sim/scan_simulator.h"
+#include "core/stages/scanline_curvature.h"
+#include "core/status_macros.h"
+#include "tests/support/sim_checks.h"
 
 namespace scanprep::testing {
 using namespace scanprep::sim;
@@ -47,14 +47,14 @@ TEST(Measures, QualityFollowsTheViewingAngleOnATiltedPlane) {
     const ScanMeta& scan = sim.cloud.scans[0];
     for (size_t i = 0; i < sim.cloud.size(); ++i) {
       const Eigen::Vector3d p = sim.truth[i].cast<double>(), n = sim.true_normal[i].cast<double>();
-      const double q = std::max(Angle(n, *scan.camera_position - p),
-                                Angle(n, *scan.projector_direction));
+      const double q =
+          std::max(Angle(n, *scan.camera_position - p), Angle(n, *scan.projector_direction));
       error.push_back(std::abs(m.quality[i] - (1 - q / (std::numbers::pi / 2))));
       values.push_back(m.quality[i]);
     }
     const double median = Quantile(values, 0.5);
-    std::printf("tilt %4.1f°: median q̂ %.4f, |q̂ − (1 − q/(π/2))| median %.5f, p99 %.5f\n",
-                tilt_deg, median, Quantile(error, 0.5), Quantile(error, 0.99));
+    std::printf("tilt %4.1f°: median q̂ %.4f, |q̂ − (1 − q/(π/2))| median %.5f, p99 %.5f\n", tilt_deg,
+                median, Quantile(error, 0.5), Quantile(error, 0.99));
     // A 2° normal error moves q̂ by at most 2/90 = 0.022.
     EXPECT_LT(Quantile(error, 0.5), 0.01);
     EXPECT_LT(Quantile(error, 0.99), 0.03);
@@ -152,7 +152,8 @@ EdgeHits BoxEdgeHits(SimulatedCloud& sim) {
       continue;
     }
     if (sim.edge_distance[i] > ds) continue;
-    const bool near_x = std::abs(t.x() - G::box_half_x) < ds, near_y = std::abs(t.y() - G::box_half_y) < ds,
+    const bool near_x = std::abs(t.x() - G::box_half_x) < ds,
+               near_y = std::abs(t.y() - G::box_half_y) < ds,
                near_top = std::abs(t.z() - G::box_height) < ds;
     if ((near_top && (near_x || near_y)) || (near_x && near_y)) {
       ++h.edge_points;
@@ -168,9 +169,10 @@ EdgeHits BoxEdgeHits(SimulatedCloud& sim) {
 TEST(Measures, SharpBoxEdgesReachTheEdgeThreshold) {
   SimulatedCloud sim = Simulate(Part::kBoxWithBore, FrontalSensor(Part::kBoxWithBore), 24);
   const EdgeHits h = BoxEdgeHits(sim);
-  std::printf("box: %zu/%zu points within Δs of visible straight edges have κ̂ >= 0.5; bore rim "
-              "%zu/%zu; faces > 2 mm from edges %zu/%zu\n",
-              h.edge_hits, h.edge_points, h.rim_hits, h.rim_points, h.far_hits, h.far);
+  std::printf(
+      "box: %zu/%zu points within Δs of visible straight edges have κ̂ >= 0.5; bore rim "
+      "%zu/%zu; faces > 2 mm from edges %zu/%zu\n",
+      h.edge_hits, h.edge_points, h.rim_hits, h.rim_points, h.far_hits, h.far);
   ASSERT_GT(h.edge_points, 100u);
   EXPECT_GE(h.edge_hits, 0.9 * h.edge_points);
   EXPECT_LE(h.far_hits, 0.02 * h.far);
@@ -203,10 +205,11 @@ TEST(Measures, ScanlineCurvatureOfACylinderIsOneOverR) {
     if (std::abs(sim.true_normal[i].x()) < 0.5f) kappa.push_back(m.curvature[i] * s);
   }
   const double median = Quantile(kappa, 0.5);
-  std::printf("cylinder R=%.0f: %zu points, scanline κ median %.4f (1/R = %.4f), p10 %.4f, p90 "
-              "%.4f\n",
-              PartGeometry::cylinder_radius, kappa.size(), median, 1 / PartGeometry::cylinder_radius,
-              Quantile(kappa, 0.1), Quantile(kappa, 0.9));
+  std::printf(
+      "cylinder R=%.0f: %zu points, scanline κ median %.4f (1/R = %.4f), p10 %.4f, p90 "
+      "%.4f\n",
+      PartGeometry::cylinder_radius, kappa.size(), median, 1 / PartGeometry::cylinder_radius,
+      Quantile(kappa, 0.1), Quantile(kappa, 0.9));
   EXPECT_NEAR(median, 1 / PartGeometry::cylinder_radius, 0.1 / PartGeometry::cylinder_radius);
 }
 
@@ -290,8 +293,9 @@ TEST(Measures, ScanlinesAreSplitAtGaps) {
 TEST(Measures, CappedScanlineWindowsAreReported) {
   PointCloud cloud = Rings();
   CancelToken cancel;
-  auto report = RunPipeline(
-      cloud, {.stages = {"measures"}, .params = {{"measures.window_mm", "10000"}}}, cancel);  // the most admitted
+  auto report =
+      RunPipeline(cloud, {.stages = {"measures"}, .params = {{"measures.window_mm", "10000"}}},
+                  cancel);  // the most admitted
   ASSERT_TRUE(report.ok()) << report.status();
   EXPECT_GT(report->stages.back().parameters.at("measures.windows_capped"), 0);
   bool warned = false;

@@ -8,8 +8,8 @@
 #include <random>
 #include <string>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "core/pipeline/pipeline.h"
 
@@ -99,9 +99,10 @@ TEST(NormalOrientation, ClutteredTableWithoutPoseIsConsistentInLinearWork) {
   const auto& parameters = report->stages.back().parameters;
   const double bridges = parameters.at("normals.tree_bridges");
   const double work = parameters.at("normals.bridge_work");
-  std::printf("table-top: %zu points, %u objects, %.0f bridges, bridge work %.0f (%.3f per "
-              "point)\n",
-              n, scene.objects, bridges, work, work / n);
+  std::printf(
+      "table-top: %zu points, %u objects, %.0f bridges, bridge work %.0f (%.3f per "
+      "point)\n",
+      n, scene.objects, bridges, work, work / n);
   // One component per object and the table, so at least that many bridges minus one.
   EXPECT_GE(bridges, scene.objects);
   // The bound of normal_orientation.cc: per component 64 samples asking 129 neighbours each,
@@ -147,8 +148,8 @@ TEST(NormalOrientation, ThousandsOfSmallComponentsAreJoinedInLinearWork) {
         const Eigen::Vector3f u = normal.unitOrthogonal(), v = normal.cross(u);
         for (int s = 0; s < 4; ++s) {
           for (int t = 0; t < 4; ++t) {
-            const Eigen::Vector3f p = Eigen::Vector3f(3 * a, 3 * b, 3 * c) + 0.1f * s * u +
-                                      0.1f * t * v;
+            const Eigen::Vector3f p =
+                Eigen::Vector3f(3 * a, 3 * b, 3 * c) + 0.1f * s * u + 0.1f * t * v;
             cloud.x.push_back(p.x());
             cloud.y.push_back(p.y());
             cloud.z.push_back(p.z());
@@ -166,9 +167,10 @@ TEST(NormalOrientation, ThousandsOfSmallComponentsAreJoinedInLinearWork) {
   const auto& parameters = report->stages.back().parameters;
   const double work = parameters.at("normals.bridge_work");
   const double valid = n - parameters.at("normals.invalid");
-  std::printf("%zu patches, %zu points: %.0f valid normals, %.0f bridges, bridge work %.0f "
-              "(%.2f per point)\n",
-              patches, n, valid, parameters.at("normals.tree_bridges"), work, work / n);
+  std::printf(
+      "%zu patches, %zu points: %.0f valid normals, %.0f bridges, bridge work %.0f "
+      "(%.2f per point)\n",
+      patches, n, valid, parameters.at("normals.tree_bridges"), work, work / n);
   EXPECT_EQ(valid, n);
   EXPECT_EQ(parameters.at("normals.tree_bridges"), patches - 1);
   EXPECT_EQ(parameters.at("normals.oriented_by_tree"), valid);

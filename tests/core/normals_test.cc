@@ -8,9 +8,9 @@
 
 #include "core/io/ply.h"
 #include "core/pipeline/pipeline.h"
-#include "tests/support/test_data.h"
 #include "core/sim/scan_simulator.h"
 #include "tests/support/sim_checks.h"
+#include "tests/support/test_data.h"
 
 namespace scanprep::testing {
 using namespace scanprep::sim;
@@ -73,10 +73,11 @@ TEST(Normals, BoxFacesAwayFromEdges) {
   ASSERT_TRUE(RunNormals(sim.cloud).ok());
   const NormalCheck faces = Check(sim, [&](size_t i) { return sim.edge_distance[i] > 1.0f; });
   const NormalCheck all = Check(sim, [](size_t) { return true; });
-  std::printf("box faces (>1 mm from edges): %zu normals, median %.3f°, p95 %.3f°; all points: "
-              "median %.3f°, p95 %.3f°, away %zu\n",
-              faces.checked, faces.median_deg, faces.p95_deg, all.median_deg, all.p95_deg,
-              all.away_from_sensor);
+  std::printf(
+      "box faces (>1 mm from edges): %zu normals, median %.3f°, p95 %.3f°; all points: "
+      "median %.3f°, p95 %.3f°, away %zu\n",
+      faces.checked, faces.median_deg, faces.p95_deg, all.median_deg, all.p95_deg,
+      all.away_from_sensor);
   EXPECT_LT(faces.median_deg, 2.0);
   EXPECT_LT(faces.p95_deg, 5.0);
   EXPECT_EQ(all.away_from_sensor, 0u);
@@ -114,13 +115,13 @@ TEST(Normals, MitraRadiusGrowsAsTheCubeRootOfC1) {
   double radius[2];
   for (const int c1 : {1, 10}) {
     SimulatedCloud sim = Simulate(Part::kCylinder, FrontalSensor(Part::kCylinder), 14);
-    auto report = RunNormals(sim.cloud, {{"normals.radius_mode", "mitra"},
-                                         {"normals.mitra_c1", std::to_string(c1)}});
+    auto report = RunNormals(
+        sim.cloud, {{"normals.radius_mode", "mitra"}, {"normals.mitra_c1", std::to_string(c1)}});
     ASSERT_TRUE(report.ok()) << report.status();
     radius[c1 == 10] = report->stages.back().parameters.at("normals.median_radius_mm");
     // Both radii well inside the clamp [r_floor, mitra_max_radius_mm]: the formula decides.
-    ASSERT_LT(radius[c1 == 10], 0.9 * report->stages.back().parameters.at(
-                                          "normals.mitra_max_radius_mm"));
+    ASSERT_LT(radius[c1 == 10],
+              0.9 * report->stages.back().parameters.at("normals.mitra_max_radius_mm"));
   }
   std::printf("Mitra median radius: c1 = 1: %.3f mm, c1 = 10: %.3f mm (ratio %.2f)\n", radius[0],
               radius[1], radius[1] / radius[0]);
@@ -169,9 +170,10 @@ TEST(Normals, SpanningTreeOrientsAClosedSphereConsistently) {
     outward += sim.cloud.normal(i).dot(sim.true_normal[i]) > 0;
   }
   const double agree = static_cast<double>(std::max(outward, valid - outward)) / valid;
-  std::printf("closed sphere, 6 scans, no poses: %zu normals, %.4f agree with the majority "
-              "(%zu outward), bridges %.0f\n",
-              valid, agree, outward, report->stages.back().parameters.at("normals.tree_bridges"));
+  std::printf(
+      "closed sphere, 6 scans, no poses: %zu normals, %.4f agree with the majority "
+      "(%zu outward), bridges %.0f\n",
+      valid, agree, outward, report->stages.back().parameters.at("normals.tree_bridges"));
   EXPECT_GE(agree, 0.995);
   // The seed (highest point) is oriented n_z >= 0, which is outward on a sphere.
   EXPECT_GT(outward, valid / 2);
@@ -225,8 +227,8 @@ TEST(Normals, StanfordBunnyScanFacesTheScanner) {
 // 0.15 and 0.35 mm from the edge the true normal is known exactly.
 TEST(Normals, GaussianWeightsKeepNormalsNearAnEdgeOnTheirFace) {
   PointCloud cloud;
-  cloud.scans.push_back(ScanMeta{.id = "edge", .camera_position = Eigen::Vector3d(100, 0, 100),
-                                 .uncertainty = 0.01});
+  cloud.scans.push_back(
+      ScanMeta{.id = "edge", .camera_position = Eigen::Vector3d(100, 0, 100), .uncertainty = 0.01});
   cloud.kind = ScannerKind::kFlexible;
   constexpr float kStep = 0.1f;
   constexpr int kRows = 60, kCols = 40;

@@ -30,11 +30,11 @@ Score Evaluate(const PointCloud& cloud, const std::vector<uint8_t>& is_outlier) 
 Score RunOutliers(PointCloud& cloud, const std::vector<uint8_t>& truth, const std::string& method,
                   const std::string& surface_sigmas = "0") {
   CancelToken cancel;
-  auto report = RunPipeline(cloud,
-                            {.stages = {"outliers"},
-                             .params = {{"outliers.method", method},
-                                        {"outliers.surface_sigmas", surface_sigmas}}},
-                            cancel);
+  auto report = RunPipeline(
+      cloud,
+      {.stages = {"outliers"},
+       .params = {{"outliers.method", method}, {"outliers.surface_sigmas", surface_sigmas}}},
+      cancel);
   EXPECT_TRUE(report.ok()) << report.status();
   return Evaluate(cloud, truth);
 }
@@ -97,9 +97,9 @@ TEST(OutliersOnScans, LoopCopesWithUnevenDensity) {
 }
 
 TEST(OutliersOnScans, LoopParametersAreValidated) {
-  EXPECT_TRUE(ValidateOptions({.params = {{"outliers.method", "loop"},
-                                          {"outliers.loop_threshold", "0.9"}}})
-                  .ok());
+  EXPECT_TRUE(
+      ValidateOptions({.params = {{"outliers.method", "loop"}, {"outliers.loop_threshold", "0.9"}}})
+          .ok());
   EXPECT_FALSE(ValidateOptions({.params = {{"outliers.method", "lof"}}}).ok());
 }
 

@@ -80,7 +80,8 @@ TEST(Outliers, DuplicatedSpikesAreCaught) {
   };
   for (uint32_t scan = 0; scan < 2; ++scan) {
     for (int row = 0; row < 100; ++row) {
-      for (int col = 0; col < 100; ++col) add((col + 0.5f * scan) * 0.2f, row * 0.2f, 0, scan, false);
+      for (int col = 0; col < 100; ++col)
+        add((col + 0.5f * scan) * 0.2f, row * 0.2f, 0, scan, false);
     }
   }
   std::mt19937 rng(11);
@@ -213,12 +214,12 @@ TEST(Outliers, SpikesAFewSigmaOffTheSurfaceAreCaught) {
 // per scan (control: the d_1 rule alone) takes their ordinary points. A point beyond the
 // threshold that lies on a plane its neighbours support stays.
 TEST(Outliers, SparseObliqueFacesKeepTheirPoints) {
-  const auto sim = sim::Simulate(sim::Part::kBoxWithBore,
-                                 sim::FrontalSensor(sim::Part::kBoxWithBore), 22);
+  const auto sim =
+      sim::Simulate(sim::Part::kBoxWithBore, sim::FrontalSensor(sim::Part::kBoxWithBore), 22);
   const Score both = ScoreOutliers(sim, {});
   const Score d1_only = ScoreOutliers(sim, {{"outliers.surface_sigmas", "0"}});
-  std::printf("spike-free box: removed %.3f %%, d_1 rule alone %.3f %%\n",
-              100 * both.removed_share, 100 * d1_only.removed_share);
+  std::printf("spike-free box: removed %.3f %%, d_1 rule alone %.3f %%\n", 100 * both.removed_share,
+              100 * d1_only.removed_share);
   EXPECT_LT(both.removed_share, 0.002);
   EXPECT_GT(d1_only.removed_share, 0.04);
 }

@@ -19,17 +19,17 @@ namespace {
 
 using sim::Part;
 
-const std::vector<std::string> kAllStages = {"neighbourhoods", "outliers",  "normals",
+const std::vector<std::string> kAllStages = {"neighbourhoods", "outliers",   "normals",
                                              "measures",       "correction", "smoothing",
                                              "simplification"};
 
 // Two overlapping scans of the box (so correction has work), about 3,000 points with spikes.
 const PointCloud& SmallCloud() {
   static const PointCloud cloud = [] {
-    PointCloud c = sim::SimulateWithPointCount(
-                       Part::kBoxWithBore, sim::TwoOverlappingSensors(Part::kBoxWithBore), 3000,
-                       0.01, 7)
-                       .cloud;
+    PointCloud c =
+        sim::SimulateWithPointCount(Part::kBoxWithBore,
+                                    sim::TwoOverlappingSensors(Part::kBoxWithBore), 3000, 0.01, 7)
+            .cloud;
     c.FinishLoading();
     return c;
   }();
@@ -71,8 +71,8 @@ TEST(Params, EveryNumericParameterSurvivesHostileValues) {
   for (const ParamSpec& spec : AllParamSpecs()) {
     if (spec.kind == ParamKind::kChoice) continue;
     // The hostile values, and the ends of the declared range (admitted only if inclusive).
-    std::vector<double> values = {-1, 0, 1e-30, 1e30, 4294967296.0, std::nan(""), inf, -inf,
-                                  spec.range.min, spec.range.max};
+    std::vector<double> values = {-1,           0,   1e-30, 1e30,           4294967296.0,
+                                  std::nan(""), inf, -inf,  spec.range.min, spec.range.max};
     for (const double value : values) {
       SCOPED_TRACE(spec.name + " = " + FormatNumber(value));
       PointCloud cloud = SmallCloud();
@@ -145,11 +145,11 @@ TEST(Params, AWrongValueStopsTheJobBeforeAnyStage) {
   const PointCloud before = cloud;
   std::vector<std::string> started;
   CancelToken cancel;
-  auto report = RunPipeline(
-      cloud,
-      {.stages = {"outliers", "normals", "measures", "correction", "smoothing"},
-       .params = {{"smoothing.lambda", "1.5"}}},
-      cancel, [&](const ProgressEvent& e) { started.emplace_back(e.stage); });
+  auto report =
+      RunPipeline(cloud,
+                  {.stages = {"outliers", "normals", "measures", "correction", "smoothing"},
+                   .params = {{"smoothing.lambda", "1.5"}}},
+                  cancel, [&](const ProgressEvent& e) { started.emplace_back(e.stage); });
   EXPECT_EQ(report.status(),
             FieldError("options.params['smoothing.lambda']", "1.5 is outside [0, 1]"));
   EXPECT_TRUE(started.empty()) << started.front();

@@ -7,9 +7,9 @@
 #include <gtest/gtest.h>
 
 #include "absl/strings/str_cat.h"
-#include "tests/support/kdtree.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "tests/support/kdtree.h"
 #include "tests/support/test_data.h"
 
 namespace scanprep {
@@ -73,10 +73,10 @@ TEST(Pipeline, DefaultStagesRunOnTwoOverlappingScansWithSpikes) {
     ++kept;
   }
   rms = std::sqrt(rms / kept);
-  std::printf("spikes %zu (kept %zu), merged away %zu, smoothed %zu, simplified away %zu, "
-              "kept %zu of %zu, RMS of kept non-spikes %.4f mm\n",
-              spikes, spikes_kept, merged, smoothed, simplified, cloud.CountKept(), cloud.size(),
-              rms);
+  std::printf(
+      "spikes %zu (kept %zu), merged away %zu, smoothed %zu, simplified away %zu, "
+      "kept %zu of %zu, RMS of kept non-spikes %.4f mm\n",
+      spikes, spikes_kept, merged, smoothed, simplified, cloud.CountKept(), cloud.size(), rms);
   EXPECT_LE(spikes_kept, spikes / 4);
   EXPECT_GT(merged, cloud.size() / 20);
   EXPECT_GT(smoothed, cloud.size() / 2);
@@ -85,7 +85,7 @@ TEST(Pipeline, DefaultStagesRunOnTwoOverlappingScansWithSpikes) {
   EXPECT_EQ(report->stages.back().name, "simplification");
 }
 
-const std::vector<std::string> kBunnyScans = {"bun000", "bun045", "bun090", "bun180", "bun270",
+const std::vector<std::string> kBunnyScans = {"bun000", "bun045", "bun090", "bun180",   "bun270",
                                               "bun315", "chin",   "top2",   "ear_back", "top3"};
 
 // The ten scans in the common frame, in mm; rows of the range grid are scanlines, 0.82 mm apart
@@ -140,26 +140,25 @@ TEST(Pipeline, BunnyTenScansThroughTheDefaultPipeline) {
   for (size_t s = 0; s < cloud.scans.size(); ++s) {
     spacing.push_back(measures->parameters.at(absl::StrCat("measures.point_spacing_mm.scan", s)));
   }
-  const double before = DoubleLayerShare(cloud, spacing, [&](size_t i) {
-    return !(cloud.flags[i] & kRemovedOutlier);
-  });
+  const double before = DoubleLayerShare(
+      cloud, spacing, [&](size_t i) { return !(cloud.flags[i] & kRemovedOutlier); });
   const double after_correction = DoubleLayerShare(cloud, spacing, [&](size_t i) {
     return !(cloud.flags[i] & (kRemovedOutlier | kRemovedMerge));
   });
-  const double final_share = DoubleLayerShare(cloud, spacing, [&](size_t i) {
-    return !cloud.removed(i);
-  });
+  const double final_share =
+      DoubleLayerShare(cloud, spacing, [&](size_t i) { return !cloud.removed(i); });
   const StageReport* correction = FindReport(*report, "correction");
   const StageReport* simplification = FindReport(*report, "simplification");
   ASSERT_NE(correction, nullptr);
   ASSERT_NE(simplification, nullptr);
-  std::printf("bunny: Δp scan0 %.3f mm, r_c scan0 %.3f mm, %g gather rounds, r_s %.3f mm; "
-              "double-layer share %.1f %% before correction, %.1f %% after, %.1f %% after "
-              "simplification; %zu of %zu points kept\n",
-              spacing[0], correction->parameters.at("correction.radius_mm.scan0"),
-              correction->parameters.at("correction.rounds_run"),
-              simplification->parameters.at("simplification.spacing_mm"), 100 * before,
-              100 * after_correction, 100 * final_share, cloud.CountKept(), cloud.size());
+  std::printf(
+      "bunny: Δp scan0 %.3f mm, r_c scan0 %.3f mm, %g gather rounds, r_s %.3f mm; "
+      "double-layer share %.1f %% before correction, %.1f %% after, %.1f %% after "
+      "simplification; %zu of %zu points kept\n",
+      spacing[0], correction->parameters.at("correction.radius_mm.scan0"),
+      correction->parameters.at("correction.rounds_run"),
+      simplification->parameters.at("simplification.spacing_mm"), 100 * before,
+      100 * after_correction, 100 * final_share, cloud.CountKept(), cloud.size());
   EXPECT_GT(before, 0.3);
   EXPECT_LT(after_correction, 0.25 * before);
   EXPECT_GT(correction->parameters.at("correction.removed"), 0.2 * cloud.size());

@@ -8,9 +8,9 @@
 
 #include <gtest/gtest.h>
 
+#include "core/pipeline/job_context.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
-#include "core/pipeline/job_context.h"
 
 namespace scanprep {
 namespace {
@@ -25,8 +25,8 @@ std::vector<Seen> RunAndWatch(PointCloud& cloud, const PipelineOptions& options)
   std::vector<Seen> seen;
   CancelToken cancel;
   auto report = RunPipeline(cloud, options, cancel, [&](const ProgressEvent& e) {
-    seen.push_back({std::string(e.stage), e.stage_index, e.stage_count, e.stage_fraction,
-                    e.job_fraction});
+    seen.push_back(
+        {std::string(e.stage), e.stage_index, e.stage_count, e.stage_fraction, e.job_fraction});
   });
   EXPECT_TRUE(report.ok()) << report.status();
   // The report lists the stages as they ran: the same order as the events.
@@ -40,13 +40,12 @@ std::vector<Seen> RunAndWatch(PointCloud& cloud, const PipelineOptions& options)
 }
 
 TEST(Progress, DefaultPipelineReportsEveryStageInPlanOrderWithProgressInside) {
-  auto sim = sim::SimulateWithPointCount(
-      sim::Part::kBoxWithBore, sim::TwoOverlappingSensors(sim::Part::kBoxWithBore), 300'000, 0.01,
-      7);
+  auto sim = sim::SimulateWithPointCount(sim::Part::kBoxWithBore,
+                                         sim::TwoOverlappingSensors(sim::Part::kBoxWithBore),
+                                         300'000, 0.01, 7);
   const std::vector<Seen> seen = RunAndWatch(sim.cloud, {});
-  const std::vector<std::string> plan = {"neighbourhoods", "normals",    "outliers",
-                                         "measures",       "correction", "smoothing",
-                                         "simplification"};
+  const std::vector<std::string> plan = {"neighbourhoods", "normals",   "outliers",      "measures",
+                                         "correction",     "smoothing", "simplification"};
   ASSERT_FALSE(seen.empty());
   std::vector<int> inside(plan.size(), 0);
   double job = 0;

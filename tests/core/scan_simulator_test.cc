@@ -132,8 +132,8 @@ TEST(ScanSimulator, SteppedBlockSurfaceQueries) {
   EXPECT_TRUE(SurfaceNormal(part, {-2.5, 0, 6.5}).isApprox(Eigen::Vector3d::UnitX()));
   EXPECT_NEAR(DistanceToSurface(part, {11, 5, 8.2}), 0.2, 1e-12);
   EXPECT_NEAR(DistanceToSurface(part, {0, 0, 9}), std::sqrt(10.0), 1e-12);  // to the rims
-  EXPECT_NEAR(DistanceToSurface(part, {0, 9, 4}), 1.0, 1e-12);               // end face, below
-  EXPECT_NEAR(DistanceToSurface(part, {0, 9, 6}), std::sqrt(2.0), 1e-12);    // the notch's floor
+  EXPECT_NEAR(DistanceToSurface(part, {0, 9, 4}), 1.0, 1e-12);              // end face, below
+  EXPECT_NEAR(DistanceToSurface(part, {0, 9, 6}), std::sqrt(2.0), 1e-12);   // the notch's floor
   EXPECT_NEAR(DistanceToSurface(part, {-12.5, 0, 4}), 0.5, 1e-12);
   // The bore (radius 2 at x = 7.5, y = 0): its wall faces the axis; above it, its rim is nearest.
   EXPECT_NEAR(DistanceToSurface(part, {8.5, 0, 4}), 1.0, 1e-12);
@@ -200,10 +200,11 @@ TEST(ScanSimulator, SteppedBlockTellsConvexFromConcaveEdges) {
     }
     if (sim.edge_distance[i] < 0.2f) ++(sim.edge_convex[i] ? convex : concave);
   }
-  std::printf("stepped block: %zu points (%zu/%zu/%zu per scan), slot walls %zu/%zu, bore %zu, "
-              "within 0.2 mm of a convex edge %zu, of a concave edge %zu\n",
-              sim.cloud.size(), per_scan[0], per_scan[1], per_scan[2], wall_facing_x,
-              wall_facing_minus_x, bore, convex, concave);
+  std::printf(
+      "stepped block: %zu points (%zu/%zu/%zu per scan), slot walls %zu/%zu, bore %zu, "
+      "within 0.2 mm of a convex edge %zu, of a concave edge %zu\n",
+      sim.cloud.size(), per_scan[0], per_scan[1], per_scan[2], wall_facing_x, wall_facing_minus_x,
+      bore, convex, concave);
   // Every sensor sees the top; each side sensor sees the wall facing it and the concave edge at
   // its foot.
   for (size_t n : per_scan) EXPECT_GT(n, 10000u);

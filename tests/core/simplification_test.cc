@@ -8,10 +8,10 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/support/kdtree.h"
+#include "core/pipeline/job_context.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
-#include "core/pipeline/job_context.h"
+#include "tests/support/kdtree.h"
 
 namespace scanprep {
 namespace {
@@ -32,8 +32,7 @@ PointCloud KeptPoints(const PointCloud& cloud) {
 
 // Mean distance from each selected kept point to its nearest other kept point.
 template <typename Select>
-double MeanKeptSpacing(const PointCloud& cloud, const KdTree& tree,
-                       Select select) {
+double MeanKeptSpacing(const PointCloud& cloud, const KdTree& tree, Select select) {
   double sum = 0;
   size_t count = 0;
   for (size_t i = 0; i < cloud.size(); ++i) {
@@ -81,8 +80,10 @@ void ExpectPlaneSpacing(const std::string& order, const std::string& mode,
     return std::abs(sim.truth[i].x()) < 9 && std::abs(sim.truth[i].y()) < 9;
   });
   const double hole = LargestHole(sim, tree);
-  std::printf("%s %s plane: %zu of %zu kept, mean spacing %.3f mm (target %.3f), largest hole "
-              "%.3f mm\n", order.c_str(), mode.c_str(), kept.size(), sim.cloud.size(), spacing, target, hole);
+  std::printf(
+      "%s %s plane: %zu of %zu kept, mean spacing %.3f mm (target %.3f), largest hole "
+      "%.3f mm\n",
+      order.c_str(), mode.c_str(), kept.size(), sim.cloud.size(), spacing, target, hole);
   EXPECT_NEAR(spacing, target, 0.1 * target);
   EXPECT_LE(hole, 2 * target);
   EXPECT_EQ(report->stages.back().parameters.at("simplification.removed"),
@@ -122,9 +123,10 @@ TEST(Simplification, KeepsEdgesDenseAndLeavesNoHoles) {
   const double planar = KeptDensity(
       sim.cloud, tree, [&](size_t i) { return sim.edge_distance[i] > 3.0f; }, 2 * target);
   const double hole = LargestHole(sim, tree);
-  std::printf("box: %zu of %zu kept; kept density near edges %.2f /mm², planar %.2f /mm² "
-              "(ratio %.2f); largest hole %.3f mm\n",
-              kept.size(), sim.cloud.size(), edge, planar, edge / planar, hole);
+  std::printf(
+      "box: %zu of %zu kept; kept density near edges %.2f /mm², planar %.2f /mm² "
+      "(ratio %.2f); largest hole %.3f mm\n",
+      kept.size(), sim.cloud.size(), edge, planar, edge / planar, hole);
   EXPECT_GE(edge, 2 * planar);
   EXPECT_LE(hole, 2 * target);
 }
@@ -161,9 +163,8 @@ std::vector<bool> RemovedOneCentreAtATime(const PointCloud& cloud, const PointMe
     }
     const size_t keep = static_cast<size_t>(std::floor(m.curvature[i] * float(inside) + 0.5f));
     const size_t remove = inside - std::min(inside, std::max(keep, kept_locked));
-    std::sort(candidates.begin(), candidates.end(), [&](uint32_t a, uint32_t b) {
-      return q(a) != q(b) ? q(a) < q(b) : a < b;
-    });
+    std::sort(candidates.begin(), candidates.end(),
+              [&](uint32_t a, uint32_t b) { return q(a) != q(b) ? q(a) < q(b) : a < b; });
     for (size_t c = 0; c < remove; ++c) removed[candidates[c]] = true;
     locked[i] = true;
   }
@@ -196,8 +197,8 @@ TEST(Simplification, BatchedVisitsRemoveExactlyWhatOneAtATimeRemoves) {
 
 TEST(Simplification, UniformModeIgnoresEdges) {
   auto sim = sim::Simulate(Part::kBoxWithBore, sim::FrontalSensor(Part::kBoxWithBore), 33);
-  auto report = Simplify(sim.cloud, {{"simplification.spacing_mm", "0.5"},
-                                     {"simplification.mode", "uniform"}});
+  auto report = Simplify(
+      sim.cloud, {{"simplification.spacing_mm", "0.5"}, {"simplification.mode", "uniform"}});
   ASSERT_TRUE(report.ok()) << report.status();
   const PointCloud kept = KeptPoints(sim.cloud);
   const KdTree tree(kept);

@@ -104,8 +104,8 @@ TEST(Smoothing, SharpensTheEdgesOfABox) {
   const double edge_after = box.Rms(cloud, box.NearEdge());
   const double flat_after = box.Rms(cloud, box.Flat());
   const double noise = report->stages.back().parameters.at("smoothing.noise_mm");
-  std::printf("box: edge RMS %.4f -> %.4f mm, flat RMS %.4f -> %.4f mm, σ̂ %.4f mm\n",
-              edge_before, edge_after, flat_before, flat_after, noise);
+  std::printf("box: edge RMS %.4f -> %.4f mm, flat RMS %.4f -> %.4f mm, σ̂ %.4f mm\n", edge_before,
+              edge_after, flat_before, flat_after, noise);
   EXPECT_LE(edge_after, 0.75 * edge_before);
   EXPECT_LE(flat_after, 0.4 * flat_before);
   // No move is longer than 3 local σ, and a local σ is at most twice the scan's.
@@ -115,8 +115,9 @@ TEST(Smoothing, SharpensTheEdgesOfABox) {
   // sharpens, where the paper's mean (control) rounds the edge off.
   PointCloud own_unguarded = original, mean_unguarded = original;
   ASSERT_TRUE(Smooth(own_unguarded, {{"smoothing.tolerance_mm", "10"}}).ok());
-  ASSERT_TRUE(Smooth(mean_unguarded,
-                     {{"smoothing.method", "mean"}, {"smoothing.tolerance_mm", "10"}}).ok());
+  ASSERT_TRUE(
+      Smooth(mean_unguarded, {{"smoothing.method", "mean"}, {"smoothing.tolerance_mm", "10"}})
+          .ok());
   const double own_edge = box.Rms(own_unguarded, box.NearEdge());
   const double mean_edge = box.Rms(mean_unguarded, box.NearEdge());
   std::printf("box, δ = 10 mm: edge RMS own side %.4f, mean %.4f mm\n", own_edge, mean_edge);
@@ -152,7 +153,8 @@ TEST(Smoothing, FlatnessWeightKeepsEdgePointsOnTheEdge) {
     PointCloud cloud = box.sim.cloud;
     EXPECT_TRUE(Smooth(cloud, {{"smoothing.method", "mean"},
                                {"smoothing.tolerance_mm", "10"},
-                               {"smoothing.lambda", lambda}}).ok());
+                               {"smoothing.lambda", lambda}})
+                    .ok());
     return box.Rms(cloud, near);
   };
   const double flatness = mean_with_lambda("0"), quality = mean_with_lambda("1");
@@ -168,7 +170,8 @@ TEST(Smoothing, FallOffSetsHowFarAMeanCutsIntoACurvedSurface) {
     PointCloud cloud = sim.cloud;
     EXPECT_TRUE(Smooth(cloud, {{"smoothing.method", "mean"},
                                {"smoothing.tolerance_mm", "10"},
-                               {"smoothing.influence", influence}}).ok());
+                               {"smoothing.influence", influence}})
+                    .ok());
     double sum = 0;
     for (size_t i = 0; i < cloud.size(); ++i) {
       sum += sim::PartGeometry::sphere_radius - cloud.point(i).cast<double>().norm();
@@ -186,8 +189,7 @@ TEST(Smoothing, FallOffSetsHowFarAMeanCutsIntoACurvedSurface) {
 // Eq. (6)'s quality term: where a frontal and a twice-as-noisy oblique scan overlap, weighting by
 // q̂ fits the plane mostly to the better scan. Control: λ = 0 (flatness only).
 TEST(Smoothing, QualityWeightFavoursTheBetterViewedScan) {
-  const auto sim =
-      sim::Simulate(Part::kPlane, sim::TwoOverlappingSensors(Part::kPlane), 17);
+  const auto sim = sim::Simulate(Part::kPlane, sim::TwoOverlappingSensors(Part::kPlane), 17);
   auto interior = [&](size_t i) {
     return std::abs(sim.truth[i].x()) < 9 && std::abs(sim.truth[i].y()) < 9;
   };

@@ -17,9 +17,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   for (const scanprep::io::ConfEntry& e : *entries) {
     scanprep::fuzz::Require(!e.file.empty(), "an entry names its file");
     scanprep::fuzz::Require(e.pose.translation.allFinite(), "finite translation");
-    scanprep::fuzz::Require(e.pose.rotation.coeffs().allFinite() &&
-                                std::abs(e.pose.rotation.norm() - 1.0) < 1e-9,
-                            "unit quaternion");
+    scanprep::fuzz::Require(
+        e.pose.rotation.coeffs().allFinite() && std::abs(e.pose.rotation.norm() - 1.0) < 1e-9,
+        "unit quaternion");
   }
   return 0;
 }

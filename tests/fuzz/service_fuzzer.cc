@@ -31,8 +31,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/call_error.h"
-#include "core/pipeline/params.h"
 #include "core/pipeline/job_context.h"
+#include "core/pipeline/params.h"
 #include "proto/chunk_arrays.h"
 #include "proto/stream_checksum.h"
 #include "scanprep/v1/scanprep.grpc.pb.h"
@@ -51,9 +51,25 @@ constexpr size_t kMaxChunkPoints = 128;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 // Around the metadata limits (lengths within [1e-6, 1e4] mm, coordinates within 1e9 mm).
-constexpr double kEdgeDoubles[] = {0,     -0.0,  1e-300, 1e-7,  1e-6,  1e-3,     0.5,
-                                   1,     2,     1e4,    1.0001e4, 1e9, 1.1e9,   1e200,
-                                   1e300, -1,    -1e9,   kInf,  -kInf,
+constexpr double kEdgeDoubles[] = {0,
+                                   -0.0,
+                                   1e-300,
+                                   1e-7,
+                                   1e-6,
+                                   1e-3,
+                                   0.5,
+                                   1,
+                                   2,
+                                   1e4,
+                                   1.0001e4,
+                                   1e9,
+                                   1.1e9,
+                                   1e200,
+                                   1e300,
+                                   -1,
+                                   -1e9,
+                                   kInf,
+                                   -kInf,
                                    std::numeric_limits<double>::quiet_NaN(),
                                    std::numeric_limits<double>::max(),
                                    std::numeric_limits<double>::denorm_min()};
@@ -134,8 +150,10 @@ std::string ParamValue(FuzzedDataProvider& in, size_t param) {
     case 1:
       return in.PickValueInArray(
           {"nan", "inf", "-1", "0", "1e30", "4294967297", "2.5", "bogus", ""});
-    case 2: return std::string(257, '1');
-    default: return Text(in);
+    case 2:
+      return std::string(257, '1');
+    default:
+      return Text(in);
   }
 }
 
@@ -165,13 +183,14 @@ v1::JobHeader Header(FuzzedDataProvider& in, uint64_t points_to_send) {
   const Dictionary& d = service->dictionary;
   v1::JobHeader h;
   if (in.ConsumeBool()) h.set_job_id(in.ConsumeBool() ? "fuzz" : Text(in));
-  h.set_unit(in.PickValueInArray({v1::LENGTH_UNIT_MILLIMETRE, v1::LENGTH_UNIT_METRE, v1::LENGTH_UNIT_MICROMETRE, v1::LENGTH_UNIT_INCH,
-                                   v1::LENGTH_UNIT_UNSPECIFIED, static_cast<v1::LengthUnit>(7)}));
+  h.set_unit(in.PickValueInArray({v1::LENGTH_UNIT_MILLIMETRE, v1::LENGTH_UNIT_METRE,
+                                  v1::LENGTH_UNIT_MICROMETRE, v1::LENGTH_UNIT_INCH,
+                                  v1::LENGTH_UNIT_UNSPECIFIED, static_cast<v1::LengthUnit>(7)}));
   h.set_scanner_kind(static_cast<v1::ScannerKind>(in.ConsumeIntegralInRange(0, 3)));
   // Mostly a few scans; now and then the limit or one beyond it.
   const uint32_t limit = service->max_scans_per_job;
-  const int scans = static_cast<int>(
-      in.PickValueInArray<uint32_t>({1, 1, 2, 3, 0, limit, limit + 1}));
+  const int scans =
+      static_cast<int>(in.PickValueInArray<uint32_t>({1, 1, 2, 3, 0, limit, limit + 1}));
   const int described = std::min(scans, 4);  // the rest are copies, to keep the cost small
   for (int s = 0; s < scans; ++s) {
     v1::ScanHeader* scan = h.add_scans();
@@ -234,11 +253,11 @@ v1::PointChunk Chunk(FuzzedDataProvider& in, size_t n, int scans, uint32_t first
 struct Upload {
   std::vector<std::string> messages;
   bool header_seen = false;
-  uint64_t declared = 0;     // the first header's total_points, as the server parses it
+  uint64_t declared = 0;       // the first header's total_points, as the server parses it
   uint64_t parsed_points = 0;  // in the chunks before the first message that cannot parse
-  bool unparsable = false;   // a message that cannot parse was sent (the server reads no further)
+  bool unparsable = false;     // a message that cannot parse was sent (the server reads no further)
   scanprep::StreamChecksum parsed_chunks;  // of the chunks before it
-  bool ended = false;        // an end message that parsed was sent
+  bool ended = false;                      // an end message that parsed was sent
 };
 
 // Appends a message as sent, and counts its points as the server will see them.
@@ -289,10 +308,17 @@ Upload MakeUpload(FuzzedDataProvider& in) {
     }
     std::string bytes = request.SerializeAsString();
     switch (in.ConsumeIntegralInRange(0, 15)) {
-      case 13: bytes.resize(in.ConsumeIntegralInRange<size_t>(0, bytes.size())); break;  // cut
-      case 14: bytes = in.ConsumeRandomLengthString(64); break;  // arbitrary bytes
-      case 15: bytes.clear(); break;                             // an empty message
-      default: break;
+      case 13:
+        bytes.resize(in.ConsumeIntegralInRange<size_t>(0, bytes.size()));
+        break;  // cut
+      case 14:
+        bytes = in.ConsumeRandomLengthString(64);
+        break;  // arbitrary bytes
+      case 15:
+        bytes.clear();
+        break;  // an empty message
+      default:
+        break;
     }
     Add(upload, std::move(bytes));
   }
@@ -301,10 +327,16 @@ Upload MakeUpload(FuzzedDataProvider& in) {
   v1::ProcessRequest end;
   *end.mutable_end() = upload.parsed_chunks.End();
   switch (in.ConsumeIntegralInRange(0, 7)) {
-    case 5: return upload;
-    case 6: end.mutable_end()->set_points(end.end().points() + 1); break;
-    case 7: end.mutable_end()->set_crc32(end.end().crc32() ^ 1); break;
-    default: break;
+    case 5:
+      return upload;
+    case 6:
+      end.mutable_end()->set_points(end.end().points() + 1);
+      break;
+    case 7:
+      end.mutable_end()->set_crc32(end.end().crc32() ^ 1);
+      break;
+    default:
+      break;
   }
   Add(upload, end.SerializeAsString());
   return upload;

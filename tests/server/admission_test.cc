@@ -17,8 +17,8 @@
 namespace scanprep::testing {
 namespace {
 
-using ::testing::HasSubstr;
 using server::AdmissionQueue;
+using ::testing::HasSubstr;
 
 // Polls `condition` every millisecond for at most 10 s.
 template <typename Fn>
@@ -388,9 +388,9 @@ TEST(Admission, ACallWhoseDeadlineIsShorterThanTheExpectedWaitFailsAtOnce) {
   EXPECT_EQ(status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
   EXPECT_THAT(status.error_message(), HasSubstr("exceeds the deadline"));
   EXPECT_THAT(status.error_message(), HasSubstr("expected wait"));
-  EXPECT_EQ(Sample(server.server().metrics_port(),
-                   "scanprep_jobs_rejected_total{reason=\"deadline\"}"),
-            1);
+  EXPECT_EQ(
+      Sample(server.server().metrics_port(), "scanprep_jobs_rejected_total{reason=\"deadline\"}"),
+      1);
   EXPECT_TRUE(held.Finish().ok());
 }
 
@@ -428,15 +428,16 @@ int HealthStatus(const std::string& target, const std::string& service = "") {
   grpc::Slice slice(encoded);
   grpc::ByteBuffer request(&slice, 1), response;
   std::promise<grpc::Status> done;
-  stub.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request,
-                 &response, [&](grpc::Status s) { done.set_value(s); });
+  stub.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request, &response,
+                 [&](grpc::Status s) { done.set_value(s); });
   const grpc::Status status = done.get_future().get();
   if (status.error_code() == grpc::StatusCode::NOT_FOUND) return -grpc::StatusCode::NOT_FOUND;
   if (!status.ok()) return -1;
   std::vector<grpc::Slice> slices;
   if (!response.Dump(&slices).ok()) return -1;
   std::string bytes;
-  for (const grpc::Slice& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
+  for (const grpc::Slice& s : slices)
+    bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
   // HealthCheckResponse{status = N}: field 1, varint.
   return bytes.size() == 2 && bytes[0] == 0x08 ? bytes[1] : -1;
 }

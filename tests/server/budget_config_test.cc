@@ -13,7 +13,8 @@ using ::testing::HasSubstr;
 TEST(BudgetConfig, StageBudgetsFlag) {
   BudgetDefaults d;
   ASSERT_TRUE(ParseStageBudgets("outliers=0.2, smoothing = 0.5", d).ok());
-  EXPECT_EQ(d.stage_seconds, (std::map<std::string, double>{{"outliers", 0.2}, {"smoothing", 0.5}}));
+  EXPECT_EQ(d.stage_seconds,
+            (std::map<std::string, double>{{"outliers", 0.2}, {"smoothing", 0.5}}));
   EXPECT_EQ(d.total_seconds, 0);
   ASSERT_TRUE(ParseStageBudgets("", d).ok());  // empty flag: nothing changes
   EXPECT_EQ(d.stage_seconds.size(), 2u);

@@ -19,8 +19,8 @@ namespace scanprep::testing {
 namespace fs = std::filesystem;
 namespace v1 = ::scanprep::v1;
 
-inline const char* const kScans[] = {"bun000",  "bun045", "bun090", "bun180",   "bun270",
-                              "bun315",  "chin",   "top2",   "ear_back", "top3"};
+inline const char* const kScans[] = {"bun000", "bun045", "bun090", "bun180",   "bun270",
+                                     "bun315", "chin",   "top2",   "ear_back", "top3"};
 
 struct BunnyJob {
   v1::JobHeader header;

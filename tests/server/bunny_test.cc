@@ -7,9 +7,9 @@
 #include <gtest/gtest.h>
 
 #include "core/io/ply.h"
-#include "tests/support/kdtree.h"
 #include "tests/server/bunny_job.h"
 #include "tests/server/service_fixtures.h"
+#include "tests/support/kdtree.h"
 #include "tests/support/test_data.h"
 
 namespace scanprep::testing {
@@ -64,13 +64,14 @@ TEST(Bunny, TenScansRegisterIntoOneBunny) {
   EXPECT_EQ(report.stages(2).name(), "outliers");
   EXPECT_EQ(report.stages(2).points_in(), 362'272u);
   const uint64_t kept = report.stages(2).points_out();
-  EXPECT_LT(kept, 362'272u);           // raw range scans do have stray points
-  EXPECT_GT(kept, 0.9 * 362'272);      // but few
+  EXPECT_LT(kept, 362'272u);       // raw range scans do have stray points
+  EXPECT_GT(kept, 0.9 * 362'272);  // but few
   EXPECT_EQ(report.points_returned(), kept);
   EXPECT_EQ(result->cloud.size(), kept);
   // Thresholds are per scan, one per bunny scan, and in mm: the grid spacing is about 0.5 mm.
   for (int s = 0; s < 10; ++s) {
-    const double t = report.stages(2).parameters().at("outliers.threshold_mm.scan" + std::to_string(s));
+    const double t =
+        report.stages(2).parameters().at("outliers.threshold_mm.scan" + std::to_string(s));
     EXPECT_GT(t, 0.3);
     EXPECT_LT(t, 5.0);
   }

@@ -194,9 +194,8 @@ TEST(CallError, EveryReasonIsParsedByTheClient) {
     ASSERT_FALSE(status.ok());
     const client::CallErrorDetails details = client::DetailsOf(status);
     EXPECT_EQ(details.reason, c.reason) << status;
-    const bool retryable =
-        c.reason == "QUEUE_FULL" || c.reason == "PEER_LIMIT" || c.reason == "CHECKSUM_MISMATCH" ||
-        c.reason == "SHUTTING_DOWN";
+    const bool retryable = c.reason == "QUEUE_FULL" || c.reason == "PEER_LIMIT" ||
+                           c.reason == "CHECKSUM_MISMATCH" || c.reason == "SHUTTING_DOWN";
     EXPECT_EQ(details.retry_delay.has_value(), retryable);
     EXPECT_EQ(client::ExitCodeFor(status),
               retryable ? client::kExitRetryLater : client::kExitFixInput);
@@ -207,8 +206,9 @@ TEST(CallError, EveryReasonIsParsedByTheClient) {
       EXPECT_THAT(client::Describe(status), HasSubstr("; field " + c.field + ")"));
     } else {
       const absl::StatusCode code = c.reason == "CHECKSUM_MISMATCH" ? absl::StatusCode::kDataLoss
-                                    : c.reason == "SHUTTING_DOWN"   ? absl::StatusCode::kUnavailable
-                                                                    : absl::StatusCode::kResourceExhausted;
+                                    : c.reason == "SHUTTING_DOWN"
+                                        ? absl::StatusCode::kUnavailable
+                                        : absl::StatusCode::kResourceExhausted;
       EXPECT_EQ(status.code(), code);
       EXPECT_TRUE(details.field_violations.empty());
     }

@@ -19,8 +19,8 @@ const std::vector<FlagSpec> kSpecs = {
 };
 
 TEST(CliArgs, ValuesAliasesRepeatsBoolsAndPositionals) {
-  auto args = ParseArgs({"a.ply", "--server", "h:1", "-o", "out.ply", "--param", "x=-1",
-                         "b.ply", "--param=y=2", "--include_removed", "-"},
+  auto args = ParseArgs({"a.ply", "--server", "h:1", "-o", "out.ply", "--param", "x=-1", "b.ply",
+                         "--param=y=2", "--include_removed", "-"},
                         kSpecs);
   ASSERT_TRUE(args.ok()) << args.status();
   EXPECT_EQ(args->Get("server"), "h:1");
@@ -36,7 +36,7 @@ TEST(CliArgs, ValuesAliasesRepeatsBoolsAndPositionals) {
 TEST(CliArgs, MistakesAreNamed) {
   EXPECT_THAT(ParseArgs({"--frobnicate"}, kSpecs).status().message(),
               HasSubstr("unknown flag '--frobnicate'"));
-  EXPECT_FALSE(ParseArgs({"--server"}, kSpecs).ok());                         // no value
+  EXPECT_FALSE(ParseArgs({"--server"}, kSpecs).ok());                            // no value
   EXPECT_FALSE(ParseArgs({"--server", "a:1", "--server", "b:2"}, kSpecs).ok());  // twice
   EXPECT_THAT(ParseArgs({"--server"}, kSpecs).status().message(), HasSubstr("server"));
 }

@@ -49,9 +49,8 @@ TEST(Concurrency, JobsRunningTogetherEachGiveTheResultOfAJobAlone) {
   const std::vector<float> expected = ResultAlone(server);
   std::vector<std::future<absl::StatusOr<client::ProcessResult>>> jobs;
   for (int j = 0; j < kJobs; ++j) {
-    jobs.push_back(std::async(std::launch::async, [&] {
-      return server.Client().Process(SimpleHeader(), Scan().cloud);
-    }));
+    jobs.push_back(std::async(
+        std::launch::async, [&] { return server.Client().Process(SimpleHeader(), Scan().cloud); }));
   }
   for (auto& job : jobs) {
     auto result = job.get();
@@ -131,17 +130,16 @@ TEST(Concurrency, ShutdownLetsRunningJobsFinishAndRefusesNewOnes) {
   InProcessServer server(options);
   std::vector<std::future<absl::StatusOr<client::ProcessResult>>> jobs;
   for (int j = 0; j < kJobs; ++j) {
-    jobs.push_back(std::async(std::launch::async, [&] {
-      return server.Client().Process(SimpleHeader(), Scan().cloud);
-    }));
+    jobs.push_back(std::async(
+        std::launch::async, [&] { return server.Client().Process(SimpleHeader(), Scan().cloud); }));
   }
   ASSERT_TRUE(gate.WaitUntilHolding(kServerThreads));
 
   server.server().Drain();
   const auto refused = server.Client().Process(SimpleHeader(), Scan().cloud);
   EXPECT_EQ(refused.status().code(), absl::StatusCode::kUnavailable) << refused.status();
-  auto shutdown = std::async(std::launch::async,
-                             [&] { server.server().Shutdown(absl::Seconds(60)); });
+  auto shutdown =
+      std::async(std::launch::async, [&] { server.server().Shutdown(absl::Seconds(60)); });
   gate.Open();
   for (auto& job : jobs) {
     auto result = job.get();

@@ -128,13 +128,14 @@ TEST(ErrorDetails, InvalidInputNamesTheFieldAtFault) {
   {
     v1::JobHeader header = SimpleHeader();
     header.add_scans()->set_scanline_spacing(1e300);
-    cases.push_back({"INVALID_METADATA", "header.scans[1].scanline_spacing",
-                     {HeaderRequest(header, 10)}});
+    cases.push_back(
+        {"INVALID_METADATA", "header.scans[1].scanline_spacing", {HeaderRequest(header, 10)}});
   }
   {
     v1::JobHeader header = SimpleHeader();
     (*header.mutable_options()->mutable_params())["smoothing.lambda"] = "1.5";
-    cases.push_back({"INVALID_PARAMETER", "header.options.params['smoothing.lambda']",
+    cases.push_back({"INVALID_PARAMETER",
+                     "header.options.params['smoothing.lambda']",
                      {HeaderRequest(header, 10)}});
   }
   {
@@ -145,7 +146,8 @@ TEST(ErrorDetails, InvalidInputNamesTheFieldAtFault) {
   {
     v1::JobHeader header = SimpleHeader();
     (*header.mutable_budget()->mutable_stage_seconds())["outliers"] = -1;
-    cases.push_back({"INVALID_PARAMETER", "header.budget.stage_seconds['outliers']",
+    cases.push_back({"INVALID_PARAMETER",
+                     "header.budget.stage_seconds['outliers']",
                      {HeaderRequest(header, 10)}});
   }
   {
@@ -157,21 +159,23 @@ TEST(ErrorDetails, InvalidInputNamesTheFieldAtFault) {
   {
     v1::PointChunk ragged = LineChunk(1);
     ragged.add_xyz(1.f);
-    cases.push_back({"INVALID_CHUNK", "points[1].xyz",
-                     {HeaderRequest(SimpleHeader(), 20), ChunkRequest(LineChunk(10)),
-                      ChunkRequest(ragged)}});
+    cases.push_back(
+        {"INVALID_CHUNK",
+         "points[1].xyz",
+         {HeaderRequest(SimpleHeader(), 20), ChunkRequest(LineChunk(10)), ChunkRequest(ragged)}});
   }
   {
     v1::PointChunk chunk = LineChunk(10);
     for (int i = 0; i < 10; ++i) chunk.add_quality(i == 3 ? 2.f : 0.5f);
-    cases.push_back({"INVALID_CHUNK", "points[0].quality[3]",
+    cases.push_back({"INVALID_CHUNK",
+                     "points[0].quality[3]",
                      {HeaderRequest(SimpleHeader(), 10), ChunkRequest(chunk)}});
   }
   {
     v1::PointChunk nan = LineChunk(10);
     for (int i = 0; i < nan.xyz_size(); ++i) nan.set_xyz(i, std::nanf(""));
-    cases.push_back({"INVALID_CHUNK", "points", {HeaderRequest(SimpleHeader(), 10),
-                                                 ChunkRequest(nan)}});
+    cases.push_back(
+        {"INVALID_CHUNK", "points", {HeaderRequest(SimpleHeader(), 10), ChunkRequest(nan)}});
   }
   std::vector<v1::ProcessRequest> miscounted = {HeaderRequest(SimpleHeader(), 30),
                                                 ChunkRequest(LineChunk(30))};

@@ -98,8 +98,8 @@ grpc::Status DisconnectMidUpload(v1::ScanPrep::Stub& stub, const PointCloud& clo
 client::ScanPrepClient FixedWindowClient(const InProcessServer& server) {
   grpc::ChannelArguments arguments;
   arguments.SetInt(GRPC_ARG_HTTP2_BDP_PROBE, 0);
-  return client::ScanPrepClient(grpc::CreateCustomChannel(
-      server.target(), grpc::InsecureChannelCredentials(), arguments));
+  return client::ScanPrepClient(
+      grpc::CreateCustomChannel(server.target(), grpc::InsecureChannelCredentials(), arguments));
 }
 
 TEST(Faults, ClientsThatVanishMidUploadOrMidDownloadLeaveNoMemoryBehind) {
@@ -119,7 +119,8 @@ TEST(Faults, ClientsThatVanishMidUploadOrMidDownloadLeaveNoMemoryBehind) {
     auto result = client.Process(OutliersHeader(), scan.cloud,
                                  {.progress =
                                       [&](const v1::Progress& p) {
-                                        if (p.phase() == v1::Progress::PHASE_DOWNLOAD) canceller.Cancel();
+                                        if (p.phase() == v1::Progress::PHASE_DOWNLOAD)
+                                          canceller.Cancel();
                                       },
                                   .canceller = &canceller});
     EXPECT_EQ(result.status().code(), absl::StatusCode::kCancelled);
@@ -233,13 +234,13 @@ TEST(Faults, ADeadlineExpiringDuringUploadOrDownloadEndsWithDeadlineExceeded) {
     const absl::Time deadline = absl::Now() + absl::Seconds(2);
     client::ScanPrepClient client = server.Client();
     bool stalled = false;
-    auto result = client.Process(
-        OutliersHeader(), scan.cloud,
-        {.timeout = deadline - absl::Now(), .progress = [&](const v1::Progress& p) {
-           if (p.phase() != v1::Progress::PHASE_DOWNLOAD || stalled) return;
-           stalled = true;
-           absl::SleepFor(deadline - absl::Now() + absl::Milliseconds(200));
-         }});
+    auto result =
+        client.Process(OutliersHeader(), scan.cloud,
+                       {.timeout = deadline - absl::Now(), .progress = [&](const v1::Progress& p) {
+                          if (p.phase() != v1::Progress::PHASE_DOWNLOAD || stalled) return;
+                          stalled = true;
+                          absl::SleepFor(deadline - absl::Now() + absl::Milliseconds(200));
+                        }});
     EXPECT_TRUE(stalled);
     EXPECT_EQ(result.status().code(), absl::StatusCode::kDeadlineExceeded);
     const auto samples = Scrape(metrics);
@@ -269,15 +270,15 @@ std::vector<std::vector<v1::ProcessRequest>> MalformedCalls() {
   for (int i = 0; i < 50; ++i) bad_quality.add_quality(i == 7 ? 3.f : 0.5f);
   v1::PointChunk too_big = LineChunk(65'537);
   return {
-      {ChunkRequest(marked)},                                        // points before the header
-      {HeaderRequest(no_unit), ChunkRequest(marked)},                // unit unspecified
-      {HeaderRequest(unknown_stage)},                                // unknown stage
-      {HeaderRequest(SimpleHeader()), ChunkRequest(ragged)},         // xyz not in threes
-      {HeaderRequest(SimpleHeader()), ChunkRequest(bad_quality)},    // quality out of range
-      {HeaderRequest(two_scans), ChunkRequest(marked)},              // scan_index missing
-      {HeaderRequest(SimpleHeader()), ChunkRequest(too_big)},        // chunk over the limit
+      {ChunkRequest(marked)},                                          // points before the header
+      {HeaderRequest(no_unit), ChunkRequest(marked)},                  // unit unspecified
+      {HeaderRequest(unknown_stage)},                                  // unknown stage
+      {HeaderRequest(SimpleHeader()), ChunkRequest(ragged)},           // xyz not in threes
+      {HeaderRequest(SimpleHeader()), ChunkRequest(bad_quality)},      // quality out of range
+      {HeaderRequest(two_scans), ChunkRequest(marked)},                // scan_index missing
+      {HeaderRequest(SimpleHeader()), ChunkRequest(too_big)},          // chunk over the limit
       {HeaderRequest(SimpleHeader()), HeaderRequest(SimpleHeader())},  // second header
-      {HeaderRequest(SimpleHeader())},                               // no points
+      {HeaderRequest(SimpleHeader())},                                 // no points
   };
 }
 
@@ -325,7 +326,8 @@ TEST(Faults, AThousandMalformedCallsKeepMemoryFlatAndAreLogged) {
     if (line.find(" W process peer=ipv4:127.0.0.1:") != std::string::npos) ++warnings;
   }
   EXPECT_EQ(warnings, 1100);
-  EXPECT_THAT(log_text, HasSubstr("INVALID_ARGUMENT: \"chunk 0: quality[7] = 3 is outside [0, 1]\""));
+  EXPECT_THAT(log_text,
+              HasSubstr("INVALID_ARGUMENT: \"chunk 0: quality[7] = 3 is outside [0, 1]\""));
   EXPECT_THAT(log_text, HasSubstr("RESOURCE_EXHAUSTED: \"chunk 0: 65537 points exceed the limit"));
   EXPECT_THAT(log_text, HasSubstr(" I process peer=ipv4:127.0.0.1:"));  // the good call
   EXPECT_THAT(log_text, ::testing::Not(HasSubstr("4242")));

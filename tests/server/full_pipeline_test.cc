@@ -6,14 +6,14 @@
 #include <numbers>
 #include <random>
 
-#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
+#include <Eigen/Eigenvalues>
 
-#include "tests/support/kdtree.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 #include "tests/server/bunny_job.h"
 #include "tests/server/service_fixtures.h"
+#include "tests/support/kdtree.h"
 #include "tests/support/test_data.h"
 
 namespace scanprep::testing {
@@ -42,8 +42,8 @@ std::vector<std::string> StageNames(const v1::Report& report) {
   std::vector<std::string> names;
   for (int s = 0; s < report.stages_size(); ++s) {
     const v1::StageReport& stage = report.stages(s);
-    std::cout << stage.name() << ": " << stage.points_in() << " -> " << stage.points_out()
-              << " in " << stage.seconds() << " s\n";
+    std::cout << stage.name() << ": " << stage.points_in() << " -> " << stage.points_out() << " in "
+              << stage.seconds() << " s\n";
     if (s > 0) {
       EXPECT_EQ(stage.points_in(), report.stages(s - 1).points_out());
     }
@@ -97,7 +97,8 @@ Eigen::Vector3d ViewDirectionFromData(PointCloud scan) {
   std::mt19937 rng(1);
   std::normal_distribution<double> jitter(0, 0.01);
   for (int k = 0; k < 2000; ++k) {
-    const Eigen::Vector3d v = (best + Eigen::Vector3d(jitter(rng), jitter(rng), jitter(rng))).normalized();
+    const Eigen::Vector3d v =
+        (best + Eigen::Vector3d(jitter(rng), jitter(rng), jitter(rng))).normalized();
     if (const double s = score(v); s > best_score) best_score = s, best = v;
   }
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
@@ -183,9 +184,10 @@ TEST(FullPipeline, BunnyScannerSitsOnPlusZOfEachScanFrame) {
     const v1::ScanHeader& scan = job.header.scans(s);
     const Eigen::Vector3d own = ViewDirectionFromData(ScanOf(job.points, s));
     const double off_z = AngleDegrees(own, Eigen::Vector3d::UnitZ());
-    std::cout << scan.scan_id() << ": view direction from the data (" << own.transpose()
-              << "), " << off_z << "° from +z; in the common frame "
-              << AngleDegrees(Rotation(scan) * own, Rotation(job.header.scans(0)) * Eigen::Vector3d::UnitZ())
+    std::cout << scan.scan_id() << ": view direction from the data (" << own.transpose() << "), "
+              << off_z << "° from +z; in the common frame "
+              << AngleDegrees(Rotation(scan) * own,
+                              Rotation(job.header.scans(0)) * Eigen::Vector3d::UnitZ())
               << "° from bun000's +z\n";
     EXPECT_LT(off_z, 20.0) << scan.scan_id();
   }

@@ -88,8 +88,9 @@ TEST_F(Integrity, ACountMismatchIsRefusedNamingEachCount) {
   requests.push_back(end);
   grpc::Status status = RawCall(*stub_, requests);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_EQ(status.error_message(), "end.points = 299 but 300 points were received and "
-                                    "header.total_points = 300; the three must agree");
+  EXPECT_EQ(status.error_message(),
+            "end.points = 299 but 300 points were received and "
+            "header.total_points = 300; the three must agree");
   EXPECT_EQ(ReasonOf(status), "POINT_COUNT_MISMATCH");
 
   // A chunk lost on the way, ended by an end message for what arrived.
@@ -97,8 +98,9 @@ TEST_F(Integrity, ACountMismatchIsRefusedNamingEachCount) {
   requests.erase(requests.begin() + 2);
   status = RawCall(*stub_, requests);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_EQ(status.error_message(), "end.points = 200 but 200 points were received and "
-                                    "header.total_points = 300; the three must agree");
+  EXPECT_EQ(status.error_message(),
+            "end.points = 200 but 200 points were received and "
+            "header.total_points = 300; the three must agree");
 }
 
 TEST_F(Integrity, NothingIsAcceptedAfterTheEndMessage) {
@@ -110,8 +112,9 @@ TEST_F(Integrity, NothingIsAcceptedAfterTheEndMessage) {
   requests.push_back(last);
   const grpc::Status status = RawCall(*stub_, requests);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_EQ(status.error_message(), "a message after the end message (which declared 200 points); "
-                                    "the end message must be the upload's last");
+  EXPECT_EQ(status.error_message(),
+            "a message after the end message (which declared 200 points); "
+            "the end message must be the upload's last");
 }
 
 // A real result: a scan with spikes through outliers and normals, in two result chunks.
@@ -123,8 +126,7 @@ class ResultIntegrity : public Integrity {
     header.mutable_options()->add_stages("outliers");
     header.mutable_options()->add_stages("normals");
     header_ = header;
-    const std::vector<v1::ProcessRequest> requests =
-        JobRequests(header, scan.cloud, 30'000);
+    const std::vector<v1::ProcessRequest> requests = JobRequests(header, scan.cloud, 30'000);
     std::vector<v1::ProcessResponse> responses;
     ASSERT_TRUE(RawCall(*stub_, requests, &responses).ok());
     for (v1::ProcessResponse& r : responses) {
@@ -181,9 +183,9 @@ TEST_F(ResultIntegrity, TheClientRefusesAResultWithAFlippedBit) {
   const auto received = Receive(flipped);
   EXPECT_EQ(received.status().code(), absl::StatusCode::kDataLoss);
   EXPECT_THAT(received.status().message(), HasSubstr("the result was corrupted in transfer"));
-  EXPECT_THAT(received.status().message(),
-              HasSubstr(absl::StrFormat("end message has CRC-32 0x%08x",
-                                        result_.back().end().crc32())));
+  EXPECT_THAT(
+      received.status().message(),
+      HasSubstr(absl::StrFormat("end message has CRC-32 0x%08x", result_.back().end().crc32())));
   EXPECT_EQ(client::ExitCodeFor(received.status()), client::kExitRetryLater);
 }
 

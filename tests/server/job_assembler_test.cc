@@ -125,8 +125,9 @@ TEST(JobAssembler, ScannerLengthsAreZeroOrFromOneNanometreToTenMetres) {
   scan.set_scanline_spacing(1e300);  // was accepted, and the job came back with 2 of 2,000 points
   absl::Status s = AddScan(v1::LENGTH_UNIT_MILLIMETRE, scan);
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(s.message(), "header.scans[0].scanline_spacing: must be 0 or a length in "
-                         "[1e-06, 10000] mm, got 1e+300 (1e+300 mm)");
+  EXPECT_EQ(s.message(),
+            "header.scans[0].scanline_spacing: must be 0 or a length in "
+            "[1e-06, 10000] mm, got 1e+300 (1e+300 mm)");
 
   // The bound holds after unit conversion: 10 m is the largest, 10.001 m is not.
   v1::ScanHeader metres;
@@ -135,8 +136,9 @@ TEST(JobAssembler, ScannerLengthsAreZeroOrFromOneNanometreToTenMetres) {
   metres.set_uncertainty(10.001);
   s = AddScan(v1::LENGTH_UNIT_METRE, metres);
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(s.message(), "header.scans[0].uncertainty: must be 0 or a length in "
-                         "[1e-06, 10000] mm, got 10.001 (10001 mm)");
+  EXPECT_EQ(s.message(),
+            "header.scans[0].uncertainty: must be 0 or a length in "
+            "[1e-06, 10000] mm, got 10.001 (10001 mm)");
 
   // 1 nm is the smallest; 1e-300 mm underflowed the derived spacings to 0.
   v1::ScanHeader micrometres;
@@ -147,8 +149,8 @@ TEST(JobAssembler, ScannerLengthsAreZeroOrFromOneNanometreToTenMetres) {
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(s.message(), ::testing::HasSubstr("scanline_spacing: must be 0 or a length in "));
 
-  for (double bad : {-0.5, std::numeric_limits<double>::quiet_NaN(),
-                     std::numeric_limits<double>::infinity()}) {
+  for (double bad :
+       {-0.5, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
     v1::ScanHeader point_spacing;
     point_spacing.set_point_spacing(bad);
     s = AddScan(v1::LENGTH_UNIT_MILLIMETRE, point_spacing);
@@ -163,8 +165,9 @@ TEST(JobAssembler, ScannerPositionsAndDirectionsAreBounded) {
   far.mutable_camera_position()->set_x(2e6);  // finite, but 2,000 km in metres
   const absl::Status s = AddScan(v1::LENGTH_UNIT_METRE, far);
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(s.message(), "header.scans[0].camera_position: must be within 1e+09 mm of the origin "
-                         "in the common frame");
+  EXPECT_EQ(s.message(),
+            "header.scans[0].camera_position: must be within 1e+09 mm of the origin "
+            "in the common frame");
 
   // Components whose squared norm overflows still give a unit direction, not a zero vector.
   v1::JobHeader h;
@@ -223,16 +226,18 @@ TEST(JobAssembler, TheEndMessagesCountMustMatchTheReceivedAndTheDeclaredCount) {
   OnePointUpload fewer(2);  // declared 2, sent 1, end says 1
   absl::Status s = fewer.assembler.Add(End({fewer.chunk}));
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(s.message(), "end.points = 1 but 1 points were received and header.total_points = 2; "
-                         "the three must agree");
+  EXPECT_EQ(s.message(),
+            "end.points = 1 but 1 points were received and header.total_points = 2; "
+            "the three must agree");
 
   OnePointUpload miscounted;
   v1::ProcessRequest end = End({miscounted.chunk});
   end.mutable_end()->set_points(2);
   s = miscounted.assembler.Add(end);
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(s.message(), "end.points = 2 but 1 points were received and header.total_points = 1; "
-                         "the three must agree");
+  EXPECT_EQ(s.message(),
+            "end.points = 2 but 1 points were received and header.total_points = 1; "
+            "the three must agree");
 }
 
 TEST(JobAssembler, AChecksumMismatchIsDataLossNamingBothValues) {
@@ -254,8 +259,9 @@ TEST(JobAssembler, TheEndMessageIsLast) {
   for (const v1::ProcessRequest& late : {upload.chunk, End({upload.chunk, upload.chunk})}) {
     const absl::Status s = upload.assembler.Add(late);
     EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-    EXPECT_EQ(s.message(), "a message after the end message (which declared 2 points); the end "
-                           "message must be the upload's last");
+    EXPECT_EQ(s.message(),
+              "a message after the end message (which declared 2 points); the end "
+              "message must be the upload's last");
   }
 
   const absl::Status first = JobAssembler(JobLimits{}).Add(End({}));

@@ -60,7 +60,8 @@ TEST(Limits, CallsPerPeerCountEveryCallInProgressFromOneHost) {
     v1::ProcessResponse response;
     ASSERT_TRUE(call.stream->Read(&response));
   }
-  const grpc::Status third = RawCall(*stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))});
+  const grpc::Status third =
+      RawCall(*stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))});
   EXPECT_EQ(third.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(third.error_message(),
               HasSubstr("ipv4:127.0.0.1 already has 2 calls in progress, the server's limit of "
@@ -73,7 +74,8 @@ TEST(Limits, CallsPerPeerCountEveryCallInProgressFromOneHost) {
   while (calls[0].stream->Read(&response)) {
   }
   ASSERT_TRUE(calls[0].stream->Finish().ok());
-  const grpc::Status next = RawCall(*stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))});
+  const grpc::Status next =
+      RawCall(*stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))});
   EXPECT_TRUE(next.ok()) << next.error_message();
   calls[1].context.TryCancel();
   (void)calls[1].stream->Finish();
@@ -115,8 +117,8 @@ TEST(Limits, OneHostCannotTakeEverySlotWhileAnotherHostsJobCompletes) {
   auto server = server::ScanPrepServer::Start(options);
   ASSERT_TRUE(server.ok()) << server.status();
   const int port = (*server)->port();
-  auto greedy = v1::ScanPrep::NewStub(grpc::CreateChannel(
-      absl::StrCat("127.0.0.1:", port), grpc::InsecureChannelCredentials()));
+  auto greedy = v1::ScanPrep::NewStub(
+      grpc::CreateChannel(absl::StrCat("127.0.0.1:", port), grpc::InsecureChannelCredentials()));
 
   // The greedy host opens calls until refused; each opened call holds a slot.
   struct OpenCall {
@@ -329,9 +331,8 @@ TEST(Limits, LongHeaderStringsAreRefusedWithoutBeingEchoed) {
     header.set_job_id(std::string(length, 'j'));
     const grpc::Status status = RawCall(*stub, {HeaderRequest(header, 100)});
     EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-    EXPECT_EQ(status.error_message(),
-              absl::StrCat("header.job_id: the job id is ", length,
-                           " bytes long; at most 256 are accepted"));
+    EXPECT_EQ(status.error_message(), absl::StrCat("header.job_id: the job id is ", length,
+                                                   " bytes long; at most 256 are accepted"));
   }
   v1::JobHeader long_scan_id = SimpleHeader();
   long_scan_id.add_scans()->set_scan_id(std::string(1000, 's'));
@@ -390,12 +391,14 @@ TEST(Limits, MessagesAboveFourMebibytesAreRefusedByGrpcBeforeTheyAreParsed) {
   InProcessServer server;
   v1::PointChunk chunk = LineChunk(400'000);  // 4.8 MB of xyz
   ASSERT_GT(ChunkRequest(chunk).ByteSizeLong(), size_t{server::kMaxMessageBytes});
-  const grpc::Status status = RawCall(*server.Stub(), {HeaderRequest(SimpleHeader()), ChunkRequest(chunk)});
+  const grpc::Status status =
+      RawCall(*server.Stub(), {HeaderRequest(SimpleHeader()), ChunkRequest(chunk)});
   EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   // gRPC's own refusal, not the assembler's chunk limit: the message never became a request.
   EXPECT_THAT(status.error_message(), ::testing::Not(HasSubstr("max_chunk_points")));
   // And the server still serves.
-  EXPECT_TRUE(RawCall(*server.Stub(), {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))}).ok());
+  EXPECT_TRUE(
+      RawCall(*server.Stub(), {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))}).ok());
 }
 
 TEST(Limits, GetInfoReportsEveryLimit) {

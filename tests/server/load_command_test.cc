@@ -8,8 +8,8 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <future>
 #include <fstream>
+#include <future>
 #include <random>
 #include <sstream>
 

@@ -7,8 +7,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "tests/server/service_fixtures.h"
 #include "tests/server/metrics_scrape.h"
+#include "tests/server/service_fixtures.h"
 
 namespace scanprep::testing {
 namespace {
@@ -150,8 +150,7 @@ TEST_F(MetricsEndpoint, JobsMoveCountersAndHistogramsByWhatTheReportsSay) {
   // xyz is 12 bytes a point, scanline a varint of 1-2 bytes, plus framing per chunk.
   EXPECT_GE(Get("scanprep_bytes_received_total"), 2.0 * n * 13);
   EXPECT_LE(Get("scanprep_bytes_received_total"), 2.0 * n * 15 + 2000);
-  EXPECT_GE(Get("scanprep_bytes_sent_total"),
-            12.0 * (r1.points_returned() + r2.points_returned()));
+  EXPECT_GE(Get("scanprep_bytes_sent_total"), 12.0 * (r1.points_returned() + r2.points_returned()));
 
   const std::string processing = "phase=\"processing\"";
   EXPECT_EQ(Get(Key("scanprep_phase_seconds_count", processing)), 2);
@@ -217,7 +216,8 @@ TEST(MetricsEndpointLimits, AJobOverTheSizeLimitCountsAsRejectedForTheLimit) {
   EXPECT_EQ(samples.at(Key("scanprep_jobs_rejected_total", "reason=\"limit\"")), 1);
   EXPECT_EQ(samples.at(Key("scanprep_jobs_rejected_total", "reason=\"invalid\"")), 0);
   EXPECT_EQ(samples.at(GrpcHandled("Process", "ResourceExhausted")), 1);
-  EXPECT_EQ(samples.at(Key("scanprep_phase_seconds_count", "phase=\"queue\"")), 0);  // never admitted
+  EXPECT_EQ(samples.at(Key("scanprep_phase_seconds_count", "phase=\"queue\"")),
+            0);  // never admitted
 }
 
 }  // namespace

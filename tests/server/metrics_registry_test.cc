@@ -18,8 +18,8 @@ TEST(MetricsRegistry, RendersCountersGaugesHistogramsExactly) {
   rpcs.WithLabels({"Process", "OK"}).Inc(2);
   rpcs.WithLabels({"GetInfo", "INVALID_ARGUMENT"}).Inc();
   registry.AddGauge("scanprep_jobs_in_flight", "Jobs running.").WithLabels({}).Set(3);
-  auto& seconds = registry.AddHistogram("scanprep_stage_duration_seconds", "Stage time.",
-                                        {0.1, 1}, {"stage"});
+  auto& seconds =
+      registry.AddHistogram("scanprep_stage_duration_seconds", "Stage time.", {0.1, 1}, {"stage"});
   seconds.WithLabels({"smoothing"}).Observe(0.05);
   seconds.WithLabels({"smoothing"}).Observe(0.5);
   seconds.WithLabels({"smoothing"}).Observe(7);
@@ -62,7 +62,8 @@ TEST(MetricsRegistry, BucketBoundIsInclusive) {
 TEST(MetricsRegistry, ProcessMetricsPassPromtool) {
   Registry registry;
   AddProcessMetrics(registry);
-  registry.AddHistogram("scanprep_job_duration_seconds", "Job time.", ExponentialBuckets(0.01, 2, 12))
+  registry
+      .AddHistogram("scanprep_job_duration_seconds", "Job time.", ExponentialBuckets(0.01, 2, 12))
       .WithLabels({})
       .Observe(0.3);
   const std::string text = registry.Serialize();

@@ -22,8 +22,9 @@ namespace scanprep::testing {
 inline std::string GrpcKey(const std::string& metric, const std::string& method,
                            const std::string& code = "") {
   const std::string type = method == "Process" ? "bidi_stream" : "unary";
-  return metric + "{grpc_type=\"" + type + "\",grpc_service=\"scanprep.v1.ScanPrep\",grpc_method=\"" +
-         method + "\"" + (code.empty() ? "" : ",grpc_code=\"" + code + "\"") + "}";
+  return metric + "{grpc_type=\"" + type +
+         "\",grpc_service=\"scanprep.v1.ScanPrep\",grpc_method=\"" + method + "\"" +
+         (code.empty() ? "" : ",grpc_code=\"" + code + "\"") + "}";
 }
 inline std::string GrpcHandled(const std::string& method, const std::string& code) {
   return GrpcKey("grpc_server_handled_total", method, code);

@@ -5,8 +5,8 @@
 #include <cstring>
 
 #include <gmock/gmock.h>
-#include <gtest/gtest.h>
 #include <google/protobuf/util/time_util.h>
+#include <gtest/gtest.h>
 
 #include "absl/time/clock.h"
 #include "proto/chunk_arrays.h"
@@ -15,8 +15,8 @@
 namespace scanprep::testing {
 namespace {
 
-using ::testing::HasSubstr;
 using google::protobuf::util::TimeUtil;
+using ::testing::HasSubstr;
 
 v1::JobHeader PlaneJob(v1::ArrayEncoding results) {
   v1::JobHeader header = SimpleHeader(0.5);

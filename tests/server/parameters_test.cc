@@ -56,7 +56,8 @@ TEST(Parameters, GetInfoStatesKindDefaultAndRange) {
   // Every numeric parameter has a non-empty, finite range.
   for (const auto& [name, p] : params) {
     if (p.kind() == v1::PARAMETER_KIND_CHOICE) continue;
-    EXPECT_TRUE(p.kind() == v1::PARAMETER_KIND_REAL || p.kind() == v1::PARAMETER_KIND_INTEGER) << name;
+    EXPECT_TRUE(p.kind() == v1::PARAMETER_KIND_REAL || p.kind() == v1::PARAMETER_KIND_INTEGER)
+        << name;
     EXPECT_LT(p.min(), p.max()) << name;
     EXPECT_LE(p.max(), 1e4) << name;
     EXPECT_FALSE(p.range().empty()) << name;

@@ -158,7 +158,8 @@ TEST(Process, UploadProcessingAndDownloadAreTimedAndFitInTheCall) {
   client::CallOptions call;
   call.chunk_points = 4'096;  // several chunks each way, so both transfers take measurable time
   const absl::Time start = absl::Now();
-  auto result = server.Client().Process(OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5), scan.cloud, call);
+  auto result =
+      server.Client().Process(OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5), scan.cloud, call);
   const double wall = absl::ToDoubleSeconds(absl::Now() - start);
   ASSERT_TRUE(result.ok()) << result.status();
   ASSERT_GT(result->report.points_returned(), 32'768u);  // at least two result chunks
@@ -261,10 +262,9 @@ TEST(Process, DefaultBudgetAppliesWhenTheJobStatesNone) {
 TEST(Process, BudgetOutcomeTellsNoBudgetFromMetAndMissed) {
   InProcessServer server;
   const PointCloud cloud = NoisyPlaneWithSpikes(50, 0.5f).cloud;
-  const std::pair<double, v1::BudgetOutcome> cases[] = {
-      {0, v1::BUDGET_OUTCOME_NO_BUDGET},
-      {600, v1::BUDGET_OUTCOME_MET},
-      {1e-9, v1::BUDGET_OUTCOME_MISSED}};
+  const std::pair<double, v1::BudgetOutcome> cases[] = {{0, v1::BUDGET_OUTCOME_NO_BUDGET},
+                                                        {600, v1::BUDGET_OUTCOME_MET},
+                                                        {1e-9, v1::BUDGET_OUTCOME_MISSED}};
   for (const auto& [seconds, outcome] : cases) {
     v1::JobHeader header = OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5);
     header.mutable_budget()->set_total_seconds(seconds);
@@ -289,10 +289,12 @@ TEST(Process, CancelDuringProcessingEndsTheCallAndTheServerServesTheNext) {
   client::CallOptions call;
   call.canceller = &canceller;
   call.progress = [&](const v1::Progress& p) {
-    if (p.phase() == v1::Progress::PHASE_PROCESSING && !cancelled.exchange(true)) canceller.Cancel();
+    if (p.phase() == v1::Progress::PHASE_PROCESSING && !cancelled.exchange(true))
+      canceller.Cancel();
   };
   const auto start = std::chrono::steady_clock::now();
-  auto result = server.Client().Process(OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5), big.cloud, call);
+  auto result =
+      server.Client().Process(OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5), big.cloud, call);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSERT_FALSE(result.ok());
@@ -311,7 +313,8 @@ TEST(Process, DeadlineEndsALongJob) {
   const GeneratedScan big = NoisyPlaneWithSpikes(1000, 0.5f);
   client::CallOptions call;
   call.timeout = absl::Milliseconds(300);
-  auto result = server.Client().Process(OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5), big.cloud, call);
+  auto result =
+      server.Client().Process(OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5), big.cloud, call);
   EXPECT_EQ(result.status().code(), absl::StatusCode::kDeadlineExceeded) << result.status();
   auto next = server.Client().Process(OutliersJob(v1::LENGTH_UNIT_MILLIMETRE, 0.5),
                                       NoisyPlaneWithSpikes(50, 0.5f).cloud);

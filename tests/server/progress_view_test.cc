@@ -65,7 +65,7 @@ TEST(ProgressView, PlainLinesAtEachStartAndQuarterWithElapsedAndEta) {
   view.Update(Stage("neighbourhoods", 0, 2, 0.6, 0.2));  // skips 25 %: one line at 60 %
   clock.now += absl::Seconds(2);
   view.Update(Stage("normals", 1, 2, 0.0, 0.25));  // 4 s of processing for a quarter: 12 s left
-  clock.now += absl::Seconds(11);                   // silent for 10 s: a line all the same
+  clock.now += absl::Seconds(11);                  // silent for 10 s: a line all the same
   view.Update(Stage("normals", 1, 2, 0.05, 0.5));
   view.Update(Transfer(v1::Progress::PHASE_DOWNLOAD, 0.5, 500));
   EXPECT_THAT(Lines(out.str()),

@@ -14,8 +14,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "tests/server/service_fixtures.h"
 #include "tests/server/metrics_scrape.h"
+#include "tests/server/service_fixtures.h"
 
 namespace scanprep::testing {
 namespace {
@@ -89,7 +89,8 @@ double QueryValue(int port, const std::string& query, const std::string& last_la
   httplib::Client client("127.0.0.1", port);
   client.set_connection_timeout(1, 0);
   client.set_read_timeout(2, 0);
-  auto response = client.Get("/api/v1/query", httplib::Params{{"query", query}}, httplib::Headers{});
+  auto response =
+      client.Get("/api/v1/query", httplib::Params{{"query", query}}, httplib::Headers{});
   if (!response || response->status != 200) return -1;
   // {"metric":{...,"stage":"outliers"},"value":[1700000000.123,"3"]}; labels come sorted.
   const std::string& body = response->body;
@@ -130,11 +131,11 @@ TEST(Prometheus, ScrapesTheServerAndAnswersQueriesWithItsValues) {
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
   ASSERT_EQ(stage_count, kJobs) << "prometheus log:\n" << prometheus.Log();
-  EXPECT_EQ(QueryValue(prometheus.port(), "grpc_server_handled_total{grpc_method=\"Process\",grpc_code=\"OK\"}",
+  EXPECT_EQ(QueryValue(prometheus.port(),
+                       "grpc_server_handled_total{grpc_method=\"Process\",grpc_code=\"OK\"}",
                        "\"job\":\"scanprep\""),
             kJobs);
-  EXPECT_EQ(QueryValue(prometheus.port(), "scanprep_points_received_total",
-                       "\"job\":\"scanprep\""),
+  EXPECT_EQ(QueryValue(prometheus.port(), "scanprep_points_received_total", "\"job\":\"scanprep\""),
             kJobs * static_cast<double>(scan.cloud.size()));
   EXPECT_EQ(QueryValue(prometheus.port(), "up", "\"job\":\"scanprep\""), 1);
   EXPECT_EQ(QueryValue(prometheus.port(), "scanprep_queue_capacity", "\"job\":\"scanprep\""), 8);

@@ -28,11 +28,11 @@ class ProtocolErrors : public ::testing::Test {
   std::unique_ptr<v1::ScanPrep::Stub> stub_ = server_.Stub();
 };
 
-#define EXPECT_STATUS(status, code, text)                 \
-  do {                                                   \
-    const grpc::Status s_ = (status);                    \
-    EXPECT_EQ(s_.error_code(), grpc::StatusCode::code);  \
-    EXPECT_THAT(s_.error_message(), HasSubstr(text));    \
+#define EXPECT_STATUS(status, code, text)               \
+  do {                                                  \
+    const grpc::Status s_ = (status);                   \
+    EXPECT_EQ(s_.error_code(), grpc::StatusCode::code); \
+    EXPECT_THAT(s_.error_message(), HasSubstr(text));   \
   } while (0)
 
 TEST_F(ProtocolErrors, PointsBeforeHeader) {
@@ -137,8 +137,7 @@ TEST_F(ProtocolErrors, ScanIndexNotDeclared) {
 TEST_F(ProtocolErrors, ScanIndexMissingWithSeveralScans) {
   v1::JobHeader header = SimpleHeader();
   header.add_scans()->set_scan_id("second");
-  EXPECT_STATUS(Send(header, {LineChunk(4)}), INVALID_ARGUMENT,
-                "chunk 0: scan_index is required");
+  EXPECT_STATUS(Send(header, {LineChunk(4)}), INVALID_ARGUMENT, "chunk 0: scan_index is required");
 }
 
 TEST_F(ProtocolErrors, QualityOutOfRange) {
@@ -212,8 +211,8 @@ TEST_F(ProtocolErrors, AMessageThatFailsToParseMidStreamIsNeverOk) {
   const std::string end =
       EndRequest({chunk_request, chunk_request, chunk_request}).SerializeAsString();
   // The control: all three chunks intact and the end message is a complete job.
-  ASSERT_TRUE(BytesCall(server_.target(), {HeaderRequest(header).SerializeAsString(), chunk,
-                                           chunk, chunk, end})
+  ASSERT_TRUE(BytesCall(server_.target(),
+                        {HeaderRequest(header).SerializeAsString(), chunk, chunk, chunk, end})
                   .ok());
   // The third chunk cut inside its length varint (after a byte with the continuation bit set),
   // or led by a field of wire type 7, which does not exist: the stream ends there, and the end
@@ -237,7 +236,8 @@ TEST_F(ProtocolErrors, OnlyInvalidPoints) {
     chunk.add_xyz(0);
   }
   EXPECT_STATUS(Send(SimpleHeader(), {chunk}), INVALID_ARGUMENT,
-                "the job has no valid points: all 3 have NaN, infinite or out-of-range (> 1e+09 mm) coordinates");
+                "the job has no valid points: all 3 have NaN, infinite or out-of-range (> 1e+09 "
+                "mm) coordinates");
 }
 
 TEST_F(ProtocolErrors, TotalPointsMismatch) {
@@ -292,7 +292,8 @@ TEST(ProtocolLimits, CallsBeyondTheConcurrencyLimitAreRefusedAtOnce) {
   const grpc::Status refused =
       RawCall(*stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))});
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
-  EXPECT_THAT(refused.error_message(), HasSubstr("limit of 1 concurrent jobs (max_concurrent_jobs)"));
+  EXPECT_THAT(refused.error_message(),
+              HasSubstr("limit of 1 concurrent jobs (max_concurrent_jobs)"));
 
   // The held call completes normally, and frees its slot.
   ASSERT_TRUE(stream->Write(EndRequest({ChunkRequest(LineChunk(100))})));

@@ -35,9 +35,9 @@ class ServerProcess {
     static std::atomic<int> servers{0};  // several per test process, each with its own log
     log_ = std::filesystem::path(::testing::TempDir()) /
            absl::StrCat("scanprep_server_", getpid(), "_", servers++, ".log");
-    flags.insert(flags.begin(), {SCANPREP_SERVER_BINARY, "--plaintext", "--listen=127.0.0.1:0",
-                                 "--metrics_listen=127.0.0.1:0", "--threads=2",
-                                 "--grace_period=5s"});
+    flags.insert(flags.begin(),
+                 {SCANPREP_SERVER_BINARY, "--plaintext", "--listen=127.0.0.1:0",
+                  "--metrics_listen=127.0.0.1:0", "--threads=2", "--grace_period=5s"});
     pid_ = fork();
     if (pid_ == 0) {
       FILE* out = std::freopen(log_.c_str(), "w", stdout);

@@ -23,9 +23,9 @@
 #include "absl/strings/str_cat.h"
 #include "core/io/ply.h"
 #include "server/memory_budget.h"
-#include "tests/server/service_fixtures.h"
 #include "tests/server/metrics_scrape.h"
 #include "tests/server/server_process.h"
+#include "tests/server/service_fixtures.h"
 #include "tests/support/run_command.h"
 #include "tests/support/test_data.h"
 
@@ -75,8 +75,8 @@ TEST(ServerBinary, ServesTheClientLibrary) {
 TEST(ServerBinary, ServesMetricsWithTheBudgetAndQueueFlags) {
   const fs::path config = fs::path(::testing::TempDir()) / "budgets.conf";
   std::ofstream(config) << "total 12  # seconds per job\noutliers 0.5\n";
-  ServerProcess server({"--budget_config=" + config.string(), "--stage_budgets=smoothing=2",
-                        "--max_queued_jobs=3"});
+  ServerProcess server(
+      {"--budget_config=" + config.string(), "--stage_budgets=smoothing=2", "--max_queued_jobs=3"});
   ASSERT_GT(server.metrics_port(), 0) << "scanprep-server did not report its metrics port";
   {
     auto info = client::ScanPrepClient::Connect(server.target()).GetInfo(absl::Seconds(10));
@@ -98,8 +98,8 @@ TEST(ServerBinary, BadBudgetFlagsExitOneWithTheReason) {
       RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --stage_budgets=sharpen=1");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.output, HasSubstr("--stage_budgets entry 'sharpen=1': unknown stage 'sharpen'"));
-  const CommandResult every_place = RunCommand(std::string(SCANPREP_SERVER_BINARY) +
-                                               " --plaintext --max_calls_per_peer=12");
+  const CommandResult every_place =
+      RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --plaintext --max_calls_per_peer=12");
   EXPECT_EQ(every_place.exit_code, 1);
   EXPECT_THAT(every_place.output,
               HasSubstr("--max_calls_per_peer=12 would let one client host take every slot"));
@@ -175,10 +175,12 @@ TEST(ServerBinary, RefusesToStartWithoutTransportSecurityOrPlaintext) {
   const CommandResult r =
       RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --listen=127.0.0.1:0 --metrics_listen=");
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_THAT(r.output, HasSubstr("no transport security configured: give --tls_cert and "
-                                  "--tls_key (and --tls_client_ca for mutual TLS), or --plaintext"));
-  const CommandResult missing = RunCommand(std::string(SCANPREP_SERVER_BINARY) +
-                                           " --tls_cert=/nonexistent.pem --tls_key=/nonexistent.key");
+  EXPECT_THAT(r.output,
+              HasSubstr("no transport security configured: give --tls_cert and "
+                        "--tls_key (and --tls_client_ca for mutual TLS), or --plaintext"));
+  const CommandResult missing =
+      RunCommand(std::string(SCANPREP_SERVER_BINARY) +
+                 " --tls_cert=/nonexistent.pem --tls_key=/nonexistent.key");
   EXPECT_EQ(missing.exit_code, 1);
   EXPECT_THAT(missing.output, HasSubstr("--tls_cert: file not found: /nonexistent.pem"));
 }
@@ -283,10 +285,10 @@ TEST(Cli, ProcessesTwoRegisteredBunnyScans) {
   ASSERT_EQ(r.exit_code, 2) << r.output;
   EXPECT_THAT(r.output, HasSubstr("unknown command"));
 
-  const CommandResult ok = RunCli(
-      "process " + (dir / "bun000.ply").string() + " " + (dir / "bun045.ply").string() +
-      " --conf " + (dir / "bun.conf").string() + " --unit m --stages outliers -o " + out.string() +
-      " --server " + server.target());
+  const CommandResult ok =
+      RunCli("process " + (dir / "bun000.ply").string() + " " + (dir / "bun045.ply").string() +
+             " --conf " + (dir / "bun.conf").string() + " --unit m --stages outliers -o " +
+             out.string() + " --server " + server.target());
   ASSERT_EQ(ok.exit_code, 0) << ok.output;
   EXPECT_THAT(ok.output, HasSubstr("points: 80353 received, 0 invalid"));
   auto cloud = io::ReadPly(out);
@@ -309,8 +311,9 @@ TEST(Cli, ProcessesTwoRegisteredBunnyScans) {
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(json.output, &parsed).ok())
       << json.output;
   // 64-bit integers are JSON strings in protobuf's JSON mapping.
-  EXPECT_EQ(parsed.fields().at("limits").struct_value().fields().at("max_chunk_points")
-                .string_value(), "65536");
+  EXPECT_EQ(
+      parsed.fields().at("limits").struct_value().fields().at("max_chunk_points").string_value(),
+      "65536");
   EXPECT_EQ(server.Terminate(), 0);
 }
 
@@ -326,18 +329,18 @@ TEST(Cli, ProgressOfAFourMillionPointJobReachesEveryStageInOrder) {
   ASSERT_EQ(sim.exit_code, 0) << sim.output;
   ServerProcess server;
   ASSERT_GT(server.port(), 0);
-  const CommandResult r = RunCli(
-      "process " + (dir / "big_frontal.ply").string() + " " + (dir / "big_oblique.ply").string() +
-      " --job " + (dir / "big.job.json").string() + " -o " + (dir / "out.ply").string() +
-      " --timeout 600s --server " + server.target());
+  const CommandResult r =
+      RunCli("process " + (dir / "big_frontal.ply").string() + " " +
+             (dir / "big_oblique.ply").string() + " --job " + (dir / "big.job.json").string() +
+             " -o " + (dir / "out.ply").string() + " --timeout 600s --server " + server.target());
   fs::remove_all(dir);
   ASSERT_EQ(r.exit_code, 0) << r.output;
 
   // "[  12.3 s] processing  41%  ETA 9.8 s  [3/7] normals 62%"
   const std::regex line(
       R"(\[ *[0-9.]+ s\] processing +([0-9]+)%  ETA ([0-9.]+ s|\.\.\.)  \[([0-9]+)/([0-9]+)\] ([a-z]+) ([0-9]+)%)");
-  std::vector<std::string> order;           // stages as their lines first appear
-  std::map<std::string, int> inside;        // lines strictly inside each stage (0 < % < 100)
+  std::vector<std::string> order;     // stages as their lines first appear
+  std::map<std::string, int> inside;  // lines strictly inside each stage (0 < % < 100)
   int last_job = 0, last_index = 0, count = 0;
   bool eta = false;
   std::istringstream in(r.output);
@@ -353,9 +356,8 @@ TEST(Cli, ProgressOfAFourMillionPointJobReachesEveryStageInOrder) {
     if (order.empty() || order.back() != m[5]) order.push_back(m[5]);
     if (stage_pct > 0 && stage_pct < 100) ++inside[m[5]];
   }
-  const std::vector<std::string> plan = {"neighbourhoods", "normals",    "outliers",
-                                         "measures",       "correction", "smoothing",
-                                         "simplification"};
+  const std::vector<std::string> plan = {"neighbourhoods", "normals",   "outliers",      "measures",
+                                         "correction",     "smoothing", "simplification"};
   EXPECT_EQ(order, plan) << r.output;
   EXPECT_EQ(count, static_cast<int>(plan.size()));
   for (const std::string& stage : plan) EXPECT_GT(inside[stage], 0) << stage << "\n" << r.output;
@@ -417,8 +419,10 @@ TEST(Cli, APcdViewpointIsTheScansSensorOrigin) {
   ASSERT_GT(server.port(), 0);
   const fs::path tmp = ::testing::TempDir();
   for (const std::string viewpoint : {"5 5 100 1 0 0 0", "0 0 0 1 0 0 0"}) {
-    std::string pcd = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 20\n"
-                      "HEIGHT 20\nVIEWPOINT " + viewpoint + "\nPOINTS 400\nDATA ascii\n";
+    std::string pcd =
+        "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 20\n"
+        "HEIGHT 20\nVIEWPOINT " +
+        viewpoint + "\nPOINTS 400\nDATA ascii\n";
     for (int i = 0; i < 400; ++i) absl::StrAppend(&pcd, i % 20 * 0.5, " ", i / 20 * 0.5, " 0\n");
     const fs::path in = tmp / "grid.pcd", out = tmp / "grid_out.ply";
     std::ofstream(in) << pcd;
@@ -532,9 +536,9 @@ TEST(Cli, JobTooLargePrintsTheReasonAndExitsFour) {
     std::ofstream f(scan);
     for (int i = 0; i < 50; ++i) f << i * 0.5 << " 0 0\n";
   }
-  const CommandResult r = RunCli("process " + scan.string() + " -o " +
-                                 (fs::path(::testing::TempDir()) / "x.ply").string() +
-                                 " --server " + server.target());
+  const CommandResult r =
+      RunCli("process " + scan.string() + " -o " +
+             (fs::path(::testing::TempDir()) / "x.ply").string() + " --server " + server.target());
   EXPECT_EQ(r.exit_code, 4) << r.output;
   EXPECT_THAT(r.output, HasSubstr("RESOURCE_EXHAUSTED"));
   EXPECT_THAT(r.output, HasSubstr("(reason JOB_TOO_LARGE)"));

@@ -23,7 +23,8 @@ using ::testing::HasSubstr;
 // The files under one directory: ca, server, client, other_ca, other_client (.pem and .key).
 class Certificates {
  public:
-  Certificates() : dir_(fs::path(::testing::TempDir()) / ("scanprep_tls_" + std::to_string(getpid()))) {
+  Certificates()
+      : dir_(fs::path(::testing::TempDir()) / ("scanprep_tls_" + std::to_string(getpid()))) {
     fs::create_directories(dir_);
     std::ofstream(dir_ / "server.ext") << "basicConstraints=CA:FALSE\n"
                                           "subjectAltName=IP:127.0.0.1,DNS:localhost\n";
@@ -105,8 +106,9 @@ Certificates* MutualTls::certs_ = nullptr;
 
 TEST_F(MutualTls, AClientWithAValidCertificateIsServed) {
   auto client = client::ScanPrepClient::Connect(
-      server_->target(), Credentials({.ca = certs_->pem("ca"), .cert = certs_->pem("client"),
-                                      .key = certs_->key("client")}));
+      server_->target(),
+      Credentials(
+          {.ca = certs_->pem("ca"), .cert = certs_->pem("client"), .key = certs_->key("client")}));
   auto info = client.GetInfo(absl::Seconds(10));
   ASSERT_TRUE(info.ok()) << info.status();
   EXPECT_EQ(info->limits().max_points_per_job(), 20'000'000u);
@@ -125,7 +127,8 @@ TEST_F(MutualTls, AClientWithoutACertificateIsRefused) {
 }
 
 TEST_F(MutualTls, AClientCertificateFromAnotherCaIsRefused) {
-  EXPECT_EQ(InfoCode(Credentials({.ca = certs_->pem("ca"), .cert = certs_->pem("other_client"),
+  EXPECT_EQ(InfoCode(Credentials({.ca = certs_->pem("ca"),
+                                  .cert = certs_->pem("other_client"),
                                   .key = certs_->key("other_client")})),
             absl::StatusCode::kUnavailable);
 }
@@ -135,7 +138,8 @@ TEST_F(MutualTls, APlaintextClientIsRefused) {
 }
 
 TEST_F(MutualTls, AClientThatDoesNotTrustTheServerCaRefusesTheServer) {
-  EXPECT_EQ(InfoCode(Credentials({.ca = certs_->pem("other_ca"), .cert = certs_->pem("client"),
+  EXPECT_EQ(InfoCode(Credentials({.ca = certs_->pem("other_ca"),
+                                  .cert = certs_->pem("client"),
                                   .key = certs_->key("client")})),
             absl::StatusCode::kUnavailable);
 }
@@ -169,8 +173,9 @@ TEST(ServerTls, WithoutAClientCaAnyTlsClientIsServed) {
                   .GetInfo(absl::Seconds(10));
   EXPECT_TRUE(info.ok()) << info.status();
   // Still no plaintext.
-  EXPECT_EQ(client::ScanPrepClient::Connect(server.target()).GetInfo(absl::Seconds(10)).status().code(),
-            absl::StatusCode::kUnavailable);
+  EXPECT_EQ(
+      client::ScanPrepClient::Connect(server.target()).GetInfo(absl::Seconds(10)).status().code(),
+      absl::StatusCode::kUnavailable);
 }
 
 TEST(TransportFlags, PlaintextOnlyWhenAskedForAndContradictionsAreRefused) {
@@ -182,16 +187,21 @@ TEST(TransportFlags, PlaintextOnlyWhenAskedForAndContradictionsAreRefused) {
   ASSERT_TRUE(plaintext.ok());
   EXPECT_EQ(plaintext->description, "plaintext");
 
-  auto both = server::TransportFromFlags({.tls_cert = "c.pem", .tls_key = "k.pem", .plaintext = true});
+  auto both =
+      server::TransportFromFlags({.tls_cert = "c.pem", .tls_key = "k.pem", .plaintext = true});
   EXPECT_THAT(std::string(both.status().message()), HasSubstr("--plaintext contradicts"));
   auto ca_only = server::TransportFromFlags({.tls_client_ca = "ca.pem"});
-  EXPECT_THAT(std::string(ca_only.status().message()), HasSubstr("needs both --tls_cert and --tls_key"));
-  auto missing = server::TransportFromFlags({.tls_cert = "/nonexistent/c.pem", .tls_key = "/nonexistent/k.pem"});
+  EXPECT_THAT(std::string(ca_only.status().message()),
+              HasSubstr("needs both --tls_cert and --tls_key"));
+  auto missing = server::TransportFromFlags(
+      {.tls_cert = "/nonexistent/c.pem", .tls_key = "/nonexistent/k.pem"});
   EXPECT_EQ(missing.status().code(), absl::StatusCode::kNotFound);
-  EXPECT_THAT(std::string(missing.status().message()), HasSubstr("--tls_cert: file not found: /nonexistent/c.pem"));
+  EXPECT_THAT(std::string(missing.status().message()),
+              HasSubstr("--tls_cert: file not found: /nonexistent/c.pem"));
 
   auto client_cert_without_ca = client::ChannelCredentialsFor({.cert = "c.pem", .key = "k.pem"});
-  EXPECT_THAT(std::string(client_cert_without_ca.status().message()), HasSubstr("--tls_cert needs --tls_ca"));
+  EXPECT_THAT(std::string(client_cert_without_ca.status().message()),
+              HasSubstr("--tls_cert needs --tls_ca"));
 }
 
 }  // namespace

@@ -8,8 +8,8 @@
 
 #include <nanoflann.hpp>
 
-#include "core/spatial/cell_grid.h"  // RadiusMatches
 #include "core/point_cloud.h"
+#include "core/spatial/cell_grid.h"  // RadiusMatches
 
 namespace scanprep {
 
@@ -20,7 +20,9 @@ struct CloudAdaptor {
     return dim == 0 ? cloud->x[i] : dim == 1 ? cloud->y[i] : cloud->z[i];
   }
   template <class BBox>
-  bool kdtree_get_bbox(BBox&) const { return false; }
+  bool kdtree_get_bbox(BBox&) const {
+    return false;
+  }
 };
 
 using KdTreeIndex = nanoflann::KDTreeSingleIndexAdaptor<

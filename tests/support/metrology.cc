@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <atomic>
 
-#include "tests/support/kdtree.h"
 #include "core/pipeline/parallel.h"
+#include "tests/support/kdtree.h"
 
 namespace scanprep::testing {
 namespace {

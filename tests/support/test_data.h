@@ -25,8 +25,8 @@ PointCloud LoadRangeScansMm(const std::filesystem::path& dir, const std::string&
 }  // namespace scanprep::testing
 
 // Skips the current test with a clear message when ../shared/data is missing.
-#define SCANPREP_REQUIRE_SHARED_DATA(dir_var)                                               \
-  const std::filesystem::path dir_var = ::scanprep::testing::SharedDataDir();                \
-  if (dir_var.empty()) {                                                                     \
+#define SCANPREP_REQUIRE_SHARED_DATA(dir_var)                                                 \
+  const std::filesystem::path dir_var = ::scanprep::testing::SharedDataDir();                 \
+  if (dir_var.empty()) {                                                                      \
     GTEST_SKIP() << "real-scan data folder ../shared/data not found (set SCANPREP_DATA_DIR)"; \
   }
