@@ -15,6 +15,7 @@ packages=(
   zlib1g-dev  # CRC-32 of the StreamEnd (proto/stream_checksum.cc)
   prometheus  # prometheus and promtool: alert-rule and integration tests
   openssl     # tls_test makes its certificates at test time
+  clang-format  # the clang_format test (deploy/check-format.sh)
   python3-grpcio python3-protobuf python3-numpy  # client/python and its test (python_client)
 )
 if [[ ${1:-} == --sanitizers ]]; then

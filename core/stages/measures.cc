@@ -11,10 +11,10 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
+#include "core/pipeline/job_context.h"
 #include "core/pipeline/parallel.h"
 #include "core/stages/scanline_curvature.h"
 #include "core/status_macros.h"
-#include "core/pipeline/job_context.h"
 
 namespace scanprep {
 namespace {
@@ -88,7 +88,8 @@ class MeasuresStage : public Stage {
       ctx.Record("measures.quality_from_scanner", 1);
       return ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
         for (size_t i = begin; i < end; ++i) {
-          quality[i] = std::isfinite(cloud.quality[i]) ? std::clamp(cloud.quality[i], 0.f, 1.f) : 0.f;
+          quality[i] =
+              std::isfinite(cloud.quality[i]) ? std::clamp(cloud.quality[i], 0.f, 1.f) : 0.f;
         }
       });
     }
@@ -99,7 +100,8 @@ class MeasuresStage : public Stage {
       if (!TowardCamera(scan, Eigen::Vector3d::Zero()) &&
           !TowardProjector(scan, Eigen::Vector3d::Zero())) {
         ++without_pose;
-        ctx.Warn(absl::StrCat("measures: scan '", scan.id, "' has neither sensor poses nor a "
+        ctx.Warn(absl::StrCat("measures: scan '", scan.id,
+                              "' has neither sensor poses nor a "
                               "per-point quality; its viewing quality is set to 1"));
       }
     }
@@ -121,7 +123,8 @@ class MeasuresStage : public Stage {
     });
     if (!status.ok()) return status;
     // Points without a valid normal have no viewing angle.
-    AssignScanMedians(cloud, [&](size_t i) { return !HasNormal(cloud, i); }, quality);
+    const auto no_normal = [&](size_t i) { return !HasNormal(cloud, i); };
+    AssignScanMedians(cloud, no_normal, quality);
     return absl::OkStatus();
   }
 
@@ -137,8 +140,8 @@ class MeasuresStage : public Stage {
     const std::optional<double> forced = ctx.Overridden("measures.window_mm");
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
       const double u = cloud.scans[s].uncertainty;
-      window[s] = forced.value_or(
-          std::max({3 * spacing[s], 2 * u, NoiseWindow(u, spacing[s], scale)}));
+      window[s] =
+          forced.value_or(std::max({3 * spacing[s], 2 * u, NoiseWindow(u, spacing[s], scale)}));
       ctx.RecordForScan("measures.point_spacing_mm", s, spacing[s]);
       ctx.RecordForScan("measures.window_mm", s, window[s]);
     }
@@ -151,9 +154,10 @@ class MeasuresStage : public Stage {
     const bool line_scan_without_scanlines = cloud.kind == ScannerKind::kLine && !lines;
     ctx.Record("measures.line_scan_without_scanlines", line_scan_without_scanlines ? 1 : 0);
     if (line_scan_without_scanlines) {
-      ctx.Warn("measures: the line scans came without scanline indices, so curvature κ̂ is "
-               "surface variation (Eq. 12) everywhere instead of scanline curvature (Eq. 11); "
-               "send the scanline of every point");
+      ctx.Warn(
+          "measures: the line scans came without scanline indices, so curvature κ̂ is "
+          "surface variation (Eq. 12) everywhere instead of scanline curvature (Eq. 11); "
+          "send the scanline of every point");
     }
     if (lines) {
       ScanlineCurvatureCounts counts;
@@ -161,8 +165,11 @@ class MeasuresStage : public Stage {
       if (!s.ok()) return s;
       ctx.Record("measures.windows_capped", static_cast<double>(counts.windows_capped));
       if (counts.windows_capped > 0) {
-        ctx.Warn(absl::StrCat("measures: ", counts.windows_capped, " scanline windows held more "
-                              "than ", kMaxWindowSide, " points on a side and were cut to that; "
+        ctx.Warn(absl::StrCat("measures: ", counts.windows_capped,
+                              " scanline windows held more "
+                              "than ",
+                              kMaxWindowSide,
+                              " points on a side and were cut to that; "
                               "measures.window_mm may be far too large for the point spacing "
                               "(or given in the wrong unit)"));
       }
@@ -239,13 +246,16 @@ StageInfo MeasuresStageInfo() {
           {
               RealParam("measures.curvature_scale_per_mm",
                         "s: scanline curvature of a significant edge", 0.2, LeftOpen(0, 1000)),
-              RealParam("measures.variation_scale", "s_σ: surface variation of a significant "
-                        "edge (fallback without scanlines)", 0.02, LeftOpen(0, 1)),
+              RealParam("measures.variation_scale",
+                        "s_σ: surface variation of a significant "
+                        "edge (fallback without scanlines)",
+                        0.02, LeftOpen(0, 1)),
               RealParam("measures.edge_threshold",
                         "κ̂ at or above which a point is flagged as an edge", 0.5, Closed(0, 1)),
-              DerivedRealParam("measures.window_mm", "half-width h of the scanline curvature "
-                               "window", "max(3Δp, 2u, (1215·u²·Δp/s²)^(1/5)) per scan",
-                               LeftOpen(0, 1e4)),
+              DerivedRealParam("measures.window_mm",
+                               "half-width h of the scanline curvature "
+                               "window",
+                               "max(3Δp, 2u, (1215·u²·Δp/s²)^(1/5)) per scan", LeftOpen(0, 1e4)),
           },
       .make = [] { return std::make_unique<MeasuresStage>(); },
       .prerequisites = [](const JobContext&) { return std::vector<std::string>{"normals"}; },
