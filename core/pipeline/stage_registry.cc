@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// The list of stages the service offers, in the paper's execution order (algorithms.md).
+// The list of stages the service offers, in the paper's execution order (docs/algorithms.md).
 #include <algorithm>
 
 #include "core/pipeline/job_context.h"

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// Weighted second moments of a small point set and their eigen-decomposition (algorithms.md §6,
-// Eq. 4): the one PCA used by normal estimation, the Mitra radius and the scanline frame.
+// Weighted second moments of a small point set and their eigen-decomposition (docs/algorithms.md
+// §6, Eq. 4): the one PCA used by normal estimation, the Mitra radius and the scanline frame.
 #pragma once
 
 #include <cstddef>

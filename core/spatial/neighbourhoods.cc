@@ -78,7 +78,7 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
   if (!status.ok()) return status;
 
   nb->ComputeGlobalRadius();
-  // r_g only sets defaults, r_max = 5·r_g among them (algorithms.md §2). A minimum radius far
+  // r_g only sets defaults, r_max = 5·r_g among them (docs/algorithms.md §2). A minimum radius far
   // beyond it — a scanline spacing stated in the wrong unit, or a cluster of coincident points
   // with d_k = 0 — would make every ball hold most of the cloud and each stage quadratic.
   for (double& r : nb->min_radius_) r = std::min(r, kMaxRadiusPerGlobalRadius * nb->global_radius_);

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Neighbourhoods computed once per job and shared by every stage (paper §2.1, algorithms.md
+// Neighbourhoods computed once per job and shared by every stage (paper §2.1, docs/algorithms.md
 // §1-§4): the spatial index (a uniform grid), the k-nearest-neighbour graph, the global radius
 // and density, and the minimum radius from the scanline spacing.
 #pragma once

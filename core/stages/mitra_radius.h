@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Optional per-point PCA radius after Mitra, Nguyen & Guibas 2004 — Eq. (1), algorithms.md §3.
+// Optional per-point PCA radius after Mitra, Nguyen & Guibas 2004 — Eq. (1), docs/algorithms.md §3.
 #pragma once
 
 #include <cstddef>

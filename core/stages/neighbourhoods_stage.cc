@@ -68,7 +68,7 @@ class NeighbourhoodsStage : public Stage {
       const double spacing = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
       const double epsilon_u = forced_epsilon.value_or(scan.uncertainty);
       // Flexible scanners have no fixed spacing: r_min = ε_u and r_p = max(r_min, d_k) grows
-      // the ball until it holds k points (algorithms.md §4).
+      // the ball until it holds k points (docs/algorithms.md §4).
       options.min_radius.push_back(
           forced_radius.value_or(MinRadiusFromScanlineSpacing(spacing, epsilon_u)));
       ctx.RecordForScan("neighbourhoods.epsilon_u_mm", s, epsilon_u);

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// Normal orientation (algorithms.md §7): toward the sensor with Eq. (3) when the scan knows where
-// its sensor was, otherwise consistent propagation along a minimum spanning tree (Eq. 5, Hoppe).
+// Normal orientation (docs/algorithms.md §7): toward the sensor with Eq. (3) when the scan knows
+// where its sensor was, otherwise consistent propagation along a minimum spanning tree (Eq. 5,
+// Hoppe).
 #pragma once
 
 #include <cstdint>

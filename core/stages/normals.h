@@ -2,7 +2,7 @@
 #pragma once
 #include "core/pipeline/stage.h"
 namespace scanprep {
-// Gaussian-weighted PCA normals (paper §2.2, Eq. 4; algorithms.md §6) oriented by Eq. (3) or,
+// Gaussian-weighted PCA normals (paper §2.2, Eq. 4; docs/algorithms.md §6) oriented by Eq. (3) or,
 // without sensor poses, along a minimum spanning tree (Eq. 5, §7). Also fills the surface
 // variation σ of every point into JobContext::measures().
 StageInfo NormalsStageInfo();

@@ -2,6 +2,6 @@
 #pragma once
 #include "core/pipeline/stage.h"
 namespace scanprep {
-// Statistical outlier removal (paper §2.3, algorithms.md §5).
+// Statistical outlier removal (paper §2.3, docs/algorithms.md §5).
 StageInfo OutliersStageInfo();
 }  // namespace scanprep

@@ -3,7 +3,7 @@
 #include "core/pipeline/job_context.h"
 #include "core/spatial/neighbourhoods.h"
 namespace scanprep {
-// Local Outlier Probabilities (Kriegel et al. 2009; algorithms.md §5), the outlier stage's
+// Local Outlier Probabilities (Kriegel et al. 2009; docs/algorithms.md §5), the outlier stage's
 // `outliers.method = loop`: labels points with LoOP > outliers.loop_threshold as kRemovedOutlier.
 // Local, so it copes with density that varies between sensors or regions.
 absl::Status RemoveLoopOutliers(JobContext& ctx, const Neighbourhoods& nb);

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Discrete scanline curvature (algorithms.md §9): the practical equivalent of the paper's
+// Discrete scanline curvature (docs/algorithms.md §9): the practical equivalent of the paper's
 // per-scanline NURBS, a Gaussian-weighted quadratic fitted in a window along each scanline.
 #pragma once
 

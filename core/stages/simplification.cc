@@ -52,7 +52,8 @@ class Thinner {
     return nb_.density() * std::numbers::pi * plan_.spacing * plan_.spacing + 1;
   }
 
-  // Processes centre i (algorithms.md §12 step 3); `matches` and `candidates` are reused buffers.
+  // Processes centre i (docs/algorithms.md §12 step 3); `matches` and `candidates` are reused
+  // buffers.
   void Visit(uint32_t i, RadiusMatches& matches, std::vector<uint32_t>& candidates) {
     Gather(i, matches);
     Apply(i, matches, candidates);

@@ -3,6 +3,6 @@
 #include "core/pipeline/stage.h"
 namespace scanprep {
 // Curvature-adaptive or uniform thinning to a target spacing (paper §3.3, Eq. 13;
-// algorithms.md §12).
+// docs/algorithms.md §12).
 StageInfo SimplificationStageInfo();
 }  // namespace scanprep

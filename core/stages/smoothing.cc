@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
-// Edge-preserving smoothing (paper §3.1, Eqs. 6-10; algorithms.md §11; docs/algorithms.md for the
-// deviation). Every point's weights combine viewing quality and flatness (Eq. 6) with a distance
-// fall-off (Eq. 9). By default each point is projected onto the plane of its own side of the
-// surface, fitted to the neighbours within a few noise σ of it, and σ is measured from the data
+// Edge-preserving smoothing (paper §3.1, Eqs. 6-10; docs/algorithms.md §11; docs/algorithms.md for
+// the deviation). Every point's weights combine viewing quality and flatness (Eq. 6) with a
+// distance fall-off (Eq. 9). By default each point is projected onto the plane of its own side of
+// the surface, fitted to the neighbours within a few noise σ of it, and σ is measured from the data
 // (the normals' fit residuals), not taken from the scanner's stated u: with an honest u the paper's
 // rule δ = u rejects most noise-sized moves, and with an inflated one it lets edges round off.
 // The paper's weighted mean with δ = u (Eqs. 8, 10) is `smoothing.method = mean`.

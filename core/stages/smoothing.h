@@ -2,6 +2,6 @@
 #pragma once
 #include "core/pipeline/stage.h"
 namespace scanprep {
-// Edge- and quality-preserving smoothing (paper §3.1, Eqs. 6-10; algorithms.md §11).
+// Edge- and quality-preserving smoothing (paper §3.1, Eqs. 6-10; docs/algorithms.md §11).
 StageInfo SmoothingStageInfo();
 }  // namespace scanprep

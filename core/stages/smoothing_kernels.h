@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
-// The new position of one point, by either smoothing method (algorithms.md §11 and the project's
-// deviations in docs): the paper's weighted mean (Eq. 8) or the projection onto the plane of the
-// point's own side of the surface. Both read only pre-pass positions, so points can be done in
-// any order and in parallel.
+// The new position of one point, by either smoothing method (docs/algorithms.md §11 and the
+// project's deviations in docs): the paper's weighted mean (Eq. 8) or the projection onto the plane
+// of the point's own side of the surface. Both read only pre-pass positions, so points can be done
+// in any order and in parallel.
 #pragma once
 
 #include <cstdint>

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// Orientation without a sensor pose (algorithms.md §7) on a cluttered table-top scene like PCL's
-// rs1.pcd: a table plane and dozens of separate objects, so the k-NN graph falls apart into
+// Orientation without a sensor pose (docs/algorithms.md §7) on a cluttered table-top scene like
+// PCL's rs1.pcd: a table plane and dozens of separate objects, so the k-NN graph falls apart into
 // many components that the spanning tree has to bridge. The bridging must stay O(n) work
 // (the earlier widening search was quadratic here) and every surface must come out consistent.
 #include <cmath>
