@@ -17,6 +17,7 @@ packages=(
   openssl     # tls_test makes its certificates at test time
   clang-format  # the clang_format test (deploy/check-format.sh)
   python3-grpcio python3-protobuf python3-numpy  # client/python and its test (python_client)
+  python3-yaml  # deploy/check_manifests.py (kubernetes_manifests test)
 )
 if [[ ${1:-} == --sanitizers ]]; then
   packages+=(clang libclang-rt-14-dev)
