@@ -3,7 +3,7 @@
 # Runs every benchmark case (tests/bench/pipeline_bench: stages, neighbour graph, whole pipeline,
 # bare nanoflann baseline at 100k/1M/4M points, 1 and 2 threads; the pipeline on 4M points at the
 # 1M density), then, when it was built (only where libpcl-dev is installed), the PCL baseline
-# tests/bench/pcl_chain_bench (PCL's chain and each of its steps, rows pcl_*), and prints the README
+# tests/bench/pcl_chain_bench (PCL's chain and each of its steps, rows pcl_*), and prints the docs/benchmarks.md
 # table (points, threads, case, seconds, points/s, peak resident memory). Then the end-to-end service
 # benchmark (deploy/run-e2e-benchmark.sh) adds its rows to the same table: at the point counts the
 # filter names (numbers of 1000 or more; all of 1 M and 4 M when it names none), with the thread

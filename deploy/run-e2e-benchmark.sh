@@ -4,7 +4,7 @@
 # (`scanprep simulate --scans 2`) goes through scanprep-server on loopback with 1 and 2 worker
 # threads, the whole default pipeline. `scanprep process` reads the files, uploads, the server
 # processes, the client downloads and writes the result; its --report_json gives each phase.
-# Prints README table rows (points, threads, case, seconds, points/s, peak resident memory of the
+# Prints docs/benchmarks.md table rows (points, threads, case, seconds, points/s, peak resident memory of the
 # server) for "service: upload / processing / download / end to end", then per run the server's
 # peak resident memory above its idle baseline (/proc VmHWM after the job minus VmRSS after
 # startup) per point, the transport's share of the processing time, and the 2-thread speed-up.

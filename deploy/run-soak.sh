@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
-# The long soak of README "Reliability". Builds Release, starts scanprep-server on loopback
+# The long soak of docs/reliability.md ("Soak"). Builds Release, starts scanprep-server on loopback
 # (default flags), measures its capacity with a closed-loop `scanprep load` (4 workers = the
 # default max_concurrent_jobs, 60 s), then runs an open loop at 80 % of that rate with fixed
 # spacing (a production line's cadence) for DURATION seconds (default 600), sampling the server's

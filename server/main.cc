@@ -52,9 +52,10 @@ ABSL_FLAG(int, max_queued_jobs, 8,
           "calls that may wait for a slot; beyond that a call ends at once with "
           "RESOURCE_EXHAUSTED");
 ABSL_FLAG(uint64_t, memory_budget, 0,
-          "bytes the running jobs' estimated memory may take together (README \"Admission "
-          "control\"); a call waits until its job fits, a job that never can is refused. 0 = the "
-          "container's memory limit (cgroup) minus 128 MiB for the server, else half the RAM");
+          "bytes the running jobs' estimated memory may take together (docs/operations.md, "
+          "\"Admission control\"); a call waits until its job fits, a job that never can is "
+          "refused. 0 = the container's memory limit (cgroup) minus 128 MiB for the server, else "
+          "half the RAM");
 ABSL_FLAG(int, threads, 0, "threads of the shared processing arena (0 = hardware concurrency)");
 ABSL_FLAG(double, default_budget_seconds, 0,
           "total time budget for jobs that state none (0 = no budget); reported and counted in "
