@@ -23,8 +23,8 @@ struct PipelineOptions {
   std::map<std::string, double> stage_budget_seconds;  // per stage name
 };
 
-// The paper's case-study order: outliers → correction → smoothing → simplification; normals and
-// measures run where a stage needs them.
+// The paper's case-study order: outliers → correction → smoothing → simplification; the plan
+// (JobContext::Plan) runs each stage's prerequisites (neighbourhoods, normals, measures) first.
 std::vector<std::string> DefaultStages();
 
 // Checks stage names (known, not repeated), parameter overrides and budgets before any work.
