@@ -1,5 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// `scanprep process SCAN... -o OUT.ply`: one job through the service, result to a PLY file.
+// `scanprep process SCAN... -o OUT`: one job through the service, the result to a PLY, PCD or XYZ
+// file chosen by the extension.
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 
@@ -8,7 +10,7 @@
 #include <unistd.h>
 
 #include "absl/status/statusor.h"
-#include "absl/strings/match.h"
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
 #include "client/call_error.h"
@@ -17,10 +19,12 @@
 #include "client/job_builder.h"
 #include "client/progress_view.h"
 #include "client/scanprep_client.h"
-#include "core/io/ply.h"
+#include "core/io/scan_file.h"
 
 namespace scanprep::client {
 namespace {
+
+namespace fs = std::filesystem;
 
 double SecondsSince(absl::Time start) { return absl::ToDoubleSeconds(absl::Now() - start); }
 
@@ -59,19 +63,22 @@ absl::StatusOr<std::string> ReportJson(const v1::Report& report, const PhaseSeco
   return json;
 }
 
-// The output is a PLY file (its header says what it holds); any other name would get PLY
-// content under a misleading extension, and "-" is not (yet) standard output.
+// The output's format follows its extension (io::WriteScanFile); "-" is not (yet) standard
+// output. Checked before the scans are read or sent.
 absl::Status CheckOutputName(const std::string& out) {
   if (out == "-") {
     return absl::InvalidArgumentError(
-        "-o -: writing to standard output is not supported; give "
-        "a file name ending in .ply");
+        "-o -: writing to standard output is not supported; give a file name ending in .ply, "
+        ".pcd, .xyz, .asc or .txt");
   }
-  if (!absl::EndsWithIgnoreCase(out, ".ply")) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "-o ", out, ": the result is written as PLY only; give a file name ending in .ply"));
+  const std::string extension = absl::AsciiStrToLower(fs::path(out).extension().string());
+  for (const char* known : {".ply", ".pcd", ".xyz", ".asc", ".txt"}) {
+    if (extension == known) return absl::OkStatus();
   }
-  return absl::OkStatus();
+  return absl::InvalidArgumentError(
+      absl::StrCat("-o ", out,
+                   ": the result is written as PLY, PCD or XYZ, chosen by the extension; give a "
+                   "file name ending in .ply, .pcd, .xyz, .asc or .txt"));
 }
 
 int RunProcess(const ParsedArgs& args) {
@@ -114,9 +121,9 @@ int RunProcess(const ParsedArgs& args) {
     return FailCall("process", server, result.status());
   }
   const std::string out = args.Get("out");
-  io::PlyWriteOptions ply_options{.include_removed = job->header.options().include_removed()};
+  const io::WriteOptions write_options{.include_removed = job->header.options().include_removed()};
   const absl::Time write_start = absl::Now();
-  if (absl::Status s = io::WritePly(out, result->cloud, ply_options); !s.ok()) {
+  if (absl::Status s = io::WriteScanFile(out, result->cloud, write_options); !s.ok()) {
     return Fail("process", std::string(s.message()));
   }
   phases.write = SecondsSince(write_start);
@@ -151,7 +158,7 @@ int RunProcess(const ParsedArgs& args) {
 
 Command ProcessCommand() {
   std::vector<FlagSpec> flags = {
-      {"out", FlagSpec::kValue, "output PLY file (required)", "o"},
+      {"out", FlagSpec::kValue, "output file (required): .ply, .pcd or .xyz/.asc/.txt", "o"},
       {"server", FlagSpec::kValue, absl::StrCat(kServerFlagHelp, " (default localhost:50051)")},
   };
   AddTlsFlags(flags);
@@ -173,8 +180,8 @@ Command ProcessCommand() {
       .name = "process",
       .synopsis = "process SCAN... -o OUT.ply [flags]",
       .summary =
-          "send scans (one scan per file, .ply or .xyz) through the service; write the "
-          "result as binary PLY with normals and flags",
+          "send scans (one scan per file: .ply, .pcd, .xyz/.asc/.txt/.pts) through the service; "
+          "write the result with normals and flags as PLY, PCD or XYZ (by -o's extension)",
       .flags = std::move(flags),
       .run = RunProcess,
   };

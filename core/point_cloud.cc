@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "core/point_cloud.h"
 
+#include <utility>
+
 #include <algorithm>
 
 namespace scanprep {
@@ -10,9 +12,13 @@ size_t PointCloud::CountKept() const {
       std::count_if(flags.begin(), flags.end(), [](uint8_t f) { return (f & kRemovedMask) == 0; }));
 }
 
-void PointCloud::FinishLoading() {
+void PointCloud::FinishLoading(std::vector<uint8_t> loaded) {
   if (scan.empty()) scan.assign(size(), 0);
-  flags.assign(size(), 0);
+  if (loaded.empty()) {
+    flags.assign(size(), 0);
+  } else {
+    flags = std::move(loaded);
+  }
 }
 
 }  // namespace scanprep

@@ -77,9 +77,10 @@ struct PointCloud {
     return dx * dx + dy * dy + dz * dz;
   }
 
-  // Sizes `flags` to the point count (zeros) and `scan` to all-zero when a loader left it
-  // empty; call once after loading.
-  void FinishLoading();
+  // Sets `flags` to `loaded` (a file's flags, one per point, as scanprep writes them) or, when
+  // that is empty, to zeros, and `scan` to all-zero when a loader left it empty; call once after
+  // loading.
+  void FinishLoading(std::vector<uint8_t> loaded = {});
 };
 
 }  // namespace scanprep

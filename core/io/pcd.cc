@@ -10,6 +10,7 @@
 #include <cstring>
 #include <optional>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -33,9 +34,17 @@ using pcd::Header;
 constexpr uint64_t kMaxLzfRatio = 88;
 
 // The point values the reader keeps, in this order.
-enum Slot : uint8_t { kX, kY, kZ, kNx, kNy, kNz, kIntensity, kSlots };
-constexpr const char* kSlotNames[kSlots] = {"x",        "y",        "z",        "normal_x",
-                                            "normal_y", "normal_z", "intensity"};
+enum Slot : uint8_t { kX, kY, kZ, kNx, kNy, kNz, kIntensity, kFlags, kScanline, kSlots };
+constexpr const char* kSlotNames[kSlots] = {
+    "x", "y", "z", "normal_x", "normal_y", "normal_z", "intensity", "flags", "scanline"};
+
+// The integer fields scanprep writes (WritePcd): read only as it writes them, so another
+// program's field of the same name and another meaning is left alone (and named in a warning).
+bool Readable(int slot, const Field& field) {
+  if (slot == kFlags) return field.type == 'U' && field.size == 1;
+  if (slot == kScanline) return field.type == 'U' && field.size == 4;
+  return true;
+}
 
 // Decodes one little-endian binary value of `field`.
 double DecodeBinary(const Field& field, const char* p) {
@@ -176,7 +185,7 @@ absl::StatusOr<Layout> MapFields(const Header& header, const std::string& name) 
     if (field.name == "_") continue;
     int slot = 0;
     while (slot < kSlots && field.name != kSlotNames[slot]) ++slot;
-    if (slot == kSlots) {
+    if (slot == kSlots || !Readable(slot, field)) {
       layout.unused.push_back(field.name);
       continue;
     }
@@ -211,7 +220,8 @@ void Reserve(const Header& header, const Layout& layout, PointCloud& cloud) {
     for (std::vector<float>* v : {&cloud.nx, &cloud.ny, &cloud.nz}) v->reserve(n);
   }
   if (layout.field[kIntensity]) cloud.intensity.reserve(n);
-  if (header.height > 1) cloud.scanline.reserve(n);
+  if (layout.field[kFlags]) cloud.flags.reserve(n);
+  if (header.height > 1 || layout.field[kScanline]) cloud.scanline.reserve(n);
 }
 
 // Reads every point from `source`, keeping those with finite coordinates.
@@ -220,16 +230,17 @@ absl::Status ReadPoints(const Header& header, const Layout& layout, Source& sour
                         PointCloud& cloud, uint64_t& invalid) {
   const bool normals = layout.field[kNx].has_value();
   const bool intensity = layout.field[kIntensity].has_value();
+  const bool flags = layout.field[kFlags].has_value();
+  const bool scanline = layout.field[kScanline].has_value();
   const bool organised = header.height > 1;
   for (uint64_t i = 0; i < header.points; ++i) {
     SCANPREP_RETURN_IF_ERROR(source.BeginPoint(i));
-    std::array<float, kSlots> value{};
+    std::array<double, kSlots> raw{};
     for (int slot = 0; slot < kSlots; ++slot) {
-      if (!layout.field[slot]) continue;
-      double v = 0.0;
-      SCANPREP_RETURN_IF_ERROR(source.Get(*layout.field[slot], v));
-      value[slot] = NarrowToFloat(v);
+      if (layout.field[slot]) SCANPREP_RETURN_IF_ERROR(source.Get(*layout.field[slot], raw[slot]));
     }
+    std::array<float, kScanline> value{};  // the float slots, narrowed
+    for (int slot = 0; slot < kFlags; ++slot) value[slot] = NarrowToFloat(raw[slot]);
     if (!std::isfinite(value[kX]) || !std::isfinite(value[kY]) || !std::isfinite(value[kZ])) {
       ++invalid;
       continue;
@@ -243,7 +254,12 @@ absl::Status ReadPoints(const Header& header, const Layout& layout, Source& sour
       cloud.nz.push_back(value[kNz]);
     }
     if (intensity) cloud.intensity.push_back(value[kIntensity]);
-    if (organised) cloud.scanline.push_back(static_cast<uint32_t>(i / header.width));
+    if (flags) cloud.flags.push_back(static_cast<uint8_t>(raw[kFlags]));
+    if (organised) {
+      cloud.scanline.push_back(static_cast<uint32_t>(i / header.width));
+    } else if (scanline) {
+      cloud.scanline.push_back(static_cast<uint32_t>(raw[kScanline]));
+    }
   }
   return absl::OkStatus();
 }
@@ -302,8 +318,9 @@ void AddMetadataWarnings(const Header& header, const Layout& layout, uint64_t in
                          const std::string& name, PointCloud& cloud,
                          std::vector<std::string>& warnings) {
   if (!layout.unused.empty()) {
-    warnings.push_back(absl::StrCat(name, ": fields not used: ", absl::StrJoin(layout.unused, ", "),
-                                    " (scanprep reads x y z, normal_x/y/z and intensity)"));
+    warnings.push_back(absl::StrCat(
+        name, ": fields not used: ", absl::StrJoin(layout.unused, ", "),
+        " (scanprep reads x y z, normal_x/y/z, intensity, and its own flags and scanline)"));
   }
   if (invalid > 0) {
     warnings.push_back(absl::StrCat(
@@ -357,7 +374,7 @@ absl::StatusOr<PointCloud> ParsePcd(std::string_view data, const std::string& na
   }
   cloud.scans.push_back(ScanMeta{.id = std::filesystem::path(name).stem().string()});
   AddMetadataWarnings(*header, *layout, invalid, name, cloud, warnings);
-  cloud.FinishLoading();
+  cloud.FinishLoading(std::exchange(cloud.flags, {}));
   return cloud;
 }
 

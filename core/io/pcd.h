@@ -1,21 +1,25 @@
 // SPDX-License-Identifier: Apache-2.0
-// PCD (Point Cloud Library) reader.
+// PCD (Point Cloud Library) reader and writer.
 #pragma once
 
 #include <filesystem>
 #include <istream>
+#include <ostream>
 #include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "core/io/cloud_writer.h"
 #include "core/point_cloud.h"
 
 namespace scanprep::io {
 
 // Reads PCD 0.6 and 0.7 files as PCL writes them: DATA ascii, binary (little-endian records) and
 // binary_compressed (LZF, fields stored one after another). FIELDS x y z of any TYPE/SIZE are
-// required; normal_x/y/z -> normals, intensity -> intensity. Every other field (rgb, rgba,
-// curvature, ...) is read past and named in a warning; PCL's "_" padding fields are skipped.
+// required; normal_x/y/z -> normals, intensity -> intensity, and the fields WritePcd adds: flags
+// (U1) -> flags, scanline (U4) -> scanline (an organised cloud's rows win). Every other field
+// (rgb, rgba, curvature, ...) is read past and named in a warning; PCL's "_" padding fields are
+// skipped.
 //
 // Points with a NaN or infinite coordinate are PCL's mark for "no measurement" in organised
 // clouds: they are left out and counted in a warning, as the service does with such points (a
@@ -33,5 +37,12 @@ absl::StatusOr<PointCloud> ReadPcd(const std::filesystem::path& path,
                                    std::vector<std::string>& warnings);
 absl::StatusOr<PointCloud> ReadPcd(std::istream& in, const std::string& name_for_errors,
                                    std::vector<std::string>& warnings);
+
+// PCD 0.7, DATA binary, one unorganised row: x y z float; normal_x/y/z when the cloud has normals;
+// intensity when present; flags U1; scanline U4 when present. Removed points are skipped unless
+// include_removed.
+absl::Status WritePcd(const std::filesystem::path& path, const PointCloud& cloud,
+                      const WriteOptions& options = {});
+absl::Status WritePcd(std::ostream& out, const PointCloud& cloud, const WriteOptions& options = {});
 
 }  // namespace scanprep::io

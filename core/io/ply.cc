@@ -371,8 +371,7 @@ class VertexBuilder {
       for (uint64_t k = 0; k <= max_scan_; ++k)
         cloud_.scans.push_back(ScanMeta{.id = absl::StrCat(stem, ":", k)});
     }
-    cloud_.FinishLoading();
-    if (!flags_.empty()) cloud_.flags = std::move(flags_);
+    cloud_.FinishLoading(std::move(flags_));
     return std::move(cloud_);
   }
 

@@ -9,6 +9,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "core/io/cloud_writer.h"
 #include "core/point_cloud.h"
 
 namespace scanprep::io {
@@ -25,16 +26,11 @@ namespace scanprep::io {
 absl::StatusOr<PointCloud> ReadPly(const std::filesystem::path& path);
 absl::StatusOr<PointCloud> ReadPly(std::istream& in, const std::string& name_for_errors);
 
-struct PlyWriteOptions {
-  bool include_removed = false;
-};
-
 // Binary little-endian PLY: x,y,z float; nx,ny,nz float when the cloud has normals; flags uchar;
 // scan uint; scanline uint when present; quality, intensity float when present. Removed points are
 // skipped unless include_removed.
 absl::Status WritePly(const std::filesystem::path& path, const PointCloud& cloud,
-                      const PlyWriteOptions& options = {});
-absl::Status WritePly(std::ostream& out, const PointCloud& cloud,
-                      const PlyWriteOptions& options = {});
+                      const WriteOptions& options = {});
+absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const WriteOptions& options = {});
 
 }  // namespace scanprep::io

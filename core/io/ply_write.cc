@@ -8,34 +8,12 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/io/byte_order.h"
+#include "core/io/cloud_writer.h"
 #include "core/io/ply.h"
 #include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {
-
-// An optional per-point array must be empty or hold one entry per point.
-template <class T>
-absl::Status CheckSize(const std::vector<T>& values, const char* field, size_t n, bool optional) {
-  if (values.size() == n || (optional && values.empty())) return absl::OkStatus();
-  return absl::InvalidArgumentError(absl::StrCat("cannot write PLY: cloud.", field, " has ",
-                                                 values.size(), " entries for ", n, " points"));
-}
-
-absl::Status CheckCloud(const PointCloud& cloud) {
-  const size_t n = cloud.size();
-  for (absl::Status s :
-       {CheckSize(cloud.y, "y", n, false), CheckSize(cloud.z, "z", n, false),
-        CheckSize(cloud.nx, "nx", n, true), CheckSize(cloud.ny, "ny", n, !cloud.has_normals()),
-        CheckSize(cloud.nz, "nz", n, !cloud.has_normals()),
-        CheckSize(cloud.flags, "flags", n, true), CheckSize(cloud.scan, "scan", n, true),
-        CheckSize(cloud.scanline, "scanline", n, true),
-        CheckSize(cloud.quality, "quality", n, true),
-        CheckSize(cloud.intensity, "intensity", n, true)}) {
-    if (!s.ok()) return s;
-  }
-  return absl::OkStatus();
-}
 
 class RecordPacker {
  public:
@@ -54,14 +32,10 @@ class RecordPacker {
 
 }  // namespace
 
-absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const PlyWriteOptions& options) {
-  SCANPREP_RETURN_IF_ERROR(CheckCloud(cloud));
+absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const WriteOptions& options) {
+  SCANPREP_RETURN_IF_ERROR(CheckWritable(cloud, "PLY"));
   const size_t n = cloud.size();
-  auto written = [&](size_t i) {
-    return options.include_removed || cloud.flags.empty() || !cloud.removed(i);
-  };
-  size_t count = 0;
-  for (size_t i = 0; i < n; ++i) count += written(i);
+  const size_t count = WrittenCount(cloud, options);
 
   std::string header = absl::StrCat(
       "ply\nformat binary_little_endian 1.0\ncomment written by scanprep\n", "element vertex ",
@@ -82,7 +56,7 @@ absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const PlyWrite
   for (size_t begin = 0; begin < n && out; begin += kChunkPoints) {
     buffer.clear();
     for (size_t i = begin; i < std::min(n, begin + kChunkPoints); ++i) {
-      if (!written(i)) continue;
+      if (!Written(cloud, i, options)) continue;
       pack.Put(cloud.x[i]);
       pack.Put(cloud.y[i]);
       pack.Put(cloud.z[i]);
@@ -104,15 +78,8 @@ absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const PlyWrite
 }
 
 absl::Status WritePly(const std::filesystem::path& path, const PointCloud& cloud,
-                      const PlyWriteOptions& options) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) return absl::UnavailableError(absl::StrCat(path.string(), ": cannot open for writing"));
-  if (absl::Status s = WritePly(out, cloud, options); !s.ok()) {
-    return absl::Status(s.code(), absl::StrCat(path.string(), ": ", s.message()));
-  }
-  out.close();
-  if (!out) return absl::UnavailableError(absl::StrCat(path.string(), ": write failed"));
-  return absl::OkStatus();
+                      const WriteOptions& options) {
+  return WriteFile(path, [&](std::ostream& out) { return WritePly(out, cloud, options); });
 }
 
 }  // namespace scanprep::io

@@ -21,4 +21,17 @@ absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
                    "' (supported: .ply, .pcd, .xyz, .asc, .txt, .pts)"));
 }
 
+absl::Status WriteScanFile(const std::filesystem::path& path, const PointCloud& cloud,
+                           const WriteOptions& options) {
+  const std::string extension = absl::AsciiStrToLower(path.extension().string());
+  if (extension == ".ply") return WritePly(path, cloud, options);
+  if (extension == ".pcd") return WritePcd(path, cloud, options);
+  if (extension == ".xyz" || extension == ".asc" || extension == ".txt") {
+    return WriteXyz(path, cloud, options);
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat(path.string(), ": cannot write '", extension,
+                   "' files (written: .ply, .pcd, .xyz, .asc, .txt)"));
+}
+
 }  // namespace scanprep::io

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Reads a scan file of any supported format, chosen by extension.
+// Reads and writes a scan file of any supported format, chosen by extension.
 #pragma once
 
 #include <filesystem>
@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "core/io/cloud_writer.h"
 #include "core/point_cloud.h"
 
 namespace scanprep::io {
@@ -15,5 +16,10 @@ namespace scanprep::io {
 // case-insensitive. What a reader could not use or had to leave out is appended to `warnings`.
 absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
                                         std::vector<std::string>& warnings);
+
+// .ply -> WritePly (binary), .pcd -> WritePcd (binary), .xyz/.asc/.txt -> WriteXyz (text);
+// INVALID_ARGUMENT for any other extension, before anything is written.
+absl::Status WriteScanFile(const std::filesystem::path& path, const PointCloud& cloud,
+                           const WriteOptions& options = {});
 
 }  // namespace scanprep::io

@@ -4,12 +4,14 @@
 #include <cmath>
 #include <optional>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "core/io/float_narrowing.h"
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
+#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {
@@ -17,6 +19,52 @@ namespace {
 std::string_view StripComment(std::string_view line) {
   const size_t hash = line.find('#');
   return hash == std::string_view::npos ? line : line.substr(0, hash);
+}
+
+// Where each value is on a line: x y z first unless a "# columns:" line says otherwise; -1 =
+// absent.
+struct Columns {
+  int x = 0, y = 1, z = 2, nx = -1, ny = -1, nz = -1, flags = -1, scanline = -1;
+  size_t count = 3;    // values a point line needs
+  bool named = false;  // by a "# columns:" line
+};
+
+// The columns a "# columns: NAME..." comment names, or nothing for any other comment.
+absl::StatusOr<std::optional<Columns>> ParseColumns(std::string_view line, const std::string& name,
+                                                    size_t line_number) {
+  // (std::string_view: Debian's abseil has its own string_view type.)
+  auto consume = [&line](std::string_view prefix) {
+    while (!line.empty() && (line.front() == ' ' || line.front() == '\t')) line.remove_prefix(1);
+    if (!line.starts_with(prefix)) return false;
+    line.remove_prefix(prefix.size());
+    return true;
+  };
+  if (!consume("#") || !consume("columns:")) return std::nullopt;
+  Columns c{.x = -1, .y = -1, .z = -1, .count = 0};
+  std::vector<std::string_view> names;
+  SplitFields(line, /*commas=*/true, names);
+  for (size_t k = 0; k < names.size(); ++k) {
+    for (auto [known, slot] : {std::pair{"x", &c.x},
+                               {"y", &c.y},
+                               {"z", &c.z},
+                               {"nx", &c.nx},
+                               {"ny", &c.ny},
+                               {"nz", &c.nz},
+                               {"flags", &c.flags},
+                               {"scanline", &c.scanline}}) {
+      if (names[k] == known) *slot = static_cast<int>(k);
+    }
+  }
+  c.count = names.size();
+  c.named = true;
+  const int normals = (c.nx >= 0) + (c.ny >= 0) + (c.nz >= 0);
+  if (c.x < 0 || c.y < 0 || c.z < 0 || (normals != 0 && normals != 3)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(name, ": line ", line_number,
+                     ": '# columns:' must name x, y and z, and nx, ny, nz "
+                     "all or none"));
+  }
+  return c;
 }
 
 // Starts a new scanline wherever consecutive points are more than `gap` apart.
@@ -46,7 +94,13 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
   LineCursor cursor(text);
   std::vector<std::string_view> fields;
   std::string_view line;
+  Columns columns;
   while (cursor.Next(line)) {
+    if (first_data_line) {
+      auto named = ParseColumns(line, name, cursor.line_number());
+      if (!named.ok()) return named.status();
+      if (*named) columns = **named;
+    }
     SplitFields(StripComment(line), /*commas=*/true, fields);
     if (fields.empty()) continue;
     const bool is_first = first_data_line;
@@ -56,36 +110,62 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
       declared_count = count;
       continue;
     }
-    if (fields.size() < 3) {
-      return absl::InvalidArgumentError(absl::StrCat(name, ": line ", cursor.line_number(),
-                                                     ": expected x y z, found ", fields.size(),
-                                                     " value(s)"));
+    if (fields.size() < columns.count) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(name, ": line ", cursor.line_number(), ": expected ",
+                       columns.named ? absl::StrCat(columns.count, " values (# columns:)")
+                                     : std::string("x y z"),
+                       ", found ", fields.size(), " value(s)"));
     }
-    float xyz[3];
-    for (int k = 0; k < 3; ++k) {
+    // Column k as a float (finite when `finite`) or as an integer at most `max`.
+    auto number = [&](int k, double& value) -> absl::Status {
+      if (ParseDouble(fields[k], value)) return absl::OkStatus();
+      return absl::InvalidArgumentError(absl::StrCat(name, ": line ", cursor.line_number(),
+                                                     ": column ", k + 1, " '",
+                                                     std::string(fields[k]), "' is not a number"));
+    };
+    auto real = [&](int k, std::vector<float>& to, bool finite) -> absl::Status {
       double value = 0.0;
-      if (!ParseDouble(fields[k], value)) {
-        return absl::InvalidArgumentError(
-            absl::StrCat(name, ": line ", cursor.line_number(), ": column ", k + 1, " '",
-                         std::string(fields[k]), "' is not a number"));
-      }
-      xyz[k] = NarrowToFloat(value);
-      if (!std::isfinite(xyz[k])) {
+      SCANPREP_RETURN_IF_ERROR(number(k, value));
+      to.push_back(NarrowToFloat(value));
+      if (finite && !std::isfinite(to.back())) {
         return absl::InvalidArgumentError(absl::StrCat(
             name, ": line ", cursor.line_number(), ": column ", k + 1, " is not a finite float"));
       }
+      return absl::OkStatus();
+    };
+    auto integer = [&](int k, double max, double& value) -> absl::Status {
+      SCANPREP_RETURN_IF_ERROR(number(k, value));
+      if (value >= 0 && value <= max && value == std::floor(value)) return absl::OkStatus();
+      return absl::InvalidArgumentError(
+          absl::StrCat(name, ": line ", cursor.line_number(), ": column ", k + 1, " '",
+                       std::string(fields[k]), "' is not an integer in [0, ", max, "]"));
+    };
+    SCANPREP_RETURN_IF_ERROR(real(columns.x, cloud.x, true));
+    SCANPREP_RETURN_IF_ERROR(real(columns.y, cloud.y, true));
+    SCANPREP_RETURN_IF_ERROR(real(columns.z, cloud.z, true));
+    if (columns.nx >= 0) {
+      SCANPREP_RETURN_IF_ERROR(real(columns.nx, cloud.nx, false));
+      SCANPREP_RETURN_IF_ERROR(real(columns.ny, cloud.ny, false));
+      SCANPREP_RETURN_IF_ERROR(real(columns.nz, cloud.nz, false));
     }
-    cloud.x.push_back(xyz[0]);
-    cloud.y.push_back(xyz[1]);
-    cloud.z.push_back(xyz[2]);
+    double value = 0;
+    if (columns.flags >= 0) {
+      SCANPREP_RETURN_IF_ERROR(integer(columns.flags, 255, value));
+      cloud.flags.push_back(static_cast<uint8_t>(value));
+    }
+    if (columns.scanline >= 0) {
+      SCANPREP_RETURN_IF_ERROR(integer(columns.scanline, 4294967295.0, value));
+      cloud.scanline.push_back(static_cast<uint32_t>(value));
+    }
   }
   if (declared_count && *declared_count != cloud.size()) {
     return absl::InvalidArgumentError(absl::StrCat(name, ": first line declares ", *declared_count,
                                                    " points but the file has ", cloud.size()));
   }
-  if (profile_gap > 0.0) SplitProfiles(cloud, profile_gap);
+  if (profile_gap > 0.0 && columns.scanline < 0) SplitProfiles(cloud, profile_gap);
   cloud.scans.push_back(ScanMeta{.id = std::filesystem::path(name).stem().string()});
-  cloud.FinishLoading();
+  cloud.FinishLoading(std::exchange(cloud.flags, {}));
   return cloud;
 }
 

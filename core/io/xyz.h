@@ -1,24 +1,34 @@
 // SPDX-License-Identifier: Apache-2.0
-// Plain-text point lists (.xyz, .asc, .txt, .pts).
+// Plain-text point lists (.xyz, .asc, .txt, .pts): reader and writer.
 #pragma once
 
 #include <filesystem>
 #include <istream>
+#include <ostream>
 #include <string>
 
 #include "absl/status/statusor.h"
+#include "core/io/cloud_writer.h"
 #include "core/point_cloud.h"
 
 namespace scanprep::io {
 
-// One point per line: x y z separated by blanks or commas; further columns are ignored. '#'
-// starts a comment; blank lines are skipped. A first line holding a single integer is taken as a
-// point count (Leica PTS) and checked. When profile_gap > 0 the file order is taken as the scan
-// order and a jump longer than profile_gap between consecutive points starts a new scanline;
-// otherwise the cloud has no scanlines. Coordinates stay in the file's units. One scan, id = file
-// stem; FinishLoading() has been called.
+// One point per line: x y z separated by blanks or commas; further columns are ignored, unless a
+// comment line "# columns: NAME..." before the first point names them (as WriteXyz writes): then
+// x, y, z, nx, ny, nz (all three or none), flags and scanline are read from the named columns
+// and any other name is skipped. '#' starts a comment; blank lines are skipped. A first line
+// holding a single integer is taken as a point count (Leica PTS) and checked. When profile_gap > 0
+// the file order is taken as the scan order and a jump longer than profile_gap between consecutive
+// points starts a new scanline; otherwise the cloud has no scanlines. Coordinates stay in the
+// file's units. One scan, id = file stem; FinishLoading() has been called.
 absl::StatusOr<PointCloud> ReadXyz(const std::filesystem::path& path, double profile_gap = 0.0);
 absl::StatusOr<PointCloud> ReadXyz(std::istream& in, const std::string& name_for_errors,
                                    double profile_gap = 0.0);
+
+// "# columns: x y z [nx ny nz] flags [scanline]", then one point per line, floats to nine
+// significant digits (read back exactly). Removed points are skipped unless include_removed.
+absl::Status WriteXyz(const std::filesystem::path& path, const PointCloud& cloud,
+                      const WriteOptions& options = {});
+absl::Status WriteXyz(std::ostream& out, const PointCloud& cloud, const WriteOptions& options = {});
 
 }  // namespace scanprep::io

@@ -27,7 +27,7 @@ absl::StatusOr<PointCloud> ParseText(const std::string& text,
   return ReadPly(in, name);
 }
 
-std::string ToBytes(const PointCloud& cloud, const PlyWriteOptions& options = {}) {
+std::string ToBytes(const PointCloud& cloud, const WriteOptions& options = {}) {
   std::ostringstream out;
   EXPECT_TRUE(WritePly(out, cloud, options).ok());
   return out.str();

@@ -21,7 +21,10 @@
 #include <unistd.h>
 
 #include "absl/strings/str_cat.h"
+#include "core/io/pcd.h"
 #include "core/io/ply.h"
+#include "core/io/scan_file.h"
+#include "core/io/xyz.h"
 #include "server/memory_budget.h"
 #include "tests/server/metrics_scrape.h"
 #include "tests/server/server_process.h"
@@ -373,6 +376,55 @@ TEST(Cli, ProgressOfAFourMillionPointJobReachesEveryStageInOrder) {
   EXPECT_EQ(server.Terminate(), 0);
 }
 
+// PLY, PCD and XYZ in, PLY, PCD and XYZ out: the same job sent from each input format, and its
+// result written in each output format (removed points included, flagged), reads back with the
+// same points, normals and flags as the PLY round trip.
+TEST(Cli, EveryFormatThroughTheServiceAndBack) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("formats_" + std::to_string(getpid()));
+  fs::create_directories(dir / "pcd");
+  fs::create_directories(dir / "xyz");
+  const CommandResult sim = RunCli("simulate --points 20000 -o " + (dir / "sim.ply").string());
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  auto input = io::ReadPly(dir / "sim.ply");
+  ASSERT_TRUE(input.ok()) << input.status();
+  ASSERT_TRUE(io::WritePcd(dir / "pcd" / "sim.pcd", *input).ok());
+  ASSERT_TRUE(io::WriteXyz(dir / "xyz" / "sim.xyz", *input).ok());
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  auto process = [&](const fs::path& in, const fs::path& out) {
+    const CommandResult r =
+        RunCli("process " + in.string() + " --job " + (dir / "sim.job.json").string() +
+               " --include_removed -o " + out.string() + " --server " + server.target());
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    std::vector<std::string> warnings;
+    auto cloud = io::ReadScanFile(out, warnings);
+    EXPECT_TRUE(cloud.ok()) << out << ": " << cloud.status();
+    return cloud.ok() ? *cloud : PointCloud{};
+  };
+  const PointCloud reference = process(dir / "sim.ply", dir / "out.ply");
+  ASSERT_GT(reference.size(), 19'000u);
+  ASSERT_TRUE(reference.has_normals());
+  ASSERT_GT(reference.size(), reference.CountKept());  // removed points are in it, flagged
+  const std::pair<fs::path, fs::path> runs[] = {
+      {dir / "sim.ply", dir / "out.pcd"},
+      {dir / "sim.ply", dir / "out.xyz"},
+      {dir / "pcd" / "sim.pcd", dir / "from_pcd.ply"},
+      {dir / "xyz" / "sim.xyz", dir / "from_xyz.ply"},
+  };
+  for (const auto& [in, out] : runs) {
+    const PointCloud cloud = process(in, out);
+    ASSERT_EQ(cloud.size(), reference.size()) << in << " -> " << out;
+    EXPECT_EQ(cloud.x, reference.x) << in << " -> " << out;
+    EXPECT_EQ(cloud.y, reference.y) << in << " -> " << out;
+    EXPECT_EQ(cloud.z, reference.z) << in << " -> " << out;
+    EXPECT_EQ(cloud.nx, reference.nx) << in << " -> " << out;
+    EXPECT_EQ(cloud.nz, reference.nz) << in << " -> " << out;
+    EXPECT_EQ(cloud.flags, reference.flags) << in << " -> " << out;
+  }
+  fs::remove_all(dir);
+  EXPECT_EQ(server.Terminate(), 0);
+}
+
 // Every command answers --help (and -h) with its usage and flags, exit 0.
 TEST(Cli, EveryCommandHasHelp) {
   for (const char* command : {"process", "info", "load", "simulate"}) {
@@ -474,14 +526,14 @@ TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.output, HasSubstr("--progress loud: expected auto, live, plain or off"));
 
-  // The output: required, PLY only (a usage error, 2), and a report that cannot be written fails
-  // the command.
+  // The output: required, a format it can write (a usage error, 2, before anything is sent), and
+  // a report that cannot be written fails the command.
   r = RunCli("process " + scan.string() + " --server " + server.target());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.output, HasSubstr("-o OUT.ply is required"));
-  r = RunCli("process " + scan.string() + " -o " + (tmp / "x.xyz").string());
+  r = RunCli("process " + scan.string() + " -o " + (tmp / "x.obj").string());
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_THAT(r.output, HasSubstr("the result is written as PLY only"));
+  EXPECT_THAT(r.output, HasSubstr("the result is written as PLY, PCD or XYZ"));
   r = RunCli("process " + scan.string() + " -o -");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.output, HasSubstr("standard output is not supported"));

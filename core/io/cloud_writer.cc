@@ -1,0 +1,58 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "core/io/cloud_writer.h"
+
+#include <fstream>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+
+namespace scanprep::io {
+namespace {
+
+template <class T>
+absl::Status CheckSize(const std::vector<T>& values, const char* field, size_t n, bool optional,
+                       const char* format) {
+  if (values.size() == n || (optional && values.empty())) return absl::OkStatus();
+  return absl::InvalidArgumentError(absl::StrCat("cannot write ", format, ": cloud.", field,
+                                                 " has ", values.size(), " entries for ", n,
+                                                 " points"));
+}
+
+}  // namespace
+
+absl::Status CheckWritable(const PointCloud& cloud, const char* format) {
+  const size_t n = cloud.size();
+  const bool normals = cloud.has_normals();
+  for (absl::Status s :
+       {CheckSize(cloud.y, "y", n, false, format), CheckSize(cloud.z, "z", n, false, format),
+        CheckSize(cloud.nx, "nx", n, true, format), CheckSize(cloud.ny, "ny", n, !normals, format),
+        CheckSize(cloud.nz, "nz", n, !normals, format),
+        CheckSize(cloud.flags, "flags", n, true, format),
+        CheckSize(cloud.scan, "scan", n, true, format),
+        CheckSize(cloud.scanline, "scanline", n, true, format),
+        CheckSize(cloud.quality, "quality", n, true, format),
+        CheckSize(cloud.intensity, "intensity", n, true, format)}) {
+    if (!s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+size_t WrittenCount(const PointCloud& cloud, const WriteOptions& options) {
+  size_t count = 0;
+  for (size_t i = 0; i < cloud.size(); ++i) count += Written(cloud, i, options);
+  return count;
+}
+
+absl::Status WriteFile(const std::filesystem::path& path,
+                       const std::function<absl::Status(std::ostream&)>& write) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) return absl::UnavailableError(absl::StrCat(path.string(), ": cannot open for writing"));
+  if (absl::Status s = write(out); !s.ok()) {
+    return absl::Status(s.code(), absl::StrCat(path.string(), ": ", s.message()));
+  }
+  out.close();
+  if (!out) return absl::UnavailableError(absl::StrCat(path.string(), ": write failed"));
+  return absl::OkStatus();
+}
+
+}  // namespace scanprep::io
