@@ -139,6 +139,9 @@ std::vector<FlagSpec> JobFlags() {
       {"stages", FlagSpec::kValue, "comma-separated stage list (see `scanprep info`)"},
       {"param", FlagSpec::kRepeated, "parameter override name=value"},
       {"scanline_spacing", FlagSpec::kValue, "scanline spacing of every scan, job unit"},
+      {"profile_gap", FlagSpec::kValue,
+       "text scan files (.xyz, .asc, .txt, .pts) written profile by profile: a jump longer than "
+       "this (file units) between consecutive points starts a new scanline"},
       {"uncertainty", FlagSpec::kValue, "measuring uncertainty of every scan, job unit"},
       {"include_removed", FlagSpec::kBool, "also return removed points, flagged"},
   };
@@ -200,8 +203,14 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   std::vector<FileScans> split;
   std::vector<uint32_t> first_scan;     // per file: its first scan's index in the header
   std::vector<std::string> scan_files;  // per scan: the file it came from
+  io::ReadOptions read_options;
+  if (args.Has("profile_gap")) {
+    auto gap = ParseLength(args, "profile_gap");
+    if (!gap.ok()) return gap.status();
+    read_options.profile_gap = *gap;
+  }
   for (const std::string& file : files) {
-    auto cloud = io::ReadScanFile(file, job.notes);
+    auto cloud = io::ReadScanFile(file, job.notes, read_options);
     if (!cloud.ok()) return cloud.status();
     if (cloud->has_normals()) {
       job.notes.push_back(

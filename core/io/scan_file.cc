@@ -10,12 +10,19 @@
 namespace scanprep::io {
 
 absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
-                                        std::vector<std::string>& warnings) {
+                                        std::vector<std::string>& warnings,
+                                        const ReadOptions& options) {
   const std::string extension = absl::AsciiStrToLower(path.extension().string());
+  if (extension == ".xyz" || extension == ".asc" || extension == ".txt" || extension == ".pts") {
+    return ReadXyz(path, options.profile_gap);
+  }
+  if (options.profile_gap > 0 && (extension == ".ply" || extension == ".pcd")) {
+    warnings.push_back(absl::StrCat(path.string(),
+                                    ": the profile gap applies to text files only; "
+                                    "this file's scanlines are its own"));
+  }
   if (extension == ".ply") return ReadPly(path);
   if (extension == ".pcd") return ReadPcd(path, warnings);
-  if (extension == ".xyz" || extension == ".asc" || extension == ".txt" || extension == ".pts")
-    return ReadXyz(path);
   return absl::InvalidArgumentError(
       absl::StrCat(path.string(), ": unsupported file extension '", extension,
                    "' (supported: .ply, .pcd, .xyz, .asc, .txt, .pts)"));

@@ -12,10 +12,18 @@
 
 namespace scanprep::io {
 
-// .ply -> ReadPly; .pcd -> ReadPcd; .xyz/.asc/.txt/.pts -> ReadXyz (no scanlines). Extensions are
+struct ReadOptions {
+  // Text files without a scanline column: a jump longer than this (file units) between
+  // consecutive points starts a new scanline (ReadXyz); 0 = no scanlines. PLY and PCD files
+  // carry their own scanline structure and are read as they are.
+  double profile_gap = 0;
+};
+
+// .ply -> ReadPly; .pcd -> ReadPcd; .xyz/.asc/.txt/.pts -> ReadXyz. Extensions are
 // case-insensitive. What a reader could not use or had to leave out is appended to `warnings`.
 absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
-                                        std::vector<std::string>& warnings);
+                                        std::vector<std::string>& warnings,
+                                        const ReadOptions& options = {});
 
 // .ply -> WritePly (binary), .pcd -> WritePcd (binary), .xyz/.asc/.txt -> WriteXyz (text);
 // INVALID_ARGUMENT for any other extension, before anything is written.

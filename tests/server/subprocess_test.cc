@@ -425,6 +425,40 @@ TEST(Cli, EveryFormatThroughTheServiceAndBack) {
   EXPECT_EQ(server.Terminate(), 0);
 }
 
+// A laser-line profile file in text form: --profile_gap splits it into scanlines at the jumps
+// between profiles, and the result carries them; without the flag (the control) it has none.
+TEST(Cli, ProfileGapSplitsATextScanIntoScanlines) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("gap_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  {
+    std::ofstream xyz(dir / "profiles.xyz");
+    for (int line = 0; line < 3; ++line) {
+      for (int i = 0; i < 60; ++i) xyz << 0.5 * i << " " << 5.0 * line << " 0\n";
+    }
+  }
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  auto scanlines = [&](const std::string& flag) -> std::set<uint32_t> {
+    const fs::path out = dir / "out.ply";
+    const CommandResult r =
+        RunCli("process " + (dir / "profiles.xyz").string() + " --stages normals" + flag +
+               " --include_removed -o " + out.string() + " --server " + server.target());
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    auto cloud = io::ReadPly(out);
+    EXPECT_TRUE(cloud.ok()) << cloud.status();
+    if (!cloud.ok() || !cloud->has_scanlines()) return {};
+    return std::set<uint32_t>(cloud->scanline.begin(), cloud->scanline.end());
+  };
+  EXPECT_EQ(scanlines(" --profile_gap 2"), (std::set<uint32_t>{0, 1, 2}));
+  EXPECT_EQ(scanlines(""), std::set<uint32_t>{});
+  const CommandResult bad = RunCli("process " + (dir / "profiles.xyz").string() +
+                                   " --profile_gap -1 -o " + (dir / "x.ply").string());
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_THAT(bad.output, HasSubstr("--profile_gap: '-1' is not a length >= 0"));
+  fs::remove_all(dir);
+  EXPECT_EQ(server.Terminate(), 0);
+}
+
 // Every command answers --help (and -h) with its usage and flags, exit 0.
 TEST(Cli, EveryCommandHasHelp) {
   for (const char* command : {"process", "info", "load", "simulate"}) {
