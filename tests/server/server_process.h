@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include "absl/strings/str_cat.h"
+#include "tests/support/run_command.h"
 
 namespace scanprep::testing {
 
@@ -72,11 +73,23 @@ class ServerProcess {
     std::ifstream in(log_);
     return std::string(std::istreambuf_iterator<char>(in), {});
   }
-  // SIGTERM, then the exit code (-1 when it did not exit normally).
+  // SIGTERM, then the exit code (-1 when it did not exit normally). A server still running a
+  // minute later fails the test with its threads' states and is killed.
   int Terminate() {
     kill(pid_, SIGTERM);
     int status = 0;
-    waitpid(pid_, &status, 0);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (waitpid(pid_, &status, WNOHANG) == 0) {
+      if (std::chrono::steady_clock::now() > deadline) {
+        ADD_FAILURE() << "scanprep-server did not exit within 60 s of SIGTERM\n"
+                      << ThreadStates(pid_) << Log();
+        kill(pid_, SIGKILL);
+        waitpid(pid_, &status, 0);
+        pid_ = -1;
+        return -1;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
     pid_ = -1;
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   }
