@@ -205,10 +205,12 @@ TEST(Limits, ASlowUploaderIsEndedByTheIdleTimeoutWhileAnotherClientsJobCompletes
   grpc::ClientContext slow_context;
   auto slow = stub->Process(&slow_context);
   ASSERT_TRUE(slow->Write(HeaderRequest(SimpleHeader(), 200)));
+  // The server's idle clock starts when it has this chunk, so after this instant: a lower bound
+  // for every wait below, however late the client's reads wake up (ASan, ctest -j2).
+  const absl::Time quiet_since = absl::Now();
   ASSERT_TRUE(slow->Write(ChunkRequest(LineChunk(100))));
   v1::ProcessResponse ack;
   ASSERT_TRUE(slow->Read(&ack));  // acknowledged: the slow call holds the only slot
-  const absl::Time quiet_since = absl::Now();
   absl::Time slow_ended;
   std::thread slow_reader([&] {
     v1::ProcessResponse response;
