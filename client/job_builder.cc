@@ -226,7 +226,8 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
       job.notes.push_back(absl::StrCat(file, ": its scan column holds ", ids.size(),
                                        " scans, sent as ", ids.front(), " … ", ids.back()));
     }
-    for (const std::string& id : ids) {
+    for (size_t k = 0; k < ids.size(); ++k) {
+      const std::string& id = ids[k];
       auto match = std::find_if(from_job.begin(), from_job.end(),
                                 [&](const v1::ScanHeader& s) { return s.scan_id() == id; });
       v1::ScanHeader* scan = job.header.add_scans();
@@ -235,9 +236,13 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
         from_job.erase(match);
       }
       scan->set_scan_id(id);
-      // A file's sensor origin (PCD VIEWPOINT) is in the file's frame and units, as the header's
-      // camera_position is; the job file's value, when it has one, wins.
-      const std::optional<Eigen::Vector3d>& origin = cloud->scans.front().camera_position;
+      // A file's sensor origin (PCD VIEWPOINT, an E57 scan's pose) is in the file's frame and
+      // units, as the header's camera_position is; the job file's value, when it has one, wins.
+      // A file that describes its scans (E57) has one origin per scan.
+      const size_t value = split.back().values.empty() ? 0 : split.back().values[k];
+      const ScanMeta& meta =
+          value < cloud->scans.size() ? cloud->scans[value] : cloud->scans.front();
+      const std::optional<Eigen::Vector3d>& origin = meta.camera_position;
       if (origin && !scan->has_camera_position()) SetVec3(*origin, scan->mutable_camera_position());
       scan_files.push_back(file);
     }
@@ -251,11 +256,20 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   if (args.Has("conf")) {
     SCANPREP_RETURN_IF_ERROR(ApplyConf(args.Get("conf"), scan_files, job.header));
   }
+  auto extension_is = [&](const char* extension) {
+    return [extension](const std::string& f) {
+      return absl::AsciiStrToLower(fs::path(f).extension().string()) == extension;
+    };
+  };
+  if (!args.Has("unit") && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED &&
+      std::all_of(files.begin(), files.end(), extension_is(".e57"))) {
+    // E57 defines its coordinates in metres (ASTM E2807), so there is nothing to guess.
+    job.header.set_unit(v1::LENGTH_UNIT_METRE);
+    job.notes.push_back("E57 files are in metres by definition: the job's unit is metres");
+  }
   if (!args.Has("unit") && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED) {
     // PCL's convention (REP 103) is metres, so a PCD file read as mm is likely 1000x too small.
-    const bool pcd = std::any_of(files.begin(), files.end(), [](const std::string& f) {
-      return absl::AsciiStrToLower(fs::path(f).extension().string()) == ".pcd";
-    });
+    const bool pcd = std::any_of(files.begin(), files.end(), extension_is(".pcd"));
     job.notes.push_back(
         absl::StrCat("no --unit and no unit in the job file: coordinates are taken "
                      "as millimetres",

@@ -180,8 +180,9 @@ Command ProcessCommand() {
       .name = "process",
       .synopsis = "process SCAN... -o OUT.ply [flags]",
       .summary =
-          "send scans (one scan per file: .ply, .pcd, .xyz/.asc/.txt/.pts) through the service; "
-          "write the result with normals and flags as PLY, PCD or XYZ (by -o's extension)",
+          "send scans (.ply, .pcd, .e57, .xyz/.asc/.txt/.pts; an E57 file holds several) through "
+          "the service; write the result with normals and flags as PLY, PCD or XYZ (by -o's "
+          "extension)",
       .flags = std::move(flags),
       .run = RunProcess,
   };

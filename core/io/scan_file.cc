@@ -3,6 +3,7 @@
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
+#include "core/io/e57.h"
 #include "core/io/pcd.h"
 #include "core/io/ply.h"
 #include "core/io/xyz.h"
@@ -16,16 +17,17 @@ absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
   if (extension == ".xyz" || extension == ".asc" || extension == ".txt" || extension == ".pts") {
     return ReadXyz(path, options.profile_gap);
   }
-  if (options.profile_gap > 0 && (extension == ".ply" || extension == ".pcd")) {
+  if (options.profile_gap > 0) {
     warnings.push_back(absl::StrCat(path.string(),
                                     ": the profile gap applies to text files only; "
                                     "this file's scanlines are its own"));
   }
   if (extension == ".ply") return ReadPly(path);
   if (extension == ".pcd") return ReadPcd(path, warnings);
+  if (extension == ".e57") return ReadE57(path, warnings);
   return absl::InvalidArgumentError(
       absl::StrCat(path.string(), ": unsupported file extension '", extension,
-                   "' (supported: .ply, .pcd, .xyz, .asc, .txt, .pts)"));
+                   "' (supported: .ply, .pcd, .e57, .xyz, .asc, .txt, .pts)"));
 }
 
 absl::Status WriteScanFile(const std::filesystem::path& path, const PointCloud& cloud,

@@ -14,12 +14,12 @@ namespace scanprep::io {
 
 struct ReadOptions {
   // Text files without a scanline column: a jump longer than this (file units) between
-  // consecutive points starts a new scanline (ReadXyz); 0 = no scanlines. PLY and PCD files
+  // consecutive points starts a new scanline (ReadXyz); 0 = no scanlines. Binary formats
   // carry their own scanline structure and are read as they are.
   double profile_gap = 0;
 };
 
-// .ply -> ReadPly; .pcd -> ReadPcd; .xyz/.asc/.txt/.pts -> ReadXyz. Extensions are
+// .ply -> ReadPly; .pcd -> ReadPcd; .e57 -> ReadE57; .xyz/.asc/.txt/.pts -> ReadXyz. Extensions are
 // case-insensitive. What a reader could not use or had to leave out is appended to `warnings`.
 absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
                                         std::vector<std::string>& warnings,

@@ -382,6 +382,60 @@ TEST(Cli, ProgressOfAFourMillionPointJobReachesEveryStageInOrder) {
   EXPECT_LT(absl::Now() - stop, absl::Seconds(3));
 }
 
+// Every kind of scan file in ../shared/data through the CLI and the default pipeline: each comes
+// back with all its valid points (removed ones included, flagged) and its scan structure, the
+// counts and structure being the data README's.
+TEST(Cli, ProcessesEveryScanFileInTheSharedData) {
+  SCANPREP_REQUIRE_SHARED_DATA(data);
+  const fs::path dir = fs::path(::testing::TempDir()) / ("shared_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  struct Case {
+    std::string file, flags;
+    size_t points;
+    size_t grid_rows;  // the file's grid rows (range_grid, organised HEIGHT); 0 = no grid
+    size_t scanlines;  // without a grid: distinct scanlines in the result (0 = none)
+  };
+  const Case cases[] = {
+      {"stanford_bunny_range_scans/bun000.ply", "--unit m", 40'256, 400, 0},
+      {"stanford_happy_stand_range_scans/happyStandRight_24.ply", "--unit m", 75'582, 660, 0},
+      {"pcl_rs1_laser_scene/rs1.pcd", "--unit m", 289'541, 0, 0},
+      // Organised 640 x 480 with NaN holes: the valid points.
+      {"pcl_table_scene_mug_stereo/table_scene_mug_stereo_textured.pcd", "--unit m", 209'280, 480,
+       0},
+      {"cognex_laser_line_scan/triangulated.xyz", "--unit mm --profile_gap 50", 2'628, 0, 6},
+      {"e57_bunny_sample/bunnyDouble.e57", "", 30'571, 0, 0},  // metres without --unit
+  };
+  for (const Case& c : cases) {
+    const fs::path out = dir / (fs::path(c.file).stem().string() + ".ply");
+    const CommandResult r =
+        RunCli("process " + (data / c.file).string() + " " + c.flags + " --include_removed -o " +
+               out.string() + " --progress off --server " + server.target());
+    ASSERT_EQ(r.exit_code, 0) << c.file << "\n" << r.output;
+    std::vector<std::string> warnings;
+    auto cloud = io::ReadScanFile(out, warnings);
+    ASSERT_TRUE(cloud.ok()) << c.file << ": " << cloud.status();
+    EXPECT_EQ(cloud->size(), c.points) << c.file;
+    EXPECT_TRUE(cloud->has_normals()) << c.file;
+    const size_t outliers = std::count_if(cloud->flags.begin(), cloud->flags.end(),
+                                          [](uint8_t f) { return (f & kRemovedOutlier) != 0; });
+    const std::set<uint32_t> lines(cloud->scanline.begin(), cloud->scanline.end());
+    // Outliers are few in these scans (the unit is right, so the radii fit the data).
+    EXPECT_LT(outliers, c.points / 100) << c.file;
+    // Range grids and organised clouds: a scanline per grid row holding points, at most the
+    // file's rows and more than a third of them; a laser-line file: one per profile.
+    if (c.grid_rows > 0) {
+      EXPECT_LE(lines.size(), c.grid_rows) << c.file;
+      EXPECT_GT(lines.size(), c.grid_rows / 3) << c.file;
+    } else {
+      EXPECT_EQ(lines.size(), c.scanlines) << c.file;
+    }
+  }
+  fs::remove_all(dir);
+  EXPECT_EQ(server.Terminate(), 0);
+}
+
 // PLY, PCD and XYZ in, PLY, PCD and XYZ out: the same job sent from each input format, and its
 // result written in each output format (removed points included, flagged), reads back with the
 // same points, normals and flags as the PLY round trip.
