@@ -358,7 +358,8 @@ class VertexBuilder {
 
   bool is_grid(const Element& element) const { return &element == grid_; }
 
-  absl::StatusOr<PointCloud> Finish(const std::string& name) && {
+  absl::StatusOr<PointCloud> Finish(const std::string& name,
+                                    std::vector<std::string>& warnings) && {
     if (grid_ != nullptr && grid_vertices_ != count_) {
       return absl::InvalidArgumentError(absl::StrCat(name, ": range_grid lists ", grid_vertices_,
                                                      " of the ", count_,
@@ -372,13 +373,49 @@ class VertexBuilder {
         cloud_.scans.push_back(ScanMeta{.id = absl::StrCat(stem, ":", k)});
     }
     cloud_.FinishLoading(std::move(flags_));
+    if (const uint64_t unmeasured = DropUnmeasured(); unmeasured > 0) {
+      if (cloud_.size() == 0) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(name, ": all ", unmeasured,
+                         " vertices have a NaN or infinite coordinate: no valid point"));
+      }
+      warnings.push_back(
+          absl::StrCat(name, ": ", unmeasured, " of ", count_,
+                       " vertices have a NaN or infinite coordinate (no measurement) "
+                       "and were left out"));
+    }
     return std::move(cloud_);
   }
 
  private:
+  // NaN or infinity in the file is a scanner's "no measurement" (as in PCD and the API): such a
+  // vertex is left out in Finish(). A finite value beyond float's range is an error.
   static const char* StoreCoordinate(float& target, double value) {
     target = NarrowToFloat(value);
-    return std::isfinite(target) ? nullptr : "coordinate is not a finite float";
+    return std::isfinite(target) || !std::isfinite(value)
+               ? nullptr
+               : "coordinate beyond the range of a float";
+  }
+
+  // Leaves out the vertices without a position, every per-point array alike; returns how many.
+  uint64_t DropUnmeasured() {
+    const size_t n = cloud_.size();
+    std::vector<uint32_t> kept;
+    for (uint32_t i = 0; i < n; ++i) {
+      if (std::isfinite(cloud_.x[i]) && std::isfinite(cloud_.y[i]) && std::isfinite(cloud_.z[i])) {
+        kept.push_back(i);
+      }
+    }
+    if (kept.size() == n) return 0;
+    auto compact = [&](auto& values) {
+      if (values.empty()) return;
+      for (size_t k = 0; k < kept.size(); ++k) values[k] = values[kept[k]];
+      values.resize(kept.size());
+    };
+    compact(cloud_.x), compact(cloud_.y), compact(cloud_.z), compact(cloud_.scan);
+    compact(cloud_.scanline), compact(cloud_.quality), compact(cloud_.intensity);
+    compact(cloud_.nx), compact(cloud_.ny), compact(cloud_.nz), compact(cloud_.flags);
+    return n - kept.size();
   }
 
   PointCloud cloud_;
@@ -435,7 +472,8 @@ absl::Status ReadElements(const Header& header, Source& source, VertexBuilder& v
   return source.Finish();
 }
 
-absl::StatusOr<PointCloud> ParsePly(std::string_view data, const std::string& name) {
+absl::StatusOr<PointCloud> ParsePly(std::string_view data, const std::string& name,
+                                    std::vector<std::string>& warnings) {
   absl::StatusOr<Header> header = ply::ParseHeader(data, name);
   if (!header.ok()) return header.status();
   absl::StatusOr<VertexBuilder> vertices = VertexBuilder::Create(*header, name);
@@ -451,21 +489,23 @@ absl::StatusOr<PointCloud> ParsePly(std::string_view data, const std::string& na
     status = ReadElements(*header, source, *vertices);
   }
   if (!status.ok()) return status;
-  return std::move(*vertices).Finish(name);
+  return std::move(*vertices).Finish(name, warnings);
 }
 
 }  // namespace
 
-absl::StatusOr<PointCloud> ReadPly(const std::filesystem::path& path) {
+absl::StatusOr<PointCloud> ReadPly(const std::filesystem::path& path,
+                                   std::vector<std::string>& warnings) {
   absl::StatusOr<std::string> data = ReadFileToString(path);
   if (!data.ok()) return data.status();
-  return ParsePly(*data, path.string());
+  return ParsePly(*data, path.string(), warnings);
 }
 
-absl::StatusOr<PointCloud> ReadPly(std::istream& in, const std::string& name_for_errors) {
+absl::StatusOr<PointCloud> ReadPly(std::istream& in, const std::string& name_for_errors,
+                                   std::vector<std::string>& warnings) {
   absl::StatusOr<std::string> data = ReadStreamToString(in, name_for_errors);
   if (!data.ok()) return data.status();
-  return ParsePly(*data, name_for_errors);
+  return ParsePly(*data, name_for_errors, warnings);
 }
 
 }  // namespace scanprep::io

@@ -6,6 +6,7 @@
 #include <istream>
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -21,10 +22,14 @@ namespace scanprep::io {
 // properties included), comment and obj_info lines are skipped. A Stanford `range_grid` element
 // (list vertex_indices, num_cols from obj_info) gives each vertex its scanline = grid row
 // (row-major: entry index = row*num_cols + col); it must list every vertex once, in vertex order.
-// Coordinates stay in the file's units. Scan ids are the file stem (suffixed ":<k>" when the
-// file carries several scans); FinishLoading() has been called.
-absl::StatusOr<PointCloud> ReadPly(const std::filesystem::path& path);
-absl::StatusOr<PointCloud> ReadPly(std::istream& in, const std::string& name_for_errors);
+// Coordinates stay in the file's units. A vertex with a NaN or infinite coordinate is a
+// scanner's "no measurement" (an organised cloud's hole): it is left out and counted in a warning,
+// as the PCD reader and the service do with such points. Scan ids are the file stem (suffixed
+// ":<k>" when the file carries several scans); FinishLoading() has been called.
+absl::StatusOr<PointCloud> ReadPly(const std::filesystem::path& path,
+                                   std::vector<std::string>& warnings);
+absl::StatusOr<PointCloud> ReadPly(std::istream& in, const std::string& name_for_errors,
+                                   std::vector<std::string>& warnings);
 
 // Binary little-endian PLY: x,y,z float; nx,ny,nz float when the cloud has normals; flags uchar;
 // scan uint; scanline uint when present; quality, intensity float when present. Removed points are

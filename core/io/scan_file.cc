@@ -22,7 +22,7 @@ absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
                                     ": the profile gap applies to text files only; "
                                     "this file's scanlines are its own"));
   }
-  if (extension == ".ply") return ReadPly(path);
+  if (extension == ".ply") return ReadPly(path, warnings);
   if (extension == ".pcd") return ReadPcd(path, warnings);
   if (extension == ".e57") return ReadE57(path, warnings);
   return absl::InvalidArgumentError(

@@ -102,8 +102,9 @@ TEST(ConfBunny, RegistersBun045OntoBun000) {
                         [&](const ConfEntry& e) { return e.file == file; })
         ->pose;
   };
-  absl::StatusOr<PointCloud> bun000 = ReadPly(dir / "bun000.ply");
-  absl::StatusOr<PointCloud> bun045 = ReadPly(dir / "bun045.ply");
+  std::vector<std::string> ply_warnings;
+  absl::StatusOr<PointCloud> bun000 = ReadPly(dir / "bun000.ply", ply_warnings);
+  absl::StatusOr<PointCloud> bun045 = ReadPly(dir / "bun045.ply", ply_warnings);
   ASSERT_TRUE(bun000.ok() && bun045.ok());
 
   const PointCloud fixed = ToCommonFrameMm(*bun000, pose_of("bun000.ply"));

@@ -24,7 +24,8 @@ namespace {
 absl::StatusOr<PointCloud> ParseText(const std::string& text,
                                      const std::string& name = "test.ply") {
   std::istringstream in(text);
-  return ReadPly(in, name);
+  std::vector<std::string> ply_warnings;
+  return ReadPly(in, name, ply_warnings);
 }
 
 std::string ToBytes(const PointCloud& cloud, const WriteOptions& options = {}) {
@@ -105,7 +106,8 @@ TEST(Ply, MinimalCloudRoundTripsThroughAFile) {
   const std::filesystem::path path =
       std::filesystem::path(::testing::TempDir()) / "minimal_scan.ply";
   ASSERT_TRUE(WritePly(path, cloud).ok());
-  absl::StatusOr<PointCloud> back = ReadPly(path);
+  std::vector<std::string> ply_warnings;
+  absl::StatusOr<PointCloud> back = ReadPly(path, ply_warnings);
   ASSERT_TRUE(back.ok()) << back.status();
   EXPECT_EQ(back->x, cloud.x);
   EXPECT_EQ(back->y, cloud.y);
@@ -279,8 +281,10 @@ INSTANTIATE_TEST_SUITE_P(
                  "line 9: vertex 1: too few values (no value for 'z')"},
         BadInput{"LongLine", kAscii + kTwoVertices + "end_header\n1 2 3 4\n4 5 6\n",
                  "line 8: vertex 0: 1 more values than the header declares"},
-        BadInput{"NanCoordinate", kAscii + kTwoVertices + "end_header\n1 nan 3\n4 5 6\n",
-                 "line 8: vertex 0: 'y' value nan: coordinate is not a finite float"},
+        BadInput{"CoordinateBeyondFloat", kAscii + kTwoVertices + "end_header\n1 1e300 3\n4 5 6\n",
+                 "line 8: vertex 0: 'y' value 1e+300: coordinate beyond the range of a float"},
+        BadInput{"NoVertexMeasured", kAscii + kTwoVertices + "end_header\n1 nan 3\ninf 5 6\n",
+                 "all 2 vertices have a NaN or infinite coordinate: no valid point"},
         BadInput{"ListTooLong",
                  kAscii + kTwoVertices +
                      "element face 1\nproperty list uchar int vertex_indices\n" + kBody +
@@ -305,8 +309,33 @@ INSTANTIATE_TEST_SUITE_P(
                  "range_grid has 2 entries but num_cols*num_rows = 2*2"}),
     [](const ::testing::TestParamInfo<BadInput>& info) { return info.param.label; });
 
+// A stereo camera's organised cloud written as PLY: its holes are NaN vertices. They are left
+// out like the PCD reader and the service leave out such points, counted in a warning, and every
+// other per-point value stays with its own vertex.
+TEST(Ply, NanVerticesAreLeftOutAndCounted) {
+  std::istringstream in(
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+      "property float z\nproperty float intensity\nproperty uint scanline\nend_header\n"
+      "1 2 3 10 0\nnan nan nan 20 0\n4 5 6 30 1\n7 -inf 9 40 1\n");
+  std::vector<std::string> warnings;
+  absl::StatusOr<PointCloud> cloud = ReadPly(in, "holes.ply", warnings);
+  ASSERT_TRUE(cloud.ok()) << cloud.status();
+  EXPECT_EQ(cloud->x, (std::vector<float>{1, 4}));
+  EXPECT_EQ(cloud->z, (std::vector<float>{3, 6}));
+  EXPECT_EQ(cloud->intensity, (std::vector<float>{10, 30}));
+  EXPECT_EQ(cloud->scanline, (std::vector<uint32_t>{0, 1}));
+  EXPECT_EQ(cloud->flags.size(), 2u);
+  EXPECT_EQ(cloud->scan.size(), 2u);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0],
+            "holes.ply: 2 of 4 vertices have a NaN or infinite coordinate (no measurement) and "
+            "were left out");
+}
+
 TEST(Ply, MissingFileIsNotFound) {
-  absl::StatusOr<PointCloud> cloud = ReadPly(std::filesystem::path("/nonexistent/dir/scan.ply"));
+  std::vector<std::string> ply_warnings;
+  absl::StatusOr<PointCloud> cloud =
+      ReadPly(std::filesystem::path("/nonexistent/dir/scan.ply"), ply_warnings);
   EXPECT_EQ(cloud.status().code(), absl::StatusCode::kNotFound);
   EXPECT_NE(cloud.status().message().find("/nonexistent/dir/scan.ply"), std::string::npos);
 }
@@ -413,7 +442,9 @@ TEST(PlyBunny, AllTenScansMatchTheReadme) {
   size_t total = 0;
   for (const BunnyScan& scan : kBunny) {
     SCOPED_TRACE(scan.file);
-    absl::StatusOr<PointCloud> cloud = ReadPly(data / "stanford_bunny_range_scans" / scan.file);
+    std::vector<std::string> ply_warnings;
+    absl::StatusOr<PointCloud> cloud =
+        ReadPly(data / "stanford_bunny_range_scans" / scan.file, ply_warnings);
     ASSERT_TRUE(cloud.ok()) << cloud.status();
     ASSERT_EQ(cloud->size(), scan.points);
     total += cloud->size();
@@ -434,7 +465,9 @@ TEST(PlyBunny, AllTenScansMatchTheReadme) {
 
 TEST(PlyBunny, GridRowsAreScanlinesAlongTheStripe) {
   SCANPREP_REQUIRE_SHARED_DATA(data);
-  absl::StatusOr<PointCloud> cloud = ReadPly(data / "stanford_bunny_range_scans" / "bun000.ply");
+  std::vector<std::string> ply_warnings;
+  absl::StatusOr<PointCloud> cloud =
+      ReadPly(data / "stanford_bunny_range_scans" / "bun000.ply", ply_warnings);
   ASSERT_TRUE(cloud.ok()) << cloud.status();
   // 214 distinct rows (27..240), counted independently from the file's range_grid with awk.
   const std::set<uint32_t> rows(cloud->scanline.begin(), cloud->scanline.end());

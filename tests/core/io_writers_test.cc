@@ -51,7 +51,7 @@ absl::StatusOr<PointCloud> RoundTrip(const PointCloud& cloud, Format format,
   switch (format) {
     case Format::kPly:
       if (auto s = WritePly(bytes, cloud, options); !s.ok()) return s;
-      return ReadPly(bytes, "sample.ply");
+      return ReadPly(bytes, "sample.ply", warnings);
     case Format::kPcd:
       if (auto s = WritePcd(bytes, cloud, options); !s.ok()) return s;
       return ReadPcd(bytes, "sample.pcd", warnings);

@@ -200,7 +200,8 @@ TEST(Normals, CollinearAndTinyNeighbourhoodsAreInvalid) {
 // every visible surface faces +z. Orientation here comes from the spanning tree alone.
 TEST(Normals, StanfordBunnyScanFacesTheScanner) {
   SCANPREP_REQUIRE_SHARED_DATA(dir);
-  auto cloud = io::ReadPly(dir / "stanford_bunny_range_scans" / "bun000.ply");
+  std::vector<std::string> ply_warnings;
+  auto cloud = io::ReadPly(dir / "stanford_bunny_range_scans" / "bun000.ply", ply_warnings);
   ASSERT_TRUE(cloud.ok()) << cloud.status();
   for (float* v : {cloud->x.data(), cloud->y.data(), cloud->z.data()}) {
     for (size_t i = 0; i < cloud->size(); ++i) v[i] *= 1000.f;  // metres → mm

@@ -10,7 +10,8 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::istringstream in(std::string(reinterpret_cast<const char*>(data), size));
-  auto cloud = scanprep::io::ReadPly(in, "fuzz.ply");
+  std::vector<std::string> ply_warnings;
+  auto cloud = scanprep::io::ReadPly(in, "fuzz.ply", ply_warnings);
   if (cloud.ok()) scanprep::fuzz::CheckCloud(*cloud);
   return 0;
 }

@@ -84,7 +84,8 @@ TEST(Bunny, TenScansRegisterIntoOneBunny) {
   // Round trip through a PLY file, then the registration check on what was written.
   const fs::path out = fs::path(::testing::TempDir()) / "bunny_registered.ply";
   ASSERT_TRUE(io::WritePly(out, result->cloud).ok());
-  auto written = io::ReadPly(out);
+  std::vector<std::string> ply_warnings;
+  auto written = io::ReadPly(out, ply_warnings);
   ASSERT_TRUE(written.ok()) << written.status();
   ASSERT_EQ(written->size(), kept);
   for (uint32_t s = 0; s < 10; ++s) {

@@ -233,8 +233,9 @@ TEST(SimulateCommand, WritesScansAndTheirJobFile) {
       RunCommand(std::string(SCANPREP_CLI_BINARY) + " simulate --points 6000 " +
                  "--part box --scans 2 --seed 5 -o " + (dir / "sim.ply").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  auto frontal = io::ReadPly(dir / "sim_frontal.ply");
-  auto oblique = io::ReadPly(dir / "sim_oblique.ply");
+  std::vector<std::string> ply_warnings;
+  auto frontal = io::ReadPly(dir / "sim_frontal.ply", ply_warnings);
+  auto oblique = io::ReadPly(dir / "sim_oblique.ply", ply_warnings);
   ASSERT_TRUE(frontal.ok()) << frontal.status();
   ASSERT_TRUE(oblique.ok()) << oblique.status();
   EXPECT_NEAR(double(frontal->size() + oblique->size()), 6000, 0.02 * 6000);

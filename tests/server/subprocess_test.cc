@@ -295,7 +295,8 @@ TEST(Cli, ProcessesTwoRegisteredBunnyScans) {
              out.string() + " --server " + server.target());
   ASSERT_EQ(ok.exit_code, 0) << ok.output;
   EXPECT_THAT(ok.output, HasSubstr("points: 80353 received, 0 invalid"));
-  auto cloud = io::ReadPly(out);
+  std::vector<std::string> ply_warnings;
+  auto cloud = io::ReadPly(out, ply_warnings);
   ASSERT_TRUE(cloud.ok()) << cloud.status();
   EXPECT_THAT(ok.output, HasSubstr("wrote " + std::to_string(cloud->size()) + " points"));
   EXPECT_GT(cloud->size(), 0.9 * 80'353);
@@ -445,7 +446,8 @@ TEST(Cli, EveryFormatThroughTheServiceAndBack) {
   fs::create_directories(dir / "xyz");
   const CommandResult sim = RunCli("simulate --points 20000 -o " + (dir / "sim.ply").string());
   ASSERT_EQ(sim.exit_code, 0) << sim.output;
-  auto input = io::ReadPly(dir / "sim.ply");
+  std::vector<std::string> ply_warnings;
+  auto input = io::ReadPly(dir / "sim.ply", ply_warnings);
   ASSERT_TRUE(input.ok()) << input.status();
   ASSERT_TRUE(io::WritePcd(dir / "pcd" / "sim.pcd", *input).ok());
   ASSERT_TRUE(io::WriteXyz(dir / "xyz" / "sim.xyz", *input).ok());
@@ -504,7 +506,8 @@ TEST(Cli, ProfileGapSplitsATextScanIntoScanlines) {
         RunCli("process " + (dir / "profiles.xyz").string() + " --stages normals" + flag +
                " --include_removed -o " + out.string() + " --server " + server.target());
     EXPECT_EQ(r.exit_code, 0) << r.output;
-    auto cloud = io::ReadPly(out);
+    std::vector<std::string> ply_warnings;
+    auto cloud = io::ReadPly(out, ply_warnings);
     EXPECT_TRUE(cloud.ok()) << cloud.status();
     if (!cloud.ok() || !cloud->has_scanlines()) return {};
     return std::set<uint32_t>(cloud->scanline.begin(), cloud->scanline.end());
@@ -552,7 +555,8 @@ TEST(Cli, APerPointScanColumnSplitsTheFileIntoScans) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("its scan column holds 2 scans, sent as two_scans#3 … "
                                   "two_scans#7"));
-  auto result = io::ReadPly(out);
+  std::vector<std::string> ply_warnings;
+  auto result = io::ReadPly(out, ply_warnings);
   ASSERT_TRUE(result.ok()) << result.status();
   std::set<uint32_t> scans(result->scan.begin(), result->scan.end());
   EXPECT_EQ(scans, (std::set<uint32_t>{0, 1}));

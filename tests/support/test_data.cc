@@ -25,7 +25,8 @@ PointCloud LoadRangeScansMm(const std::filesystem::path& dir, const std::string&
   if (!conf.ok()) return all;
   for (const std::string& name : names) {
     const std::string file = name + ".ply";
-    auto scan = io::ReadPly(dir / file);
+    std::vector<std::string> ply_warnings;
+    auto scan = io::ReadPly(dir / file, ply_warnings);
     EXPECT_TRUE(scan.ok()) << scan.status();
     auto entry = std::find_if(conf->begin(), conf->end(),
                               [&](const io::ConfEntry& e) { return e.file == file; });
