@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <iostream>
 #include <map>
 #include <optional>
 #include <regex>
@@ -144,6 +145,8 @@ std::vector<FlagSpec> JobFlags() {
        "this (file units) between consecutive points starts a new scanline"},
       {"uncertainty", FlagSpec::kValue, "measuring uncertainty of every scan, job unit"},
       {"include_removed", FlagSpec::kBool, "also return removed points, flagged"},
+      {"input_format", FlagSpec::kValue,
+       "format of the scan read from standard input (SCAN '-'): ply, pcd, e57 or xyz"},
   };
 }
 
@@ -185,9 +188,47 @@ absl::StatusOr<v1::JobHeader> ReadJobFile(const std::string& path) {
   return header;
 }
 
-absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
+namespace {
+
+// A scan argument's format: a file's by its extension, standard input's ("-") by --input_format.
+absl::StatusOr<io::ScanFormat> ScanArgumentFormat(const std::string& file, const ParsedArgs& args) {
+  if (file != "-") return io::ScanFormatOf(file);
+  if (!args.Has("input_format")) {
+    return absl::InvalidArgumentError(
+        "SCAN '-' reads standard input: say its format with --input_format (ply, pcd, e57, xyz)");
+  }
+  return io::ParseScanFormat(args.Get("input_format"));
+}
+
+absl::StatusOr<PointCloud> ReadScanArgument(const std::string& file, io::ScanFormat format,
+                                            std::vector<std::string>& notes,
+                                            const io::ReadOptions& options) {
+  if (file != "-") return io::ReadScanFile(file, notes, options);
+  return io::ReadScanStream(std::cin, format, "standard input", notes, options);
+}
+
+}  // namespace
+
+absl::StatusOr<std::vector<io::ScanFormat>> ScanArgumentFormats(const ParsedArgs& args) {
   const std::vector<std::string>& files = args.positional;
   if (files.empty()) return absl::InvalidArgumentError("no scan files given");
+  if (std::count(files.begin(), files.end(), "-") > 1) {
+    return absl::InvalidArgumentError("SCAN '-' (standard input) can be given once");
+  }
+  if (args.Has("input_format") && std::count(files.begin(), files.end(), "-") == 0) {
+    return absl::InvalidArgumentError("--input_format applies to SCAN '-' only; none was given");
+  }
+  std::vector<io::ScanFormat> formats;
+  for (const std::string& file : files) {
+    SCANPREP_ASSIGN_OR_RETURN(io::ScanFormat format, ScanArgumentFormat(file, args));
+    formats.push_back(format);
+  }
+  return formats;
+}
+
+absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<io::ScanFormat> formats, ScanArgumentFormats(args));
+  const std::vector<std::string>& files = args.positional;
   Job job;
   if (args.Has("job")) {
     auto header = ReadJobFile(args.Get("job"));
@@ -209,14 +250,15 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
     if (!gap.ok()) return gap.status();
     read_options.profile_gap = *gap;
   }
-  for (const std::string& file : files) {
-    auto cloud = io::ReadScanFile(file, job.notes, read_options);
+  for (size_t f = 0; f < files.size(); ++f) {
+    const std::string& file = files[f];
+    auto cloud = ReadScanArgument(file, formats[f], job.notes, read_options);
     if (!cloud.ok()) return cloud.status();
     if (cloud->has_normals()) {
       job.notes.push_back(
           absl::StrCat(file, ": its normals are not sent (the service estimates its own)"));
     }
-    const std::string stem = fs::path(file).stem().string();
+    const std::string stem = file == "-" ? "stdin" : fs::path(file).stem().string();
     split.push_back(SplitByScanColumn(*cloud));
     first_scan.push_back(static_cast<uint32_t>(job.header.scans_size()));
     std::vector<std::string> ids = {stem};
@@ -256,20 +298,18 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   if (args.Has("conf")) {
     SCANPREP_RETURN_IF_ERROR(ApplyConf(args.Get("conf"), scan_files, job.header));
   }
-  auto extension_is = [&](const char* extension) {
-    return [extension](const std::string& f) {
-      return absl::AsciiStrToLower(fs::path(f).extension().string()) == extension;
-    };
+  auto is = [](io::ScanFormat format) {
+    return [format](io::ScanFormat f) { return f == format; };
   };
   if (!args.Has("unit") && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED &&
-      std::all_of(files.begin(), files.end(), extension_is(".e57"))) {
+      std::all_of(formats.begin(), formats.end(), is(io::ScanFormat::kE57))) {
     // E57 defines its coordinates in metres (ASTM E2807), so there is nothing to guess.
     job.header.set_unit(v1::LENGTH_UNIT_METRE);
     job.notes.push_back("E57 files are in metres by definition: the job's unit is metres");
   }
   if (!args.Has("unit") && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED) {
     // PCL's convention (REP 103) is metres, so a PCD file read as mm is likely 1000x too small.
-    const bool pcd = std::any_of(files.begin(), files.end(), extension_is(".pcd"));
+    const bool pcd = std::any_of(formats.begin(), formats.end(), is(io::ScanFormat::kPcd));
     job.notes.push_back(
         absl::StrCat("no --unit and no unit in the job file: coordinates are taken "
                      "as millimetres",

@@ -9,6 +9,7 @@
 
 #include "absl/status/statusor.h"
 #include "client/cli_args.h"
+#include "core/io/scan_file.h"
 #include "core/point_cloud.h"
 #include "scanprep/v1/scanprep.pb.h"
 
@@ -31,6 +32,10 @@ std::vector<FlagSpec> JobFlags();
 
 // Flags used: --job, --conf, --unit, --stages, --param, --include_removed, --scanline_spacing,
 // --uncertainty; positional arguments are the scan files.
+// The scan arguments' formats, before anything is read: a file's by its extension, "-"
+// (standard input, at most once) by --input_format. INVALID_ARGUMENT: a usage error.
+absl::StatusOr<std::vector<io::ScanFormat>> ScanArgumentFormats(const ParsedArgs& args);
+
 absl::StatusOr<Job> BuildJob(const ParsedArgs& args);
 
 // The wire form of a scan's metadata, millimetres, identity pose.

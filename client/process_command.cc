@@ -63,28 +63,44 @@ absl::StatusOr<std::string> ReportJson(const v1::Report& report, const PhaseSeco
   return json;
 }
 
-// The output's format follows its extension (io::WriteScanFile); "-" is not (yet) standard
-// output. Checked before the scans are read or sent.
-absl::Status CheckOutputName(const std::string& out) {
-  if (out == "-") {
+// Where the result goes: a file, its format by its extension, or standard output ("-") in
+// --output_format. Checked before the scans are read or sent.
+absl::StatusOr<io::ScanFormat> OutputFormat(const ParsedArgs& args) {
+  const std::string out = args.Get("out");
+  if (out != "-") {
+    if (args.Has("output_format")) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--output_format applies to -o - only; ", out, " has its extension"));
+    }
+    auto format = io::ScanFormatOf(out);
+    if (format.ok() && io::Writable(*format) &&
+        absl::AsciiStrToLower(fs::path(out).extension().string()) != ".pts") {
+      return format;
+    }
     return absl::InvalidArgumentError(
-        "-o -: writing to standard output is not supported; give a file name ending in .ply, "
-        ".pcd, .xyz, .asc or .txt");
+        absl::StrCat("-o ", out,
+                     ": the result is written as PLY, PCD or XYZ, chosen by the extension; give a "
+                     "file name ending in .ply, .pcd, .xyz, .asc or .txt (or -o - with "
+                     "--output_format)"));
   }
-  const std::string extension = absl::AsciiStrToLower(fs::path(out).extension().string());
-  for (const char* known : {".ply", ".pcd", ".xyz", ".asc", ".txt"}) {
-    if (extension == known) return absl::OkStatus();
+  if (!args.Has("output_format")) {
+    return absl::InvalidArgumentError(
+        "-o - writes the result to standard output: say its format with --output_format (ply, "
+        "pcd, xyz)");
   }
-  return absl::InvalidArgumentError(
-      absl::StrCat("-o ", out,
-                   ": the result is written as PLY, PCD or XYZ, chosen by the extension; give a "
-                   "file name ending in .ply, .pcd, .xyz, .asc or .txt"));
+  auto format = io::ParseScanFormat(args.Get("output_format"));
+  if (format.ok() && !io::Writable(*format)) {
+    return absl::InvalidArgumentError("--output_format: the result is written as ply, pcd or xyz");
+  }
+  return format;
 }
 
 int RunProcess(const ParsedArgs& args) {
   if (!args.Has("out")) return FailUsage("process", "-o OUT.ply is required");
-  if (absl::Status s = CheckOutputName(args.Get("out")); !s.ok()) {
-    return FailUsage("process", std::string(s.message()));
+  auto out_format = OutputFormat(args);
+  if (!out_format.ok()) return FailUsage("process", std::string(out_format.status().message()));
+  if (auto in = ScanArgumentFormats(args); !in.ok()) {
+    return FailUsage("process", std::string(in.status().message()));
   }
   auto mode = ParseProgressMode(args.Get("progress", "auto"), isatty(STDERR_FILENO) != 0);
   if (!mode.ok()) return FailUsage("process", std::string(mode.status().message()));
@@ -123,9 +139,15 @@ int RunProcess(const ParsedArgs& args) {
   const std::string out = args.Get("out");
   const io::WriteOptions write_options{.include_removed = job->header.options().include_removed()};
   const absl::Time write_start = absl::Now();
-  if (absl::Status s = io::WriteScanFile(out, result->cloud, write_options); !s.ok()) {
+  // With the result on standard output, what is said about it goes to standard error.
+  std::ostream& text = out == "-" ? std::cerr : std::cout;
+  if (absl::Status s =
+          out == "-" ? io::WriteScanStream(std::cout, *out_format, result->cloud, write_options)
+                     : io::WriteScanFile(out, result->cloud, write_options);
+      !s.ok()) {
     return Fail("process", std::string(s.message()));
   }
+  if (out == "-" && !std::cout.flush()) return Fail("process", "cannot write to standard output");
   phases.write = SecondsSince(write_start);
   phases.total = SecondsSince(start);
   phases.upload = result->transfer.upload;
@@ -142,9 +164,10 @@ int RunProcess(const ParsedArgs& args) {
                                           args.Get("report_json")));
     }
   }
-  PrintSummary(std::cout, result->report);
-  PrintPhases(std::cout, phases);
-  std::cout << "wrote " << result->cloud.size() << " points to " << out << "\n";
+  PrintSummary(text, result->report);
+  PrintPhases(text, phases);
+  text << "wrote " << result->cloud.size() << " points to "
+       << (out == "-" ? std::string("standard output") : out) << "\n";
   if (args.Bool("fail_on_budget_miss") &&
       result->report.budget_outcome() == v1::BUDGET_OUTCOME_MISSED) {
     std::cerr << "scanprep process: the job missed its budget of "
@@ -158,7 +181,9 @@ int RunProcess(const ParsedArgs& args) {
 
 Command ProcessCommand() {
   std::vector<FlagSpec> flags = {
-      {"out", FlagSpec::kValue, "output file (required): .ply, .pcd or .xyz/.asc/.txt", "o"},
+      {"out", FlagSpec::kValue,
+       "output file (required): .ply, .pcd or .xyz/.asc/.txt; - for standard output", "o"},
+      {"output_format", FlagSpec::kValue, "format of -o -: ply, pcd or xyz"},
       {"server", FlagSpec::kValue, absl::StrCat(kServerFlagHelp, " (default localhost:50051)")},
   };
   AddTlsFlags(flags);
@@ -178,7 +203,7 @@ Command ProcessCommand() {
                    "also write the full report as JSON, with the phase timings under \"phases\""});
   return Command{
       .name = "process",
-      .synopsis = "process SCAN... -o OUT.ply [flags]",
+      .synopsis = "process SCAN... -o OUT.ply [flags]  (SCAN or OUT '-': standard input/output)",
       .summary =
           "send scans (.ply, .pcd, .e57, .xyz/.asc/.txt/.pts; an E57 file holds several) through "
           "the service; write the result with normals and flags as PLY, PCD or XYZ (by -o's "

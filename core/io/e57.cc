@@ -579,4 +579,10 @@ absl::StatusOr<PointCloud> ReadE57(const std::filesystem::path& path,
   return ReadE57Bytes(bytes, path.string(), warnings);
 }
 
+absl::StatusOr<PointCloud> ReadE57(std::istream& in, const std::string& name_for_errors,
+                                   std::vector<std::string>& warnings) {
+  SCANPREP_ASSIGN_OR_RETURN(std::string bytes, ReadStreamToString(in, name_for_errors));
+  return ReadE57Bytes(bytes, name_for_errors, warnings);
+}
+
 }  // namespace scanprep::io

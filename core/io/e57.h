@@ -3,6 +3,7 @@
 #pragma once
 
 #include <filesystem>
+#include <istream>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -29,6 +30,8 @@ namespace scanprep::io {
 // Every size is checked against the file before anything is allocated for it. Fields the
 // service has no use for (colour, returns, time stamps) are named in a warning.
 absl::StatusOr<PointCloud> ReadE57(const std::filesystem::path& path,
+                                   std::vector<std::string>& warnings);
+absl::StatusOr<PointCloud> ReadE57(std::istream& in, const std::string& name_for_errors,
                                    std::vector<std::string>& warnings);
 absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string& name_for_errors,
                                         std::vector<std::string>& warnings);

@@ -1,46 +1,115 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "core/io/scan_file.h"
 
+#include <utility>
+
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "core/io/e57.h"
 #include "core/io/pcd.h"
 #include "core/io/ply.h"
 #include "core/io/xyz.h"
+#include "core/status_macros.h"
 
 namespace scanprep::io {
+namespace {
+
+constexpr char kReadable[] = ".ply, .pcd, .e57, .xyz, .asc, .txt, .pts";
+constexpr char kWritten[] = ".ply, .pcd, .xyz, .asc, .txt";
+
+// One dispatch for files and streams: every reader and writer takes either a path or a stream
+// (with a name for its errors) as its first arguments.
+template <class... Source>
+absl::StatusOr<PointCloud> ReadAs(ScanFormat format, std::vector<std::string>& warnings,
+                                  const ReadOptions& options, const std::string& name,
+                                  Source&&... source) {
+  if (options.profile_gap > 0 && format != ScanFormat::kXyz) {
+    warnings.push_back(absl::StrCat(
+        name, ": the profile gap applies to text files only; this file's scanlines are its own"));
+  }
+  switch (format) {
+    case ScanFormat::kPly:
+      return ReadPly(std::forward<Source>(source)..., warnings);
+    case ScanFormat::kPcd:
+      return ReadPcd(std::forward<Source>(source)..., warnings);
+    case ScanFormat::kE57:
+      return ReadE57(std::forward<Source>(source)..., warnings);
+    case ScanFormat::kXyz:
+      return ReadXyz(std::forward<Source>(source)..., options.profile_gap);
+  }
+  return absl::InternalError("unknown scan format");
+}
+
+template <class Target>
+absl::Status WriteAs(ScanFormat format, Target&& target, const PointCloud& cloud,
+                     const WriteOptions& options) {
+  switch (format) {
+    case ScanFormat::kPly:
+      return WritePly(target, cloud, options);
+    case ScanFormat::kPcd:
+      return WritePcd(target, cloud, options);
+    case ScanFormat::kXyz:
+      return WriteXyz(target, cloud, options);
+    case ScanFormat::kE57:
+      break;
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat("cannot write this format (written: ", kWritten, ")"));
+}
+
+}  // namespace
+
+absl::StatusOr<ScanFormat> ParseScanFormat(std::string_view name) {
+  const std::string lower = absl::AsciiStrToLower(absl::string_view(name.data(), name.size()));
+  if (lower == "ply") return ScanFormat::kPly;
+  if (lower == "pcd") return ScanFormat::kPcd;
+  if (lower == "e57") return ScanFormat::kE57;
+  if (lower == "xyz" || lower == "asc" || lower == "txt" || lower == "pts") return ScanFormat::kXyz;
+  return absl::InvalidArgumentError(
+      absl::StrCat("unknown scan format '", lower, "' (ply, pcd, e57, xyz, asc, txt, pts)"));
+}
+
+absl::StatusOr<ScanFormat> ScanFormatOf(const std::filesystem::path& path) {
+  const std::string extension = path.extension().string();
+  auto format = ParseScanFormat(extension.empty() ? extension : extension.substr(1));
+  if (!format.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(path.string(), ": unsupported file extension '",
+                                                   extension, "' (supported: ", kReadable, ")"));
+  }
+  return format;
+}
+
+bool Writable(ScanFormat format) { return format != ScanFormat::kE57; }
 
 absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
                                         std::vector<std::string>& warnings,
                                         const ReadOptions& options) {
-  const std::string extension = absl::AsciiStrToLower(path.extension().string());
-  if (extension == ".xyz" || extension == ".asc" || extension == ".txt" || extension == ".pts") {
-    return ReadXyz(path, options.profile_gap);
-  }
-  if (options.profile_gap > 0) {
-    warnings.push_back(absl::StrCat(path.string(),
-                                    ": the profile gap applies to text files only; "
-                                    "this file's scanlines are its own"));
-  }
-  if (extension == ".ply") return ReadPly(path, warnings);
-  if (extension == ".pcd") return ReadPcd(path, warnings);
-  if (extension == ".e57") return ReadE57(path, warnings);
-  return absl::InvalidArgumentError(
-      absl::StrCat(path.string(), ": unsupported file extension '", extension,
-                   "' (supported: .ply, .pcd, .e57, .xyz, .asc, .txt, .pts)"));
+  SCANPREP_ASSIGN_OR_RETURN(ScanFormat format, ScanFormatOf(path));
+  return ReadAs(format, warnings, options, path.string(), path);
+}
+
+absl::StatusOr<PointCloud> ReadScanStream(std::istream& in, ScanFormat format,
+                                          const std::string& name_for_errors,
+                                          std::vector<std::string>& warnings,
+                                          const ReadOptions& options) {
+  return ReadAs(format, warnings, options, name_for_errors, in, name_for_errors);
 }
 
 absl::Status WriteScanFile(const std::filesystem::path& path, const PointCloud& cloud,
                            const WriteOptions& options) {
-  const std::string extension = absl::AsciiStrToLower(path.extension().string());
-  if (extension == ".ply") return WritePly(path, cloud, options);
-  if (extension == ".pcd") return WritePcd(path, cloud, options);
-  if (extension == ".xyz" || extension == ".asc" || extension == ".txt") {
-    return WriteXyz(path, cloud, options);
+  auto format = ScanFormatOf(path);
+  if (!format.ok() || !Writable(*format) ||
+      absl::AsciiStrToLower(path.extension().string()) == ".pts") {
+    return absl::InvalidArgumentError(absl::StrCat(path.string(), ": cannot write '",
+                                                   path.extension().string(),
+                                                   "' files (written: ", kWritten, ")"));
   }
-  return absl::InvalidArgumentError(
-      absl::StrCat(path.string(), ": cannot write '", extension,
-                   "' files (written: .ply, .pcd, .xyz, .asc, .txt)"));
+  return WriteAs(*format, path, cloud, options);
+}
+
+absl::Status WriteScanStream(std::ostream& out, ScanFormat format, const PointCloud& cloud,
+                             const WriteOptions& options) {
+  return WriteAs(format, out, cloud, options);
 }
 
 }  // namespace scanprep::io

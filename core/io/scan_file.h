@@ -1,9 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
-// Reads and writes a scan file of any supported format, chosen by extension.
+// Reads and writes a scan in any supported format: a file's by its extension, a stream's (standard
+// input and output) as named.
 #pragma once
 
 #include <filesystem>
+#include <istream>
+#include <ostream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -12,6 +16,16 @@
 
 namespace scanprep::io {
 
+enum class ScanFormat { kPly, kPcd, kE57, kXyz };
+
+// "ply", "pcd", "e57", "xyz" (also "asc", "txt", "pts"), case-insensitive; INVALID_ARGUMENT
+// naming the choices otherwise.
+absl::StatusOr<ScanFormat> ParseScanFormat(std::string_view name);
+// By extension: .ply, .pcd, .e57, .xyz/.asc/.txt/.pts; INVALID_ARGUMENT naming the supported ones.
+absl::StatusOr<ScanFormat> ScanFormatOf(const std::filesystem::path& path);
+// Whether WriteScanFile/WriteScanStream can write `format` (PLY, PCD and XYZ).
+bool Writable(ScanFormat format);
+
 struct ReadOptions {
   // Text files without a scanline column: a jump longer than this (file units) between
   // consecutive points starts a new scanline (ReadXyz); 0 = no scanlines. Binary formats
@@ -19,15 +33,21 @@ struct ReadOptions {
   double profile_gap = 0;
 };
 
-// .ply -> ReadPly; .pcd -> ReadPcd; .e57 -> ReadE57; .xyz/.asc/.txt/.pts -> ReadXyz. Extensions are
-// case-insensitive. What a reader could not use or had to leave out is appended to `warnings`.
+// ReadPly, ReadPcd, ReadE57 or ReadXyz by the file's extension (ScanFormatOf). What a reader
+// could not use or had to leave out is appended to `warnings`.
 absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
                                         std::vector<std::string>& warnings,
                                         const ReadOptions& options = {});
+absl::StatusOr<PointCloud> ReadScanStream(std::istream& in, ScanFormat format,
+                                          const std::string& name_for_errors,
+                                          std::vector<std::string>& warnings,
+                                          const ReadOptions& options = {});
 
-// .ply -> WritePly (binary), .pcd -> WritePcd (binary), .xyz/.asc/.txt -> WriteXyz (text);
-// INVALID_ARGUMENT for any other extension, before anything is written.
+// WritePly (binary), WritePcd (binary) or WriteXyz (text) by the file's extension (.ply, .pcd,
+// .xyz/.asc/.txt); INVALID_ARGUMENT for any other, before anything is written.
 absl::Status WriteScanFile(const std::filesystem::path& path, const PointCloud& cloud,
                            const WriteOptions& options = {});
+absl::Status WriteScanStream(std::ostream& out, ScanFormat format, const PointCloud& cloud,
+                             const WriteOptions& options = {});
 
 }  // namespace scanprep::io

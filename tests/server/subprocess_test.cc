@@ -437,6 +437,40 @@ TEST(Cli, ProcessesEveryScanFileInTheSharedData) {
   EXPECT_EQ(server.Terminate(), 0);
 }
 
+// A pipe: the scan on standard input, the result on standard output, in formats named by flags;
+// the same points, normals and flags as the job sent from and written to files, and nothing but
+// the result on standard output (the summary goes to standard error).
+TEST(Cli, ReadsStandardInputAndWritesStandardOutput) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("pipe_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const CommandResult sim = RunCli("simulate --points 20000 -o " + (dir / "sim.ply").string());
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  const std::string flags =
+      " --unit mm --include_removed --progress off --server " + server.target();
+  const CommandResult file = RunCli("process " + (dir / "sim.ply").string() + flags + " -o " +
+                                    (dir / "file.pcd").string());
+  ASSERT_EQ(file.exit_code, 0) << file.output;
+  const CommandResult pipe =
+      RunCli("process - --input_format ply -o - --output_format pcd" + flags + " < " +
+             (dir / "sim.ply").string() + " > " + (dir / "pipe.pcd").string());
+  ASSERT_EQ(pipe.exit_code, 0) << pipe.output;
+  EXPECT_THAT(pipe.output, HasSubstr("points to standard output"));  // on standard error
+  std::vector<std::string> warnings;
+  auto from_file = io::ReadScanFile(dir / "file.pcd", warnings);
+  auto from_pipe = io::ReadScanFile(dir / "pipe.pcd", warnings);
+  ASSERT_TRUE(from_file.ok()) << from_file.status();
+  ASSERT_TRUE(from_pipe.ok()) << from_pipe.status();
+  ASSERT_GT(from_file->size(), 19'000u);
+  EXPECT_EQ(from_pipe->x, from_file->x);
+  EXPECT_EQ(from_pipe->z, from_file->z);
+  EXPECT_EQ(from_pipe->nx, from_file->nx);
+  EXPECT_EQ(from_pipe->flags, from_file->flags);
+  fs::remove_all(dir);
+  EXPECT_EQ(server.Terminate(), 0);
+}
+
 // PLY, PCD and XYZ in, PLY, PCD and XYZ out: the same job sent from each input format, and its
 // result written in each output format (removed points included, flagged), reads back with the
 // same points, normals and flags as the PLY round trip.
@@ -634,7 +668,16 @@ TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {
   EXPECT_THAT(r.output, HasSubstr("the result is written as PLY, PCD or XYZ"));
   r = RunCli("process " + scan.string() + " -o -");
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_THAT(r.output, HasSubstr("standard output is not supported"));
+  EXPECT_THAT(r.output, HasSubstr("say its format with --output_format"));
+  r = RunCli("process - -o " + (tmp / "x.ply").string() + " < " + scan.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.output, HasSubstr("say its format with --input_format"));
+  r = RunCli("process " + scan.string() + " - - --input_format ply -o x.ply");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.output, HasSubstr("can be given once"));
+  r = RunCli("process " + (tmp / "x.obj").string() + " -o x.ply");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.output, HasSubstr("unsupported file extension '.obj'"));
   r = RunCli(base + " --report_json " + (tmp / "no_such_dir" / "r.json").string());
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.output, HasSubstr("cannot write the report to"));
