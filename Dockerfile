@@ -6,7 +6,7 @@ RUN apt-get update \
  && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \
       cmake ninja-build g++ pkg-config libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev \
       libabsl-dev libeigen3-dev libnanoflann-dev libtbb-dev libcpp-httplib-dev zlib1g-dev liblzf-dev \
-      libcli11-dev libexpat1-dev \
+      libcli11-dev libexpat1-dev libpng-dev \
  && rm -rf /var/lib/apt/lists/*
 WORKDIR /src
 COPY CMakeLists.txt ./
@@ -22,7 +22,7 @@ FROM debian:bookworm AS runtime
 # RUNTIME_PACKAGES (read by deploy/check-runtime-libs.sh)
 RUN apt-get update \
  && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \
-      libgrpc++1.51 libgrpc29 libprotobuf32 libabsl20220623 libtbb12 libcpp-httplib0.11 liblzf1 libexpat1 \
+      libgrpc++1.51 libgrpc29 libprotobuf32 libabsl20220623 libtbb12 libcpp-httplib0.11 liblzf1 libexpat1 libpng16-16 \
  && rm -rf /var/lib/apt/lists/* \
  && useradd --system --uid 10001 --no-create-home scanprep
 COPY --from=build /build/server/scanprep-server /build/client/scanprep /usr/local/bin/

@@ -25,6 +25,7 @@ Command ProcessCommand();
 Command InfoCommand();
 Command LoadCommand();
 Command SimulateCommand();
+Command PreviewCommand();
 
 // Prints "scanprep <command>: <message>" and returns exit code 1.
 int Fail(const std::string& command, const std::string& message);

@@ -26,7 +26,7 @@ int FailCall(const std::string& command, const std::string& server, const absl::
 namespace {
 
 std::vector<Command> Commands() {
-  return {ProcessCommand(), InfoCommand(), LoadCommand(), SimulateCommand()};
+  return {ProcessCommand(), InfoCommand(), LoadCommand(), SimulateCommand(), PreviewCommand()};
 }
 
 void PrintUsage(std::ostream& out) {

@@ -9,6 +9,8 @@
 #include <google/protobuf/util/json_util.h>
 #include <unistd.h>
 
+#include <Eigen/Geometry>
+
 #include "absl/status/statusor.h"
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
@@ -17,6 +19,7 @@
 #include "client/commands.h"
 #include "client/connection_flags.h"
 #include "client/job_builder.h"
+#include "client/preview.h"
 #include "client/progress_view.h"
 #include "client/scanprep_client.h"
 #include "core/io/scan_file.h"
@@ -95,6 +98,71 @@ absl::StatusOr<io::ScanFormat> OutputFormat(const ParsedArgs& args) {
   return format;
 }
 
+std::string UnitName(v1::LengthUnit unit) {
+  switch (unit) {
+    case v1::LENGTH_UNIT_METRE:
+      return "m";
+    case v1::LENGTH_UNIT_MICROMETRE:
+      return "um";
+    case v1::LENGTH_UNIT_INCH:
+      return "in";
+    default:
+      return "mm";
+  }
+}
+
+// What was sent, moved into the result's frame by each scan's to_common as the server moves it,
+// with the first scan's camera there too, so the preview can set it beside the result.
+PointCloud InCommonFrame(const PointCloud& sent, const v1::JobHeader& header) {
+  PointCloud input = sent;
+  std::vector<Eigen::Isometry3d> poses;
+  for (const v1::ScanHeader& scan : header.scans()) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    if (scan.has_to_common()) {
+      const v1::RigidTransform& t = scan.to_common();
+      const v1::Quaternion& q = t.rotation();
+      if (t.has_rotation())
+        pose.linear() =
+            Eigen::Quaterniond(q.w(), q.x(), q.y(), q.z()).normalized().toRotationMatrix();
+      pose.translation() =
+          Eigen::Vector3d(t.translation().x(), t.translation().y(), t.translation().z());
+    }
+    poses.push_back(pose);
+  }
+  for (size_t i = 0; i < input.size(); ++i) {
+    const size_t s = input.scan.empty() ? 0 : input.scan[i];
+    if (s >= poses.size()) continue;
+    const Eigen::Vector3f p = (poses[s] * input.point(i).cast<double>()).cast<float>();
+    input.x[i] = p.x(), input.y[i] = p.y(), input.z[i] = p.z();
+  }
+  input.scans.assign(1, ScanMeta{});
+  if (!header.scans().empty() && header.scans(0).has_camera_position()) {
+    const v1::Vec3& c = header.scans(0).camera_position();
+    input.scans[0].camera_position = poses[0] * Eigen::Vector3d(c.x(), c.y(), c.z());
+  }
+  if (!header.scans().empty() && header.scans(0).has_view_direction()) {
+    const v1::Vec3& d = header.scans(0).view_direction();
+    input.scans[0].view_direction = poses[0].linear() * Eigen::Vector3d(d.x(), d.y(), d.z());
+  }
+  return input;
+}
+
+// The input and the result side by side, with how far smoothing moved each kept point.
+absl::Status WritePreview(const std::string& path, const PointCloud& sent,
+                          const v1::JobHeader& header, const PointCloud& result) {
+  const PointCloud input = InCommonFrame(sent, header);
+  PreviewPanels panels{.input = &input, .result = &result, .unit = UnitName(header.unit())};
+  if (input.size() == result.size()) {
+    panels.displacement.resize(result.size());
+    for (size_t i = 0; i < result.size(); ++i) {
+      panels.displacement[i] = result.removed(i) ? 0 : (result.point(i) - input.point(i)).norm();
+    }
+  }
+  PointCloud viewpoint = result;
+  viewpoint.scans = input.scans;
+  return WritePng(path, RenderPreview(panels, ChooseView(viewpoint)));
+}
+
 int RunProcess(const ParsedArgs& args) {
   if (!args.Has("out")) return FailUsage("process", "-o OUT.ply is required");
   auto out_format = OutputFormat(args);
@@ -114,6 +182,9 @@ int RunProcess(const ParsedArgs& args) {
     job->header.mutable_budget()->set_total_seconds(*budget);
   }
   phases.read = SecondsSince(start);
+  // The preview shows the removed points, so they come back; the output has them only if asked.
+  const bool write_removed = job->header.options().include_removed();
+  if (args.Has("preview")) job->header.mutable_options()->set_include_removed(true);
   for (const std::string& note : job->notes) std::cerr << "note: " << note << "\n";
 
   CallOptions call;
@@ -137,7 +208,7 @@ int RunProcess(const ParsedArgs& args) {
     return FailCall("process", server, result.status());
   }
   const std::string out = args.Get("out");
-  const io::WriteOptions write_options{.include_removed = job->header.options().include_removed()};
+  const io::WriteOptions write_options{.include_removed = write_removed};
   const absl::Time write_start = absl::Now();
   // With the result on standard output, what is said about it goes to standard error.
   std::ostream& text = out == "-" ? std::cerr : std::cout;
@@ -166,8 +237,15 @@ int RunProcess(const ParsedArgs& args) {
   }
   PrintSummary(text, result->report);
   PrintPhases(text, phases);
-  text << "wrote " << result->cloud.size() << " points to "
-       << (out == "-" ? std::string("standard output") : out) << "\n";
+  if (args.Has("preview")) {
+    if (absl::Status s = WritePreview(args.Get("preview"), job->points, job->header, result->cloud);
+        !s.ok()) {
+      return Fail("process", std::string(s.message()));
+    }
+    text << "wrote the preview to " << args.Get("preview") << "\n";
+  }
+  text << "wrote " << (write_removed ? result->cloud.size() : result->cloud.CountKept())
+       << " points to " << (out == "-" ? std::string("standard output") : out) << "\n";
   if (args.Bool("fail_on_budget_miss") &&
       result->report.budget_outcome() == v1::BUDGET_OUTCOME_MISSED) {
     std::cerr << "scanprep process: the job missed its budget of "
@@ -199,6 +277,9 @@ Command ProcessCommand() {
                    "progress on stderr: auto (default: live on a terminal, else plain), live (one "
                    "line redrawn), plain (a line when a phase or stage starts, at each quarter "
                    "of it and at least every 10 s) or off"});
+  flags.push_back({"preview", FlagSpec::kValue,
+                   "also draw the input and the result side by side as PNG: removed points by "
+                   "reason, edges, smoothing displacement"});
   flags.push_back({"report_json", FlagSpec::kValue,
                    "also write the full report as JSON, with the phase timings under \"phases\""});
   return Command{

@@ -13,6 +13,7 @@ packages=(
   liblzf-dev  # PCD DATA binary_compressed (core/io/pcd.cc)
   libcli11-dev  # the CLI's flags (client/cli_args.cc)
   libexpat1-dev  # the XML section of E57 files (core/io/e57_xml.cc)
+  libpng-dev  # preview pictures (client/preview.cc)
   zlib1g-dev  # CRC-32 of the StreamEnd (proto/stream_checksum.cc)
   prometheus  # prometheus and promtool: alert-rule and integration tests
   openssl     # tls_test makes its certificates at test time

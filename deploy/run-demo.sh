@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
 # The main job: installs what is missing, builds Release, starts scanprep-server on loopback,
-# processes a sample scan through the default pipeline, prints the report, stops the server.
+# processes a sample scan through the default pipeline, prints the report, draws the input and
+# the result side by side as PNG ($PREVIEW, default build/bunny-preview.png), stops the server.
 # The sample is two overlapping Stanford bunny scans from ../shared/data when present, else a
 # scan the project generates (`scanprep simulate`).
 set -euo pipefail
@@ -19,8 +20,11 @@ echo "scanprep-server listening on 127.0.0.1:$port"
 
 data=../shared/data/stanford_bunny_range_scans
 if [[ -d "$data" ]]; then
+  preview=${PREVIEW:-$bin/bunny-preview.png}
   "$bin/client/scanprep" process "$data/bun000.ply" "$data/bun045.ply" --conf "$data/bun.conf" \
-    --job deploy/examples/bunny.job.json --server "127.0.0.1:$port" -o "$out/bunny.ply"
+    --job deploy/examples/bunny.job.json --server "127.0.0.1:$port" -o "$out/bunny.ply" \
+    --preview "$preview"
+  echo "the input and the result side by side: $preview (docs/images/bunny-preview.png is one)"
 else
   echo "../shared/data not found: processing a generated scan instead"
   "$bin/client/scanprep" simulate --points 200000 -o "$out/sample.ply"

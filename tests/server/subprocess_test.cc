@@ -471,6 +471,49 @@ TEST(Cli, ReadsStandardInputAndWritesStandardOutput) {
   EXPECT_EQ(server.Terminate(), 0);
 }
 
+// The PNG's width and height from its header (the pixels are preview_test's business).
+std::pair<uint32_t, uint32_t> PngSize(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string head(24, '\0');
+  in.read(head.data(), 24);
+  if (head.compare(1, 3, "PNG") != 0) return {0, 0};
+  auto be32 = [&](int at) {
+    return (uint32_t{static_cast<uint8_t>(head[at])} << 24) |
+           (uint32_t{static_cast<uint8_t>(head[at + 1])} << 16) |
+           (uint32_t{static_cast<uint8_t>(head[at + 2])} << 8) | static_cast<uint8_t>(head[at + 3]);
+  };
+  return {be32(16), be32(20)};
+}
+
+// `process --preview` draws the job's input and result side by side and still writes only the
+// kept points unless asked; `preview` draws any written cloud in one panel.
+TEST(Cli, PreviewsOfAJobAndOfAFile) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("preview_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const CommandResult sim = RunCli("simulate --points 20000 -o " + (dir / "sim.ply").string());
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  const CommandResult r =
+      RunCli("process " + (dir / "sim.ply").string() + " --job " + (dir / "sim.job.json").string() +
+             " -o " + (dir / "out.ply").string() + " --preview " + (dir / "job.png").string() +
+             " --server " + server.target());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(PngSize(dir / "job.png"), (std::pair<uint32_t, uint32_t>(1280, 576)));
+  std::vector<std::string> warnings;
+  auto out = io::ReadScanFile(dir / "out.ply", warnings);
+  ASSERT_TRUE(out.ok()) << out.status();
+  EXPECT_EQ(out->CountKept(), out->size());  // the removed points came back for the picture only
+  EXPECT_THAT(r.output, HasSubstr(absl::StrCat("wrote ", out->size(), " points to ")));
+  const CommandResult one =
+      RunCli("preview " + (dir / "out.ply").string() + " -o " + (dir / "file.png").string());
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  EXPECT_EQ(PngSize(dir / "file.png"), (std::pair<uint32_t, uint32_t>(640, 576)));
+  EXPECT_EQ(RunCli("preview " + (dir / "out.ply").string()).exit_code, 2);  // no -o
+  fs::remove_all(dir);
+  EXPECT_EQ(server.Terminate(), 0);
+}
+
 // PLY, PCD and XYZ in, PLY, PCD and XYZ out: the same job sent from each input format, and its
 // result written in each output format (removed points included, flagged), reads back with the
 // same points, normals and flags as the PLY round trip.
