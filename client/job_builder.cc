@@ -146,7 +146,7 @@ std::vector<FlagSpec> JobFlags() {
       {"uncertainty", FlagSpec::kValue, "measuring uncertainty of every scan, job unit"},
       {"include_removed", FlagSpec::kBool, "also return removed points, flagged"},
       {"input_format", FlagSpec::kValue,
-       "format of the scan read from standard input (SCAN '-'): ply, pcd, e57 or xyz"},
+       "format of the scan read from standard input (SCAN '-'): ply, pcd, e57, las or xyz"},
   };
 }
 
@@ -195,7 +195,8 @@ absl::StatusOr<io::ScanFormat> ScanArgumentFormat(const std::string& file, const
   if (file != "-") return io::ScanFormatOf(file);
   if (!args.Has("input_format")) {
     return absl::InvalidArgumentError(
-        "SCAN '-' reads standard input: say its format with --input_format (ply, pcd, e57, xyz)");
+        "SCAN '-' reads standard input: say its format with --input_format (ply, pcd, e57, las, "
+        "xyz)");
   }
   return io::ParseScanFormat(args.Get("input_format"));
 }

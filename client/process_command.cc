@@ -286,7 +286,8 @@ Command ProcessCommand() {
       .name = "process",
       .synopsis = "process SCAN... -o OUT.ply [flags]  (SCAN or OUT '-': standard input/output)",
       .summary =
-          "send scans (.ply, .pcd, .e57, .xyz/.asc/.txt/.pts; an E57 file holds several) through "
+          "send scans (.ply, .pcd, .e57, .las, .xyz/.asc/.txt/.pts; an E57 file holds several) "
+          "through "
           "the service; write the result with normals and flags as PLY, PCD or XYZ (by -o's "
           "extension)",
       .flags = std::move(flags),

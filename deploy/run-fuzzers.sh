@@ -8,7 +8,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
 build_dir=${BUILD_DIR:-build-asan}
-targets=(ply_fuzzer xyz_fuzzer pcd_fuzzer e57_fuzzer conf_fuzzer job_file_fuzzer assembler_fuzzer service_fuzzer)
+targets=(ply_fuzzer xyz_fuzzer pcd_fuzzer e57_fuzzer las_fuzzer conf_fuzzer job_file_fuzzer assembler_fuzzer service_fuzzer)
 
 bash deploy/install-deps.sh --sanitizers
 # The same configuration as deploy/run-sanitizers.sh, so both can share one build directory.

@@ -6,6 +6,7 @@
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "core/io/e57.h"
+#include "core/io/las.h"
 #include "core/io/pcd.h"
 #include "core/io/ply.h"
 #include "core/io/xyz.h"
@@ -14,7 +15,7 @@
 namespace scanprep::io {
 namespace {
 
-constexpr char kReadable[] = ".ply, .pcd, .e57, .xyz, .asc, .txt, .pts";
+constexpr char kReadable[] = ".ply, .pcd, .e57, .las, .xyz, .asc, .txt, .pts";
 constexpr char kWritten[] = ".ply, .pcd, .xyz, .asc, .txt";
 
 // One dispatch for files and streams: every reader and writer takes either a path or a stream
@@ -34,6 +35,8 @@ absl::StatusOr<PointCloud> ReadAs(ScanFormat format, std::vector<std::string>& w
       return ReadPcd(std::forward<Source>(source)..., warnings);
     case ScanFormat::kE57:
       return ReadE57(std::forward<Source>(source)..., warnings);
+    case ScanFormat::kLas:
+      return ReadLas(std::forward<Source>(source)..., warnings);
     case ScanFormat::kXyz:
       return ReadXyz(std::forward<Source>(source)..., options.profile_gap);
   }
@@ -51,6 +54,7 @@ absl::Status WriteAs(ScanFormat format, Target&& target, const PointCloud& cloud
     case ScanFormat::kXyz:
       return WriteXyz(target, cloud, options);
     case ScanFormat::kE57:
+    case ScanFormat::kLas:
       break;
   }
   return absl::InvalidArgumentError(
@@ -64,9 +68,10 @@ absl::StatusOr<ScanFormat> ParseScanFormat(std::string_view name) {
   if (lower == "ply") return ScanFormat::kPly;
   if (lower == "pcd") return ScanFormat::kPcd;
   if (lower == "e57") return ScanFormat::kE57;
+  if (lower == "las" || lower == "laz") return ScanFormat::kLas;
   if (lower == "xyz" || lower == "asc" || lower == "txt" || lower == "pts") return ScanFormat::kXyz;
   return absl::InvalidArgumentError(
-      absl::StrCat("unknown scan format '", lower, "' (ply, pcd, e57, xyz, asc, txt, pts)"));
+      absl::StrCat("unknown scan format '", lower, "' (ply, pcd, e57, las, xyz, asc, txt, pts)"));
 }
 
 absl::StatusOr<ScanFormat> ScanFormatOf(const std::filesystem::path& path) {
@@ -79,7 +84,9 @@ absl::StatusOr<ScanFormat> ScanFormatOf(const std::filesystem::path& path) {
   return format;
 }
 
-bool Writable(ScanFormat format) { return format != ScanFormat::kE57; }
+bool Writable(ScanFormat format) {
+  return format != ScanFormat::kE57 && format != ScanFormat::kLas;
+}
 
 absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
                                         std::vector<std::string>& warnings,

@@ -16,14 +16,17 @@
 
 namespace scanprep::io {
 
-enum class ScanFormat { kPly, kPcd, kE57, kXyz };
+enum class ScanFormat { kPly, kPcd, kE57, kLas, kXyz };
 
-// "ply", "pcd", "e57", "xyz" (also "asc", "txt", "pts"), case-insensitive; INVALID_ARGUMENT
+// "ply", "pcd", "e57", "las" (and "laz", refused when read), "xyz" (also "asc", "txt", "pts"),
+// case-insensitive; INVALID_ARGUMENT
 // naming the choices otherwise.
 absl::StatusOr<ScanFormat> ParseScanFormat(std::string_view name);
-// By extension: .ply, .pcd, .e57, .xyz/.asc/.txt/.pts; INVALID_ARGUMENT naming the supported ones.
+// By extension: .ply, .pcd, .e57, .las/.laz, .xyz/.asc/.txt/.pts; INVALID_ARGUMENT naming the
+// supported ones.
 absl::StatusOr<ScanFormat> ScanFormatOf(const std::filesystem::path& path);
-// Whether WriteScanFile/WriteScanStream can write `format` (PLY, PCD and XYZ).
+// Whether WriteScanFile/WriteScanStream can write `format` (PLY, PCD and XYZ; E57 and LAS are
+// read only).
 bool Writable(ScanFormat format);
 
 struct ReadOptions {
@@ -33,8 +36,8 @@ struct ReadOptions {
   double profile_gap = 0;
 };
 
-// ReadPly, ReadPcd, ReadE57 or ReadXyz by the file's extension (ScanFormatOf). What a reader
-// could not use or had to leave out is appended to `warnings`.
+// ReadPly, ReadPcd, ReadE57, ReadLas or ReadXyz by the file's extension (ScanFormatOf). What a
+// reader could not use or had to leave out is appended to `warnings`.
 absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
                                         std::vector<std::string>& warnings,
                                         const ReadOptions& options = {});

@@ -56,9 +56,9 @@ TEST(ScanFile, PcdGoesToThePcdReaderWithItsWarnings) {
 }
 
 TEST(ScanFile, UnknownExtensionIsRejected) {
-  const absl::StatusOr<PointCloud> cloud = ReadScanFile(WriteTemp("scene.las", "whatever"));
+  const absl::StatusOr<PointCloud> cloud = ReadScanFile(WriteTemp("scene.obj", "whatever"));
   ASSERT_EQ(cloud.status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(cloud.status().message().find("unsupported file extension '.las'"), std::string::npos)
+  EXPECT_NE(cloud.status().message().find("unsupported file extension '.obj'"), std::string::npos)
       << cloud.status();
 }
 

@@ -30,6 +30,7 @@
 #include "tests/server/metrics_scrape.h"
 #include "tests/server/server_process.h"
 #include "tests/server/service_fixtures.h"
+#include "tests/support/las_file.h"
 #include "tests/support/run_command.h"
 #include "tests/support/test_data.h"
 
@@ -38,6 +39,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using testing::LasFile;
+using testing::LasPoint;
 
 CommandResult RunCli(const std::string& args) {
   return RunCommand(std::string(SCANPREP_CLI_BINARY) + " " + args);
@@ -433,6 +436,41 @@ TEST(Cli, ProcessesEveryScanFileInTheSharedData) {
       EXPECT_EQ(lines.size(), c.scanlines) << c.file;
     }
   }
+  fs::remove_all(dir);
+  EXPECT_EQ(server.Terminate(), 0);
+}
+
+// A LAS file from a line scanner (20 sweeps of 400 points over a gently curved strip, the scan
+// direction flipping each sweep): every point comes back, in one scanline per sweep.
+TEST(Cli, ProcessesALasLineScan) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("las_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  std::vector<LasPoint> points;
+  for (int sweep = 0; sweep < 20; ++sweep) {
+    for (int k = 0; k < 400; ++k) {
+      const int x = 100 * k;  // 0.1 mm apart (scale 0.001 mm)
+      points.push_back({.x = x,
+                        .y = 200 * sweep,
+                        .z = static_cast<int32_t>(x * static_cast<double>(x) * 1e-5),
+                        .intensity = 1000,
+                        .direction = sweep % 2 == 1});
+    }
+  }
+  const std::string las = LasFile(2, 1, points);
+  std::ofstream(dir / "strip.las", std::ios::binary).write(las.data(), las.size());
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  const CommandResult r =
+      RunCli("process " + (dir / "strip.las").string() + " --unit mm --include_removed -o " +
+             (dir / "out.ply").string() + " --progress off --server " + server.target());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("20 scanlines by scan direction"));
+  std::vector<std::string> warnings;
+  auto cloud = io::ReadScanFile(dir / "out.ply", warnings);
+  ASSERT_TRUE(cloud.ok()) << cloud.status();
+  EXPECT_EQ(cloud->size(), 8'000u);
+  EXPECT_EQ(std::set<uint32_t>(cloud->scanline.begin(), cloud->scanline.end()).size(), 20u);
+  EXPECT_TRUE(cloud->has_normals());
   fs::remove_all(dir);
   EXPECT_EQ(server.Terminate(), 0);
 }
