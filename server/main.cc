@@ -6,7 +6,16 @@
 #include <thread>
 
 #include <pthread.h>
+// GCC says __SANITIZE_ADDRESS__, clang __has_feature(address_sanitizer).
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define SCANPREP_LEAK_CHECK_AT_EXIT
+#endif
+#endif
 #ifdef __SANITIZE_ADDRESS__
+#define SCANPREP_LEAK_CHECK_AT_EXIT
+#endif
+#ifdef SCANPREP_LEAK_CHECK_AT_EXIT
 #include <sanitizer/lsan_interface.h>
 #endif
 
@@ -237,7 +246,7 @@ int main(int argc, char** argv) {
   // down, so the process ends here, after the leak check a sanitizer build runs at exit.
   std::cout.flush();
   std::cerr.flush();
-#ifdef __SANITIZE_ADDRESS__
+#ifdef SCANPREP_LEAK_CHECK_AT_EXIT
   __lsan_do_leak_check();
 #endif
   std::_Exit(0);
