@@ -40,23 +40,6 @@ T Load(const char* p) {
   return kHostIsBigEndian ? ByteSwapped(value) : value;
 }
 
-// CRC-32C (Castagnoli), as E57 protects each page.
-uint32_t Crc32c(const char* data, size_t n) {
-  static const std::array<uint32_t, 256> table = [] {
-    std::array<uint32_t, 256> t{};
-    for (uint32_t i = 0; i < 256; ++i) {
-      uint32_t c = i;
-      for (int k = 0; k < 8; ++k) c = (c >> 1) ^ ((c & 1) ? 0x82F63B78u : 0);
-      t[i] = c;
-    }
-    return t;
-  }();
-  uint32_t crc = 0xFFFFFFFFu;
-  for (size_t i = 0; i < n; ++i)
-    crc = table[(crc ^ static_cast<uint8_t>(data[i])) & 0xFF] ^ (crc >> 8);
-  return crc ^ 0xFFFFFFFFu;
-}
-
 // The file without its page checksums, each checked (stored big-endian at the end of its page).
 absl::StatusOr<std::string> LogicalBytes(std::string_view file, uint64_t page_size,
                                          const std::string& name) {
@@ -68,7 +51,7 @@ absl::StatusOr<std::string> LogicalBytes(std::string_view file, uint64_t page_si
     uint32_t stored;
     std::memcpy(&stored, p + payload, sizeof stored);
     if (!kHostIsBigEndian) stored = ByteSwapped(stored);
-    if (Crc32c(p, payload) != stored) {
+    if (E57PageChecksum(std::string_view(p, payload)) != stored) {
       return absl::InvalidArgumentError(absl::StrCat(name, ": page ", page, " (bytes ",
                                                      page * page_size,
                                                      "..) fails its CRC-32C: "
@@ -461,6 +444,21 @@ absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size
 }
 
 }  // namespace
+
+uint32_t E57PageChecksum(std::string_view payload) {
+  static const std::array<uint32_t, 256> table = [] {
+    std::array<uint32_t, 256> t{};
+    for (uint32_t i = 0; i < 256; ++i) {
+      uint32_t c = i;
+      for (int k = 0; k < 8; ++k) c = (c >> 1) ^ ((c & 1) ? 0x82F63B78u : 0);
+      t[i] = c;
+    }
+    return t;
+  }();
+  uint32_t crc = 0xFFFFFFFFu;
+  for (char byte : payload) crc = table[(crc ^ static_cast<uint8_t>(byte)) & 0xFF] ^ (crc >> 8);
+  return crc ^ 0xFFFFFFFFu;
+}
 
 absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string& name,
                                         std::vector<std::string>& warnings) {

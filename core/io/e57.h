@@ -2,6 +2,7 @@
 // ASTM E57 (E2807) reader: the format metrology and terrestrial scanners export.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <istream>
 #include <string>
@@ -29,6 +30,10 @@ namespace scanprep::io {
 // String fields and damaged pages (CRC-32C) are INVALID_ARGUMENT naming the scan, field or page.
 // Every size is checked against the file before anything is allocated for it. Fields the
 // service has no use for (colour, returns, time stamps) are named in a warning.
+// The CRC-32C (Castagnoli) an E57 page carries over its payload, stored big-endian in the page's
+// last four bytes.
+uint32_t E57PageChecksum(std::string_view payload);
+
 absl::StatusOr<PointCloud> ReadE57(const std::filesystem::path& path,
                                    std::vector<std::string>& warnings);
 absl::StatusOr<PointCloud> ReadE57(std::istream& in, const std::string& name_for_errors,

@@ -1,4 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
+// LAS reader: the public header fixes the layout, the records are decoded in one pass that also
+// splits the scanlines.
 #include "core/io/las.h"
 
 #include <algorithm>

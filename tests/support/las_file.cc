@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
+// The writer behind LasFile: the ASPRS public header and point records, byte by byte.
 #include "tests/support/las_file.h"
 
 #include <cmath>
