@@ -99,6 +99,7 @@ absl::StatusOr<PointCloud> ReadLasBytes(std::string_view file, const std::string
   double angle_min = std::numeric_limits<double>::infinity(), angle_max = -angle_min;
   uint32_t lines = 0;
   uint8_t previous = 0;
+  uint64_t line_start = 0;
   for (uint64_t i = 0; i < count; ++i) {
     const char* p = h + offset + i * record;
     float* xyz[3] = {&cloud.x[i], &cloud.y[i], &cloud.z[i]};
@@ -114,7 +115,14 @@ absl::StatusOr<PointCloud> ReadLasBytes(std::string_view file, const std::string
     cloud.intensity[i] = Load<uint16_t>(p + 12);
     // Bit 6: scan direction, bit 7: edge of flight line (the last point of its line).
     const uint8_t flags = static_cast<uint8_t>(p[extended ? 15 : 14]) & 0xC0;
-    if (i > 0 && (((flags ^ previous) & 0x40) != 0 || (previous & 0x80) != 0)) ++lines;
+    // The edge flag marks a line's last point; some scanners mark its first as well, so an edge
+    // point that opened its line ends nothing.
+    const bool turned = ((flags ^ previous) & 0x40) != 0;
+    const bool after_last = (previous & 0x80) != 0 && i - 1 > line_start;
+    if (i > 0 && (turned || after_last)) {
+      ++lines;
+      line_start = i;
+    }
     line[i] = lines;
     previous = flags;
     const double angle = extended ? Load<int16_t>(p + 18) * 0.006 : static_cast<int8_t>(p[16]);

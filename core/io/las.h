@@ -16,7 +16,8 @@ namespace scanprep::io {
 // LAS 1.0 to 1.4, point data record formats 0 to 10: X, Y, Z as scaled integers (x = X * scale +
 // offset, in the file's units), intensity -> intensity. The scan structure: a new scanline starts
 // where the scan direction flag changes or after a point on the edge of the flight line (the last
-// of its line); a file with a single line gets none. The scan angle is read and its range given in
+// of its line; an edge point that is the first of its line, as some scanners also mark, ends
+// nothing); a file with a single line gets none. The scan angle is read and its range given in
 // a warning (it is not a per-point value of the service). Records longer than their format
 // (extra bytes) are stepped over; variable-length records are skipped by the header's offset.
 // Compressed LAZ (point format with bit 7 or 6 set, or a .laz name) is INVALID_ARGUMENT naming a

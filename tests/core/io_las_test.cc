@@ -73,6 +73,20 @@ TEST(Las, Format6Version14WithExtraBytesAndTheWideScanAngle) {
                                                       "-12.000 to 12.000")));
 }
 
+// A scanner that marks both ends of each line on the flight-line edge, with one scan direction:
+// three lines of four points, not a line per marked point.
+TEST(Las, EdgeFlagsOnBothEndsOfALineMakeOneLine) {
+  std::vector<LasPoint> points;
+  for (int i = 0; i < 12; ++i) {
+    points.push_back(
+        {.x = 1000 * i, .y = 0, .z = 0, .intensity = 1, .edge = i % 4 == 0 || i % 4 == 3});
+  }
+  std::vector<std::string> warnings;
+  auto cloud = Read(LasFile(2, 0, points), warnings);
+  ASSERT_TRUE(cloud.ok()) << cloud.status();
+  EXPECT_EQ(cloud->scanline, (std::vector<uint32_t>{0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2}));
+}
+
 // Control for the scanline rule: flags that never change give no scanlines.
 TEST(Las, OneSweepHasNoScanlines) {
   std::vector<LasPoint> points = Sweeps();
