@@ -236,7 +236,7 @@ Rgb DisplacementColour(double fraction) {
           static_cast<uint8_t>(std::lround(c.z()))};
 }
 
-PreviewView ChooseView(const PointCloud& cloud) {
+PreviewView ChooseView(const PointCloud& cloud, const ScanMeta& scan) {
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (size_t i = 0; i < cloud.size(); ++i) mean += cloud.point(i).cast<double>();
   mean /= std::max<size_t>(1, cloud.size());
@@ -247,7 +247,6 @@ PreviewView ChooseView(const PointCloud& cloud) {
   }
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> pca(covariance);
   PreviewView view;
-  const ScanMeta scan = cloud.scans.empty() ? ScanMeta{} : cloud.scans.front();
   if (scan.camera_position && (mean - *scan.camera_position).norm() > 0) {
     view.direction = (mean - *scan.camera_position).normalized();
     view.source = "scanner";

@@ -50,11 +50,11 @@ struct PreviewView {
   std::string source;         // "scanner" or "automatic", printed in the legend
 };
 
-// From the first scan's camera_position toward the cloud's centre when it has one, against its
-// view_direction (a line scanner's) when it has that, else along
-// the cloud's thinnest principal direction (the side a scan is usually seen from), turned so the
-// normals, when there are any, face the camera.
-PreviewView ChooseView(const PointCloud& cloud);
+// From `scanner`'s camera_position toward the cloud's centre when it has one, against its
+// view_direction (a line scanner's) when it has that, else along the cloud's thinnest principal
+// direction (the side a scan is usually seen from), turned so the normals, when there are any,
+// face the camera.
+PreviewView ChooseView(const PointCloud& cloud, const ScanMeta& scanner);
 
 struct PreviewPanels {
   // What was sent (in the result's frame: the scans' poses applied) and what came back with

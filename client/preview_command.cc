@@ -20,7 +20,8 @@ int RunPreview(const ParsedArgs& args) {
   if (!cloud.ok()) return Fail("preview", std::string(cloud.status().message()));
   for (const std::string& w : warnings) std::cerr << "note: " << w << "\n";
   const PreviewPanels panels{.result = &*cloud};
-  const Image image = RenderPreview(panels, ChooseView(*cloud));
+  const ScanMeta scanner = cloud->scans.empty() ? ScanMeta{} : cloud->scans.front();
+  const Image image = RenderPreview(panels, ChooseView(*cloud, scanner));
   if (absl::Status s = WritePng(args.Get("out"), image); !s.ok()) {
     return Fail("preview", std::string(s.message()));
   }

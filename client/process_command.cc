@@ -23,6 +23,8 @@
 #include "client/progress_view.h"
 #include "client/scanprep_client.h"
 #include "core/io/scan_file.h"
+#include "core/status_macros.h"
+#include "server/convert.h"
 
 namespace scanprep::client {
 namespace {
@@ -111,46 +113,34 @@ std::string UnitName(v1::LengthUnit unit) {
   }
 }
 
-// What was sent, moved into the result's frame by each scan's to_common as the server moves it,
-// with the first scan's camera there too, so the preview can set it beside the result.
-PointCloud InCommonFrame(const PointCloud& sent, const v1::JobHeader& header) {
+// The input and the result side by side, with how far smoothing moved each kept point. What was
+// sent is moved into the result's frame by each scan's to_common exactly as the server moves it
+// (server/convert.h, which works in millimetres; the result is in job units), and so is the first
+// scan's sensor, which sets the view.
+absl::Status WritePreview(const std::string& path, const PointCloud& sent,
+                          const v1::JobHeader& header, const PointCloud& result) {
+  SCANPREP_ASSIGN_OR_RETURN(const double mm_per_unit, server::MillimetresPerUnit(header.unit()));
   PointCloud input = sent;
-  std::vector<Eigen::Isometry3d> poses;
-  for (const v1::ScanHeader& scan : header.scans()) {
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    if (scan.has_to_common()) {
-      const v1::RigidTransform& t = scan.to_common();
-      const v1::Quaternion& q = t.rotation();
-      if (t.has_rotation())
-        pose.linear() =
-            Eigen::Quaterniond(q.w(), q.x(), q.y(), q.z()).normalized().toRotationMatrix();
-      pose.translation() =
-          Eigen::Vector3d(t.translation().x(), t.translation().y(), t.translation().z());
+  std::vector<server::ScanFrame> frames;
+  ScanMeta scanner;
+  for (int s = 0; s < header.scans_size(); ++s) {
+    const std::string field = absl::StrCat("header.scans[", s, "]");
+    SCANPREP_ASSIGN_OR_RETURN(server::ScanFrame frame,
+                              server::FrameFromProto(header.scans(s), mm_per_unit, field));
+    if (s == 0) {
+      SCANPREP_ASSIGN_OR_RETURN(scanner, server::ScanMetaFromProto(header.scans(0), frame, field));
+      if (scanner.camera_position) *scanner.camera_position /= mm_per_unit;
     }
-    poses.push_back(pose);
+    frames.push_back(frame);
   }
   for (size_t i = 0; i < input.size(); ++i) {
     const size_t s = input.scan.empty() ? 0 : input.scan[i];
-    if (s >= poses.size()) continue;
-    const Eigen::Vector3f p = (poses[s] * input.point(i).cast<double>()).cast<float>();
-    input.x[i] = p.x(), input.y[i] = p.y(), input.z[i] = p.z();
+    if (s >= frames.size()) continue;
+    const Eigen::Vector3d p = frames[s].Point(input.point(i).cast<double>()) / mm_per_unit;
+    input.x[i] = static_cast<float>(p.x());
+    input.y[i] = static_cast<float>(p.y());
+    input.z[i] = static_cast<float>(p.z());
   }
-  input.scans.assign(1, ScanMeta{});
-  if (!header.scans().empty() && header.scans(0).has_camera_position()) {
-    const v1::Vec3& c = header.scans(0).camera_position();
-    input.scans[0].camera_position = poses[0] * Eigen::Vector3d(c.x(), c.y(), c.z());
-  }
-  if (!header.scans().empty() && header.scans(0).has_view_direction()) {
-    const v1::Vec3& d = header.scans(0).view_direction();
-    input.scans[0].view_direction = poses[0].linear() * Eigen::Vector3d(d.x(), d.y(), d.z());
-  }
-  return input;
-}
-
-// The input and the result side by side, with how far smoothing moved each kept point.
-absl::Status WritePreview(const std::string& path, const PointCloud& sent,
-                          const v1::JobHeader& header, const PointCloud& result) {
-  const PointCloud input = InCommonFrame(sent, header);
   PreviewPanels panels{.input = &input, .result = &result, .unit = UnitName(header.unit())};
   if (input.size() == result.size()) {
     panels.displacement.resize(result.size());
@@ -158,9 +148,7 @@ absl::Status WritePreview(const std::string& path, const PointCloud& sent,
       panels.displacement[i] = result.removed(i) ? 0 : (result.point(i) - input.point(i)).norm();
     }
   }
-  PointCloud viewpoint = result;
-  viewpoint.scans = input.scans;
-  return WritePng(path, RenderPreview(panels, ChooseView(viewpoint)));
+  return WritePng(path, RenderPreview(panels, ChooseView(result, scanner)));
 }
 
 int RunProcess(const ParsedArgs& args) {

@@ -56,7 +56,7 @@ TEST(Preview, InputAndResultSideBySideInTheirColours) {
   const Scene s = Plate();
   const PreviewPanels panels{
       .input = &s.input, .result = &s.result, .displacement = s.displacement, .unit = "mm"};
-  const PreviewView view = ChooseView(s.result);
+  const PreviewView view = ChooseView(s.result, s.result.scans[0]);
   EXPECT_EQ(view.source, "automatic");
   EXPECT_NEAR(view.direction.z(), -1, 1e-9);  // face-on, looking against the normals
   const Image image = RenderPreview(panels, view);
@@ -92,7 +92,7 @@ TEST(Preview, AnUntouchedCloudHasNoneOfTheMarkingColours) {
   s.displacement.assign(s.result.size(), 0);
   const PreviewPanels panels{
       .input = &s.input, .result = &s.result, .displacement = s.displacement};
-  const Image image = RenderPreview(panels, ChooseView(s.result));
+  const Image image = RenderPreview(panels, ChooseView(s.result, s.result.scans[0]));
   for (Rgb c : {kOutlierColour, kMergeColour, kSimplifyColour, kEdgeColour}) {
     EXPECT_EQ(Count(image, c, 0, 2 * kPanel), 0);
   }
@@ -105,7 +105,7 @@ TEST(Preview, OneCloudFromItsScannersView) {
   Scene s = Plate();
   s.result.scans[0].camera_position = Eigen::Vector3d(-100, 20, 0);
   s.result.nx.clear(), s.result.ny.clear(), s.result.nz.clear();
-  const PreviewView view = ChooseView(s.result);
+  const PreviewView view = ChooseView(s.result, s.result.scans[0]);
   EXPECT_EQ(view.source, "scanner");
   EXPECT_NEAR(view.direction.x(), 1, 0.01);
   const Image image = RenderPreview({.result = &s.result}, view);
@@ -116,7 +116,7 @@ TEST(Preview, OneCloudFromItsScannersView) {
 
 TEST(Preview, PngReadsBackAsTheImage) {
   const Scene s = Plate();
-  const Image image = RenderPreview({.result = &s.result}, ChooseView(s.result));
+  const Image image = RenderPreview({.result = &s.result}, ChooseView(s.result, s.result.scans[0]));
   const std::filesystem::path path = std::filesystem::path(::testing::TempDir()) / "preview.png";
   ASSERT_TRUE(WritePng(path, image).ok());
   png_image read{};
