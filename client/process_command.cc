@@ -12,7 +12,6 @@
 #include <Eigen/Geometry>
 
 #include "absl/status/statusor.h"
-#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
 #include "client/call_error.h"
@@ -77,11 +76,8 @@ absl::StatusOr<io::ScanFormat> OutputFormat(const ParsedArgs& args) {
       return absl::InvalidArgumentError(
           absl::StrCat("--output_format applies to -o - only; ", out, " has its extension"));
     }
-    auto format = io::ScanFormatOf(out);
-    if (format.ok() && io::Writable(*format) &&
-        absl::AsciiStrToLower(fs::path(out).extension().string()) != ".pts") {
-      return format;
-    }
+    auto format = io::WritableFormatOf(out);
+    if (format.ok()) return format;
     return absl::InvalidArgumentError(
         absl::StrCat("-o ", out,
                      ": the result is written as PLY, PCD or XYZ, chosen by the extension; give a "

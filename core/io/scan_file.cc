@@ -102,16 +102,21 @@ absl::StatusOr<PointCloud> ReadScanStream(std::istream& in, ScanFormat format,
   return ReadAs(format, warnings, options, name_for_errors, in, name_for_errors);
 }
 
-absl::Status WriteScanFile(const std::filesystem::path& path, const PointCloud& cloud,
-                           const WriteOptions& options) {
+absl::StatusOr<ScanFormat> WritableFormatOf(const std::filesystem::path& path) {
+  const std::string extension = absl::AsciiStrToLower(path.extension().string());
   auto format = ScanFormatOf(path);
-  if (!format.ok() || !Writable(*format) ||
-      absl::AsciiStrToLower(path.extension().string()) == ".pts") {
+  if (!format.ok() || !Writable(*format) || extension == ".pts") {  // PTS's count line: not written
     return absl::InvalidArgumentError(absl::StrCat(path.string(), ": cannot write '",
                                                    path.extension().string(),
                                                    "' files (written: ", kWritten, ")"));
   }
-  return WriteAs(*format, path, cloud, options);
+  return format;
+}
+
+absl::Status WriteScanFile(const std::filesystem::path& path, const PointCloud& cloud,
+                           const WriteOptions& options) {
+  SCANPREP_ASSIGN_OR_RETURN(ScanFormat format, WritableFormatOf(path));
+  return WriteAs(format, path, cloud, options);
 }
 
 absl::Status WriteScanStream(std::ostream& out, ScanFormat format, const PointCloud& cloud,

@@ -28,6 +28,9 @@ absl::StatusOr<ScanFormat> ScanFormatOf(const std::filesystem::path& path);
 // Whether WriteScanFile/WriteScanStream can write `format` (PLY, PCD and XYZ; E57 and LAS are
 // read only).
 bool Writable(ScanFormat format);
+// The format WriteScanFile writes `path` in: .ply, .pcd, .xyz/.asc/.txt; INVALID_ARGUMENT for any
+// other extension (.pts, a read-only format) naming the written ones.
+absl::StatusOr<ScanFormat> WritableFormatOf(const std::filesystem::path& path);
 
 struct ReadOptions {
   // Text files without a scanline column: a jump longer than this (file units) between
