@@ -121,21 +121,33 @@ struct Projection {
   }
 };
 
+// The range of `values` without its outermost 0.5 % at each end, so a stray far point does not
+// shrink the picture of everything else to a dot (it is drawn off the panel, clipped).
+std::pair<double, double> CoreRange(std::vector<double>& values) {
+  const size_t n = values.size(), cut = n >= 200 ? n / 200 : 0;
+  std::nth_element(values.begin(), values.begin() + cut, values.end());
+  const double lo = values[cut];
+  std::nth_element(values.begin(), values.end() - 1 - cut, values.end());
+  return {lo, values[n - 1 - cut]};
+}
+
 Projection Fit(const PointCloud& cloud, const PreviewView& view) {
   Projection p{.right = view.direction.cross(view.up), .up = view.up, .direction = view.direction};
-  double x0 = std::numeric_limits<double>::max(), x1 = -x0, y0 = x0, y1 = -x0;
+  if (cloud.size() == 0) return p;
+  std::vector<double> xs(cloud.size()), ys(cloud.size());
   for (size_t i = 0; i < cloud.size(); ++i) {
     const Eigen::Vector3d q = cloud.point(i).cast<double>();
-    x0 = std::min(x0, q.dot(p.right)), x1 = std::max(x1, q.dot(p.right));
-    y0 = std::min(y0, q.dot(p.up)), y1 = std::max(y1, q.dot(p.up));
+    xs[i] = q.dot(p.right), ys[i] = q.dot(p.up);
   }
+  const auto [x0, x1] = CoreRange(xs);
+  const auto [y0, y1] = CoreRange(ys);
   const double w = std::max(x1 - x0, 1e-12), h = std::max(y1 - y0, 1e-12);
   p.scale =
       std::min((kPanelWidth - 2 * kMargin) / w, (kPanelHeight - kTitleHeight - 2 * kMargin) / h);
   p.cx = (x0 + x1) / 2, p.cy = (y0 + y1) / 2;
   // Splats about the points' spacing on screen, so a surface looks closed but detail stays.
   const double area = w * h * p.scale * p.scale;
-  p.splat = std::clamp(static_cast<int>(std::sqrt(area / std::max<size_t>(1, cloud.size()))), 1, 3);
+  p.splat = std::clamp(static_cast<int>(std::sqrt(area / cloud.size())), 1, 3);
   return p;
 }
 
@@ -154,6 +166,9 @@ class Panel {
     const Eigen::Vector2d s = projection_.Screen(p);
     const double depth =
         on_top ? -std::numeric_limits<double>::infinity() : p.dot(projection_.direction);
+    // Off the panel (a stray far point, outside the fitted core): nothing to draw, and no
+    // coordinate too large for an int.
+    if (!(s.x() > -8 && s.x() < kPanelWidth + 8 && s.y() > -8 && s.y() < kPanelHeight + 8)) return;
     const int sx = static_cast<int>(std::floor(s.x())), sy = static_cast<int>(std::floor(s.y()));
     for (int dy = 0; dy < projection_.splat; ++dy) {
       for (int dx = 0; dx < projection_.splat; ++dx) {

@@ -114,6 +114,25 @@ TEST(Preview, OneCloudFromItsScannersView) {
   EXPECT_GT(Count(image, kMergeColour, 0, kPanel), 0);
 }
 
+// A stray point 10^8 units away (a far-away reflection) is left off the picture instead of
+// shrinking the plate to a dot: the plate covers as many pixels as without it (control).
+TEST(Preview, AFarAwayPointDoesNotShrinkThePicture) {
+  const Scene s = Plate();
+  const Image plain = RenderPreview({.result = &s.result}, ChooseView(s.result, s.result.scans[0]));
+  Scene far = Plate();
+  for (PointCloud* c : {&far.input, &far.result}) {
+    c->x.push_back(1e8f), c->y.push_back(0), c->z.push_back(0), c->scan.push_back(0);
+    c->flags.push_back(0);
+  }
+  far.result.nx.push_back(0), far.result.ny.push_back(0), far.result.nz.push_back(1);
+  const Image image =
+      RenderPreview({.result = &far.result}, ChooseView(far.result, far.result.scans[0]));
+  const Rgb grey = Rgb{235, 235, 235};
+  const int drawn = Count(plain, grey, 0, kPanel);
+  EXPECT_GT(drawn, 10'000);
+  EXPECT_NEAR(Count(image, grey, 0, kPanel), drawn, drawn / 20);
+}
+
 TEST(Preview, PngReadsBackAsTheImage) {
   const Scene s = Plate();
   const Image image = RenderPreview({.result = &s.result}, ChooseView(s.result, s.result.scans[0]));
