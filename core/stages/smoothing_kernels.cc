@@ -63,20 +63,19 @@ SmoothingOutcome Mean(const SmoothingInputs& in, size_t i, const Eigen::Vector3f
   return Limit(in.s, in.s.tolerance[in.cloud.scan[i]], p, (target - p0).cast<float>(), out);
 }
 
+// A plane through `origin`, relative to the point being smoothed (which is at 0).
 struct Plane {
   Eigen::Vector3f origin, normal;
-  float Offset(const Eigen::Vector3f& q) const { return (q - origin).dot(normal); }
+  float OffsetOfCentre() const { return -origin.dot(normal); }
 };
 
 // Summed base weight of the matches within `gate` of the plane.
-float Support(const SmoothingInputs& in, const SmoothingScratch& scratch, const Plane& plane,
-              float gate) {
+float Support(SmoothingScratch& scratch, const Plane& plane, float gate) {
+  const std::vector<float>& offset = scratch.ball.OffsetsFrom(plane.origin, plane.normal);
+  const float* base = scratch.base.data();
   float support = 0;
-  for (size_t k = 0; k < scratch.matches.size(); ++k) {
-    if (std::abs(plane.Offset(in.cloud.point(scratch.matches[k].first))) <= gate) {
-      support += scratch.base[k];
-    }
-  }
+#pragma omp simd reduction(+ : support)
+  for (size_t k = 0; k < offset.size(); ++k) support += std::abs(offset[k]) <= gate ? base[k] : 0.f;
   return support;
 }
 
@@ -86,13 +85,19 @@ std::optional<Plane> BestSeed(const SmoothingInputs& in, size_t i, const Eigen::
                               float gate, SmoothingScratch& scratch) {
   FlattestNeighbours(in.cloud, in.m, scratch.matches, i, kSeeds - 1, scratch.seeds);
   if (!(in.cloud.flags[i] & kNormalInvalid)) scratch.seeds.emplace_back(0.f, i);
+  // A plane that holds every match's weight cannot be beaten (a later one must hold more): on a
+  // flat face the first, flattest, seed usually does, and the others are not counted. Summed by
+  // the same loop, so "every" compares equal.
+  const float everything =
+      Support(scratch, Plane{Eigen::Vector3f::Zero(), Eigen::Vector3f::UnitZ()}, HUGE_VALF);
   std::optional<Plane> best;
   float best_support = 0;
   for (const auto& [variation, j] : scratch.seeds) {
-    const Plane plane{in.cloud.point(j), in.cloud.normal(j)};
-    if (std::abs(plane.Offset(p)) > gate) continue;
-    const float support = Support(in, scratch, plane, gate);
+    const Plane plane{in.cloud.point(j) - p, in.cloud.normal(j)};
+    if (std::abs(plane.OffsetOfCentre()) > gate) continue;
+    const float support = Support(scratch, plane, gate);
     if (support > best_support) best_support = support, best = plane;
+    if (best_support >= everything) break;
   }
   return best;
 }
@@ -108,24 +113,24 @@ SmoothingOutcome OwnSide(const SmoothingInputs& in, size_t i, const Eigen::Vecto
   const float own = in.cloud.flags[i] & kNormalInvalid ? 0.f : in.m.fit_rms[i];
   const float sigma = std::clamp(own, scan_noise, kLocalNoiseCap * scan_noise);
   const float gate = kMoveSigmas * sigma;
+  scratch.ball.Gather(in.cloud, scratch.matches, p);
   std::optional<Plane> plane = BestSeed(in, i, p, gate, scratch);
   if (!plane) return kUnfitted;
   const float inv_two_s2 = 1.f / (2 * sigma * sigma);
   for (int fit = 0; fit < kRefits; ++fit) {
     MomentAccumulator moments;
-    for (size_t k = 0; k < scratch.matches.size(); ++k) {
-      const Eigen::Vector3f q = in.cloud.point(scratch.matches[k].first);
-      const float offset = plane->Offset(q);
-      if (std::abs(offset) > gate || !(scratch.base[k] > 0)) continue;
-      moments.Add((q - p).cast<double>(),
-                  scratch.base[k] * std::exp(-offset * offset * inv_two_s2));
+    const std::vector<float>& offset = scratch.ball.OffsetsFrom(plane->origin, plane->normal);
+    for (size_t k = 0; k < offset.size(); ++k) {
+      if (std::abs(offset[k]) > gate || !(scratch.base[k] > 0)) continue;
+      moments.Add(scratch.ball.at(k).cast<double>(),
+                  scratch.base[k] * std::exp(-offset[k] * offset[k] * inv_two_s2));
     }
     const LocalFrame frame = moments.Solve();
     if (!frame.valid || moments.count() < kMinInliers) return kUnfitted;
-    plane = Plane{p + frame.centroid.cast<float>(), frame.normal().cast<float>()};
+    plane = Plane{frame.centroid.cast<float>(), frame.normal().cast<float>()};
   }
   const float delta = in.s.fixed_tolerance ? in.s.tolerance[scan] : kMoveSigmas * sigma;
-  return Limit(in.s, delta, p, -plane->Offset(p) * plane->normal, out);
+  return Limit(in.s, delta, p, -plane->OffsetOfCentre() * plane->normal, out);
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 
 #include "core/point_cloud.h"
 #include "core/point_measures.h"
+#include "core/spatial/ball_points.h"
 #include "core/spatial/neighbourhoods.h"
 
 namespace scanprep {
@@ -47,6 +48,7 @@ inline constexpr float kMoveSigmas = 3.f;
 
 struct SmoothingScratch {
   RadiusMatches matches;
+  BallPoints ball;                                // the matches' positions relative to the point
   std::vector<float> base;                        // w_j·Φ per match
   std::vector<std::pair<float, uint32_t>> seeds;  // (surface variation, point index)
 };

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/pipeline/parallel.h"
+#include "core/spatial/ball_points.h"
 #include "core/spatial/flattest_neighbours.h"
 #include "core/spatial/local_moments.h"
 
@@ -26,14 +27,24 @@ constexpr float kGateSigmas = 3.f;
 // the surface; with fewer, near a plane but not surrounded by it.
 constexpr double kSurroundedShare = 0.5;
 
-struct Scratch {
-  RadiusMatches matches;
-  std::vector<std::pair<float, uint32_t>> candidates;  // (surface variation, index)
-};
-
+// A plane through `origin`, relative to the point judged (which is at 0).
 struct Plane {
   Eigen::Vector3f origin, normal;
-  float Offset(const Eigen::Vector3f& q) const { return std::abs((q - origin).dot(normal)); }
+  float OffsetOfCentre() const { return std::abs(origin.dot(normal)); }
+};
+
+// A candidate plane: its offset from the point judged and its rank by flatness.
+struct Candidate {
+  float offset;
+  size_t rank;
+  Plane plane;
+};
+
+struct Scratch {
+  RadiusMatches matches;
+  BallPoints ball;  // the matches' positions relative to the point judged
+  std::vector<std::pair<float, uint32_t>> candidates;  // (surface variation, index)
+  std::vector<Candidate> nearest_first;
 };
 
 struct Judged {
@@ -44,23 +55,32 @@ struct Judged {
 };
 
 // The plane fitted to the matches that lie within `gate` of `plane` (or, `inside` false, to those
-// that do not), with the offset of p from it.
-std::optional<Judged> Refit(const PointCloud& cloud, const Eigen::Vector3f& p, const Plane& plane,
-                            float gate, bool inside, const Scratch& scratch) {
+// that do not), with the offset of the point from it.
+std::optional<Judged> Refit(const Plane& plane, float gate, bool inside, Scratch& scratch) {
   MomentAccumulator moments;
-  for (const auto& [k, d2] : scratch.matches) {
-    const Eigen::Vector3f q = cloud.point(k);
-    if ((plane.Offset(q) <= gate) == inside) moments.Add((q - p).cast<double>(), 1.0);
+  const std::vector<float>& offset = scratch.ball.OffsetsFrom(plane.origin, plane.normal);
+  for (size_t k = 0; k < offset.size(); ++k) {
+    if ((std::abs(offset[k]) <= gate) == inside)
+      moments.Add(scratch.ball.at(k).cast<double>(), 1.0);
   }
   if (moments.count() < kMinSupport) return std::nullopt;
   const LocalFrame frame = moments.Solve();
   if (!frame.valid) return std::nullopt;
-  return Judged{Plane{p + frame.centroid.cast<float>(), frame.normal().cast<float>()},
+  return Judged{Plane{frame.centroid.cast<float>(), frame.normal().cast<float>()},
                 static_cast<float>(std::abs(frame.centroid.dot(frame.normal()))),
                 // A plane fitted to n points leaves them n − 3 degrees of freedom.
                 static_cast<float>(std::sqrt(frame.eigenvalues[0] * double(moments.count()) /
                                              double(moments.count() - 3))),
-                static_cast<float>(moments.count()) / static_cast<float>(scratch.matches.size())};
+                static_cast<float>(moments.count()) / static_cast<float>(offset.size())};
+}
+
+// How many of the matches lie within `gate` of the plane.
+size_t Support(const Plane& plane, float gate, Scratch& scratch) {
+  const std::vector<float>& offset = scratch.ball.OffsetsFrom(plane.origin, plane.normal);
+  uint32_t support = 0;
+#pragma omp simd reduction(+ : support)
+  for (size_t k = 0; k < offset.size(); ++k) support += std::abs(offset[k]) <= gate;
+  return support;
 }
 
 // The nearest plane (to point i) that its neighbours support, refitted to its supporters; and,
@@ -68,37 +88,42 @@ std::optional<Judged> Refit(const PointCloud& cloud, const Eigen::Vector3f& p, c
 // edge the flattest neighbours may all be of the other face, and p, on its own sparser face, is
 // off their plane without being off the surface. Nothing when no candidate is supported.
 std::optional<Judged> NearestSupportedPlane(const PointCloud& cloud, size_t i, float gate,
-                                            const Scratch& scratch) {
+                                            Scratch& scratch) {
   const Eigen::Vector3f p = cloud.point(i);
+  scratch.ball.Gather(cloud, scratch.matches, p);
   const size_t support_needed =
       std::max(kMinSupport, static_cast<size_t>(kMinSupportShare * scratch.matches.size()));
+  // The candidates nearest first (ties: flattest first), so the first supported one is the
+  // answer and the support of the others is never counted.
+  auto& nearest_first = scratch.nearest_first;
+  nearest_first.clear();
+  for (size_t rank = 0; rank < scratch.candidates.size(); ++rank) {
+    const uint32_t j = scratch.candidates[rank].second;
+    const Plane plane{cloud.point(j) - p, cloud.normal(j)};
+    nearest_first.push_back({plane.OffsetOfCentre(), rank, plane});
+  }
+  std::sort(nearest_first.begin(), nearest_first.end(), [](const auto& a, const auto& b) {
+    return a.offset < b.offset || (a.offset == b.offset && a.rank < b.rank);
+  });
   std::optional<Plane> nearest;
-  float nearest_offset = 0;
-  for (const auto& [variation, j] : scratch.candidates) {
-    const Plane plane{cloud.point(j), cloud.normal(j)};
-    const float offset = plane.Offset(p);
-    if (nearest && offset >= nearest_offset) continue;
-    size_t support = 0;
-    for (const auto& [k, d2] : scratch.matches) support += plane.Offset(cloud.point(k)) <= gate;
-    if (support < support_needed) continue;
-    nearest = plane;
-    nearest_offset = offset;
+  for (const Candidate& candidate : nearest_first) {
+    if (Support(candidate.plane, gate, scratch) < support_needed) continue;
+    nearest = candidate.plane;
+    break;
   }
   if (!nearest) return std::nullopt;
-  std::optional<Judged> own = Refit(cloud, p, *nearest, gate, true, scratch);
+  std::optional<Judged> own = Refit(*nearest, gate, true, scratch);
   // Once more within 3 of the supporters' own σ: noise tails and other spikes near the plane
   // would widen σ and tilt the plane.
   if (own) {
     const float scan_sigma = gate / (kGateSigmas * kLocalNoiseCap);
     const float tight =
         kGateSigmas * std::clamp(own->sigma, scan_sigma, kLocalNoiseCap * scan_sigma);
-    if (std::optional<Judged> refit = Refit(cloud, p, own->plane, tight, true, scratch)) {
-      own = refit;
-    }
+    if (std::optional<Judged> refit = Refit(own->plane, tight, true, scratch)) own = refit;
   }
   if (!own || own->offset <= gate) return own;
   // The rest are a surface only if they lie as close to their plane as a supporter may.
-  const std::optional<Judged> rest = Refit(cloud, p, *nearest, gate, false, scratch);
+  const std::optional<Judged> rest = Refit(*nearest, gate, false, scratch);
   const bool surface = rest && rest->sigma <= gate / kGateSigmas;
   return surface && rest->offset < own->offset ? rest : own;
 }
