@@ -151,6 +151,8 @@ class CorrectionStage : public Stage {
         !s.ok()) {
       return s;
     }
+    ctx.Record("correction.balls_cached", static_cast<double>(balls.kept()));
+    ctx.Record("correction.balls_beyond_cache", static_cast<double>(balls.over_budget()));
     // Only a point whose neighbourhood lost a point can change its verdict; when r_c exceeds
     // the k-NN list the list cannot tell, so the point is re-judged.
     auto touched = [&](size_t i) {
@@ -173,12 +175,11 @@ class CorrectionStage : public Stage {
           go[i] = 0;
           if (cloud.removed(i) || settled[i] || (round > 0 && !touched(i))) continue;
           const float r = radius[cloud.scan[i]];
-          if (r <= nb.dk(i)) {
-            nb.Within(cloud, i, r, matches);
-          } else if (!balls.Within(cloud, i, matches)) {
+          if (balls.Rejected(i)) {
             settled[i] = 1;  // gathered, but not kept: one scan
             continue;
           }
+          balls.Within(cloud, nb, i, r, matches);
           const Verdict v = Judge(cloud, quality, matches);
           settled[i] = !v.overlap;
           go[i] = ShouldGo(cloud, quality, v, uint32_t(i));
