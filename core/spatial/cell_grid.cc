@@ -65,8 +65,10 @@ void RobustBox(const PointCloud& cloud, double lo[3], double hi[3]) {
 
 absl::Status CellGrid::Build(const PointCloud& cloud, float cell_edge, const CancelToken& cancel) {
   const size_t n = cloud.size();
-  entries_.clear();
-  id_.clear();
+  // Freed, not cleared: a rebuild (the points moved) would otherwise hold the old entries beside
+  // the sort's two arrays of keys, the job's memory peak.
+  entries_ = {};
+  id_ = {};
   cell_start_.assign(1, 0);
   cell_z_.clear();
   column_start_.assign(2, 0);

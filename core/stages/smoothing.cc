@@ -48,7 +48,6 @@ class SmoothingStage : public Stage {
     const int iterations = static_cast<int>(ctx.Integer("smoothing.iterations"));
     ctx.ExpectWork(kLoopItemsPerIteration * iterations * double(n));
 
-    std::vector<Eigen::Vector3f> next(n);
     std::vector<uint8_t> outcome(n);
     std::vector<uint8_t> moved_ever(n, 0);
     size_t counts[5] = {};
@@ -58,6 +57,7 @@ class SmoothingStage : public Stage {
       if (!nb.ok()) return nb.status();
       const SmoothingInputs in{cloud, **nb, m, settings};
       const std::span<const uint32_t> order = (*nb)->order();
+      std::vector<Eigen::Vector3f> next(n);
       absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
         SmoothingScratch scratch;
         for (size_t v = begin; v < end; ++v) {
@@ -79,6 +79,7 @@ class SmoothingStage : public Stage {
       for (size_t i = 0; i < n; ++i) {
         cloud.x[i] = next[i].x(), cloud.y[i] = next[i].y(), cloud.z[i] = next[i].z();
       }
+      next = {};  // before the grid is rebuilt on the new positions: the job's memory peak
       SCANPREP_RETURN_IF_ERROR(ctx.PointsMoved(max_shift));
       ctx.Progress((it + 1.0) / iterations);
     }
