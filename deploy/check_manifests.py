@@ -7,7 +7,8 @@ may use (required fields, types, no unknown keys: a typo is an error, not a sile
 field), then what must hold between them and the server:
 
   - the Deployment's memory limit holds the formula of the server's admission control,
-    128 MiB + max_concurrent_jobs x (16 MiB + 768 B x max_points_per_job), for its own flags;
+    128 MiB + max_concurrent_jobs x (16 MiB + kBytesPerPoint x max_points_per_job), for its own
+    flags (the constants read from server/memory_budget.h);
   - no `replicas` beside an HPA; clients rebalance (--max_connection_age); the termination grace
     covers --grace_period plus the preStop sleep;
   - Pod Security Standard "restricted" with a read-only root;
@@ -26,6 +27,20 @@ import yaml
 
 DEPLOY = pathlib.Path(__file__).resolve().parent
 MIB = 1024 * 1024
+
+
+def budget_constant(name):
+    """A constant of the server's admission arithmetic, as server/memory_budget.h defines it."""
+    header = (DEPLOY.parent / "server" / "memory_budget.h").read_text()
+    m = re.search(rf"constexpr uint64_t {name} = (?:uint64_t\{{(\d+)\}} << (\d+)|(\d+));", header)
+    if not m:
+        sys.exit(f"check_manifests: {name} not found in server/memory_budget.h")
+    return int(m[1]) << int(m[2]) if m[1] else int(m[3])
+
+
+BYTES_PER_POINT = budget_constant("kBytesPerPoint")
+JOB_OVERHEAD = budget_constant("kJobOverheadBytes")
+SERVER_RESERVE = budget_constant("kServerReserveBytes")
 
 # --- schemas ---------------------------------------------------------------------------------
 # A schema is a type (str, int, bool, float), "any", a list [schema] or a dict of keys, where a
@@ -294,11 +309,12 @@ def check_deployment(obj, by_kind, findings):
             findings.append(f"{cw}: --max_concurrent_jobs and --max_points_per_job must be set "
                             f"(the memory limit is derived from them)")
         elif limit is not None:
-            need = 128 * MIB + int(jobs) * (16 * MIB + 768 * int(points))
+            need = SERVER_RESERVE + int(jobs) * (JOB_OVERHEAD + BYTES_PER_POINT * int(points))
             if need > limit:
                 findings.append(
                     f"{cw}: memory limit {c['resources']['limits']['memory']} is below "
-                    f"128 MiB + {jobs} x (16 MiB + 768 B x {points}) = {need / MIB:.0f} MiB")
+                    f"{SERVER_RESERVE // MIB} MiB + {jobs} x ({JOB_OVERHEAD // MIB} MiB + "
+                    f"{BYTES_PER_POINT} B x {points}) = {need / MIB:.0f} MiB")
         if c["resources"]["requests"]["memory"] != c["resources"]["limits"]["memory"]:
             findings.append(f"{cw}: memory request differs from the limit (Guaranteed QoS)")
         if flag(args, "max_connection_age") is None:
@@ -432,7 +448,7 @@ BREAKS = {
     "writable root": lambda o: container(o)["securityContext"].update(
         readOnlyRootFilesystem=False),
     "capabilities kept": lambda o: container(o)["securityContext"]["capabilities"].update(drop=[]),
-    "memory formula over the limit": lambda o: set_arg(o, "max_points_per_job", "2000000"),
+    "memory formula over the limit": lambda o: set_arg(o, "max_points_per_job", "4000000"),
     "no connection age": lambda o: container(o).update(
         args=[a for a in container(o)["args"] if not a.startswith("--max_connection_age=")]),
     "image :latest": lambda o: container(o).update(image="scanprep:latest"),

@@ -10,7 +10,8 @@
 # startup) per point, the transport's share of the processing time, and the 2-thread speed-up.
 # Usage: deploy/run-e2e-benchmark.sh [--no-header] [POINTS...]   (default 1000000 4000000)
 # Environment: BUILD_DIR (default build), THREADS (default "1 2"), SKIP_BUILD=1 when the caller
-# has just built.
+# has just built, PARAMS (space-separated name=value overrides for every job, e.g.
+# "correction.radius_scale=100", the worst case of server/memory_budget.h).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 header=1
@@ -18,6 +19,8 @@ if [[ ${1:-} == --no-header ]]; then header=0; shift; fi
 sizes=("$@")
 ((${#sizes[@]})) || sizes=(1000000 4000000)
 read -ra threads <<<"${THREADS:-1 2}"
+params=()
+for p in ${PARAMS:-}; do params+=(--param "$p"); done
 source deploy/lib/bench-setup.sh  # cli, bin, work, server_pid, cleanup on exit
 
 # kB value of a /proc/PID/status field.
@@ -36,7 +39,7 @@ for n in "${sizes[@]}"; do
     sleep 1  # let startup settle before taking the idle baseline
     idle_kb=$(status_kb "$server_pid" VmRSS)
     "$cli" process "$work"/sim_*.ply --job "$work/sim.job.json" -o "$work/out.ply" \
-      --server "127.0.0.1:$port" --report_json "$work/report.json" >/dev/null
+      --server "127.0.0.1:$port" --report_json "$work/report.json" "${params[@]}" >/dev/null
     peak_kb=$(status_kb "$server_pid" VmHWM)
     stop_local_server || true
     server_pid=

@@ -2,22 +2,20 @@
 // Memory-aware admission's arithmetic: a job's memory estimated from its declared point count
 // before any point arrives, and the budget the running jobs' estimates must fit in.
 //
-// Measured (2026-11-23, Release, 2 arena threads, `scanprep simulate --scans 2` clouds: a box
+// Measured (2026-11-25, Release, 2 arena threads, `scanprep simulate --scans 2` clouds: a box
 // with a bore seen by two overlapping line scanners; one job per fresh server; peak VmHWM minus
-// the idle server's VmRSS of 19.6 MiB, upload and download included), in bytes per point:
+// the idle server's VmRSS of 19.6 MiB, upload and download included;
+// `PARAMS=... THREADS=2 deploy/run-e2e-benchmark.sh N`), in bytes per point:
 //   points      default   k = 64   correction.radius_scale = 100   both
-//   250,000       240       415                558
-//   1,000,000     262       398                554                  1449
-//   2,000,000                                  569
-//   4,000,000     379       499
-// The peak is in correction, which caches each overlapping point's ball of radius r_c. r_c is
-// capped at 2 r_g (r_g about the k-th neighbour's distance), so a ball holds at most about 4k
-// points however dense the scan: the default rows grow with density (the 4 M cloud is the same
-// part sampled 3.3x denser) towards the radius_scale = 100 rows, where every ball is at its cap,
-// flat in the point count. That saturated cost is the worst a job can reach; it grows by about
-// 20 B per neighbour (the graph's 4 B and four cached ball entries per neighbour). A linear fit
-// of the default rows has a fixed part below zero: the per-job overhead (thread-local buffers,
-// one 4 MiB gRPC message) is bounded by kJobOverheadBytes. The upload holds the assembled arrays
+//   1,000,000     229       399                282                   479
+//   4,000,000     253                          291
+// Correction caches each overlapping point's ball of radius r_c (r_c at most 2 r_g, so at most
+// about 4k points), compactly and within a budget of kBallCacheBytesPerPoint per point
+// (core/spatial/ball_cache.h), so the radius_scale = 100 rows, where every ball is at that
+// limit, are the worst a job can reach; before the cache was bounded they were 554-569. The
+// rest is the k-NN graph (4 B per neighbour), the grid, the cloud and the per-point measures; it
+// grows by about 4.5 B per neighbour. The per-job overhead (thread-local buffers, one 4 MiB gRPC
+// message) is bounded by kJobOverheadBytes. The upload holds the assembled arrays
 // (xyz, scan, optional scanline, quality, intensity: 16-28 B/point, three times that for the
 // moment a vector grows) and one chunk message (at most 4 MiB) at a time, far below the peak.
 #pragma once
@@ -31,11 +29,11 @@
 
 namespace scanprep::server {
 
-// k = 20: the worst measured, 569 B/point (balls at their cap), with a 35 % margin.
-inline constexpr uint64_t kBytesPerPoint = 768;
-// Each neighbour above k = 20: measured 20 B, with a 40 % margin (k = 64 at the cap: 2,000 B
-// estimated, 1,449 measured). A smaller k is estimated as k = 20.
-inline constexpr uint64_t kBytesPerPointPerExtraNeighbour = 28;
+// k = 20: the worst measured, 291 B/point (balls at their limit), with a 35 % margin.
+inline constexpr uint64_t kBytesPerPoint = 400;
+// Each neighbour above k = 20: measured 4.5 B, with a margin (k = 64 at the limit: 752 B
+// estimated, 479 measured). A smaller k is estimated as k = 20.
+inline constexpr uint64_t kBytesPerPointPerExtraNeighbour = 8;
 inline constexpr int kDefaultNeighbours = 20;
 inline constexpr uint64_t kJobOverheadBytes = uint64_t{16} << 20;
 // The server's own memory outside any job: the idle process (19.6 MiB), gRPC's buffers of the

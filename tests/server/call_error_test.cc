@@ -169,7 +169,7 @@ TEST(CallError, EveryReasonIsParsedByTheClient) {
       {"JOB_TOO_LARGE", RawCall(*stub, {HeaderRequest(SimpleHeader(), 5000)}), ""},
       {"SHUTTING_DOWN", RawCall(*draining.Stub(), small_job), ""},
       {"JOB_EXCEEDS_MEMORY",
-       RawCall(*tight_memory.Stub(), {HeaderRequest(SimpleHeader(), 100'000)}), ""},
+       RawCall(*tight_memory.Stub(), {HeaderRequest(SimpleHeader(), 200'000)}), ""},
       {"TOO_MANY_SCANS", RawCall(*stub, {HeaderRequest(two_scans, 10)}), ""},
       {"CHUNK_TOO_LARGE",
        RawCall(*stub, {HeaderRequest(SimpleHeader(), 100), ChunkRequest(LineChunk(100))}), ""},

@@ -840,7 +840,7 @@ TEST(Cli, InfoPrintsStagesAndLimits) {
   const CommandResult r = RunCli("info --server " + server.target());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("1000000 points per job"));
-  EXPECT_THAT(r.output, HasSubstr("a job estimated at 768 B/point"));
+  EXPECT_THAT(r.output, HasSubstr("a job estimated at 400 B/point"));
   EXPECT_THAT(r.output, HasSubstr("outliers"));
   EXPECT_THAT(r.output, HasSubstr("outliers.multiplier"));
 }
@@ -871,8 +871,8 @@ uint64_t PeakRssOfTwelveConcurrentJobs(uint64_t memory_budget) {
   return PeakRss(server.pid());
 }
 
-// Each job is estimated at 16 MiB + 250,051 x 768 B = 208.8 MB, so a 450 MB budget runs two at a
-// time and a 4 GB one all twelve. Measured on 2 cores: 623 MB peak with 4 GB, 238 MB with 450 MB.
+// Each job is estimated at 16 MiB + 250,051 x 400 B = 116.8 MB, so a 450 MB budget runs three at
+// a time and a 4 GB one all twelve.
 TEST(ServerBinary, ConcurrentJobsStayWithinTheMemoryBudget) {
 #ifdef SCANPREP_SANITIZED
   // ASan's shadow memory and its quarantine of freed blocks (up to 256 MB) are part of the RSS
