@@ -60,6 +60,18 @@ const PointCloud& PartsInARowCloud(size_t points) {
   return *slot;
 }
 
+const PointCloud& UnorganizedCloud(size_t points) {
+  static std::map<size_t, std::unique_ptr<PointCloud>> cache;
+  auto& slot = cache[points];
+  if (!slot) {
+    slot = std::make_unique<PointCloud>(ReferenceCloud(points));
+    slot->scanline.clear();
+    slot->kind = ScannerKind::kFlexible;
+    for (ScanMeta& scan : slot->scans) scan.scanline_spacing = 0;
+  }
+  return *slot;
+}
+
 double PeakRssBytes() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);

@@ -20,6 +20,10 @@ const PointCloud& ReferenceCloud(size_t points);
 // the point count alone.
 const PointCloud& PartsInARowCloud(size_t points);
 
+// ReferenceCloud(points) as a point soup: no scanlines, a flexible scanner without a scanline
+// spacing (r_min = ε_u), the poses kept. Issue 14's unorganized case.
+const PointCloud& UnorganizedCloud(size_t points);
+
 // Peak resident set size of this process so far, in bytes.
 double PeakRssBytes();
 

@@ -64,6 +64,11 @@ BENCHMARK_CAPTURE(RunPipelineCase, DefaultPipelinePartsInARow, std::string(), Pa
     ->Args({4'000'000, 2})
     ->Apply(Timing)
     ->UseManualTime();
+// The same points without scanlines (a point soup from a flexible scanner).
+BENCHMARK_CAPTURE(RunPipelineCase, DefaultPipelineUnorganized, std::string(), UnorganizedCloud)
+    ->Args({1'000'000, 2})
+    ->Apply(Timing)
+    ->UseManualTime();
 BENCHMARK_CAPTURE(RunPipelineCase, outliers, std::string("outliers"))
     ->Apply(Sizes)
     ->UseManualTime();
