@@ -7,14 +7,15 @@
 // the idle server's VmRSS of 19.6 MiB, upload and download included;
 // `PARAMS=... THREADS=2 deploy/run-e2e-benchmark.sh N`), in bytes per point:
 //   points      default   k = 64   correction.radius_scale = 100   both
-//   1,000,000     229       399                282                   479
-//   4,000,000     253                          291
+//   1,000,000     241       398                308                   491
+//   4,000,000     283                          305
+//  20,000,000     327 (the largest job; measured before the grid's cells went from d_k to 2·d_k)
 // Correction caches each overlapping point's ball of radius r_c (r_c at most 2 r_g, so at most
 // about 4k points), compactly and within a budget of kBallCacheBytesPerPoint per point
 // (core/spatial/ball_cache.h), so the radius_scale = 100 rows, where every ball is at that
 // limit, are the worst a job can reach; before the cache was bounded they were 554-569. The
 // rest is the k-NN graph (4 B per neighbour), the grid, the cloud and the per-point measures; it
-// grows by about 4.5 B per neighbour. The per-job overhead (thread-local buffers, one 4 MiB gRPC
+// grows by about 4.2 B per neighbour. The per-job overhead (thread-local buffers, one 4 MiB gRPC
 // message) is bounded by kJobOverheadBytes. The upload holds the assembled arrays
 // (xyz, scan, optional scanline, quality, intensity: 16-28 B/point, three times that for the
 // moment a vector grows) and one chunk message (at most 4 MiB) at a time, far below the peak.
@@ -29,10 +30,10 @@
 
 namespace scanprep::server {
 
-// k = 20: the worst measured, 291 B/point (balls at their limit), with a 35 % margin.
-inline constexpr uint64_t kBytesPerPoint = 400;
-// Each neighbour above k = 20: measured 4.5 B, with a margin (k = 64 at the limit: 752 B
-// estimated, 479 measured). A smaller k is estimated as k = 20.
+// k = 20: the worst measured, 308 B/point (balls at their limit), with a 35 % margin.
+inline constexpr uint64_t kBytesPerPoint = 416;
+// Each neighbour above k = 20: measured 4.2 B, with a margin (k = 64 at the limit: 768 B
+// estimated, 491 measured). A smaller k is estimated as k = 20.
 inline constexpr uint64_t kBytesPerPointPerExtraNeighbour = 8;
 inline constexpr int kDefaultNeighbours = 20;
 inline constexpr uint64_t kJobOverheadBytes = uint64_t{16} << 20;

@@ -57,21 +57,21 @@ grpc::Status HeaderOnly(const InProcessServer& server, uint64_t points,
 
 TEST(MemoryAdmission, AJobLargerThanTheBudgetIsRefusedAtItsHeaderWithTheNumbers) {
   InProcessServer server({.memory_budget_bytes = kBudget});
-  // 200,000 points: 16 MiB + 200,000 x 400 B = 96,777,216 bytes, over the 67,108,864 budget.
+  // 200,000 points: 16 MiB + 200,000 x 416 B = 99,977,216 bytes, over the 67,108,864 budget.
   const grpc::Status status = HeaderOnly(server, 200'000);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(status.error_message(),
-              HasSubstr("estimated memory of 92 MiB (96777216 bytes, from header.total_points) "
+              HasSubstr("estimated memory of 95 MiB (99977216 bytes, from header.total_points) "
                         "exceeds the server's whole memory budget of 64 MiB (67108864 bytes, "
                         "memory_budget)"));
   const ErrorInfo info = ParseErrorInfo(status);
   EXPECT_EQ(info.reason, "JOB_EXCEEDS_MEMORY");
-  EXPECT_EQ(info.metadata.at("estimate_bytes"), "96777216");
+  EXPECT_EQ(info.metadata.at("estimate_bytes"), "99977216");
   EXPECT_EQ(info.metadata.at("budget_bytes"), "67108864");
   EXPECT_FALSE(info.retry_info);  // it will never fit on this server
   EXPECT_EQ(client::ExitCodeFor(client::FromGrpc(status)), client::kExitFixInput);
 
-  // 120,000 points (64,777,216 bytes) fit: admitted, then refused for the missing points.
+  // 120,000 points (66,697,216 bytes) fit: admitted, then refused for the missing points.
   const grpc::Status fits = HeaderOnly(server, 120'000);
   EXPECT_EQ(fits.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << fits.error_message();
   EXPECT_THAT(fits.error_message(), HasSubstr("total_points"));
@@ -80,10 +80,10 @@ TEST(MemoryAdmission, AJobLargerThanTheBudgetIsRefusedAtItsHeaderWithTheNumbers)
 TEST(MemoryAdmission, ALargerNeighbourCountRaisesTheEstimate) {
   InProcessServer server({.memory_budget_bytes = kBudget});
   EXPECT_EQ(HeaderOnly(server, 80'000).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  // k = 64: 752 B/point, 80,000 points = 76,937,216 bytes.
+  // k = 64: 768 B/point, 80,000 points = 78,217,216 bytes.
   const grpc::Status status = HeaderOnly(server, 80'000, {{"neighbourhoods.k", "64"}});
   EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
-  EXPECT_EQ(ParseErrorInfo(status).metadata.at("estimate_bytes"), "76937216");
+  EXPECT_EQ(ParseErrorInfo(status).metadata.at("estimate_bytes"), "78217216");
 }
 
 TEST(MemoryAdmission, GetInfoReportsTheBudgetAndTheBytesPerPoint) {

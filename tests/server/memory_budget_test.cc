@@ -16,20 +16,20 @@ constexpr uint64_t kMiB = uint64_t{1} << 20;
 constexpr uint64_t kGiB = uint64_t{1} << 30;
 
 TEST(MemoryEstimate, IsTheFixedOverheadPlusTheBytesPerPointOfItsK) {
-  EXPECT_EQ(EstimateJobBytes(1'000'000, {}), 16 * kMiB + 400'000'000);
+  EXPECT_EQ(EstimateJobBytes(1'000'000, {}), 16 * kMiB + 416'000'000);
   // k = 64: 44 neighbours above the default at 8 B each.
-  EXPECT_EQ(BytesPerPoint({{"neighbourhoods.k", "64"}}), 400u + 44 * 8);
-  EXPECT_EQ(EstimateJobBytes(1'000'000, {{"neighbourhoods.k", "64"}}), 16 * kMiB + 752'000'000);
+  EXPECT_EQ(BytesPerPoint({{"neighbourhoods.k", "64"}}), 416u + 44 * 8);
+  EXPECT_EQ(EstimateJobBytes(1'000'000, {{"neighbourhoods.k", "64"}}), 16 * kMiB + 768'000'000);
   // A smaller k is estimated like the default, never below it.
-  EXPECT_EQ(BytesPerPoint({{"neighbourhoods.k", "3"}}), 400u);
-  EXPECT_EQ(BytesPerPoint({{"outliers.multiplier", "2.5"}}), 400u);
+  EXPECT_EQ(BytesPerPoint({{"neighbourhoods.k", "3"}}), 416u);
+  EXPECT_EQ(BytesPerPoint({{"outliers.multiplier", "2.5"}}), 416u);
 }
 
 TEST(MemoryEstimate, CoversTheWorstMeasuredPeaksWithAMargin) {
   // The measurements in memory_budget.h (B/point above the idle server): the worst default-k run
   // (balls at their cap) and the worst k = 64 run.
-  EXPECT_GE(BytesPerPoint({}), 291 * 1.3);
-  EXPECT_GE(BytesPerPoint({{"neighbourhoods.k", "64"}}), 479 * 1.3);
+  EXPECT_GE(BytesPerPoint({}), 308 * 1.3);
+  EXPECT_GE(BytesPerPoint({{"neighbourhoods.k", "64"}}), 491 * 1.3);
 }
 
 TEST(AutoMemoryBudget, IsTheContainerLimitMinusTheServersReserve) {
@@ -64,10 +64,10 @@ TEST(ParseCgroupLimit, ReadsBytesAndTreatsMaxAsNoLimit) {
 }
 
 TEST(ResolveMemoryLimits, DefaultsTheLargestJobToWhatFitsTheBudget) {
-  // The shipped pod: a 2 GiB limit gives 1920 MiB; one job of (1920 - 16) MiB / 400 B.
+  // The shipped pod: a 2 GiB limit gives 1920 MiB; one job of (1920 - 16) MiB / 416 B.
   auto limits = ResolveMemoryLimits(2 * kGiB - 128 * kMiB, 0);
   ASSERT_TRUE(limits.ok()) << limits.status();
-  EXPECT_EQ(limits->max_points_per_job, (1904 * kMiB) / 400);
+  EXPECT_EQ(limits->max_points_per_job, (1904 * kMiB) / 416);
   EXPECT_EQ(limits->budget.source, "--memory_budget");
   // A large budget keeps the 20 M default.
   limits = ResolveMemoryLimits(64 * kGiB, 0);
@@ -83,10 +83,10 @@ TEST(ResolveMemoryLimits, RefusesAJobLimitTheBudgetCannotMeet) {
   auto limits = ResolveMemoryLimits(kGiB, 20'000'000);
   EXPECT_EQ(limits.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(limits.status().message(),
-              HasSubstr("--max_points_per_job=20000000 needs an estimated 7645 MiB (16 MiB + "
-                        "400 B/point), more than the memory budget of 1024 MiB (--memory_budget)"));
+              HasSubstr("--max_points_per_job=20000000 needs an estimated 7951 MiB (16 MiB + "
+                        "416 B/point), more than the memory budget of 1024 MiB (--memory_budget)"));
   EXPECT_THAT(limits.status().message(),
-              HasSubstr("at most " + std::to_string((kGiB - 16 * kMiB) / 400)));
+              HasSubstr("at most " + std::to_string((kGiB - 16 * kMiB) / 416)));
   limits = ResolveMemoryLimits(kMiB, 0);
   EXPECT_EQ(limits.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(limits.status().message(), HasSubstr("leaves no room for a job"));

@@ -840,7 +840,7 @@ TEST(Cli, InfoPrintsStagesAndLimits) {
   const CommandResult r = RunCli("info --server " + server.target());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("1000000 points per job"));
-  EXPECT_THAT(r.output, HasSubstr("a job estimated at 400 B/point"));
+  EXPECT_THAT(r.output, HasSubstr("a job estimated at 416 B/point"));
   EXPECT_THAT(r.output, HasSubstr("outliers"));
   EXPECT_THAT(r.output, HasSubstr("outliers.multiplier"));
 }
@@ -871,7 +871,7 @@ uint64_t PeakRssOfTwelveConcurrentJobs(uint64_t memory_budget) {
   return PeakRss(server.pid());
 }
 
-// Each job is estimated at 16 MiB + 250,051 x 400 B = 116.8 MB, so a 450 MB budget runs three at
+// Each job is estimated at 16 MiB + 250,051 x 416 B = 120.8 MB, so a 450 MB budget runs three at
 // a time and a 4 GB one all twelve.
 TEST(ServerBinary, ConcurrentJobsStayWithinTheMemoryBudget) {
 #ifdef SCANPREP_SANITIZED
