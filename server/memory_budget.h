@@ -9,7 +9,7 @@
 //   points      default   k = 64   correction.radius_scale = 100   both
 //   1,000,000     241       398                308                   491
 //   4,000,000     283                          305
-//  20,000,000     327 (the largest job; measured before the grid's cells went from d_k to 2·d_k)
+//  20,000,000     322 (the job limit; docs/benchmarks.md "Largest job")
 // Correction caches each overlapping point's ball of radius r_c (r_c at most 2 r_g, so at most
 // about 4k points), compactly and within a budget of kBallCacheBytesPerPoint per point
 // (core/spatial/ball_cache.h), so the radius_scale = 100 rows, where every ball is at that
