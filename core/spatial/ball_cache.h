@@ -39,7 +39,9 @@ class BallCache {
   // Gathered and turned down by `keep`.
   bool Rejected(size_t i) const { return !state_.empty() && state_[i].block == kRejected; }
   // Like Neighbourhoods::Within(cloud, i, radius) for a ball that Gather() asked, skipping the
-  // points removed since: from the cache when it was kept, else from the grid.
+  // points removed since: from the cache when it was kept, else from the grid. A ball that was at
+  // its cap (max_ball_points(), the nearest) when gathered keeps those points; asked from the grid
+  // after removals it may reach the next ones instead.
   void Within(const PointCloud& cloud, const Neighbourhoods& nb, size_t i, float radius,
               RadiusMatches& out) const;
 
