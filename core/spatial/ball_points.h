@@ -28,7 +28,6 @@ class BallPoints {
       z_[k] = cloud.z[j] - centre.z();
     }
   }
-  size_t size() const { return x_.size(); }
   Eigen::Vector3f at(size_t k) const { return {x_[k], y_[k], z_[k]}; }
 
   // Signed offset of every point from the plane through `origin` (relative to the centre) with unit
