@@ -14,25 +14,30 @@ namespace {
 
 constexpr int kMaxBitsPerAxis = 21;
 
+// A point's cell key and index. The key is (column << z_bits | z cell); 32 bits hold it for
+// every cloud whose grid has at most 2^32 cells (the common case), which halves the sort's
+// memory, the grid's peak while it is rebuilt.
+template <typename Key>
 struct Keyed {
-  uint64_t key;
+  Key key;
   uint32_t id;
 };
 
 // LSD radix sort on the low `bits` bits of the keys, 11 bits a pass; stable, so equal keys keep
 // index order.
-void RadixSort(std::vector<Keyed>& items, int bits) {
+template <typename Key>
+void RadixSort(std::vector<Keyed<Key>>& items, int bits) {
   constexpr int kDigit = 11;
-  std::vector<Keyed> buffer(items.size());
+  std::vector<Keyed<Key>> buffer(items.size());
   std::vector<size_t> count(size_t{1} << kDigit);
   for (int shift = 0; shift < bits; shift += kDigit) {
     std::fill(count.begin(), count.end(), 0);
     const uint64_t mask = (uint64_t{1} << kDigit) - 1;
-    for (const Keyed& item : items) ++count[(item.key >> shift) & mask];
+    for (const auto& item : items) ++count[(item.key >> shift) & mask];
     if (count[(items.front().key >> shift) & mask] == items.size()) continue;  // one bucket
     size_t sum = 0;
     for (size_t& c : count) sum += std::exchange(c, sum);
-    for (const Keyed& item : items) buffer[count[(item.key >> shift) & mask]++] = item;
+    for (const auto& item : items) buffer[count[(item.key >> shift) & mask]++] = item;
     items.swap(buffer);
   }
 }
@@ -73,6 +78,7 @@ absl::Status CellGrid::Build(const PointCloud& cloud, float cell_edge, const Can
   cell_z_.clear();
   column_start_.assign(2, 0);
   cells_[0] = cells_[1] = cells_[2] = 1;
+  key_bits_ = 0;
   if (n == 0) return absl::OkStatus();
 
   double lo[3], hi[3];
@@ -94,43 +100,54 @@ absl::Status CellGrid::Build(const PointCloud& cloud, float cell_edge, const Can
   const int z_bits = std::bit_width(uint64_t(cells_[2] - 1));
   const uint64_t columns = uint64_t(cells_[0] * cells_[1]);
 
-  std::vector<Keyed> keyed(n);
+  key_bits_ = z_bits + std::bit_width(columns - 1);
+  return key_bits_ <= 32 ? Sort<uint32_t>(cloud, z_bits, key_bits_, cancel)
+                         : Sort<uint64_t>(cloud, z_bits, key_bits_, cancel);
+}
+
+template <typename Key>
+absl::Status CellGrid::Sort(const PointCloud& cloud, int z_bits, int key_bits,
+                            const CancelToken& cancel) {
+  const size_t n = cloud.size();
+  std::vector<Keyed<Key>> keyed(n);
   absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       const float p[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
       uint64_t c[3];
       for (int a = 0; a < 3; ++a) c[a] = static_cast<uint64_t>(PointCell(p[a], a));
-      keyed[i] = {(c[0] * cells_[1] + c[1]) << z_bits | c[2], static_cast<uint32_t>(i)};
+      keyed[i] = {static_cast<Key>((c[0] * cells_[1] + c[1]) << z_bits | c[2]),
+                  static_cast<uint32_t>(i)};
     }
   });
   if (!status.ok()) return status;
-  RadixSort(keyed, z_bits + std::bit_width(columns - 1));
+  RadixSort(keyed, key_bits);
   SCANPREP_RETURN_IF_ERROR(cancel.Check());
 
-  entries_.resize(n);
+  // The order and the cell tables from the keys, which are then freed before the entries are
+  // filled: keys and entries together would be the rebuild's peak.
   id_.resize(n);
-  status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
-    for (size_t e = begin; e < end; ++e) {
-      const uint32_t i = keyed[e].id;
-      entries_[e] = {cloud.x[i], cloud.y[i], cloud.z[i], i};
-      id_[e] = i;
-    }
-  });
-  if (!status.ok()) return status;
-
   cell_z_.clear();
   cell_start_.clear();
-  column_start_.assign(columns + 1, 0);
+  column_start_.assign(uint64_t(cells_[0] * cells_[1]) + 1, 0);
   const uint64_t z_mask = (uint64_t{1} << z_bits) - 1;
   for (size_t e = 0; e < n; ++e) {
+    id_[e] = keyed[e].id;
     if (e > 0 && keyed[e].key == keyed[e - 1].key) continue;
     cell_z_.push_back(static_cast<uint32_t>(keyed[e].key & z_mask));
     cell_start_.push_back(static_cast<uint32_t>(e));
-    ++column_start_[(keyed[e].key >> z_bits) + 1];
+    ++column_start_[(uint64_t(keyed[e].key) >> z_bits) + 1];
   }
+  keyed = {};
   cell_start_.push_back(static_cast<uint32_t>(n));
-  for (size_t c = 0; c < columns; ++c) column_start_[c + 1] += column_start_[c];
-  return absl::OkStatus();
+  for (size_t c = 0; c + 1 < column_start_.size(); ++c) column_start_[c + 1] += column_start_[c];
+
+  entries_.resize(n);
+  return ParallelFor(n, cancel, [&](size_t begin, size_t end) {
+    for (size_t e = begin; e < end; ++e) {
+      const uint32_t i = id_[e];
+      entries_[e] = {cloud.x[i], cloud.y[i], cloud.z[i], i};
+    }
+  });
 }
 
 size_t CellGrid::Knn(const float q[3], size_t k, uint32_t exclude, float guess, uint32_t* idx,

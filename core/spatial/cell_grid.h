@@ -37,6 +37,8 @@ class CellGrid {
   absl::Status Build(const PointCloud& cloud, float cell_edge, const CancelToken& cancel);
 
   float cell_edge() const { return static_cast<float>(edge_); }
+  // Bits of the cell keys the points were sorted by: up to 32 the sort uses 32-bit keys.
+  int key_bits() const { return key_bits_; }
   // Point indices in cell order: neighbouring entries are near in space.
   std::span<const uint32_t> order() const { return id_; }
 
@@ -86,6 +88,9 @@ class CellGrid {
     }
     out.resize(at);
   }
+  // Sorts the points by cell with keys of type Key (32 or 64 bits) and fills the tables.
+  template <typename Key>
+  absl::Status Sort(const PointCloud& cloud, int z_bits, int key_bits, const CancelToken& cancel);
   double CellOf(float v, int axis) const { return (double(v) - origin_[axis]) * inverse_edge_; }
   // The cell along `axis` that holds coordinate v: points outside the grid's box belong to its
   // outermost cells.
@@ -95,6 +100,7 @@ class CellGrid {
   int64_t PointCell(float v, int axis) const { return ClampedCell(CellOf(v, axis), axis); }
 
   double edge_ = 1, inverse_edge_ = 1;
+  int key_bits_ = 0;
   double origin_[3] = {0, 0, 0};
   int64_t cells_[3] = {1, 1, 1};        // grid extent per axis
   std::vector<Entry> entries_;          // sorted by (column x·cells_y + y, z)

@@ -119,6 +119,30 @@ TEST(CellGrid, BallsAndNeighboursEqualTheKdTreesOnSparseAndDuplicatedPoints) {
   }
 }
 
+// A tall thin column of points: 2^21 cells along z and tens of thousands of columns need sort
+// keys wider than 32 bits, the other sort; the scans' grids (the control) use 32-bit keys.
+TEST(CellGrid, BallsAndNeighboursEqualTheKdTreesWithWideSortKeys) {
+  PointCloud tall;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> across(0.f, 1.f), along(0.f, 10'000.f);
+  for (int i = 0; i < 20'000; ++i) {
+    tall.x.push_back(across(rng));
+    tall.y.push_back(across(rng));
+    tall.z.push_back(along(rng));
+  }
+  tall.FinishLoading();
+  CancelToken cancel;
+  CellGrid grid;
+  ASSERT_TRUE(grid.Build(tall, 0.001f, cancel).ok());  // widened to 10 m / 2^21
+  EXPECT_GT(grid.key_bits(), 32);
+  ExpectSameBalls(tall, grid);
+  ExpectSameKnn(tall, grid, 20);
+
+  CellGrid control;
+  ASSERT_TRUE(control.Build(BoxScans(), 0.f, cancel).ok());
+  EXPECT_LE(control.key_bits(), 32);
+}
+
 TEST(CellGrid, OrderVisitsEveryPointOnce) {
   const PointCloud cloud = BoxScans();
   CellGrid grid;
