@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 #include <numbers>
 #include <random>
 
@@ -58,26 +59,41 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
   if (typical_dk > 0) {
     SCANPREP_RETURN_IF_ERROR(nb->grid_.Build(cloud, kCellEdgePerDk * typical_dk, cancel));
   }
-  nb->index_.resize(n * k);
   nb->dk_.resize(n);
+  nb->delta_.resize(n * k);
+  const std::span<const uint32_t> order = nb->grid_.order();
+  nb->by_rank_.assign(order.begin(), order.end());
+  nb->rank_.resize(n);
+  for (size_t v = 0; v < n; ++v) nb->rank_[order[v]] = static_cast<uint32_t>(v);
 
   // In grid order, so consecutive queries read the same cells, and each starts from a radius
   // just above its predecessor's d_k.
-  const std::span<const uint32_t> order = nb->grid_.order();
+  std::mutex wide_mutex;
+  std::vector<std::pair<uint32_t, std::vector<uint32_t>>> wide;
   absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
     std::vector<uint32_t> idx(k);
     std::vector<float> d2(k);
     std::vector<uint64_t> scratch;
+    std::vector<std::pair<uint32_t, std::vector<uint32_t>>> local_wide;
     float guess = typical_dk;
     for (size_t v = begin; v < end; ++v) {
       const uint32_t i = order[v];
       const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-      nb->grid_.Knn(q, k, i, guess * 1.2f, &nb->index_[size_t(i) * k], d2.data(), scratch);
+      nb->grid_.Knn(q, k, i, guess * 1.2f, idx.data(), d2.data(), scratch);
       nb->dk_[i] = std::sqrt(d2[k - 1]);
       guess = nb->dk_[i];
+      if (!nb->Encode(i, idx.data())) local_wide.emplace_back(i, idx);
     }
+    if (local_wide.empty()) return;
+    std::lock_guard<std::mutex> lock(wide_mutex);
+    for (auto& list : local_wide) wide.push_back(std::move(list));
   });
   if (!status.ok()) return status;
+  std::sort(wide.begin(), wide.end());
+  for (const auto& [i, list] : wide) {
+    nb->wide_of_.emplace_back(i, static_cast<uint32_t>(nb->wide_.size()));
+    nb->wide_.insert(nb->wide_.end(), list.begin(), list.end());
+  }
 
   nb->ComputeGlobalRadius();
   // r_g only sets defaults, r_max = 5·r_g among them (docs/algorithms.md §2). A minimum radius far
@@ -108,11 +124,12 @@ absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shif
   if (k_ == 0) return absl::OkStatus();
   absl::Status status = ParallelFor(cloud.size(), cancel, [&](size_t begin, size_t end) {
     std::vector<float> dist(k_);
+    std::vector<uint32_t> idx(k_);
     for (size_t i = begin; i < end; ++i) {
-      uint32_t* idx = &index_[i * k_];
+      const KnnList list = knn(i);
       // Insertion sort: small moves leave the list nearly ordered.
       for (uint32_t m = 0; m < k_; ++m) {
-        const uint32_t j = idx[m];
+        const uint32_t j = list[m];
         const float d = std::sqrt(cloud.squared_distance(i, j));
         uint32_t at = m;
         for (; at > 0 && dist[at - 1] > d; --at) {
@@ -122,12 +139,48 @@ absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shif
         idx[at] = j;
         dist[at] = d;
       }
+      // The same neighbours re-ordered: their differences fit where they did.
+      if (!Encode(i, idx.data())) std::copy(idx.begin(), idx.end(), &wide_[WideStart(i)]);
       dk_[i] = dist[k_ - 1];
     }
   });
   if (!status.ok()) return status;
   ComputeGlobalRadius();
   return absl::OkStatus();
+}
+
+KnnList Neighbourhoods::knn(size_t i) const {
+  KnnList list;
+  list.k_ = k_;
+  if (k_ == 0) return list;
+  if (delta_[i * k_] == kWideList) {
+    list.wide_ = &wide_[WideStart(i)];
+    return list;
+  }
+  list.delta_ = &delta_[i * k_];
+  list.order_ = by_rank_.data();
+  list.base_ = rank_[i];
+  return list;
+}
+
+uint32_t Neighbourhoods::WideStart(size_t i) const {
+  const auto at = std::lower_bound(wide_of_.begin(), wide_of_.end(),
+                                   std::pair<uint32_t, uint32_t>(static_cast<uint32_t>(i), 0));
+  return at->second;
+}
+
+bool Neighbourhoods::Encode(size_t i, const uint32_t* idx) {
+  int16_t* out = &delta_[i * k_];
+  const int64_t base = rank_[i];
+  for (uint32_t m = 0; m < k_; ++m) {
+    const int64_t delta = int64_t{rank_[idx[m]]} - base;
+    if (delta <= kWideList || delta > INT16_MAX) {
+      out[0] = kWideList;
+      return false;
+    }
+    out[m] = static_cast<int16_t>(delta);
+  }
+  return true;
 }
 
 void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,

@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <iterator>
 #include <memory>
 #include <span>
 #include <vector>
@@ -44,6 +46,45 @@ inline float OwnScanWidening(size_t own, uint32_t k) {
   return std::min(2.f, wanted);
 }
 
+// The k nearest other points of one point, nearest first: a view of the compact graph that
+// decodes a neighbour when asked (Neighbourhoods::knn).
+class KnnList {
+ public:
+  class Iterator {
+   public:
+    using iterator_category = std::forward_iterator_tag;
+    using value_type = uint32_t;
+    using difference_type = std::ptrdiff_t;
+    using pointer = void;
+    using reference = uint32_t;
+    Iterator() = default;
+    uint32_t operator*() const { return (*list_)[m_]; }
+    Iterator& operator++() {
+      ++m_;
+      return *this;
+    }
+    Iterator operator++(int) { return {list_, m_++}; }
+    bool operator==(const Iterator& other) const { return m_ == other.m_; }
+
+   private:
+    friend class KnnList;
+    Iterator(const KnnList* list, uint32_t m) : list_(list), m_(m) {}
+    const KnnList* list_ = nullptr;
+    uint32_t m_ = 0;
+  };
+  uint32_t operator[](size_t m) const { return wide_ ? wide_[m] : order_[base_ + delta_[m]]; }
+  size_t size() const { return k_; }
+  Iterator begin() const { return {this, 0}; }
+  Iterator end() const { return {this, k_}; }
+
+ private:
+  friend class Neighbourhoods;
+  const int16_t* delta_ = nullptr;
+  const uint32_t* order_ = nullptr;
+  const uint32_t* wide_ = nullptr;
+  uint32_t base_ = 0, k_ = 0;
+};
+
 class Neighbourhoods {
  public:
   // Builds the grid and the k-NN graph over all points of `cloud` (removed ones included: the
@@ -59,12 +100,14 @@ class Neighbourhoods {
   std::span<const uint32_t> order() const { return grid_.order(); }
   uint32_t k() const { return k_; }
   // The k nearest other points of i, nearest first.
-  std::span<const uint32_t> knn(size_t i) const { return {&index_[i * k_], k_}; }
+  KnnList knn(size_t i) const;
   // Distance from i to knn(i)[m], from the current coordinates. Not stored: at k = 20 the
   // distances would double the graph's memory, and recomputing one is three subtractions.
   float knn_dist(const PointCloud& cloud, size_t i, uint32_t m) const {
-    return std::sqrt(cloud.squared_distance(i, index_[i * k_ + m]));
+    return std::sqrt(cloud.squared_distance(i, knn(i)[m]));
   }
+  // Points whose list did not fit 16-bit differences (kept as 32-bit indices).
+  size_t wide_lists() const { return wide_of_.size(); }
   // d_k(i): distance to the k-th nearest other point.
   float dk(size_t i) const { return k_ ? dk_[i] : 0.f; }
 
@@ -108,9 +151,25 @@ class Neighbourhoods {
  private:
   Neighbourhoods() = default;
   void ComputeGlobalRadius();
+  // Stores idx (k indices) as i's list of rank differences; false, with the list marked wide,
+  // when one does not fit 16 bits.
+  bool Encode(size_t i, const uint32_t* idx);
+  // Where i's wide list starts in wide_.
+  uint32_t WideStart(size_t i) const;
   CellGrid grid_;
   uint32_t k_ = 0;
-  std::vector<uint32_t> index_;
+  // The graph, compact: the points are ranked in the grid order of the build, and a neighbour is
+  // kept as the 16-bit difference of its rank from the point's (neighbours are near in that
+  // order: within a couple of the grid's x-slabs), 2 bytes instead of 4, 48 bytes a point at
+  // k = 20 with the two rank tables instead of 80. A list with a difference beyond 16 bits (a
+  // grid with huge slabs, a far point's neighbours) starts with kWideList and lives in wide_.
+  static constexpr int16_t kWideList = INT16_MIN;
+  std::vector<int16_t> delta_;     // k per point
+  std::vector<uint32_t> rank_;     // point -> rank
+  std::vector<uint32_t> by_rank_;  // rank -> point
+  std::vector<uint32_t> wide_;     // k per wide list
+  std::vector<std::pair<uint32_t, uint32_t>>
+      wide_of_;  // (point, its list's start in wide_), sorted
   std::vector<float> dk_;
   double global_radius_ = 0, density_ = 0;
   std::vector<double> min_radius_;  // per scan

@@ -76,7 +76,7 @@ class OutliersStage : public Stage {
     const absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
       size_t beyond = 0;
       for (size_t i = begin; i < end; ++i) {
-        const std::span<const uint32_t> list = nb.knn(i);
+        const KnnList list = nb.knn(i);
         float sum = 0;
         uint32_t found = 0;
         for (uint32_t m = 0; m < list.size() && found < k_o; ++m) {

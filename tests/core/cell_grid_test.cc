@@ -153,6 +153,72 @@ TEST(CellGrid, OrderVisitsEveryPointOnce) {
   EXPECT_EQ(order.size(), cloud.size());
 }
 
+// The compact graph decodes to the k nearest (the kd-tree's distances, nearest first), and again
+// once the points moved and the lists were re-ranked. A tall narrow plane puts its two grid
+// columns 50,000 ranks apart, so lists across them need 32-bit indices; the scans' lists (the
+// control) all fit 16-bit differences.
+void ExpectNearestLists(const PointCloud& cloud, const Neighbourhoods& nb) {
+  KdTree tree(cloud);
+  const uint32_t k = nb.k();
+  std::vector<uint32_t> idx(k + 1);
+  std::vector<float> d2(k + 1);
+  for (size_t i = 0; i < cloud.size(); i += 3) {
+    const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+    ASSERT_EQ(tree.Knn(q, k + 1, idx.data(), d2.data()), k + 1);
+    const KnnList list = nb.knn(i);
+    ASSERT_EQ(list.size(), k);
+    for (uint32_t m = 0; m < k; ++m) {
+      ASSERT_NE(list[m], i);
+      ASSERT_EQ(cloud.squared_distance(i, list[m]), d2[m + 1]) << "point " << i << " rank " << m;
+    }
+  }
+}
+
+TEST(Neighbourhoods, CompactGraphHoldsTheNearest) {
+  PointCloud plane;
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> jitter(-0.1f, 0.1f);
+  for (int z = 0; z < 10'000; ++z) {
+    for (int y = 0; y < 10; ++y) {
+      plane.x.push_back(jitter(rng));
+      plane.y.push_back(y + jitter(rng));
+      plane.z.push_back(z + jitter(rng));
+    }
+  }
+  plane.FinishLoading();
+  PointCloud scans = BoxScans();
+  CancelToken cancel;
+  for (PointCloud* cloud : {&plane, &scans}) {
+    auto nb = Neighbourhoods::Build(*cloud, {.k = 20}, cancel);
+    ASSERT_TRUE(nb.ok());
+    if (cloud == &plane) {
+      EXPECT_GT((*nb)->wide_lists(), 1000u);
+    } else {
+      EXPECT_EQ((*nb)->wide_lists(), 0u);
+    }
+    ExpectNearestLists(*cloud, **nb);
+    // Moved: every list keeps its points, re-ranked by their new distances.
+    auto members = [&](size_t i) {
+      const KnnList list = (*nb)->knn(i);
+      std::vector<uint32_t> ids(list.begin(), list.end());
+      std::sort(ids.begin(), ids.end());
+      return ids;
+    };
+    std::vector<std::vector<uint32_t>> before;
+    for (size_t i = 0; i < cloud->size(); i += 3) before.push_back(members(i));
+    std::uniform_real_distribution<float> move(-0.2f, 0.2f);
+    for (size_t i = 0; i < cloud->size(); ++i) cloud->x[i] += move(rng);
+    ASSERT_TRUE((*nb)->PointsMoved(*cloud, 0.2f, cancel).ok());
+    for (size_t i = 0; i < cloud->size(); i += 3) {
+      ASSERT_EQ(members(i), before[i / 3]) << "point " << i;
+      const KnnList list = (*nb)->knn(i);
+      for (uint32_t m = 1; m < list.size(); ++m) {
+        ASSERT_LE(cloud->squared_distance(i, list[m - 1]), cloud->squared_distance(i, list[m]));
+      }
+    }
+  }
+}
+
 TEST(Neighbourhoods, WithinStaysExactAfterPointsMove) {
   PointCloud cloud = BoxScans();
   CancelToken cancel;
