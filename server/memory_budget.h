@@ -5,17 +5,21 @@
 // Measured (2026-11-25, Release, 2 arena threads, `scanprep simulate --scans 2` clouds: a box
 // with a bore seen by two overlapping line scanners; one job per fresh server; peak VmHWM minus
 // the idle server's VmRSS of 19.6 MiB, upload and download included;
-// `PARAMS=... THREADS=2 deploy/run-e2e-benchmark.sh N`), in bytes per point:
+// `PARAMS=... THREADS=2 deploy/run-e2e-benchmark.sh N`), in bytes per point, after the k-NN
+// graph was made compact and the grid's sort keys narrow (before: 241 / 398 / 308 / 491 at 1 M,
+// 283 / 305 at 4 M):
 //   points      default   k = 64   correction.radius_scale = 100   both
-//   1,000,000     241       398                308                   491
-//   4,000,000     283                          305
-//  20,000,000     322 (the job limit; docs/benchmarks.md "Largest job")
+//   1,000,000     191       304                280                   396
+//   4,000,000     236                          280
+//  20,000,000     322 (the job limit, measured before those two changes; docs/benchmarks.md
+//                 "Largest job")
 // Correction caches each overlapping point's ball of radius r_c (r_c at most 2 r_g, so at most
 // about 4k points), compactly and within a budget of kBallCacheBytesPerPoint per point
 // (core/spatial/ball_cache.h), so the radius_scale = 100 rows, where every ball is at that
 // limit, are the worst a job can reach; before the cache was bounded they were 554-569. The
-// rest is the k-NN graph (4 B per neighbour), the grid, the cloud and the per-point measures; it
-// grows by about 4.2 B per neighbour. The per-job overhead (thread-local buffers, one 4 MiB gRPC
+// rest is the k-NN graph (2 B per neighbour as a rank difference, 4 B in a list that needs 32-bit
+// indices), the grid, the cloud and the per-point measures; it grows by about 2.6 B per
+// neighbour. The per-job overhead (thread-local buffers, one 4 MiB gRPC
 // message) is bounded by kJobOverheadBytes. The upload holds the assembled arrays
 // (xyz, scan, optional scanline, quality, intensity: 16-28 B/point, three times that for the
 // moment a vector grows) and one chunk message (at most 4 MiB) at a time, far below the peak.
@@ -30,10 +34,13 @@
 
 namespace scanprep::server {
 
-// k = 20: the worst measured, 308 B/point (balls at their limit), with a 35 % margin.
+// k = 20: the worst measured, 280 B/point (balls at their limit), with a 49 % margin. It was set
+// at 35 % over the 308 measured before the k-NN graph was made compact, and is kept: a cloud
+// whose k-NN lists all need 32-bit indices (Neighbourhoods::wide_lists; 5-6 % on the measured
+// clouds) holds 136 B/point of graph instead of about 53 (and the old 80), 308 + 56 = 364.
 inline constexpr uint64_t kBytesPerPoint = 416;
-// Each neighbour above k = 20: measured 4.2 B, with a margin (k = 64 at the limit: 768 B
-// estimated, 491 measured). A smaller k is estimated as k = 20.
+// Each neighbour above k = 20: measured 2.6 B, with a margin (k = 64 at the limit: 768 B
+// estimated, 396 measured). A smaller k is estimated as k = 20.
 inline constexpr uint64_t kBytesPerPointPerExtraNeighbour = 8;
 inline constexpr int kDefaultNeighbours = 20;
 inline constexpr uint64_t kJobOverheadBytes = uint64_t{16} << 20;

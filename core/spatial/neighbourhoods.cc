@@ -68,13 +68,14 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
 
   // In grid order, so consecutive queries read the same cells, and each starts from a radius
   // just above its predecessor's d_k.
+  // Lists that need 32-bit indices go to wide_, a block's at once; where they lie there depends
+  // on the threads' timing, which list is found for a point does not (wide_of_ is sorted).
   std::mutex wide_mutex;
-  std::vector<std::pair<uint32_t, std::vector<uint32_t>>> wide;
   absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
     std::vector<uint32_t> idx(k);
     std::vector<float> d2(k);
     std::vector<uint64_t> scratch;
-    std::vector<std::pair<uint32_t, std::vector<uint32_t>>> local_wide;
+    std::vector<uint32_t> wide_points, wide_lists;
     float guess = typical_dk;
     for (size_t v = begin; v < end; ++v) {
       const uint32_t i = order[v];
@@ -82,18 +83,19 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
       nb->grid_.Knn(q, k, i, guess * 1.2f, idx.data(), d2.data(), scratch);
       nb->dk_[i] = std::sqrt(d2[k - 1]);
       guess = nb->dk_[i];
-      if (!nb->Encode(i, idx.data())) local_wide.emplace_back(i, idx);
+      if (nb->Encode(i, idx.data())) continue;
+      wide_points.push_back(i);
+      wide_lists.insert(wide_lists.end(), idx.begin(), idx.end());
     }
-    if (local_wide.empty()) return;
+    if (wide_points.empty()) return;
     std::lock_guard<std::mutex> lock(wide_mutex);
-    for (auto& list : local_wide) wide.push_back(std::move(list));
+    for (size_t w = 0; w < wide_points.size(); ++w) {
+      nb->wide_of_.emplace_back(wide_points[w], static_cast<uint32_t>(nb->wide_.size() / k + w));
+    }
+    nb->wide_.insert(nb->wide_.end(), wide_lists.begin(), wide_lists.end());
   });
   if (!status.ok()) return status;
-  std::sort(wide.begin(), wide.end());
-  for (const auto& [i, list] : wide) {
-    nb->wide_of_.emplace_back(i, static_cast<uint32_t>(nb->wide_.size()));
-    nb->wide_.insert(nb->wide_.end(), list.begin(), list.end());
-  }
+  std::sort(nb->wide_of_.begin(), nb->wide_of_.end());
 
   nb->ComputeGlobalRadius();
   // r_g only sets defaults, r_max = 5·r_g among them (docs/algorithms.md §2). A minimum radius far
@@ -163,10 +165,10 @@ KnnList Neighbourhoods::knn(size_t i) const {
   return list;
 }
 
-uint32_t Neighbourhoods::WideStart(size_t i) const {
+size_t Neighbourhoods::WideStart(size_t i) const {
   const auto at = std::lower_bound(wide_of_.begin(), wide_of_.end(),
                                    std::pair<uint32_t, uint32_t>(static_cast<uint32_t>(i), 0));
-  return at->second;
+  return size_t{at->second} * k_;
 }
 
 bool Neighbourhoods::Encode(size_t i, const uint32_t* idx) {

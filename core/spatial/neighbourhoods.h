@@ -155,7 +155,7 @@ class Neighbourhoods {
   // when one does not fit 16 bits.
   bool Encode(size_t i, const uint32_t* idx);
   // Where i's wide list starts in wide_.
-  uint32_t WideStart(size_t i) const;
+  size_t WideStart(size_t i) const;
   CellGrid grid_;
   uint32_t k_ = 0;
   // The graph, compact: the points are ranked in the grid order of the build, and a neighbour is
@@ -168,8 +168,8 @@ class Neighbourhoods {
   std::vector<uint32_t> rank_;     // point -> rank
   std::vector<uint32_t> by_rank_;  // rank -> point
   std::vector<uint32_t> wide_;     // k per wide list
-  std::vector<std::pair<uint32_t, uint32_t>>
-      wide_of_;  // (point, its list's start in wide_), sorted
+  // (point, the number of its list in wide_), sorted by point.
+  std::vector<std::pair<uint32_t, uint32_t>> wide_of_;
   std::vector<float> dk_;
   double global_radius_ = 0, density_ = 0;
   std::vector<double> min_radius_;  // per scan
