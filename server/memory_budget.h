@@ -11,8 +11,7 @@
 //   points      default   k = 64   correction.radius_scale = 100   both
 //   1,000,000     191       304                280                   396
 //   4,000,000     236                          280
-//  20,000,000     322 (the job limit, measured before those two changes; docs/benchmarks.md
-//                 "Largest job")
+//  20,000,000     297 (the job limit; 322 before; docs/benchmarks.md "Largest job")
 // Correction caches each overlapping point's ball of radius r_c (r_c at most 2 r_g, so at most
 // about 4k points), compactly and within a budget of kBallCacheBytesPerPoint per point
 // (core/spatial/ball_cache.h), so the radius_scale = 100 rows, where every ball is at that
