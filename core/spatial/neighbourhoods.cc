@@ -154,6 +154,7 @@ absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shif
 KnnList Neighbourhoods::knn(size_t i) const {
   KnnList list;
   list.k_ = k_;
+  list.point_ = i;
   if (k_ == 0) return list;
   if (delta_[i * k_] == kWideList) {
     list.wide_ = &wide_[WideStart(i)];

@@ -73,6 +73,12 @@ class KnnList {
     uint32_t m_ = 0;
   };
   uint32_t operator[](size_t m) const { return wide_ ? wide_[m] : order_[base_ + delta_[m]]; }
+  // Distance from the list's point to its m-th neighbour, from the current coordinates. Not
+  // stored: at k = 20 the distances would double the graph's memory, and recomputing one is three
+  // subtractions.
+  float dist(const PointCloud& cloud, size_t m) const {
+    return std::sqrt(cloud.squared_distance(point_, (*this)[m]));
+  }
   size_t size() const { return k_; }
   Iterator begin() const { return {this, 0}; }
   Iterator end() const { return {this, k_}; }
@@ -83,6 +89,7 @@ class KnnList {
   const uint32_t* order_ = nullptr;
   const uint32_t* wide_ = nullptr;
   uint32_t base_ = 0, k_ = 0;
+  size_t point_ = 0;
 };
 
 class Neighbourhoods {
@@ -101,10 +108,9 @@ class Neighbourhoods {
   uint32_t k() const { return k_; }
   // The k nearest other points of i, nearest first.
   KnnList knn(size_t i) const;
-  // Distance from i to knn(i)[m], from the current coordinates. Not stored: at k = 20 the
-  // distances would double the graph's memory, and recomputing one is three subtractions.
+  // Distance from i to knn(i)[m] (KnnList::dist: a caller that holds the list asks it).
   float knn_dist(const PointCloud& cloud, size_t i, uint32_t m) const {
-    return std::sqrt(cloud.squared_distance(i, knn(i)[m]));
+    return knn(i).dist(cloud, m);
   }
   // Points whose list did not fit 16-bit differences (kept as 32-bit indices).
   size_t wide_lists() const { return wide_of_.size(); }

@@ -435,7 +435,7 @@ absl::Status Propagate(PointCloud& cloud, const Neighbourhoods& nb, uint32_t k,
       for (uint32_t m = 0; m < k; ++m) {
         const uint32_t j = idx[m];
         if (!member[j] || j == i) continue;
-        edges[i * k + m] = {1.f - AbsDot(cloud, i, j) + 1e-6f * nb.knn_dist(cloud, i, m),
+        edges[i * k + m] = {1.f - AbsDot(cloud, i, j) + 1e-6f * idx.dist(cloud, m),
                             std::min<uint32_t>(i, j), std::max<uint32_t>(i, j)};
       }
     }

@@ -81,11 +81,11 @@ class OutliersStage : public Stage {
         uint32_t found = 0;
         for (uint32_t m = 0; m < list.size() && found < k_o; ++m) {
           if (cloud.scan[list[m]] != cloud.scan[i]) continue;
-          sum += nb.knn_dist(cloud, i, m);
+          sum += list.dist(cloud, m);
           ++found;
         }
         if (found < k_o) {
-          sum += (k_o - found) * nb.knn_dist(cloud, i, nb.k() - 1);
+          sum += (k_o - found) * list.dist(cloud, nb.k() - 1);
           ++beyond;
         }
         d[i] = sum / static_cast<float>(k_o);

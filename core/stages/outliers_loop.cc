@@ -28,7 +28,7 @@ absl::Status RemoveLoopOutliers(JobContext& ctx, const Neighbourhoods& nb) {
     uint32_t used = 0;
     for (uint32_t m = 0; m < nb.k() && used < k; ++m) {
       if (cloud.removed(idx[m])) continue;
-      visit(idx[m], nb.knn_dist(cloud, i, m));
+      visit(idx[m], idx.dist(cloud, m));
       ++used;
     }
     return used;

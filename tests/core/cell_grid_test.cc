@@ -170,6 +170,8 @@ void ExpectNearestLists(const PointCloud& cloud, const Neighbourhoods& nb) {
     for (uint32_t m = 0; m < k; ++m) {
       ASSERT_NE(list[m], i);
       ASSERT_EQ(cloud.squared_distance(i, list[m]), d2[m + 1]) << "point " << i << " rank " << m;
+      ASSERT_EQ(list.dist(cloud, m), std::sqrt(d2[m + 1]));
+      ASSERT_EQ(nb.knn_dist(cloud, i, m), list.dist(cloud, m));
     }
   }
 }
