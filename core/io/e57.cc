@@ -19,6 +19,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "core/free_memory.h"
 #include "core/io/byte_order.h"
 #include "core/io/e57_xml.h"
 #include "core/io/read_file.h"
@@ -373,7 +374,7 @@ absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size
   for (Field& f : fields) {
     SCANPREP_ASSIGN_OR_RETURN(std::vector<double> values, Decode(f, count, what));
     columns.push_back(std::move(values));
-    f.stream = {};
+    FreeMemory(f.stream);
   }
   auto column = [&](std::string_view name) { return Column(fields, columns, name); };
   const std::vector<double>*cx = column("cartesianX"), *cy = column("cartesianY"),

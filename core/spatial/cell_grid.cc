@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/free_memory.h"
 #include "core/pipeline/parallel.h"
 #include "core/status_macros.h"
 
@@ -72,8 +73,8 @@ absl::Status CellGrid::Build(const PointCloud& cloud, float cell_edge, const Can
   const size_t n = cloud.size();
   // Freed, not cleared: a rebuild (the points moved) would otherwise hold the old entries beside
   // the sort's two arrays of keys, the job's memory peak.
-  entries_ = {};
-  id_ = {};
+  FreeMemory(entries_);
+  FreeMemory(id_);
   cell_start_.assign(1, 0);
   cell_z_.clear();
   column_start_.assign(2, 0);
@@ -137,7 +138,7 @@ absl::Status CellGrid::Sort(const PointCloud& cloud, int z_bits, int key_bits,
     cell_start_.push_back(static_cast<uint32_t>(e));
     ++column_start_[(uint64_t(keyed[e].key) >> z_bits) + 1];
   }
-  keyed = {};
+  FreeMemory(keyed);
   cell_start_.push_back(static_cast<uint32_t>(n));
   for (size_t c = 0; c + 1 < column_start_.size(); ++c) column_start_[c + 1] += column_start_[c];
 

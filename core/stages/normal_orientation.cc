@@ -11,6 +11,7 @@
 
 #include <nanoflann.hpp>
 
+#include "core/free_memory.h"
 #include "core/pipeline/parallel.h"
 #include "core/status_macros.h"
 
@@ -450,7 +451,7 @@ absl::Status Propagate(PointCloud& cloud, const Neighbourhoods& nb, uint32_t k,
     if (cancel.CancelledAt(e)) return cancel.Check();
     if (sets.Unite(edges[e].a, edges[e].b)) tree.push_back(edges[e]);
   }
-  edges = {};
+  FreeMemory(edges);
   SCANPREP_RETURN_IF_ERROR(Bridge(cloud, nb, member, sets, tree, cancel, counts));
 
   // Tree adjacency in CSR form.

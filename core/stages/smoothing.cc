@@ -13,6 +13,7 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
+#include "core/free_memory.h"
 #include "core/pipeline/job_context.h"
 #include "core/pipeline/parallel.h"
 #include "core/stages/measures.h"
@@ -79,7 +80,7 @@ class SmoothingStage : public Stage {
       for (size_t i = 0; i < n; ++i) {
         cloud.x[i] = next[i].x(), cloud.y[i] = next[i].y(), cloud.z[i] = next[i].z();
       }
-      next = {};  // before the grid is rebuilt on the new positions: the job's memory peak
+      FreeMemory(next);  // before the grid is rebuilt on the new positions
       SCANPREP_RETURN_IF_ERROR(ctx.PointsMoved(max_shift));
       ctx.Progress((it + 1.0) / iterations);
     }
