@@ -12,12 +12,13 @@
 #include "core/stages/correction.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <span>
 
 #include "absl/strings/str_cat.h"
 #include "core/pipeline/job_context.h"
 #include "core/pipeline/parallel.h"
-#include "core/spatial/ball_cache.h"
 #include "core/stages/measures.h"
 #include "core/status_macros.h"
 
@@ -138,68 +139,76 @@ class CorrectionStage : public Stage {
                                        const std::vector<float>& radius, int max_rounds) {
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
-    std::vector<uint8_t> go(n, 0), fresh(n, 0);  // fresh: removed in the previous round
+    std::vector<uint8_t> go(n, 0);
     // Balls only lose points from round to round, so a ball that holds one scan never spans two
-    // again: its centre is settled for good, and its ball is not worth keeping.
+    // again: its centre is settled for good.
     std::vector<uint8_t> settled(n, 0);
-    // Points whose r_c exceeds d_k are re-judged every round; their balls come from the grid
-    // once instead of once per round.
-    BallCache balls;
-    if (absl::Status s = balls.Gather(
-            cloud, nb, radius, [&](const RadiusMatches& m) { return SpansScans(cloud, m); },
-            ctx.cancel());
-        !s.ok()) {
-      return s;
-    }
-    ctx.Record("correction.balls_cached", static_cast<double>(balls.kept()));
-    ctx.Record("correction.balls_beyond_cache", static_cast<double>(balls.over_budget()));
-    // Only a point whose neighbourhood lost a point can change its verdict; when r_c exceeds
-    // the k-NN list the list cannot tell, so the point is re-judged.
-    auto touched = [&](size_t i) {
-      const float r = radius[cloud.scan[i]];
-      if (r > nb.dk(i)) return true;
-      for (const uint32_t j : nb.knn(i)) {
-        if (!(cloud.squared_distance(i, j) < r * r)) break;  // nearest first
-        if (fresh[j]) return true;
-      }
-      return false;
-    };
+    // A verdict changes only when its ball lost a point: after the first round only the
+    // centres within r_c of a point the last round removed are judged again.
+    std::vector<uint8_t> touched(n, 1);
+    // Grid order: consecutive balls read the same cells.
+    const std::span<const uint32_t> order = nb.order();
     size_t removed = 0;
     int round = 0;
-    ctx.ExpectWork(double(max_rounds) * n);  // at most; a round that removes nothing ends it
+    // At most: a round that removes nothing ends it. Each round passes over the points twice
+    // (judging, then finding the centres near its removals).
+    ctx.ExpectWork(2.0 * max_rounds * double(n));
     while (round < max_rounds) {
-      // Index order: the cached balls are stored by index.
       absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
         RadiusMatches matches;
-        for (size_t i = begin; i < end; ++i) {
+        for (size_t at = begin; at < end; ++at) {
+          const uint32_t i = order[at];
           go[i] = 0;
-          if (cloud.removed(i) || settled[i] || (round > 0 && !touched(i))) continue;
-          const float r = radius[cloud.scan[i]];
-          if (balls.Rejected(i)) {
-            settled[i] = 1;  // gathered, but not kept: one scan
-            continue;
-          }
-          balls.Within(cloud, nb, i, r, matches);
+          if (cloud.removed(i) || settled[i] || !touched[i]) continue;
+          nb.Within(cloud, i, radius[cloud.scan[i]], matches);
           const Verdict v = Judge(cloud, quality, matches);
           settled[i] = !v.overlap;
-          go[i] = ShouldGo(cloud, quality, v, uint32_t(i));
+          go[i] = ShouldGo(cloud, quality, v, i);
         }
       });
       if (!status.ok()) return status;
       ++round;
       size_t now = 0;
       for (size_t i = 0; i < n; ++i) {
-        fresh[i] = go[i];
         if (!go[i]) continue;
         cloud.flags[i] |= kRemovedMerge;
         ++now;
       }
       removed += now;
       ctx.Progress(double(round) / max_rounds);
-      if (now == 0) break;
+      if (now == 0 || round == max_rounds) break;
+      SCANPREP_RETURN_IF_ERROR(TouchBallsThatLost(cloud, nb, radius, go, touched, ctx.cancel()));
     }
     ctx.Record("correction.rounds_run", round);
     return removed;
+  }
+
+  // touched[i] = 1 for every centre i whose ball N_{r_c}(i) held a point that `gone` marks: the
+  // balls of radius max r_c around the gone points hold every such centre. When one of those
+  // balls is capped it may miss some, and every centre is judged again.
+  static absl::Status TouchBallsThatLost(const PointCloud& cloud, const Neighbourhoods& nb,
+                                         const std::vector<float>& radius,
+                                         const std::vector<uint8_t>& gone,
+                                         std::vector<uint8_t>& touched, const CancelToken& cancel) {
+    const float reach = *std::max_element(radius.begin(), radius.end());
+    const std::span<const uint32_t> order = nb.order();
+    std::fill(touched.begin(), touched.end(), 0);
+    std::atomic<bool> capped{false};
+    SCANPREP_RETURN_IF_ERROR(ParallelFor(order.size(), cancel, [&](size_t begin, size_t end) {
+      RadiusMatches matches;
+      for (size_t at = begin; at < end; ++at) {
+        const uint32_t j = order[at];
+        if (!gone[j]) continue;
+        nb.Within(cloud, j, reach, matches);
+        if (matches.size() >= nb.max_ball_points()) capped.store(true, std::memory_order_relaxed);
+        for (const auto& [i, d2] : matches) {
+          const float r = radius[cloud.scan[i]];
+          if (d2 < r * r) std::atomic_ref<uint8_t>(touched[i]).store(1, std::memory_order_relaxed);
+        }
+      }
+    }));
+    if (capped.load()) std::fill(touched.begin(), touched.end(), 1);
+    return absl::OkStatus();
   }
 
   static absl::StatusOr<size_t> Scatter(JobContext& ctx, const Neighbourhoods& nb,

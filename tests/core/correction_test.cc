@@ -2,11 +2,14 @@
 // Merging overlapping scans (§10) on the simulator: the frontal and an oblique, noisier scan of a
 // sphere. Ground truth says, for every removed point, which scan views its true surface point
 // worse, and where the other scan does not reach at all.
+#include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <random>
 
 #include <gtest/gtest.h>
 
+#include "core/pipeline/job_context.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 #include "tests/support/kdtree.h"
@@ -163,6 +166,101 @@ TEST(Correction, WithoutQualityTheMergeSaysItDidNothing) {
   ASSERT_TRUE(control.ok()) << control.status();
   EXPECT_EQ(control->stages.back().parameters.at("correction.without_quality"), 0);
   EXPECT_LT(posed.CountKept(), posed.size());
+}
+
+// The gather rule as docs/algorithms.md §10 states it, from scratch on kd-tree balls: every round
+// judges every unremoved point whose ball spanned two scans last time, on the labels of the
+// round before; a ball fuller than `cap` keeps its nearest (ties to the lower index).
+std::vector<uint8_t> ReferenceGather(const PointCloud& cloud, const std::vector<uint8_t>& flags,
+                                     const std::vector<float>& quality,
+                                     const std::vector<float>& radius, size_t cap) {
+  const KdTree tree(cloud);
+  std::vector<uint8_t> gone(cloud.size(), 0), settled(cloud.size(), 0);
+  for (size_t i = 0; i < cloud.size(); ++i) gone[i] = (flags[i] & kRemovedMask) != 0;
+  RadiusMatches ball;
+  for (int round = 0; round < 10; ++round) {
+    std::vector<uint8_t> next = gone;
+    for (size_t i = 0; i < cloud.size(); ++i) {
+      if (gone[i] || settled[i]) continue;
+      const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+      tree.Radius(q, radius[cloud.scan[i]], ball);
+      std::erase_if(ball, [&](const auto& m) { return gone[m.first] != 0; });
+      std::sort(ball.begin(), ball.end(), [](const auto& a, const auto& b) {
+        return a.second < b.second || (a.second == b.second && a.first < b.first);
+      });
+      if (ball.size() > cap) ball.resize(cap);
+      double sum = 0;
+      uint32_t best = ball.front().first;
+      bool spans = false;
+      for (const auto& [j, d2] : ball) {
+        sum += quality[j];
+        if (quality[j] > quality[best] || (quality[j] == quality[best] && j < best)) best = j;
+        spans |= cloud.scan[j] != cloud.scan[i];
+      }
+      settled[i] = !spans;
+      const float mean = static_cast<float>(sum / static_cast<double>(ball.size()));
+      next[i] = spans && cloud.scan[i] != cloud.scan[best] && quality[i] < mean;
+    }
+    if (next == gone) break;
+    gone.swap(next);
+  }
+  return gone;
+}
+
+// After its first round the stage judges again only the points within r_c of a point the round
+// before removed (elsewhere no ball changed); that must remove exactly what judging every point
+// every round removes. On scans with different r_c (the oblique scan is noisier) and with a dense
+// cluster of both scans in the overlap, whose balls are capped.
+TEST(Correction, GatherJudgesAgainOnlyWhereABallLostAPoint) {
+  for (const bool cluster : {false, true}) {
+    auto sim = sim::Simulate(Part::kSphere, sim::TwoOverlappingSensors(Part::kSphere), 25);
+    PointCloud& cloud = sim.cloud;
+    if (cluster) {
+      // 2 × 1500 points within 0.05 mm (about r_c / 4) of a point both scans see.
+      const size_t at = cloud.size() / 2;
+      std::mt19937 rng(3);
+      std::uniform_real_distribution<float> jitter(-0.05f, 0.05f);
+      for (uint32_t m = 0; m < 3000; ++m) {
+        cloud.x.push_back(cloud.x[at] + jitter(rng));
+        cloud.y.push_back(cloud.y[at] + jitter(rng));
+        cloud.z.push_back(cloud.z[at] + jitter(rng));
+        cloud.scan.push_back(m % 2);
+        cloud.scanline.push_back(cloud.scanline[at]);
+      }
+      cloud.FinishLoading();
+    }
+    CancelToken cancel;
+    ParamOverrides none;
+    JobContext ctx(cloud, none, cancel, {});
+    ASSERT_TRUE(ctx.Require("measures").ok());
+    const std::vector<float> quality = ctx.measures().quality;
+    const std::vector<uint8_t> flags = cloud.flags;
+    auto nb = ctx.neighbourhoods();
+    ASSERT_TRUE(nb.ok());
+    const size_t cap = (*nb)->max_ball_points();
+    const uint64_t capped_before = (*nb)->capped_balls();
+    ASSERT_TRUE(ctx.Require("correction").ok());
+    const StageReport& stage = ctx.report().stages.back();
+    ASSERT_EQ(stage.name, "correction");
+    const std::vector<float> radius = {
+        static_cast<float>(stage.parameters.at("correction.radius_mm.scan0")),
+        static_cast<float>(stage.parameters.at("correction.radius_mm.scan1"))};
+    EXPECT_GT(std::abs(radius[1] - radius[0]), 0.02f * radius[0]);
+    EXPECT_GT(stage.parameters.at("correction.rounds_run"), 2);
+    EXPECT_EQ((*nb)->capped_balls() > capped_before, cluster);
+
+    const std::vector<uint8_t> expected = ReferenceGather(cloud, flags, quality, radius, cap);
+    size_t removed = 0, differ = 0;
+    for (size_t i = 0; i < cloud.size(); ++i) {
+      removed += (cloud.flags[i] & kRemovedMerge) != 0;
+      differ +=
+          ((cloud.flags[i] & kRemovedMerge) != 0) != (expected[i] && !(flags[i] & kRemovedMask));
+    }
+    std::printf("cluster %d: %zu removed, %zu differ from judging every point every round\n",
+                cluster, removed, differ);
+    EXPECT_GT(removed, cloud.size() / 10);
+    EXPECT_EQ(differ, 0u);
+  }
 }
 
 TEST(Correction, RadiusScaleWidensTheMergeRadius) {
