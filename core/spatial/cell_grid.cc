@@ -146,7 +146,7 @@ absl::Status CellGrid::Sort(const PointCloud& cloud, int z_bits, int key_bits,
   return ParallelFor(n, cancel, [&](size_t begin, size_t end) {
     for (size_t e = begin; e < end; ++e) {
       const uint32_t i = id_[e];
-      entries_[e] = {cloud.x[i], cloud.y[i], cloud.z[i], i};
+      entries_[e] = {cloud.x[i], cloud.y[i], cloud.z[i]};
     }
   });
 }

@@ -62,9 +62,10 @@ class CellGrid {
              float* dist_sq, std::vector<uint64_t>& scratch) const;
 
  private:
+  // A point's coordinates, copied next to their cell's: a ball reads them in runs. Its index is
+  // id_[e], not a fourth field: order() needs the indices as one array anyway.
   struct Entry {
     float x, y, z;
-    uint32_t id;
   };
   // Calls run(begin, end) for each run of entries in cells that may hold a point within
   // `radius` of q; false when the cell range is wider than the cell list, so a scan of all
@@ -83,8 +84,8 @@ class CellGrid {
       const Entry& p = entries_[e];
       const float dx = q[0] - p.x, dy = q[1] - p.y, dz = q[2] - p.z;
       const float d2 = dx * dx + dy * dy + dz * dz;
-      out[at] = make(p.id, d2);
-      at += (d2 < limit) & (p.id != exclude);
+      out[at] = make(id_[e], d2);
+      at += (d2 < limit) & (id_[e] != exclude);
     }
     out.resize(at);
   }
@@ -104,7 +105,7 @@ class CellGrid {
   double origin_[3] = {0, 0, 0};
   int64_t cells_[3] = {1, 1, 1};        // grid extent per axis
   std::vector<Entry> entries_;          // sorted by (column x·cells_y + y, z)
-  std::vector<uint32_t> id_;            // entries_[e].id, for order()
+  std::vector<uint32_t> id_;            // the point index of entries_[e]
   std::vector<uint32_t> column_start_;  // column c: occupied cells [column_start_[c], [c+1])
   std::vector<uint32_t> cell_z_;        // per occupied cell, in entry order: its z
   std::vector<uint32_t> cell_start_;    // occupied cell c: entries [cell_start_[c], [c+1])

@@ -62,7 +62,6 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
   nb->dk_.resize(n);
   nb->delta_.resize(n * k);
   const std::span<const uint32_t> order = nb->grid_.order();
-  nb->by_rank_.assign(order.begin(), order.end());
   nb->rank_.resize(n);
   for (size_t v = 0; v < n; ++v) nb->rank_[order[v]] = static_cast<uint32_t>(v);
 
@@ -122,6 +121,8 @@ absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shif
                                          const CancelToken& cancel) {
   if (max_shift == 0) return absl::OkStatus();
   moved_ = true;
+  // The ranks stay those of the build's grid order, which the rebuild replaces: kept from here.
+  if (k_ > 0 && by_rank_.empty()) by_rank_.assign(grid_.order().begin(), grid_.order().end());
   SCANPREP_RETURN_IF_ERROR(grid_.Build(cloud, grid_.cell_edge(), cancel));
   if (k_ == 0) return absl::OkStatus();
   absl::Status status = ParallelFor(cloud.size(), cancel, [&](size_t begin, size_t end) {
@@ -161,7 +162,7 @@ KnnList Neighbourhoods::knn(size_t i) const {
     return list;
   }
   list.delta_ = &delta_[i * k_];
-  list.order_ = by_rank_.data();
+  list.order_ = by_rank_.empty() ? grid_.order().data() : by_rank_.data();
   list.base_ = rank_[i];
   return list;
 }

@@ -166,13 +166,14 @@ class Neighbourhoods {
   uint32_t k_ = 0;
   // The graph, compact: the points are ranked in the grid order of the build, and a neighbour is
   // kept as the 16-bit difference of its rank from the point's (neighbours are near in that
-  // order: within a couple of the grid's x-slabs), 2 bytes instead of 4, 48 bytes a point at
-  // k = 20 with the two rank tables instead of 80. A list with a difference beyond 16 bits (a
+  // order: within a couple of the grid's x-slabs), 2 bytes instead of 4, 44 bytes a point at
+  // k = 20 with the rank table instead of 80 (48 once the points moved: the order, which the
+  // grid held until then, is kept beside it). A list with a difference beyond 16 bits (a
   // grid with huge slabs, a far point's neighbours) starts with kWideList and lives in wide_.
   static constexpr int16_t kWideList = INT16_MIN;
   std::vector<int16_t> delta_;     // k per point
   std::vector<uint32_t> rank_;     // point -> rank
-  std::vector<uint32_t> by_rank_;  // rank -> point
+  std::vector<uint32_t> by_rank_;  // rank -> point, once the points moved (grid_.order() before)
   std::vector<uint32_t> wide_;     // k per wide list
   // (point, the number of its list in wide_), sorted by point.
   std::vector<std::pair<uint32_t, uint32_t>> wide_of_;

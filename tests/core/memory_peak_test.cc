@@ -70,11 +70,11 @@ TEST(MemoryPeak, GridRebuildHoldsOneCopyOfThePoints) {
   EXPECT_LE(extra, static_cast<long>(2 * kPoints)) << "bytes beyond the grid's own at the peak";
   // The rebuilt grid holds what the first build did (its cell tables within a byte a point).
   EXPECT_NEAR(double(live_bytes.load()), double(held), double(kPoints));
-  // Control: the counter sees the grid's arrays (entries and order, 20 bytes a point).
+  // Control: the counter sees the grid's arrays (coordinates and order, 16 bytes a point).
   CellGrid fresh;
   const long before = live_bytes.load();
   ASSERT_TRUE(fresh.Build(cloud, grid.cell_edge(), cancel).ok());
-  EXPECT_GE(live_bytes.load() - before, static_cast<long>(20 * kPoints));
+  EXPECT_GE(live_bytes.load() - before, static_cast<long>(16 * kPoints));
 }
 
 }  // namespace
