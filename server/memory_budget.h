@@ -5,19 +5,19 @@
 // Measured (2026-11-25, Release, 2 arena threads, `scanprep simulate --scans 2` clouds: a box
 // with a bore seen by two overlapping line scanners; one job per fresh server; peak VmHWM minus
 // the idle server's VmRSS of 19.6 MiB, upload and download included;
-// `PARAMS=... THREADS=2 deploy/run-e2e-benchmark.sh N`), in bytes per point, after the k-NN
-// graph was made compact and the grid's sort keys narrow (before: 241 / 398 / 308 / 491 at 1 M,
-// 283 / 305 at 4 M):
+// `PARAMS=... THREADS=2 deploy/run-e2e-benchmark.sh N`), in bytes per point, after correction's
+// ball cache was dropped, the grid and graph came to hold the point order once and the server's
+// freed arrays went back to the system (docs/benchmarks.md "Memory below 150 B/point"; before,
+// after the compact k-NN graph: 191 / 304 / 280 / 396 at 1 M, 236 / 280 at 4 M, 297 at 20 M):
 //   points      default   k = 64   correction.radius_scale = 100   both
-//   1,000,000     191       304                280                   396
-//   4,000,000     236                          280
-//  20,000,000     297 (the job limit; 322 before; docs/benchmarks.md "Largest job")
-// Correction caches each overlapping point's ball of radius r_c (r_c at most 2 r_g, so at most
-// about 4k points), compactly and within a budget of kBallCacheBytesPerPoint per point
-// (core/spatial/ball_cache.h), so the radius_scale = 100 rows, where every ball is at that
-// limit, are the worst a job can reach; before the cache was bounded they were 554-569. The
-// rest is the k-NN graph (2 B per neighbour as a rank difference, 4 B in a list that needs 32-bit
-// indices), the grid, the cloud and the per-point measures; it grows by about 2.6 B per
+//   1,000,000   139-147     244                140                   245
+//   4,000,000   136-139                        137
+//  20,000,000     see docs/benchmarks.md "Largest job" (the job limit)
+// Correction keeps no balls: r_c is at most 2 r_g, so the radius_scale = 100 rows, where every
+// ball is at that limit, cost no more memory than the default. What a job holds is the k-NN
+// graph (2 B per neighbour as a rank difference, 4 B in a list that needs 32-bit indices), the
+// grid, the cloud and the per-point measures, and at its peak one stage's own arrays (the
+// simplification's visiting order, smoothing's new positions); it grows by about 2.4 B per
 // neighbour. The per-job overhead (thread-local buffers, one 4 MiB gRPC
 // message) is bounded by kJobOverheadBytes. The upload holds the assembled arrays
 // (xyz, scan, optional scanline, quality, intensity: 16-28 B/point, three times that for the
@@ -33,13 +33,15 @@
 
 namespace scanprep::server {
 
-// k = 20: the worst measured, 280 B/point (balls at their limit), with a 49 % margin. It was set
-// at 35 % over the 308 measured before the k-NN graph was made compact, and is kept: a cloud
-// whose k-NN lists all need 32-bit indices (Neighbourhoods::wide_lists; 5-6 % on the measured
-// clouds) holds 136 B/point of graph instead of about 53 (and the old 80), 308 + 56 = 364.
+// k = 20: set at 35 % over the 308 B/point measured before the k-NN graph was made compact, and
+// kept while the jobs' memory came down (the worst measured now 147, with every correction ball
+// at its limit 140): a cloud whose k-NN lists all need 32-bit indices (Neighbourhoods::
+// wide_lists; 5-6 % on the measured clouds) holds about 84 B/point more graph, and the hostile
+// inputs reach 1.53x the ordinary cloud's memory (docs/hostile-inputs.md). Lowering it would let
+// more jobs run at once; that wants its own measurement of those worst cases first.
 inline constexpr uint64_t kBytesPerPoint = 416;
-// Each neighbour above k = 20: measured 2.6 B, with a margin (k = 64 at the limit: 768 B
-// estimated, 396 measured). A smaller k is estimated as k = 20.
+// Each neighbour above k = 20: measured 2.4 B, with a margin (k = 64 at the limit: 768 B
+// estimated, 245 measured). A smaller k is estimated as k = 20.
 inline constexpr uint64_t kBytesPerPointPerExtraNeighbour = 8;
 inline constexpr int kDefaultNeighbours = 20;
 inline constexpr uint64_t kJobOverheadBytes = uint64_t{16} << 20;
