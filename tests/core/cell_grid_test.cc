@@ -14,6 +14,7 @@
 #include "core/sim/scan_simulator.h"
 #include "core/spatial/neighbourhoods.h"
 #include "tests/support/kdtree.h"
+#include "tests/support/random_clouds.h"
 
 namespace scanprep {
 namespace {
@@ -122,15 +123,8 @@ TEST(CellGrid, BallsAndNeighboursEqualTheKdTreesOnSparseAndDuplicatedPoints) {
 // A tall thin column of points: 2^21 cells along z and tens of thousands of columns need sort
 // keys wider than 32 bits, the other sort; the scans' grids (the control) use 32-bit keys.
 TEST(CellGrid, BallsAndNeighboursEqualTheKdTreesWithWideSortKeys) {
-  PointCloud tall;
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<float> across(0.f, 1.f), along(0.f, 10'000.f);
-  for (int i = 0; i < 20'000; ++i) {
-    tall.x.push_back(across(rng));
-    tall.y.push_back(across(rng));
-    tall.z.push_back(along(rng));
-  }
-  tall.FinishLoading();
+  const PointCloud tall =
+      testing::UniformBoxCloud(20'000, {0.f, 0.f, 0.f}, {1.f, 1.f, 10'000.f}, 5);
   CancelToken cancel;
   CellGrid grid;
   ASSERT_TRUE(grid.Build(tall, 0.001f, cancel).ok());  // widened to 10 m / 2^21

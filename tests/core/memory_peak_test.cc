@@ -7,11 +7,11 @@
 #include <atomic>
 #include <cstdlib>
 #include <new>
-#include <random>
 
 #include <gtest/gtest.h>
 
 #include "core/spatial/cell_grid.h"
+#include "tests/support/random_clouds.h"
 
 namespace {
 
@@ -51,15 +51,8 @@ namespace {
 // holding the keys 8.
 TEST(MemoryPeak, GridRebuildHoldsOneCopyOfThePoints) {
   constexpr size_t kPoints = 300'000;
-  PointCloud cloud;
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<float> along(0.f, 60.f), across(-0.05f, 0.05f);
-  for (size_t i = 0; i < kPoints; ++i) {
-    cloud.x.push_back(along(rng));
-    cloud.y.push_back(along(rng));
-    cloud.z.push_back(across(rng));
-  }
-  cloud.FinishLoading();
+  const PointCloud cloud =
+      testing::UniformBoxCloud(kPoints, {0.f, 0.f, -0.05f}, {60.f, 60.f, 0.05f}, 5);
   CancelToken cancel;
   CellGrid grid;
   ASSERT_TRUE(grid.Build(cloud, 0, cancel).ok());
