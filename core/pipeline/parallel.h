@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <memory>
 #include <vector>
 
 #include <tbb/blocked_range.h>
@@ -41,10 +42,36 @@ absl::Status ParallelFor(size_t n, const CancelToken& cancel, Body&& body, size_
   return cancel.Check();
 }
 
+// Merges the sorted runs run[0, left) and run[left, left + right) into run[0, left + right),
+// moving the shorter run to `aside` (room for min(left, right) items) first: with the left one
+// aside the merge fills from the front, with the right one from the back, and never overwrites
+// an item not yet read.
+template <typename T>
+void MergeInPlace(T* run, size_t left, size_t right, T* aside) {
+  if (left == 0 || right == 0) return;
+  if (left <= right) {
+    std::move(run, run + left, aside);
+    T *a = aside, *a_end = aside + left;
+    T *r = run + left, *r_end = run + left + right, *out = run;
+    while (a < a_end && r < r_end) *out++ = *r < *a ? std::move(*r++) : std::move(*a++);
+    std::move(a, a_end, out);  // what is left of the right run is in place already
+  } else {
+    std::move(run + left, run + left + right, aside);
+    T *a = aside + right, *a_begin = aside;
+    T *l = run + left, *out = run + left + right;
+    while (a > a_begin && l > run) {
+      *--out = *(a - 1) < *(l - 1) ? std::move(*--l) : std::move(*--a);
+    }
+    std::move_backward(a_begin, a, out);  // what is left of the left run is in place already
+  }
+}
+
 // Sorts `items` by operator< and honours cancellation, unlike tbb::parallel_sort: blocks of 2^16
 // elements are sorted in parallel, then runs are merged pairwise, round by round, the merges of
 // a round in parallel. The token is looked at between blocks and rounds, so a cancel waits for
-// at most one merge (the last round's is one pass over all elements). Not stable.
+// at most one merge (the last round's is one pass over all elements). Not stable. A merge moves
+// the shorter of its two runs aside and merges into their place, so the sort needs half the
+// items' size on top of them, not a second copy (the peak of a large job's sorts).
 template <typename T>
 absl::Status CancellableSort(std::vector<T>& items, const CancelToken& cancel) {
   constexpr size_t kBlock = size_t{1} << 16;
@@ -59,21 +86,20 @@ absl::Status CancellableSort(std::vector<T>& items, const CancelToken& cancel) {
       },
       1);
   if (!status.ok() || n <= kBlock) return status;
-  std::vector<T> merged(n);
+  // The merge of [lo, hi) moves at most (hi − lo) / 2 items aside, to [lo / 2, hi / 2): the
+  // merges of a round never share a slot.
+  const auto aside = std::make_unique_for_overwrite<T[]>(n / 2);
   for (size_t width = kBlock; width < n; width *= 2) {
-    status =
-        ParallelFor((n + 2 * width - 1) / (2 * width), cancel,
-                    [&](size_t begin, size_t end) {
-                      for (size_t p = begin; p < end; ++p) {
-                        const size_t lo = 2 * width * p, mid = std::min(n, lo + width);
-                        const size_t hi = std::min(n, mid + width);
-                        std::merge(items.begin() + lo, items.begin() + mid, items.begin() + mid,
-                                   items.begin() + hi, merged.begin() + lo);
-                      }
-                    },
-                    1);
+    status = ParallelFor((n + 2 * width - 1) / (2 * width), cancel,
+                         [&](size_t begin, size_t end) {
+                           for (size_t p = begin; p < end; ++p) {
+                             const size_t lo = 2 * width * p, mid = std::min(n, lo + width);
+                             MergeInPlace(items.data() + lo, mid - lo,
+                                          std::min(n, mid + width) - mid, aside.get() + lo / 2);
+                           }
+                         },
+                         1);
     if (!status.ok()) return status;
-    items.swap(merged);
   }
   return absl::OkStatus();
 }
