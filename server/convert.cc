@@ -195,6 +195,7 @@ void ReportToProto(const PipelineReport& report, v1::Report* out) {
   out->set_budget_seconds(report.budget_seconds);
   out->set_budget_met(report.budget_met);
   out->set_budget_outcome(Outcome(report.budget_seconds, report.budget_met));
+  out->set_points_coincident_across_scans(report.points_coincident_across_scans);
   for (const std::string& w : report.warnings) out->add_warnings(w);
 }
 

@@ -67,6 +67,7 @@ absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOpti
   const auto start = std::chrono::steady_clock::now();
   absl::StatusOr<DuplicateGroups> duplicates = FindDuplicates(cloud, cancel);
   if (!duplicates.ok()) return duplicates.status();
+  const size_t coincident_across_scans = duplicates->coincident_across_scans;
   absl::StatusOr<PipelineReport> result;
   if (duplicates->collapsed() == 0) {
     *duplicates = {};  // the identity: 8 bytes a point the stages never read
@@ -78,6 +79,13 @@ absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOpti
   }
   if (!result.ok()) return result.status();
   PipelineReport report = *std::move(result);
+  report.points_coincident_across_scans = coincident_across_scans;
+  if (coincident_across_scans > 0) {
+    report.warnings.push_back(absl::StrCat(
+        coincident_across_scans,
+        " points lie exactly on a point of an earlier scan of the job (was a scan sent twice?); "
+        "they are not merged: each is processed as a point of its own scan"));
+  }
   report.total_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (StageReport& stage : report.stages) {

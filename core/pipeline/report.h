@@ -27,6 +27,9 @@ struct PipelineReport {
   double total_seconds = 0;
   double budget_seconds = 0;
   bool budget_met = true;
+  // Input points at exactly the position of a point of a lower-numbered scan (DuplicateGroups),
+  // with a warning when there are any.
+  uint64_t points_coincident_across_scans = 0;
   std::vector<std::string> warnings;
 };
 

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "core/spatial/duplicates.h"
 
+#include <algorithm>
 #include <bit>
 #include <utility>
 
@@ -21,9 +22,13 @@ uint64_t Mix(uint64_t h) {  // splitmix64's finaliser
   return h ^ (h >> 31);
 }
 
-bool SamePoint(const PointCloud& cloud, uint32_t a, uint32_t b) {
-  return cloud.scan[a] == cloud.scan[b] && cloud.x[a] == cloud.x[b] && cloud.y[a] == cloud.y[b] &&
-         cloud.z[a] == cloud.z[b];
+bool SamePosition(const PointCloud& cloud, uint32_t a, uint32_t b) {
+  return cloud.x[a] == cloud.x[b] && cloud.y[a] == cloud.y[b] && cloud.z[a] == cloud.z[b];
+}
+
+bool HoldsPosition(const PointCloud& cloud, const std::vector<uint32_t>& points, uint32_t i) {
+  return std::any_of(points.begin(), points.end(),
+                     [&](uint32_t p) { return SamePosition(cloud, p, i); });
 }
 
 template <typename T>
@@ -38,42 +43,53 @@ void KeepFirsts(const std::vector<T>& from, const std::vector<uint32_t>& firsts,
 
 absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const CancelToken& cancel) {
   const size_t n = cloud.size();
-  // (hash, index) sorted: equal points are adjacent, the lowest index first.
-  std::vector<std::pair<uint64_t, uint32_t>> keyed(n);
+  // (hash of the position, scan · 2³² + index) sorted: the points at one position are adjacent,
+  // scan by scan, each scan's lowest index first.
+  std::vector<std::pair<uint64_t, uint64_t>> keyed(n);
   absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
-      uint64_t h = Mix(cloud.scan[i] ^ (uint64_t(Bits(cloud.x[i])) << 32));
-      h = Mix(h ^ Bits(cloud.y[i]) ^ (uint64_t(Bits(cloud.z[i])) << 32));
-      keyed[i] = {h, static_cast<uint32_t>(i)};
+      const uint64_t h = Mix((uint64_t(Bits(cloud.x[i])) << 32) ^ Bits(cloud.y[i]));
+      keyed[i] = {Mix(h ^ Bits(cloud.z[i])), (uint64_t(cloud.scan[i]) << 32) | i};
     }
   });
   if (!status.ok()) return status;
   SCANPREP_RETURN_IF_ERROR(CancellableSort(keyed, cancel));
 
-  // first[i]: the lowest index of i's group. Within a run of equal hashes each point is
-  // compared with the run's distinct points so far (one, unless 64-bit hashes collide).
+  // first[i]: the lowest index of i's group. Within a run of equal hashes each point is compared
+  // with the distinct points of its scan so far and with the distinct positions of the lower
+  // scans (one each, unless 64-bit hashes collide).
   std::vector<uint32_t> first(n);
-  std::vector<uint32_t> distinct;
+  std::vector<uint32_t> scan_points, earlier_positions;
+  size_t across = 0;
   for (size_t begin = 0, runs = 0; begin < n; ++runs) {
     if ((runs & 0xffff) == 0) {
       SCANPREP_RETURN_IF_ERROR(cancel.Check());
     }
     size_t end = begin + 1;
     while (end < n && keyed[end].first == keyed[begin].first) ++end;
-    distinct.clear();
+    scan_points.clear();
+    earlier_positions.clear();
     for (size_t e = begin; e < end; ++e) {
-      const uint32_t i = keyed[e].second;
-      uint32_t group = i;
-      for (const uint32_t d : distinct) {
-        if (SamePoint(cloud, d, i)) group = d;
+      if (e > begin && keyed[e].second >> 32 != keyed[e - 1].second >> 32) {  // the next scan
+        for (const uint32_t p : scan_points) {
+          if (!HoldsPosition(cloud, earlier_positions, p)) earlier_positions.push_back(p);
+        }
+        scan_points.clear();
       }
-      if (group == i) distinct.push_back(i);
+      const uint32_t i = static_cast<uint32_t>(keyed[e].second);
+      uint32_t group = i;
+      for (const uint32_t d : scan_points) {
+        if (SamePosition(cloud, d, i)) group = d;
+      }
+      if (group == i) scan_points.push_back(i);
       first[i] = group;
+      if (HoldsPosition(cloud, earlier_positions, i)) ++across;
     }
     begin = end;
   }
 
   DuplicateGroups groups;
+  groups.coincident_across_scans = across;
   groups.group_of.resize(n);
   for (size_t i = 0; i < n; ++i) {
     if (first[i] == i) {
