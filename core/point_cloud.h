@@ -44,8 +44,13 @@ struct ScanMeta {
 };
 
 struct PointCloud {
-  // Coordinates in millimetres in the common frame.
+  // Coordinates in millimetres in the common frame, relative to `origin`: float carries about
+  // seven digits, so a scan far from the frame's zero (a georeferenced LAS, a plant grid) is held
+  // near its own origin and only the files and the wire see origin + (x, y, z), in double.
   std::vector<float> x, y, z;
+  // Where the local zero of (x, y, z) lies in the frame, in the same unit; zero for a cloud near
+  // the frame's zero. The stages never read it: every length they use is a difference.
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   // Index into `scans`; all zero for a single scan.
   std::vector<uint32_t> scan;
   // Scanline index within the scan; empty when the scanner has no scanlines. Points of one

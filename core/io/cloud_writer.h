@@ -27,6 +27,13 @@ inline bool Written(const PointCloud& cloud, size_t i, const WriteOptions& optio
 }
 size_t WrittenCount(const PointCloud& cloud, const WriteOptions& options);
 
+// A cloud with an origin is written with double coordinates, origin + local, so that a file far
+// from zero keeps what float could not; one without keeps float coordinates as it always had.
+inline bool WritesDoubleCoordinates(const PointCloud& cloud) { return !cloud.origin.isZero(0); }
+inline Eigen::Vector3d WorldPoint(const PointCloud& cloud, size_t i) {
+  return cloud.origin + Eigen::Vector3d(cloud.x[i], cloud.y[i], cloud.z[i]);
+}
+
 // Opens `path` (binary, truncated), runs `write` on it and closes it; errors name the path.
 absl::Status WriteFile(const std::filesystem::path& path,
                        const std::function<absl::Status(std::ostream&)>& write);

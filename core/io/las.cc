@@ -12,6 +12,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/io/byte_order.h"
+#include "core/io/float_narrowing.h"
+#include "core/io/local_frame.h"
 #include "core/io/read_file.h"
 #include "core/status_macros.h"
 
@@ -35,6 +37,40 @@ absl::Status Laz(const std::string& name) {
       absl::StrCat(name,
                    " is LAZ-compressed; no LASzip decoder is packaged for Debian 12: decompress it "
                    "first (e.g. `laszip -i f.laz -o f.las` or `pdal translate f.laz f.las`)"));
+}
+
+// Where the point records end: at the waveform packets (LAS 1.3, formats 4, 5, 9, 10) or the
+// extended VLRs (LAS 1.4) when the header places them after the points, else at the file's end.
+uint64_t PointDataEnd(std::string_view file, int minor, uint16_t header_size, uint32_t offset) {
+  uint64_t end = file.size();
+  auto limit = [&](uint64_t start) {
+    if (start > offset && start < end) end = start;
+  };
+  if (minor >= 3 && header_size >= 235) limit(Load<uint64_t>(file.data() + 227));
+  if (minor >= 4 && header_size >= kHeader14Bytes && Load<uint32_t>(file.data() + 243) > 0) {
+    limit(Load<uint64_t>(file.data() + 235));
+  }
+  return end;
+}
+
+// The local origin (LocalOrigin) of the records' coordinates: one pass over their integers
+// first, so that each is narrowed to float once, relative to it.
+Eigen::Vector3d RecordsOrigin(const char* records, uint64_t count, uint16_t record,
+                              const double scale[3], const double shift[3]) {
+  int32_t lo[3], hi[3];
+  for (int k = 0; k < 3; ++k) lo[k] = hi[k] = Load<int32_t>(records + 4 * k);
+  for (uint64_t i = 1; i < count; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      const int32_t v = Load<int32_t>(records + i * record + 4 * k);
+      lo[k] = std::min(lo[k], v), hi[k] = std::max(hi[k], v);
+    }
+  }
+  Eigen::Vector3d min, max;
+  for (int k = 0; k < 3; ++k) {
+    const double a = lo[k] * scale[k] + shift[k], b = hi[k] * scale[k] + shift[k];
+    min[k] = std::min(a, b), max[k] = std::max(a, b);  // a scale may be negative
+  }
+  return LocalOrigin(min, max);
 }
 
 }  // namespace
@@ -73,11 +109,20 @@ absl::StatusOr<PointCloud> ReadLasBytes(std::string_view file, const std::string
   }
   uint64_t count = Load<uint32_t>(h + 107);
   if (minor >= 4 && header_size >= kHeader14Bytes) count = Load<uint64_t>(h + 247);
-  const uint64_t room = (file.size() - offset) / record;
+  const uint64_t end = PointDataEnd(file, minor, header_size, offset);
+  const uint64_t room = (end - offset) / record;
   if (count > room) {
     return absl::InvalidArgumentError(absl::StrCat(name, ": header claims ", count, " points of ",
                                                    record, " bytes from offset ", offset,
                                                    "; the file holds ", room));
+  }
+  // Records the header does not count would be left out unseen: refused as PLY and PCD refuse a
+  // body longer than their counts.
+  if (count * record != end - offset) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(name, ": header claims ", count, " points of ", record, " bytes from offset ",
+                     offset, " but the point data holds ", end - offset, " bytes (", room,
+                     " points): wrong count (counts disagree)"));
   }
   if (count == 0) return absl::InvalidArgumentError(absl::StrCat(name, ": no points"));
   double scale[3], shift[3];
@@ -92,6 +137,7 @@ absl::StatusOr<PointCloud> ReadLasBytes(std::string_view file, const std::string
   }
 
   PointCloud cloud;
+  cloud.origin = RecordsOrigin(h + offset, count, record, scale, shift);
   cloud.x.resize(count), cloud.y.resize(count), cloud.z.resize(count);
   cloud.intensity.resize(count);
   std::vector<uint32_t> line(count);
@@ -105,11 +151,15 @@ absl::StatusOr<PointCloud> ReadLasBytes(std::string_view file, const std::string
     float* xyz[3] = {&cloud.x[i], &cloud.y[i], &cloud.z[i]};
     for (int k = 0; k < 3; ++k) {
       const double v = Load<int32_t>(p + 4 * k) * scale[k] + shift[k];
-      *xyz[k] = static_cast<float>(v);
-      if (!std::isfinite(*xyz[k])) {
-        return absl::InvalidArgumentError(absl::StrCat(name, ": point ", i, " ",
-                                                       std::string(1, "xyz"[k]), " = ", v,
-                                                       " is beyond the range of a float"));
+      const double local = v - cloud.origin[k];
+      *xyz[k] = NarrowToFloat(local);
+      // Within half a unit of the file's scale, a LAS written back from it has the same integers.
+      if (!(std::abs(*xyz[k] - local) <= 0.5 * std::abs(scale[k]))) {
+        return absl::InvalidArgumentError(absl::StrFormat(
+            "%s: point %d %c = %.17g is %.17g from the local origin %.17g, too far for a float "
+            "to keep it within half its scale %g (the file spans more than float's 24 bits "
+            "of its scale)",
+            name, i, "xyz"[k], v, local, cloud.origin[k], scale[k]));
       }
     }
     cloud.intensity[i] = Load<uint16_t>(p + 12);

@@ -14,16 +14,19 @@
 namespace scanprep::io {
 
 // LAS 1.0 to 1.4, point data record formats 0 to 10: X, Y, Z as scaled integers (x = X * scale +
-// offset, in the file's units), intensity -> intensity. The scan structure: a new scanline starts
-// where the scan direction flag changes or after a point on the edge of the flight line (the last
-// of its line; an edge point that is the first of its line, as some scanners also mark, ends
-// nothing); a file with a single line gets none. The scan angle is read and its range given in
-// a warning (it is not a per-point value of the service). Records longer than their format
-// (extra bytes) are stepped over; variable-length records are skipped by the header's offset.
-// Compressed LAZ (point format with bit 7 or 6 set, or a .laz name) is INVALID_ARGUMENT naming a
-// way to decompress it: no LASzip decoder is packaged for Debian 12. Counts, offsets and record
-// lengths are checked against the file before anything is allocated. One scan, id = file stem, no
-// sensor origin (LAS has none; a warning says how to give one); FinishLoading() has been called.
+// offset, in the file's units), in double relative to the cloud's origin (LocalOrigin of the
+// records' box), so a georeferenced file keeps every coordinate within half a unit of its scale
+// (INVALID_ARGUMENT naming the point where float cannot); intensity -> intensity. The scan
+// structure: a new scanline starts where the scan direction flag changes or after a point on the
+// edge of the flight line (the last of its line; an edge point that is the first of its line, as
+// some scanners also mark, ends nothing); a file with a single line gets none. The scan angle is
+// read and its range given in a warning (it is not a per-point value of the service). Records
+// longer than their format (extra bytes) are stepped over; variable-length records are skipped by
+// the header's offset. Compressed LAZ (point format with bit 7 or 6 set, or a .laz name) is
+// INVALID_ARGUMENT naming a way to decompress it: no LASzip decoder is packaged for Debian 12.
+// Counts, offsets and record lengths are checked against the file before anything is allocated, and
+// records the header's count leaves out are refused like PLY's and PCD's. One scan, id = file stem,
+// no sensor origin (LAS has none; a warning says how to give one); FinishLoading() has been called.
 absl::StatusOr<PointCloud> ReadLas(const std::filesystem::path& path,
                                    std::vector<std::string>& warnings);
 absl::StatusOr<PointCloud> ReadLas(std::istream& in, const std::string& name_for_errors,

@@ -5,6 +5,7 @@
 
 #include <lzf.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -17,6 +18,7 @@
 #include "absl/strings/str_join.h"
 #include "core/io/byte_order.h"
 #include "core/io/float_narrowing.h"
+#include "core/io/local_frame.h"
 #include "core/io/pcd_header.h"
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
@@ -227,7 +229,7 @@ void Reserve(const Header& header, const Layout& layout, PointCloud& cloud) {
 // Reads every point from `source`, keeping those with finite coordinates.
 template <class Source>
 absl::Status ReadPoints(const Header& header, const Layout& layout, Source& source,
-                        PointCloud& cloud, uint64_t& invalid) {
+                        PointCloud& cloud, WideCoordinates* wide, uint64_t& invalid) {
   const bool normals = layout.field[kNx].has_value();
   const bool intensity = layout.field[kIntensity].has_value();
   const bool flags = layout.field[kFlags].has_value();
@@ -241,13 +243,23 @@ absl::Status ReadPoints(const Header& header, const Layout& layout, Source& sour
     }
     std::array<float, kScanline> value{};  // the float slots, narrowed
     for (int slot = 0; slot < kFlags; ++slot) value[slot] = NarrowToFloat(raw[slot]);
-    if (!std::isfinite(value[kX]) || !std::isfinite(value[kY]) || !std::isfinite(value[kZ])) {
+    // Double coordinates are narrowed relative to their origin once all are read; a finite one
+    // beyond float's range from it is an error there, not a missing measurement.
+    const bool measured =
+        wide != nullptr
+            ? std::isfinite(raw[kX]) && std::isfinite(raw[kY]) && std::isfinite(raw[kZ])
+            : std::isfinite(value[kX]) && std::isfinite(value[kY]) && std::isfinite(value[kZ]);
+    if (!measured) {
       ++invalid;
       continue;
     }
-    cloud.x.push_back(value[kX]);
-    cloud.y.push_back(value[kY]);
-    cloud.z.push_back(value[kZ]);
+    if (wide != nullptr) {
+      wide->Push(raw[kX], raw[kY], raw[kZ]);
+    } else {
+      cloud.x.push_back(value[kX]);
+      cloud.y.push_back(value[kY]);
+      cloud.z.push_back(value[kZ]);
+    }
     if (normals) {
       cloud.nx.push_back(value[kNx]);
       cloud.ny.push_back(value[kNy]);
@@ -337,7 +349,7 @@ void AddMetadataWarnings(const Header& header, const Layout& layout, uint64_t in
     return;
   }
   const std::array<double, 7>& v = *header.viewpoint;
-  cloud.scans.front().camera_position = Eigen::Vector3d(v[0], v[1], v[2]);
+  cloud.scans.front().camera_position = Eigen::Vector3d(v[0], v[1], v[2]) - cloud.origin;
 }
 
 absl::StatusOr<PointCloud> ParsePcd(std::string_view data, const std::string& name,
@@ -351,21 +363,29 @@ absl::StatusOr<PointCloud> ParsePcd(std::string_view data, const std::string& na
   // ParseHeader bounded POINTS by the body (binary_compressed: Decompress does, below).
   if (header->data != Data::kBinaryCompressed) Reserve(*header, *layout, cloud);
   uint64_t invalid = 0;
+  // F8 coordinates can hold a position far from zero to a precision float cannot.
+  const bool double_coordinates =
+      std::any_of(layout->field.begin(), layout->field.begin() + 3, [&](const auto& f) {
+        return header->fields[*f].type == 'F' && header->fields[*f].size == 8;
+      });
+  WideCoordinates wide_coordinates;
+  WideCoordinates* wide = double_coordinates ? &wide_coordinates : nullptr;
   absl::Status status;
   if (header->data == Data::kAscii) {
     AsciiSource source(body, *header, name);
-    status = ReadPoints(*header, *layout, source, cloud, invalid);
+    status = ReadPoints(*header, *layout, source, cloud, wide, invalid);
     if (status.ok()) status = source.Finish();
   } else if (header->data == Data::kBinary) {
     BinarySource source(body, *header, /*soa=*/false);
-    status = ReadPoints(*header, *layout, source, cloud, invalid);
+    status = ReadPoints(*header, *layout, source, cloud, wide, invalid);
   } else {
     absl::StatusOr<std::string> bytes = Decompress(body, *header, name);
     if (!bytes.ok()) return bytes.status();
     Reserve(*header, *layout, cloud);
     BinarySource source(*bytes, *header, /*soa=*/true);
-    status = ReadPoints(*header, *layout, source, cloud, invalid);
+    status = ReadPoints(*header, *layout, source, cloud, wide, invalid);
   }
+  if (status.ok() && wide != nullptr) status = wide->Narrow(cloud, name);
   if (!status.ok()) return status;
   if (header->points > 0 && invalid == header->points) {
     return absl::InvalidArgumentError(

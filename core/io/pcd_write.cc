@@ -35,7 +35,10 @@ absl::Status WritePcd(std::ostream& out, const PointCloud& cloud, const WriteOpt
   SCANPREP_RETURN_IF_ERROR(CheckWritable(cloud, "PCD"));
   const bool normals = cloud.has_normals(), scanlines = cloud.has_scanlines();
   const bool intensity = !cloud.intensity.empty();
-  std::vector<OutField> fields = {{"x", 4, 'F'}, {"y", 4, 'F'}, {"z", 4, 'F'}};
+  const bool wide = WritesDoubleCoordinates(cloud);
+  const int coordinate = wide ? 8 : 4;
+  std::vector<OutField> fields = {
+      {"x", coordinate, 'F'}, {"y", coordinate, 'F'}, {"z", coordinate, 'F'}};
   if (normals)
     fields.insert(fields.end(), {{"normal_x", 4, 'F'}, {"normal_y", 4, 'F'}, {"normal_z", 4, 'F'}});
   if (intensity) fields.push_back({"intensity", 4, 'F'});
@@ -59,9 +62,12 @@ absl::Status WritePcd(std::ostream& out, const PointCloud& cloud, const WriteOpt
   for (size_t i = 0; i < cloud.size() && out; ++i) {
     if (!Written(cloud, i, options)) continue;
     record.clear();
-    Append(record, cloud.x[i]);
-    Append(record, cloud.y[i]);
-    Append(record, cloud.z[i]);
+    if (wide) {
+      const Eigen::Vector3d p = WorldPoint(cloud, i);
+      Append(record, p.x()), Append(record, p.y()), Append(record, p.z());
+    } else {
+      Append(record, cloud.x[i]), Append(record, cloud.y[i]), Append(record, cloud.z[i]);
+    }
     if (normals) {
       Append(record, cloud.nx[i]);
       Append(record, cloud.ny[i]);

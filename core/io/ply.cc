@@ -13,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/io/byte_order.h"
 #include "core/io/float_narrowing.h"
+#include "core/io/local_frame.h"
 #include "core/io/ply_header.h"
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
@@ -249,6 +250,13 @@ class VertexBuilder {
             absl::StrCat(name, ": vertex element has no scalar property '", axis, "'"));
       }
     }
+    // Double coordinates can hold a position far from zero to a precision float cannot: they
+    // are kept until all are read and then stored relative to a local origin.
+    for (size_t p = 0; p < vertex->properties.size(); ++p) {
+      const Slot slot = builder.slots_[p];
+      builder.wide_ |= (slot == Slot::kX || slot == Slot::kY || slot == Slot::kZ) &&
+                       vertex->properties[p].type == ScalarType::kFloat64;
+    }
     const bool has_normals = has[static_cast<size_t>(Slot::kNx)] ||
                              has[static_cast<size_t>(Slot::kNy)] ||
                              has[static_cast<size_t>(Slot::kNz)];
@@ -278,6 +286,7 @@ class VertexBuilder {
     c.x.resize(n);
     c.y.resize(n);
     c.z.resize(n);
+    if (builder.wide_) builder.wide_coordinates_.Resize(n);
     if (has_normals) {
       c.nx.resize(n);
       c.ny.resize(n);
@@ -297,11 +306,11 @@ class VertexBuilder {
       case Slot::kSkip:
         return nullptr;
       case Slot::kX:
-        return StoreCoordinate(cloud_.x[i], value);
+        return StoreCoordinate(0, i, value);
       case Slot::kY:
-        return StoreCoordinate(cloud_.y[i], value);
+        return StoreCoordinate(1, i, value);
       case Slot::kZ:
-        return StoreCoordinate(cloud_.z[i], value);
+        return StoreCoordinate(2, i, value);
       case Slot::kNx:
         cloud_.nx[i] = NarrowToFloat(value);
         return nullptr;
@@ -365,6 +374,7 @@ class VertexBuilder {
                                                      " of the ", count_,
                                                      " vertices; every vertex needs a grid cell"));
     }
+    if (wide_) SCANPREP_RETURN_IF_ERROR(wide_coordinates_.Narrow(cloud_, name));
     const std::string stem = std::filesystem::path(name).stem().string();
     if (max_scan_ == 0) {
       cloud_.scans.push_back(ScanMeta{.id = stem});
@@ -390,7 +400,12 @@ class VertexBuilder {
  private:
   // NaN or infinity in the file is a scanner's "no measurement" (as in PCD and the API): such a
   // vertex is left out in Finish(). A finite value beyond float's range is an error.
-  static const char* StoreCoordinate(float& target, double value) {
+  const char* StoreCoordinate(int axis, uint64_t i, double value) {
+    if (wide_) {
+      wide_coordinates_.at(axis, i) = value;  // checked by Narrow() against the origin
+      return nullptr;
+    }
+    float& target = (axis == 0 ? cloud_.x : axis == 1 ? cloud_.y : cloud_.z)[i];
     target = NarrowToFloat(value);
     return std::isfinite(target) || !std::isfinite(value)
                ? nullptr
@@ -427,6 +442,8 @@ class VertexBuilder {
   uint64_t num_cols_ = 1;
   uint64_t grid_vertices_ = 0;
   uint64_t last_grid_vertex_ = 0;
+  bool wide_ = false;  // a coordinate property is a double
+  WideCoordinates wide_coordinates_;
 };
 
 template <class Source>

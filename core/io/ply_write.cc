@@ -37,9 +37,12 @@ absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const WriteOpt
   const size_t n = cloud.size();
   const size_t count = WrittenCount(cloud, options);
 
-  std::string header = absl::StrCat(
-      "ply\nformat binary_little_endian 1.0\ncomment written by scanprep\n", "element vertex ",
-      count, "\n", "property float x\nproperty float y\nproperty float z\n");
+  const bool wide = WritesDoubleCoordinates(cloud);
+  const char* coordinate = wide ? "double" : "float";
+  std::string header =
+      absl::StrCat("ply\nformat binary_little_endian 1.0\ncomment written by scanprep\n",
+                   "element vertex ", count, "\n", "property ", coordinate, " x\nproperty ",
+                   coordinate, " y\nproperty ", coordinate, " z\n");
   if (cloud.has_normals())
     absl::StrAppend(&header, "property float nx\nproperty float ny\nproperty float nz\n");
   absl::StrAppend(&header, "property uchar flags\nproperty uint scan\n");
@@ -51,15 +54,18 @@ absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const WriteOpt
 
   constexpr size_t kChunkPoints = 1 << 16;
   std::vector<char> buffer;
-  buffer.reserve(kChunkPoints * 40);  // the widest record is 38 bytes
+  buffer.reserve(kChunkPoints * 52);  // the widest record is 50 bytes
   RecordPacker pack(buffer);
   for (size_t begin = 0; begin < n && out; begin += kChunkPoints) {
     buffer.clear();
     for (size_t i = begin; i < std::min(n, begin + kChunkPoints); ++i) {
       if (!Written(cloud, i, options)) continue;
-      pack.Put(cloud.x[i]);
-      pack.Put(cloud.y[i]);
-      pack.Put(cloud.z[i]);
+      if (wide) {
+        const Eigen::Vector3d p = WorldPoint(cloud, i);
+        pack.Put(p.x()), pack.Put(p.y()), pack.Put(p.z());
+      } else {
+        pack.Put(cloud.x[i]), pack.Put(cloud.y[i]), pack.Put(cloud.z[i]);
+      }
       if (cloud.has_normals()) {
         pack.Put(cloud.nx[i]);
         pack.Put(cloud.ny[i]);

@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/io/float_narrowing.h"
+#include "core/io/local_frame.h"
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
 #include "core/status_macros.h"
@@ -85,16 +86,13 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
         absl::StrCat("profile_gap must be a finite value >= 0, got ", profile_gap));
   }
   PointCloud cloud;
-  // The shortest point line, "0 0 0\n", has 6 bytes.
-  cloud.x.reserve(text.size() / 6);
-  cloud.y.reserve(text.size() / 6);
-  cloud.z.reserve(text.size() / 6);
   std::optional<uint64_t> declared_count;
   bool first_data_line = true;
   LineCursor cursor(text);
   std::vector<std::string_view> fields;
   std::string_view line;
   Columns columns;
+  WideCoordinates wide;
   while (cursor.Next(line)) {
     if (first_data_line) {
       auto named = ParseColumns(line, name, cursor.line_number());
@@ -117,21 +115,17 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
                                      : std::string("x y z"),
                        ", found ", fields.size(), " value(s)"));
     }
-    // Column k as a float (finite when `finite`) or as an integer at most `max`.
+    // Column k as a number, a float or an integer at most `max`.
     auto number = [&](int k, double& value) -> absl::Status {
       if (ParseDouble(fields[k], value)) return absl::OkStatus();
       return absl::InvalidArgumentError(absl::StrCat(name, ": line ", cursor.line_number(),
                                                      ": column ", k + 1, " '",
                                                      std::string(fields[k]), "' is not a number"));
     };
-    auto real = [&](int k, std::vector<float>& to, bool finite) -> absl::Status {
+    auto real = [&](int k, std::vector<float>& to) -> absl::Status {
       double value = 0.0;
       SCANPREP_RETURN_IF_ERROR(number(k, value));
       to.push_back(NarrowToFloat(value));
-      if (finite && !std::isfinite(to.back())) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            name, ": line ", cursor.line_number(), ": column ", k + 1, " is not a finite float"));
-      }
       return absl::OkStatus();
     };
     auto integer = [&](int k, double max, double& value) -> absl::Status {
@@ -141,13 +135,23 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
           absl::StrCat(name, ": line ", cursor.line_number(), ": column ", k + 1, " '",
                        std::string(fields[k]), "' is not an integer in [0, ", max, "]"));
     };
-    SCANPREP_RETURN_IF_ERROR(real(columns.x, cloud.x, true));
-    SCANPREP_RETURN_IF_ERROR(real(columns.y, cloud.y, true));
-    SCANPREP_RETURN_IF_ERROR(real(columns.z, cloud.z, true));
+    // Text carries any number of digits: coordinates are kept in double until all are read,
+    // then stored relative to a local origin.
+    double xyz[3];
+    for (int k = 0; k < 3; ++k) {
+      const int column = k == 0 ? columns.x : k == 1 ? columns.y : columns.z;
+      SCANPREP_RETURN_IF_ERROR(number(column, xyz[k]));
+      if (!std::isfinite(NarrowToFloat(xyz[k]))) {
+        return absl::InvalidArgumentError(absl::StrCat(name, ": line ", cursor.line_number(),
+                                                       ": column ", column + 1,
+                                                       " is not a finite float"));
+      }
+    }
+    wide.Push(xyz[0], xyz[1], xyz[2]);
     if (columns.nx >= 0) {
-      SCANPREP_RETURN_IF_ERROR(real(columns.nx, cloud.nx, false));
-      SCANPREP_RETURN_IF_ERROR(real(columns.ny, cloud.ny, false));
-      SCANPREP_RETURN_IF_ERROR(real(columns.nz, cloud.nz, false));
+      SCANPREP_RETURN_IF_ERROR(real(columns.nx, cloud.nx));
+      SCANPREP_RETURN_IF_ERROR(real(columns.ny, cloud.ny));
+      SCANPREP_RETURN_IF_ERROR(real(columns.nz, cloud.nz));
     }
     double value = 0;
     if (columns.flags >= 0) {
@@ -159,6 +163,7 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
       cloud.scanline.push_back(static_cast<uint32_t>(value));
     }
   }
+  SCANPREP_RETURN_IF_ERROR(wide.Narrow(cloud, name));
   if (declared_count && *declared_count != cloud.size()) {
     return absl::InvalidArgumentError(absl::StrCat(name, ": first line declares ", *declared_count,
                                                    " points but the file has ", cloud.size()));

@@ -23,8 +23,13 @@ absl::Status WriteXyz(std::ostream& out, const PointCloud& cloud, const WriteOpt
   std::string line;
   for (size_t i = 0; i < cloud.size() && out; ++i) {
     if (!Written(cloud, i, options)) continue;
-    // %.9g: nine significant digits read back as the same float.
-    line = absl::StrFormat("%.9g %.9g %.9g", cloud.x[i], cloud.y[i], cloud.z[i]);
+    // %.9g: nine significant digits read back as the same float; %.17g the same double.
+    if (WritesDoubleCoordinates(cloud)) {
+      const Eigen::Vector3d p = WorldPoint(cloud, i);
+      line = absl::StrFormat("%.17g %.17g %.17g", p.x(), p.y(), p.z());
+    } else {
+      line = absl::StrFormat("%.9g %.9g %.9g", cloud.x[i], cloud.y[i], cloud.z[i]);
+    }
     if (normals)
       absl::StrAppendFormat(&line, " %.9g %.9g %.9g", cloud.nx[i], cloud.ny[i], cloud.nz[i]);
     absl::StrAppend(&line, " ", cloud.flags.empty() ? 0 : cloud.flags[i]);
