@@ -128,7 +128,24 @@ void SetVec3(const Eigen::Vector3d& from, v1::Vec3* to) {
   to->set_z(from.z());
 }
 
+Eigen::Vector3d FromVec3(const v1::Vec3& v) { return {v.x(), v.y(), v.z()}; }
+
 }  // namespace
+
+void SetJobOrigin(v1::JobHeader& header) {
+  if (header.has_origin()) return;
+  for (const v1::ScanHeader& scan : header.scans()) {
+    if (!scan.has_points_offset()) continue;
+    const v1::RigidTransform& t = scan.to_common();
+    const v1::Quaternion& q = t.rotation();
+    const Eigen::Quaterniond rotation = t.has_rotation()
+                                            ? Eigen::Quaterniond(q.w(), q.x(), q.y(), q.z())
+                                            : Eigen::Quaterniond::Identity();
+    SetVec3(rotation.normalized() * FromVec3(scan.points_offset()) + FromVec3(t.translation()),
+            header.mutable_origin());
+    return;
+  }
+}
 
 std::vector<FlagSpec> JobFlags() {
   return {
@@ -285,8 +302,13 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
       const size_t value = split.back().values.empty() ? 0 : split.back().values[k];
       const ScanMeta& meta =
           value < cloud->scans.size() ? cloud->scans[value] : cloud->scans.front();
+      // A reader's positions, like its points, are relative to the cloud's origin.
       const std::optional<Eigen::Vector3d>& origin = meta.camera_position;
-      if (origin && !scan->has_camera_position()) SetVec3(*origin, scan->mutable_camera_position());
+      if (origin && !scan->has_camera_position()) {
+        SetVec3(*origin + cloud->origin, scan->mutable_camera_position());
+      }
+      // The points are sent relative to the origin the reader chose (double files far from zero).
+      if (!cloud->origin.isZero(0)) SetVec3(cloud->origin, scan->mutable_points_offset());
       scan_files.push_back(file);
     }
     clouds.push_back(std::move(*cloud));
@@ -317,6 +339,7 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
                      pcd ? " (PCL writes PCD files in metres: pass --unit m if so)" : ""));
   }
   SCANPREP_RETURN_IF_ERROR(ApplyOptionFlags(args, job.header));
+  SetJobOrigin(job.header);
 
   // The service wants an optional array in every chunk or none, so keep one only when every
   // file has it.
@@ -375,7 +398,21 @@ absl::StatusOr<Job> BuildJobFromCloud(const ParsedArgs& args, PointCloud cloud) 
   job.header.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
   job.header.set_scanner_kind(cloud.kind == ScannerKind::kLine ? v1::SCANNER_KIND_LINE
                                                                : v1::SCANNER_KIND_FLEXIBLE);
-  for (const ScanMeta& meta : cloud.scans) *job.header.add_scans() = ScanHeaderFromMeta(meta);
+  for (const ScanMeta& meta : cloud.scans) {
+    v1::ScanHeader* scan = job.header.add_scans();
+    *scan = ScanHeaderFromMeta(meta);
+    // Positions and points both relative to the cloud's origin; the server adds it back.
+    if (!cloud.origin.isZero(0)) {
+      if (meta.camera_position) {
+        SetVec3(*meta.camera_position + cloud.origin, scan->mutable_camera_position());
+      }
+      if (meta.projector_position) {
+        SetVec3(*meta.projector_position + cloud.origin, scan->mutable_projector_position());
+      }
+      SetVec3(cloud.origin, scan->mutable_points_offset());
+    }
+  }
+  SetJobOrigin(job.header);
   SCANPREP_RETURN_IF_ERROR(ApplyOptionFlags(args, job.header));
   job.points = std::move(cloud);
   return job;

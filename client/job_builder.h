@@ -38,6 +38,12 @@ absl::StatusOr<std::vector<io::ScanFormat>> ScanArgumentFormats(const ParsedArgs
 
 absl::StatusOr<Job> BuildJob(const ParsedArgs& args);
 
+// Unless the header states its origin: the first scan with a points_offset gives it, moved into
+// the common frame by that scan's to_common, so that the server's local frame lies at the data
+// and the result comes back relative to it (the receiver adds it back). No scan with an offset,
+// no origin: the header is what it was before origins existed.
+void SetJobOrigin(scanprep::v1::JobHeader& header);
+
 // The wire form of a scan's metadata, millimetres, identity pose.
 scanprep::v1::ScanHeader ScanHeaderFromMeta(const ScanMeta& meta);
 

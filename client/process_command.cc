@@ -110,19 +110,22 @@ std::string UnitName(v1::LengthUnit unit) {
 }
 
 // The input and the result side by side, with how far smoothing moved each kept point. What was
-// sent is moved into the result's frame by each scan's to_common exactly as the server moves it
-// (server/convert.h, which works in millimetres; the result is in job units), and so is the first
-// scan's sensor, which sets the view.
+// sent is moved into the result's frame (local: relative to the job's origin) by each scan's
+// to_common exactly as the server moves it (server/convert.h, which works in millimetres; the
+// result is in job units), and so is the first scan's sensor, which sets the view.
 absl::Status WritePreview(const std::string& path, const PointCloud& sent,
                           const v1::JobHeader& header, const PointCloud& result) {
   SCANPREP_ASSIGN_OR_RETURN(const double mm_per_unit, server::MillimetresPerUnit(header.unit()));
+  SCANPREP_ASSIGN_OR_RETURN(const Eigen::Vector3d origin_mm,
+                            server::OriginFromProto(header, mm_per_unit));
   PointCloud input = sent;
   std::vector<server::ScanFrame> frames;
   ScanMeta scanner;
   for (int s = 0; s < header.scans_size(); ++s) {
     const std::string field = absl::StrCat("header.scans[", s, "]");
-    SCANPREP_ASSIGN_OR_RETURN(server::ScanFrame frame,
-                              server::FrameFromProto(header.scans(s), mm_per_unit, field));
+    SCANPREP_ASSIGN_OR_RETURN(
+        server::ScanFrame frame,
+        server::FrameFromProto(header.scans(s), mm_per_unit, origin_mm, field));
     if (s == 0) {
       SCANPREP_ASSIGN_OR_RETURN(scanner, server::ScanMetaFromProto(header.scans(0), frame, field));
       if (scanner.camera_position) *scanner.camera_position /= mm_per_unit;
@@ -132,7 +135,7 @@ absl::Status WritePreview(const std::string& path, const PointCloud& sent,
   for (size_t i = 0; i < input.size(); ++i) {
     const size_t s = input.scan.empty() ? 0 : input.scan[i];
     if (s >= frames.size()) continue;
-    const Eigen::Vector3d p = frames[s].Point(input.point(i).cast<double>()) / mm_per_unit;
+    const Eigen::Vector3d p = frames[s].ChunkPoint(input.point(i).cast<double>()) / mm_per_unit;
     input.x[i] = static_cast<float>(p.x());
     input.y[i] = static_cast<float>(p.y());
     input.z[i] = static_cast<float>(p.z());

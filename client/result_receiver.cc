@@ -49,6 +49,9 @@ absl::Status AppendResultChunk(const v1::PointChunk& chunk, PointCloud& cloud) {
 }
 
 ResultReceiver::ResultReceiver(const v1::JobHeader& header) {
+  // Result chunks are relative to the job's origin; the writers add it back in double.
+  const v1::Vec3& origin = header.origin();
+  result_.cloud.origin = Eigen::Vector3d(origin.x(), origin.y(), origin.z());
   for (const v1::ScanHeader& scan : header.scans()) {
     result_.cloud.scans.push_back({.id = scan.scan_id()});
   }

@@ -24,7 +24,8 @@ struct TransferSeconds {
 };
 
 struct ProcessResult {
-  // In the job's unit and the common frame; `scans` carries the header's scan ids.
+  // In the job's unit and the common frame, relative to cloud.origin (the header's origin);
+  // `scans` carries the header's scan ids.
   PointCloud cloud;
   v1::Report report;
   TransferSeconds transfer;

@@ -2,6 +2,7 @@
 #include "server/convert.h"
 
 #include <cmath>
+#include <limits>
 
 #include "absl/strings/str_cat.h"
 #include "server/error_details.h"
@@ -84,11 +85,26 @@ absl::StatusOr<double> MillimetresPerUnit(v1::LengthUnit unit) {
   }
 }
 
+absl::StatusOr<Eigen::Vector3d> OriginFromProto(const v1::JobHeader& header, double mm_per_unit) {
+  const Eigen::Vector3d origin = FromProto(header.origin()) * mm_per_unit;
+  if (!(origin.array().abs() <= kMaxOffsetMm).all()) {
+    return WithFieldViolation(
+        absl::InvalidArgumentError(absl::StrCat("header.origin: must be finite and within ",
+                                                kMaxOffsetMm, " mm of the common frame's zero")),
+        "INVALID_HEADER", "header.origin");
+  }
+  return origin;
+}
+
 absl::StatusOr<ScanFrame> FrameFromProto(const v1::ScanHeader& scan, double mm_per_unit,
-                                         std::string_view field) {
+                                         const Eigen::Vector3d& origin_mm, std::string_view field) {
   ScanFrame frame;
   frame.mm_per_unit = mm_per_unit;
-  if (!scan.has_to_common()) return frame;
+  const Eigen::Vector3d points_offset_mm = FromProto(scan.points_offset()) * mm_per_unit;
+  if (!(points_offset_mm.array().abs() <= kMaxOffsetMm).all()) {
+    return BadField(field, "points_offset",
+                    absl::StrCat("must be finite and within ", kMaxOffsetMm, " mm"));
+  }
   const v1::RigidTransform& t = scan.to_common();
   if (t.has_rotation()) {
     const v1::Quaternion& q = t.rotation();
@@ -103,12 +119,21 @@ absl::StatusOr<ScanFrame> FrameFromProto(const v1::ScanHeader& scan, double mm_p
   if (t.has_translation()) {
     const Eigen::Vector3d translation = FromProto(t.translation());
     frame.translation_mm = translation * mm_per_unit;
-    if (!(frame.translation_mm.array().abs() <= kMaxCoordinateMm).all()) {
+    // Far is fine now that the job's origin takes it out; beyond kMaxOffsetMm double itself
+    // would lose the data's resolution.
+    if (!(frame.translation_mm.array().abs() <= kMaxOffsetMm).all()) {
       return BadField(field, "to_common.translation",
-                      absl::StrCat("must be finite and within ", kMaxCoordinateMm, " mm"));
+                      absl::StrCat("must be finite and within ", kMaxOffsetMm, " mm"));
     }
   }
+  frame.translation_mm -= origin_mm;
+  frame.points_translation_mm = frame.rotation * points_offset_mm + frame.translation_mm;
   return frame;
+}
+
+double FloatSpacingAt(double mm) {
+  const float narrow = std::abs(static_cast<float>(mm));
+  return std::nextafter(narrow, std::numeric_limits<float>::infinity()) - narrow;
 }
 
 absl::StatusOr<ScanMeta> ScanMetaFromProto(const v1::ScanHeader& scan, const ScanFrame& frame,

@@ -34,21 +34,46 @@ namespace v1 = ::scanprep::v1;
 // Millimetres per job unit; INVALID_ARGUMENT for LENGTH_UNIT_UNSPECIFIED or an unknown value.
 absl::StatusOr<double> MillimetresPerUnit(v1::LengthUnit unit);
 
-// Maps a point of one scan (job units, scan frame) into the common frame in millimetres.
+// Largest JobHeader.origin, ScanHeader.points_offset or to_common translation, in millimetres
+// (100,000 km: any georeferenced frame); double keeps 1e-5 mm there.
+inline constexpr double kMaxOffsetMm = 1e11;
+
+// Maps a point of one scan (job units, scan frame) into the job's local frame in millimetres:
+// the common frame less JobHeader.origin, all in double.
 struct ScanFrame {
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  // to_common's translation less the job's origin: where the scan frame's zero lies locally.
   Eigen::Vector3d translation_mm = Eigen::Vector3d::Zero();
+  // The same for the points on the wire, which are relative to the scan's points_offset:
+  // rotation * points_offset + translation_mm, so that a point needs one product and one sum.
+  Eigen::Vector3d points_translation_mm = Eigen::Vector3d::Zero();
   double mm_per_unit = 1.0;
 
+  // A position of the header (absolute in the scan frame).
   Eigen::Vector3d Point(const Eigen::Vector3d& p) const {
     return rotation * (p * mm_per_unit) + translation_mm;
+  }
+  // A point of a chunk (relative to points_offset).
+  Eigen::Vector3d ChunkPoint(const Eigen::Vector3d& p) const {
+    return rotation * (p * mm_per_unit) + points_translation_mm;
   }
   Eigen::Vector3d Direction(const Eigen::Vector3d& d) const { return rotation * d; }
 };
 
-// The scan's frame from its to_common; `field` names it in errors (e.g. "header.scans[2]").
+// JobHeader.origin in millimetres: zero when absent; INVALID_HEADER naming header.origin when
+// not finite or beyond kMaxOffsetMm.
+absl::StatusOr<Eigen::Vector3d> OriginFromProto(const v1::JobHeader& header, double mm_per_unit);
+
+// The scan's frame from its to_common and points_offset, relative to the job's origin (mm);
+// `field` names it in errors (e.g. "header.scans[2]").
 absl::StatusOr<ScanFrame> FrameFromProto(const v1::ScanHeader& scan, double mm_per_unit,
-                                         std::string_view field);
+                                         const Eigen::Vector3d& origin_mm, std::string_view field);
+
+// The spacing of floats at a local coordinate (infinite or NaN beyond float's range).
+double FloatSpacingAt(double mm);
+// A local coordinate is held as a float only where that spacing is at most this share of the
+// scan's uncertainty u: rounding then moves a point by at most u/8 (1.6 % of u² in the noise).
+inline constexpr double kMaxFloatSpacingPerUncertainty = 0.25;
 
 // The scan's metadata in the common frame and in millimetres. A zero uncertainty becomes the
 // default 0.1 mm; directions are normalised.
@@ -68,7 +93,8 @@ void ReportToProto(const PipelineReport& report, v1::Report* out);
 // A parameter's declaration as GetInfo() lists it: kind, default and valid range.
 void ParamSpecToProto(const ParamSpec& spec, v1::ParameterInfo* out);
 
-// Writes points [begin, end) of `indices` into `out`, coordinates divided by `mm_per_unit`.
+// Writes points [begin, end) of `indices` into `out`, coordinates (relative to the job's origin)
+// divided by `mm_per_unit`.
 void ResultChunk(const PointCloud& cloud, const std::vector<uint32_t>& indices, size_t begin,
                  size_t end, double mm_per_unit, v1::PointChunk* out);
 

@@ -112,9 +112,10 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
                                    limits_.default_stage_budget_seconds);
   if (absl::Status s = ValidateOptions(job_.options); !s.ok()) return OptionsError(s);
 
+  SCANPREP_ASSIGN_OR_RETURN(const Eigen::Vector3d origin_mm, OriginFromProto(header, *mm));
   for (int s = 0; s < header.scans_size(); ++s) {
     const std::string field = absl::StrCat("header.scans[", s, "]");
-    auto frame = FrameFromProto(header.scans(s), *mm, field);
+    auto frame = FrameFromProto(header.scans(s), *mm, origin_mm, field);
     if (!frame.ok()) return frame.status();
     auto meta = ScanMetaFromProto(header.scans(s), *frame, field);
     if (!meta.ok()) return meta.status();
@@ -277,12 +278,13 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
   for (size_t i = 0; i < n; ++i) {
     const Eigen::Vector3d p(chunk.xyz(3 * i), chunk.xyz(3 * i + 1), chunk.xyz(3 * i + 2));
     const uint32_t scan = chunk.scan_index_size() > 0 ? chunk.scan_index(i) : 0;
-    const Eigen::Vector3d q = frames_[scan].Point(p);
+    const Eigen::Vector3d q = frames_[scan].ChunkPoint(p);
     // Finite in the request's unit can still overflow float once in millimetres.
     if (!(q.array().abs() <= kMaxCoordinateMm).all()) {
       ++job_.points_invalid;
       continue;
     }
+    SCANPREP_RETURN_IF_ERROR(CheckPrecision(q, i, cloud.scans[scan].uncertainty));
     cloud.x.push_back(static_cast<float>(q.x()));
     cloud.y.push_back(static_cast<float>(q.y()));
     cloud.z.push_back(static_cast<float>(q.z()));
@@ -292,6 +294,25 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
     if (has_intensity_) cloud.intensity.push_back(chunk.intensity(i));
   }
   job_.points_received += n;
+  return absl::OkStatus();
+}
+
+absl::Status JobAssembler::CheckPrecision(const Eigen::Vector3d& local_mm, size_t point,
+                                          double uncertainty_mm) const {
+  for (int k = 0; k < 3; ++k) {
+    const double spacing = FloatSpacingAt(local_mm[k]);
+    if (spacing <= kMaxFloatSpacingPerUncertainty * uncertainty_mm) continue;
+    absl::Status status = BadChunk(
+        chunks_ - 1, "xyz",
+        absl::StrFormat("point %d: its %c = %.17g mm from header.origin cannot be held as a float "
+                        "to its scan's uncertainty %g mm (floats are %g mm apart there, more than "
+                        "u/4): set header.origin near the data, and send the points relative to "
+                        "their scan's points_offset",
+                        point, "xyz"[k], local_mm[k], uncertainty_mm, spacing));
+    status = WithMetadata(std::move(status), "point", absl::StrCat(point));
+    status = WithMetadata(std::move(status), "local_coordinate_mm", absl::StrCat(local_mm[k]));
+    return WithMetadata(std::move(status), "float_spacing_mm", absl::StrCat(spacing));
+  }
   return absl::OkStatus();
 }
 

@@ -44,7 +44,7 @@ struct JobLimits {
 
 struct AssembledJob {
   std::string job_id;
-  PointCloud cloud;  // valid points only, mm, common frame
+  PointCloud cloud;  // valid points only, mm, common frame less header.origin
   PipelineOptions options;
   bool include_removed = false;
   double mm_per_unit = 1.0;
@@ -78,6 +78,10 @@ class JobAssembler {
   absl::Status CheckHeaderSize(const v1::JobHeader& header) const;
   absl::Status AddChunk(const v1::PointChunk& chunk);
   absl::Status CheckChunk(const v1::PointChunk& chunk, size_t n) const;
+  // INVALID_CHUNK naming the point of the chunk just counted when float cannot carry one of its
+  // local coordinates to its scan's uncertainty (kMaxFloatSpacingPerUncertainty).
+  absl::Status CheckPrecision(const Eigen::Vector3d& local_mm, size_t point,
+                              double uncertainty_mm) const;
   // The client's count and CRC-32 against the header's total and the chunks received.
   absl::Status AddEnd(const v1::StreamEnd& end);
 

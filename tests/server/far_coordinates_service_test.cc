@@ -1,0 +1,135 @@
+// SPDX-License-Identifier: Apache-2.0
+// Issue 28 through the client and the service: a scan read from a file far from zero is sent
+// relative to its points_offset, processed around the job's origin and comes back in the caller's
+// coordinates; a client that sends far coordinates without an origin gets a precise error instead
+// of a result collapsed onto float's lattice.
+#include <cmath>
+#include <filesystem>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "client/call_error.h"
+#include "client/cli_args.h"
+#include "client/job_builder.h"
+#include "core/io/scan_file.h"
+#include "core/sim/scan_simulator.h"
+#include "tests/server/service_fixtures.h"
+
+namespace scanprep::testing {
+namespace {
+
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+// The box with a bore seen by two sensors with spikes, on a 2^-16 mm lattice so that a double
+// file holds it exactly at every offset (tests/core/far_coordinates_test.cc says why).
+sim::SimulatedCloud Scan() {
+  std::vector<sim::SimSensor> sensors = sim::TwoOverlappingSensors(sim::Part::kBoxWithBore);
+  for (sim::SimSensor& s : sensors) s.outlier_fraction = 0.01;
+  sim::SimulatedCloud scan = sim::Simulate(sim::Part::kBoxWithBore, sensors, 41);
+  for (std::vector<float>* axis : {&scan.cloud.x, &scan.cloud.y, &scan.cloud.z}) {
+    for (float& v : *axis) v = std::ldexp(std::round(std::ldexp(v, 16)), -16);
+  }
+  return scan;
+}
+
+// The scan `offset` mm away along the diagonal, as a PLY file, through `scanprep process`'s job
+// builder (its scan metadata as a job file would give it, absolute) and the service.
+client::ProcessResult ProcessAt(const InProcessServer& server, double offset,
+                                v1::JobHeader* sent = nullptr) {
+  const sim::SimulatedCloud scan = Scan();
+  PointCloud placed = scan.cloud;
+  placed.origin = Eigen::Vector3d::Constant(offset);
+  const fs::path path = fs::path(::testing::TempDir()) / "far_part.ply";
+  EXPECT_TRUE(io::WriteScanFile(path, placed).ok());
+  auto args =
+      client::ParseArgs({path.string(), "--unit", "mm", "--include_removed"}, client::JobFlags());
+  EXPECT_TRUE(args.ok()) << args.status();
+  absl::StatusOr<client::Job> job = client::BuildJob(*args);
+  EXPECT_TRUE(job.ok()) << job.status();
+  EXPECT_EQ(job->header.scans_size(), 2);
+  for (int s = 0; s < job->header.scans_size(); ++s) {
+    v1::ScanHeader& header = *job->header.mutable_scans(s);
+    v1::ScanHeader meta = client::ScanHeaderFromMeta(scan.cloud.scans[s]);
+    meta.mutable_camera_position()->set_x(meta.camera_position().x() + offset);
+    meta.mutable_camera_position()->set_y(meta.camera_position().y() + offset);
+    meta.mutable_camera_position()->set_z(meta.camera_position().z() + offset);
+    meta.clear_scan_id();
+    header.MergeFrom(meta);
+  }
+  job->header.set_scanner_kind(v1::SCANNER_KIND_LINE);
+  if (sent != nullptr) *sent = job->header;
+  auto result = server.Client().Process(job->header, job->points);
+  EXPECT_TRUE(result.ok()) << result.status();
+  return std::move(*result);
+}
+
+Eigen::Vector3d World(const PointCloud& cloud, size_t i) {
+  return cloud.origin + cloud.point(i).cast<double>();
+}
+
+TEST(FarCoordinatesService, TheSameScanGivesTheSameLocalResultAtAnyOffset) {
+  InProcessServer server;
+  v1::JobHeader sent;
+  const client::ProcessResult near = ProcessAt(server, 0, &sent);
+  // An ordinary job's wire is what it was before origins existed.
+  EXPECT_FALSE(sent.has_origin());
+  EXPECT_FALSE(sent.scans(0).has_points_offset());
+  ASSERT_GT(near.report.points_returned(), 1000u);
+  for (double offset : {1e5, 1e7, 5e8}) {
+    SCOPED_TRACE(offset);
+    const client::ProcessResult far = ProcessAt(server, offset, &sent);
+    EXPECT_TRUE(sent.has_origin());
+    ASSERT_EQ(far.cloud.size(), near.cloud.size());
+    size_t differing_flags = 0;
+    double worst = 0;
+    for (size_t i = 0; i < near.cloud.size(); ++i) {
+      differing_flags += far.cloud.flags[i] != near.cloud.flags[i];
+      if (near.cloud.removed(i)) continue;
+      const Eigen::Vector3d local = World(far.cloud, i) - Eigen::Vector3d::Constant(offset);
+      worst = std::max(worst, (local - World(near.cloud, i)).cwiseAbs().maxCoeff());
+    }
+    EXPECT_EQ(differing_flags, 0u);
+    EXPECT_LE(worst, 1e-4) << "mm";
+  }
+}
+
+// A client without origins (any client before them) that sends a scan 1e7 mm out: float's
+// lattice is 1 mm there. Refused, naming the chunk and the point, not processed on the lattice.
+TEST(FarCoordinatesService, FarCoordinatesWithoutAnOriginAreRefusedNotCollapsed) {
+  InProcessServer server;
+  v1::JobHeader header = SimpleHeader();
+  v1::PointChunk chunk = LineChunk(10);
+  for (int i = 0; i < chunk.xyz_size(); ++i) chunk.set_xyz(i, chunk.xyz(i) + 1e7f);
+  const absl::Status status =
+      client::FromGrpc(RawCall(*server.Stub(), {HeaderRequest(header, 10), ChunkRequest(chunk)}));
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << status;
+  EXPECT_THAT(status.message(),
+              HasSubstr("chunk 0: point 0: its x = 10000000 mm from header.origin cannot be held "
+                        "as a float to its scan's uncertainty 0.1 mm (floats are 1 mm apart"));
+  const client::CallErrorDetails details = client::DetailsOf(status);
+  EXPECT_EQ(details.reason, "INVALID_CHUNK");
+  ASSERT_EQ(details.field_violations.size(), 1u);
+  EXPECT_EQ(details.field_violations[0].field, "points[0].xyz");
+
+  // The same points with the origin stated: accepted, and back in the caller's frame.
+  header.mutable_origin()->set_x(1e7);
+  header.mutable_origin()->set_y(1e7);
+  header.mutable_origin()->set_z(1e7);
+  header.mutable_scans(0)->mutable_points_offset()->set_x(1e7);
+  header.mutable_scans(0)->mutable_points_offset()->set_y(1e7);
+  header.mutable_scans(0)->mutable_points_offset()->set_z(1e7);
+  PointCloud line;
+  for (int i = 0; i < 10; ++i) line.x.push_back(0.5f * i), line.y.push_back(0), line.z.push_back(0);
+  line.FinishLoading();
+  auto result = server.Client().Process(header, line);
+  ASSERT_TRUE(result.ok()) << result.status();
+  for (size_t i = 0; i < result->cloud.size(); ++i) {
+    EXPECT_EQ(result->cloud.origin.x(), 1e7);
+    EXPECT_EQ(result->cloud.flags[i] & kRemovedMask, 0);
+  }
+}
+
+}  // namespace
+}  // namespace scanprep::testing
