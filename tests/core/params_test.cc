@@ -3,14 +3,17 @@
 // numeric parameter of every stage swept over hostile values ends in a result that used the value
 // as given or in INVALID_ARGUMENT naming it; never a crash, never another code (CI runs this under
 // ASan+UBSan). Choice parameters are reported as text.
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "core/pipeline/field_error.h"
+#include "core/pipeline/job_context.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 
@@ -110,7 +113,7 @@ TEST(Params, IntegerOverflowIsRefusedWithTheRange) {
             FieldError("options.params['normals.orientation_k']", "1e+30 is outside [1, 64]"));
   const PipelineOptions wrapped{.params = {{"smoothing.iterations", "4294967297"}}};
   EXPECT_EQ(ValidateOptions(wrapped),
-            FieldError("options.params['smoothing.iterations']", "4294967297 is outside [0, 100]"));
+            FieldError("options.params['smoothing.iterations']", "4294967297 is outside [0, 7]"));
 }
 
 TEST(Params, IntegersMustBeWholeAndFinite) {
@@ -189,6 +192,75 @@ TEST(Params, TheReportListsEveryParameterUsed) {
   EXPECT_EQ(text("smoothing", "smoothing.influence"), "gauss");
   EXPECT_EQ(text("smoothing", "smoothing.tolerance"), "reject");
   EXPECT_EQ(text("correction", "correction.mode"), "gather");
+}
+
+// A parameter whose cost grows linearly with its value is held to a range that keeps the job
+// within 3× its default's cost. Each smoothing pass repeats the stage's work, so the most passes
+// cost the default job (every stage's measured cost_weight) plus that many more of smoothing's.
+TEST(Params, SmoothingPassesKeepTheJobWithinThreeTimesItsDefaultCost) {
+  double job = 0;
+  for (const std::string& stage : kAllStages) job += FindStage(stage)->cost_weight;
+  const double most = FindParam("smoothing.iterations")->range.max;
+  EXPECT_LE(job + (most - 1) * FindStage("smoothing")->cost_weight, 3 * job) << most;
+}
+
+// A flat square scan, `side`² points 0.1 mm apart (Δs = 0.1 mm, u = 0.01 mm), rows as scanlines.
+PointCloud Square(int side) {
+  PointCloud cloud;
+  cloud.kind = ScannerKind::kLine;
+  cloud.scans.push_back(ScanMeta{.id = "square",
+                                 .view_direction = Eigen::Vector3d::UnitZ(),
+                                 .scanline_spacing = 0.1,
+                                 .uncertainty = 0.01});
+  for (int r = 0; r < side; ++r) {
+    for (int c = 0; c < side; ++c) {
+      cloud.x.push_back(c * 0.1f);
+      cloud.y.push_back(r * 0.1f);
+      cloud.z.push_back(0.f);
+      cloud.scanline.push_back(r);
+    }
+  }
+  cloud.FinishLoading();
+  return cloud;
+}
+
+// The work counter of every stage that asks balls of r_p = max(r_min, d_k) (normals, outliers'
+// surface test, smoothing): the points such a ball holds, on average over the square's middle.
+double MeanAdaptiveBallPoints(const ParamOverrides& overrides, PipelineReport& report) {
+  PointCloud cloud = Square(100);
+  CancelToken cancel;
+  JobContext ctx(cloud, overrides, cancel, {});
+  EXPECT_TRUE(ctx.Require("neighbourhoods").ok());
+  const Neighbourhoods& nb = **ctx.neighbourhoods();
+  RadiusMatches ball;
+  double points = 0, balls = 0;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (std::min({cloud.x[i], cloud.y[i], 9.9f - cloud.x[i], 9.9f - cloud.y[i]}) < 2.5f) continue;
+    nb.Within(cloud, i, nb.adaptive_radius(i), ball);
+    points += double(ball.size());
+    ++balls;
+  }
+  report = ctx.report();
+  return points / balls;
+}
+
+// r_min from an override (or metadata) far beyond the data's scale is held to 3·r_g: r_g is the
+// median d_k, so a ball of r_g holds about k = 20 points, one of 3·r_g about 9·k on a surface
+// (at the former 5·r_g, 25·k: every ball-asking stage did 25 times its default work).
+TEST(Params, MinRadiusOverridesKeepBallsNearTheDataScale) {
+  PipelineReport report;
+  const double ordinary = MeanAdaptiveBallPoints({}, report);
+  EXPECT_LT(ordinary, 2 * 20.0);
+  for (const char* name : {"neighbourhoods.min_radius_mm", "neighbourhoods.epsilon_u_mm"}) {
+    SCOPED_TRACE(name);
+    const double forced = MeanAdaptiveBallPoints({{name, "1e4"}}, report);
+    EXPECT_LE(forced, 12 * 20.0);
+    EXPECT_GE(forced, 6 * 20.0);  // still raised to the cap, not dropped
+    const std::map<std::string, double>& p = report.stages.back().parameters;
+    EXPECT_EQ(p.at("neighbourhoods.radii_capped"), 1);
+    EXPECT_NEAR(p.at("neighbourhoods.min_radius_used_mm"),
+                3 * p.at("neighbourhoods.global_radius_mm"), 1e-9);
+  }
 }
 
 }  // namespace

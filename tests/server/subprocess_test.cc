@@ -236,13 +236,14 @@ TEST(ServerBinary, SigtermDuringALongStageExitsWithinTheGracePeriodPlusOneSecond
   ASSERT_GT(server.port(), 0);
   auto stub = v1::ScanPrep::NewStub(
       grpc::CreateChannel(server.target(), grpc::InsecureChannelCredentials()));
-  // Smoothing 100 times over 64 neighbours of 300,000 points: far longer than the grace period.
+  // Smoothing 7 times (the most allowed) over 64 neighbours of 300,000 points: far longer than
+  // the grace period.
   const GeneratedScan scan = NoisyPlaneWithSpikes(545, 0.5f);
   v1::JobHeader header = SimpleHeader(0.5);
   header.set_total_points(scan.cloud.size());
   auto& params = *header.mutable_options()->mutable_params();
   params["neighbourhoods.k"] = "64";
-  params["smoothing.iterations"] = "100";
+  params["smoothing.iterations"] = "7";
   grpc::ClientContext context;
   auto stream = stub->Process(&context);
   ASSERT_TRUE(stream->Write(HeaderRequest(header)));
