@@ -47,4 +47,8 @@ class CancelToken {
   WorkMeter* meter_ = nullptr;
 };
 
+// The token of the ParallelFor block this thread runs, for work deep inside a loop body that is
+// not handed one (the kd-tree a grid query builds on first need); null outside a loop.
+inline thread_local const CancelToken* running_loop_token = nullptr;
+
 }  // namespace scanprep

@@ -227,7 +227,7 @@ void JobContext::RecordCappedBalls(const std::string& stage) {
   Warn(absl::StrCat(stage, ": ", capped, " neighbourhoods held more than ",
                     neighbourhoods_->max_ball_points(), " points and kept their nearest ",
                     neighbourhoods_->max_ball_points(), " (", cut,
-                    " points left out); many "
+                    " or more points left out); many "
                     "point to a radius far beyond the data's spacing: check the job's unit and "
                     "radius overrides"));
 }

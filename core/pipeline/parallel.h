@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include <tbb/blocked_range.h>
@@ -32,7 +33,9 @@ absl::Status ParallelFor(size_t n, const CancelToken& cancel, Body&& body, size_
       [&](const tbb::blocked_range<size_t>& r) {
         HappensAfter(&fork);
         if (!cancel.cancelled()) {
+          const CancelToken* outer = std::exchange(running_loop_token, &cancel);
           body(r.begin(), r.end());
+          running_loop_token = outer;
           cancel.Worked(r.size());
         }
         HappensBefore(&join);

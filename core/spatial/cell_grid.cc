@@ -73,6 +73,7 @@ absl::Status CellGrid::Build(const PointCloud& cloud, float cell_edge, const Can
   const size_t n = cloud.size();
   // Freed, not cleared: a rebuild (the points moved) would otherwise hold the old entries beside
   // the sort's two arrays of keys, the job's memory peak.
+  fallback_ = std::make_unique<Fallback>();  // the old tree reads the entries freed next
   FreeMemory(entries_);
   FreeMemory(id_);
   cell_start_.assign(1, 0);
@@ -151,6 +152,125 @@ absl::Status CellGrid::Sort(const PointCloud& cloud, int z_bits, int key_bits,
   });
 }
 
+bool CellGrid::CollectRuns(const float q[3], float radius, size_t budget, Runs& runs) const {
+  runs.count = runs.candidates = 0;
+  if (entries_.empty()) return true;
+  // Padded so that float rounding in the caller's distance test cannot admit a point the cell
+  // range missed; the range itself is computed in double.
+  const double r = double(radius) * (1 + 1e-5) + 1e-30;
+  const double reach = r * inverse_edge_;
+  if (!(reach < 1e12)) return false;
+  int64_t lo[3], hi[3];
+  double c[3];
+  for (int a = 0; a < 3; ++a) {
+    // Clamped like the points' own cells: the outermost cells hold what lies beyond the box.
+    c[a] = CellOf(q[a], a);
+    lo[a] = ClampedCell(c[a] - reach, a);
+    hi[a] = ClampedCell(c[a] + reach, a);
+  }
+  if (double(hi[0] - lo[0] + 1) * double(hi[1] - lo[1] + 1) > double(kMaxColumns)) return false;
+  const double reach2 = reach * reach;
+  // Distance (in cells) from q to cell v along an axis, 0 inside; the outermost cells reach to
+  // infinity, as they hold every point beyond the box.
+  auto gap = [&](int a, double cq, int64_t v) {
+    const double low = v == 0 ? -HUGE_VAL : double(v);
+    const double high = v == cells_[a] - 1 ? HUGE_VAL : double(v + 1);
+    return cq < low ? low - cq : cq > high ? cq - high : 0.0;
+  };
+  for (int64_t x = lo[0]; x <= hi[0]; ++x) {
+    const double gx = gap(0, c[0], x), rx = reach2 - gx * gx;
+    if (rx < 0) continue;
+    for (int64_t y = lo[1]; y <= hi[1]; ++y) {
+      const double gy = gap(1, c[1], y), ry = rx - gy * gy;
+      if (ry < 0) continue;
+      const double dz = std::sqrt(ry);
+      const auto z0 = static_cast<uint32_t>(ClampedCell(c[2] - dz, 2));
+      const auto z1 = static_cast<uint32_t>(ClampedCell(c[2] + dz, 2));
+      // This column's occupied cells from z0 to z1 are one run of entries.
+      const size_t column = static_cast<size_t>(x * cells_[1] + y);
+      uint32_t first = column_start_[column];
+      const uint32_t last = column_start_[column + 1];
+      if (last - first > 8) {
+        first = static_cast<uint32_t>(
+            std::lower_bound(cell_z_.begin() + first, cell_z_.begin() + last, z0) -
+            cell_z_.begin());
+      } else {
+        while (first < last && cell_z_[first] < z0) ++first;
+      }
+      uint32_t end = first;
+      while (end < last && cell_z_[end] <= z1) ++end;
+      if (end == first) continue;
+      runs.run[runs.count++] = {cell_start_[first], cell_start_[end]};
+      runs.candidates += cell_start_[end] - cell_start_[first];
+      if (runs.candidates > budget) return false;
+    }
+  }
+  return true;
+}
+
+const EntryTree* CellGrid::Tree() const {
+  if (const EntryTree* tree = fallback_->ready.load(std::memory_order_acquire)) return tree;
+  std::lock_guard<std::mutex> lock(fallback_->mutex);
+  if (!fallback_->tree) {
+    static const CancelToken never;  // a query outside any loop: the build is O(n log n) anyway
+    const CancelToken* cancel = running_loop_token != nullptr ? running_loop_token : &never;
+    absl::StatusOr<std::unique_ptr<EntryTree>> tree = EntryTree::Build(entries_, id_, *cancel);
+    if (!tree.ok()) return nullptr;
+    fallback_->tree = *std::move(tree);
+    fallback_->ready.store(fallback_->tree.get(), std::memory_order_release);
+  }
+  return fallback_->tree.get();
+}
+
+namespace {
+
+// A key's parts: (squared distance bits << 32 | point index).
+float KeyDistance(uint64_t key) { return std::bit_cast<float>(static_cast<uint32_t>(key >> 32)); }
+uint32_t KeyIndex(uint64_t key) { return static_cast<uint32_t>(key); }
+
+}  // namespace
+
+size_t CellGrid::Ball(const float q[3], const NearestQuery& query, float radius,
+                      RadiusMatches& out) const {
+  out.clear();
+  const bool capped = query.count != SIZE_MAX;
+  Runs runs;
+  if (CollectRuns(q, radius, GridBudget(capped ? query.count : 0), runs)) {
+    candidates_examined_by_this_thread += runs.candidates;
+    for (size_t r = 0; r < runs.count; ++r) {
+      AppendInside(q, runs.run[r].first, runs.run[r].second, query.limit_sq, query.exclude, out,
+                   [](uint32_t id, float d2) { return std::pair<uint32_t, float>(id, d2); });
+    }
+    if (query.flags != nullptr) {
+      std::erase_if(out, [&](const auto& m) { return (query.flags[m.first] & query.skip) != 0; });
+    }
+    if (out.size() <= query.count) return 0;
+    std::nth_element(out.begin(), out.begin() + (query.count - 1), out.end(),
+                     [](const auto& a, const auto& b) {
+                       return a.second < b.second || (a.second == b.second && a.first < b.first);
+                     });
+    const size_t left_out = out.size() - query.count;
+    out.resize(query.count);
+    return left_out;
+  }
+  const EntryTree* tree = Tree();
+  if (tree == nullptr) return 0;  // cancelled: the caller's loop stops at its next check
+  // One more than the count tells whether the count left any out.
+  NearestQuery asked = query;
+  if (capped) ++asked.count;
+  std::vector<uint64_t> keys;
+  tree->Nearest(q, asked, keys);
+  size_t left_out = 0;
+  if (capped && keys.size() == asked.count) {
+    std::pop_heap(keys.begin(), keys.end());  // the farthest, past the count
+    keys.pop_back();
+    left_out = 1;
+  }
+  out.reserve(keys.size());
+  for (const uint64_t key : keys) out.emplace_back(KeyIndex(key), KeyDistance(key));
+  return left_out;
+}
+
 size_t CellGrid::Knn(const float q[3], size_t k, uint32_t exclude, float guess, uint32_t* idx,
                      float* dist_sq, std::vector<uint64_t>& scratch) const {
   const size_t available = entries_.size() - (exclude < entries_.size() ? 1 : 0);
@@ -159,28 +279,43 @@ size_t CellGrid::Knn(const float q[3], size_t k, uint32_t exclude, float guess, 
   // Candidates as (squared distance bits, index): non-negative floats order like their bits,
   // so one integer sort ranks by distance with ties to the lower index.
   float radius = guess > 0 && std::isfinite(guess) ? guess : cell_edge();
+  size_t budget = GridBudget(k);
+  bool gridded = true;
+  Runs runs;
   while (true) {
+    if (!CollectRuns(q, radius, budget, runs)) {
+      gridded = false;
+      break;
+    }
+    // Each widening reads its ball again: the budget is for all of them together.
+    budget -= runs.candidates;
+    candidates_examined_by_this_thread += runs.candidates;
     scratch.clear();
     const float r2 = radius * radius;
-    auto collect = [&](uint32_t begin, uint32_t end, float limit) {
-      AppendInside(q, begin, end, limit, exclude, scratch, [](uint32_t id, float d2) {
-        return uint64_t(std::bit_cast<uint32_t>(d2)) << 32 | id;
-      });
-    };
+    for (size_t r = 0; r < runs.count; ++r) {
+      AppendInside(
+          q, runs.run[r].first, runs.run[r].second, r2, exclude, scratch,
+          [](uint32_t id, float d2) { return uint64_t(std::bit_cast<uint32_t>(d2)) << 32 | id; });
+    }
     // All points within `radius` are in scratch; if there are k, they hold the k nearest.
-    const bool ranged =
-        ForEachRun(q, radius, [&](uint32_t begin, uint32_t end) { collect(begin, end, r2); });
-    if (!ranged)
-      collect(0, static_cast<uint32_t>(entries_.size()), std::numeric_limits<float>::infinity());
-    if (!ranged || scratch.size() >= k) break;
+    if (scratch.size() >= k) break;
     radius *= 2;
+  }
+  if (!gridded) {
+    const EntryTree* tree = Tree();
+    if (tree == nullptr) {  // cancelled: a placeholder the caller's loop discards
+      std::fill_n(idx, k, id_[0]);
+      std::fill_n(dist_sq, k, HUGE_VALF);
+      return k;
+    }
+    tree->Nearest(q, {.limit_sq = HUGE_VALF, .count = k, .exclude = exclude}, scratch);
   }
   if (scratch.size() > k)
     std::nth_element(scratch.begin(), scratch.begin() + (k - 1), scratch.end());
   std::sort(scratch.begin(), scratch.begin() + k);
   for (size_t m = 0; m < k; ++m) {
-    idx[m] = static_cast<uint32_t>(scratch[m]);
-    dist_sq[m] = std::bit_cast<float>(static_cast<uint32_t>(scratch[m] >> 32));
+    idx[m] = KeyIndex(scratch[m]);
+    dist_sq[m] = KeyDistance(scratch[m]);
   }
   return k;
 }

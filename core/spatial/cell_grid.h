@@ -9,13 +9,23 @@
 // stray point at 1e8 mm cannot make every point share a cell; points beyond the box live in the
 // outermost cells, and queries treat those cells as reaching to infinity.
 //
+// Bounded work on any input: a query reads at most kMaxColumns columns and a budget of
+// candidates from the cells (GridBudget); a query that would read more (cells stretched by a far
+// part, a cluster of near-identical points in one cell, an isolated point whose neighbours lie
+// across thousands of empty columns) is answered by a kd-tree over the same entries
+// (entry_tree.h), built the first time one is needed.
+//
 // Exact: a ball returns precisely the points whose squared distance, computed as nanoflann does
-// it (((q−p)ₓ² + (q−p)ᵧ²) + (q−p)_z² in float), is below r², so its sets equal the kd-tree's.
+// it (((q−p)ₓ² + (q−p)ᵧ²) + (q−p)_z² in float), is below r², so its sets equal the kd-tree's;
+// a capped one keeps the nearest by (squared distance, index) on either path.
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <memory>
+#include <mutex>
 #include <span>
 #include <utility>
 #include <vector>
@@ -23,6 +33,7 @@
 #include "absl/status/status.h"
 #include "core/pipeline/cancel.h"
 #include "core/point_cloud.h"
+#include "core/spatial/entry_tree.h"
 
 namespace scanprep {
 
@@ -42,18 +53,27 @@ class CellGrid {
   // Point indices in cell order: neighbouring entries are near in space.
   std::span<const uint32_t> order() const { return id_; }
 
-  // How many points a ball query of this radius reads (its candidates): the work counter that
-  // tests hold to a bound where a degenerate grid would read most of the cloud.
-  size_t Candidates(const float q[3], float radius) const {
-    size_t read = 0;
-    if (!ForEachRun(q, radius, [&](uint32_t begin, uint32_t end) { read += end - begin; })) {
-      read = entries_.size();
-    }
-    return read;
+  // The most columns a query reads from the grid, and the fewest candidates it may read from
+  // their cells (GridBudget). A ball of 5·r_g on the benchmark scans crosses about 36 columns
+  // and reads about 900 candidates (1,800 where two scans overlap).
+  static constexpr size_t kMaxColumns = 256;
+  static constexpr size_t kMinGridCandidates = 4096;
+  // The candidates a query that wants `wanted` points (k, a ball's cap; 0 = all) may read from
+  // the grid's cells before the kd-tree answers it instead.
+  static size_t GridBudget(size_t wanted) {
+    return std::max<size_t>(kMinGridCandidates, 8 * std::min<size_t>(wanted, SIZE_MAX / 8));
   }
+  // Whether a query of this grid has needed the kd-tree yet (for tests and the report).
+  bool tree_built() const { return fallback_->ready.load(std::memory_order_acquire) != nullptr; }
 
   // Every point j with squared distance d2 < radius² to q, as (j, d2), unsorted, into `out`.
-  void Within(const float q[3], float radius, RadiusMatches& out) const;
+  void Within(const float q[3], float radius, RadiusMatches& out) const {
+    Ball(q, {.limit_sq = radius * radius, .count = SIZE_MAX}, radius, out);
+  }
+  // The points `query` asks for (query.limit_sq = radius²), as (j, d2), unsorted, into `out`;
+  // returns how many a count left out: exact when the grid answered, 1 (at least one) when the
+  // tree did, which stops at the count.
+  size_t Ball(const float q[3], const NearestQuery& query, float radius, RadiusMatches& out) const;
 
   // The k nearest points to q other than `exclude`, nearest first (ties: lower index first), as
   // indices and squared distances; returns how many were found (< k only if the cloud has fewer).
@@ -62,16 +82,19 @@ class CellGrid {
              float* dist_sq, std::vector<uint64_t>& scratch) const;
 
  private:
-  // A point's coordinates, copied next to their cell's: a ball reads them in runs. Its index is
-  // id_[e], not a fourth field: order() needs the indices as one array anyway.
-  struct Entry {
-    float x, y, z;
+  using Entry = GridEntry;
+  // The cells' runs of entries a query reads, at most one per column.
+  struct Run {
+    uint32_t first, second;  // entries [first, second)
   };
-  // Calls run(begin, end) for each run of entries in cells that may hold a point within
-  // `radius` of q; false when the cell range is wider than the cell list, so a scan of all
-  // entries is cheaper.
-  template <typename Run>
-  bool ForEachRun(const float q[3], float radius, Run&& run) const;
+  struct Runs {
+    Run run[kMaxColumns];  // not zeroed: a query writes only the runs it uses
+    size_t count = 0;
+    size_t candidates = 0;
+  };
+  // Collects the runs of entries in cells that may hold a point within `radius` of q; false when
+  // they would cross more than kMaxColumns columns or hold more than `budget` candidates.
+  bool CollectRuns(const float q[3], float radius, size_t budget, Runs& runs) const;
   // Appends make(id, d2) for the entries [begin, end) with squared distance d2 < limit and
   // id != exclude. Branch-free: every candidate is written, the end advances only past those
   // kept (about half of them, which a branch would mispredict).
@@ -89,6 +112,9 @@ class CellGrid {
     }
     out.resize(at);
   }
+  // The kd-tree over the entries, built on first use (cancelled with the token of the loop that
+  // asks, running_loop_token); null when that token fired first.
+  const EntryTree* Tree() const;
   // Sorts the points by cell with keys of type Key (32 or 64 bits) and fills the tables.
   template <typename Key>
   absl::Status Sort(const PointCloud& cloud, int z_bits, int key_bits, const CancelToken& cancel);
@@ -109,71 +135,13 @@ class CellGrid {
   std::vector<uint32_t> column_start_;  // column c: occupied cells [column_start_[c], [c+1])
   std::vector<uint32_t> cell_z_;        // per occupied cell, in entry order: its z
   std::vector<uint32_t> cell_start_;    // occupied cell c: entries [cell_start_[c], [c+1])
+  // The fallback tree, built by the first query that needs it while the others wait.
+  struct Fallback {
+    std::mutex mutex;
+    std::atomic<const EntryTree*> ready{nullptr};
+    std::unique_ptr<EntryTree> tree;
+  };
+  std::unique_ptr<Fallback> fallback_ = std::make_unique<Fallback>();
 };
-
-template <typename Run>
-bool CellGrid::ForEachRun(const float q[3], float radius, Run&& run) const {
-  if (entries_.empty()) return true;
-  // Padded so that float rounding in the caller's distance test cannot admit a point the cell
-  // range missed; the range itself is computed in double.
-  const double r = double(radius) * (1 + 1e-5) + 1e-30;
-  if (!(r * inverse_edge_ < 1e12)) return false;
-  int64_t lo[3], hi[3];
-  double c[3];
-  const double reach = r * inverse_edge_;
-  for (int a = 0; a < 3; ++a) {
-    // Clamped like the points' own cells: the outermost cells hold what lies beyond the box.
-    c[a] = CellOf(q[a], a);
-    lo[a] = ClampedCell(c[a] - reach, a);
-    hi[a] = ClampedCell(c[a] + reach, a);
-  }
-  const double span =
-      double(hi[0] - lo[0] + 1) * double(hi[1] - lo[1] + 1) * double(hi[2] - lo[2] + 1);
-  if (span > double(cell_start_.size()) + double(column_start_.size())) return false;
-  const double reach2 = reach * reach;
-  // Distance (in cells) from q to cell v along an axis, 0 inside; the outermost cells reach to
-  // infinity, as they hold every point beyond the box.
-  auto gap = [&](int a, double cq, int64_t v) {
-    const double low = v == 0 ? -HUGE_VAL : double(v);
-    const double high = v == cells_[a] - 1 ? HUGE_VAL : double(v + 1);
-    return cq < low ? low - cq : cq > high ? cq - high : 0.0;
-  };
-  for (int64_t x = lo[0]; x <= hi[0]; ++x) {
-    const double gx = gap(0, c[0], x), rx = reach2 - gx * gx;
-    if (rx < 0) continue;
-    for (int64_t y = lo[1]; y <= hi[1]; ++y) {
-      const double gy = gap(1, c[1], y), ry = rx - gy * gy;
-      if (ry < 0) continue;
-      const double dz = std::sqrt(ry);
-      const auto z0 = static_cast<uint32_t>(ClampedCell(c[2] - dz, 2));
-      const auto z1 = static_cast<uint32_t>(ClampedCell(c[2] + dz, 2));
-      // This column's occupied cells from z0 to z1 are one run of entries.
-      const size_t column = static_cast<size_t>(x * cells_[1] + y);
-      uint32_t first = column_start_[column];
-      const uint32_t last = column_start_[column + 1];
-      if (last - first > 8) {
-        first = static_cast<uint32_t>(
-            std::lower_bound(cell_z_.begin() + first, cell_z_.begin() + last, z0) -
-            cell_z_.begin());
-      } else {
-        while (first < last && cell_z_[first] < z0) ++first;
-      }
-      uint32_t end = first;
-      while (end < last && cell_z_[end] <= z1) ++end;
-      if (end > first) run(cell_start_[first], cell_start_[end]);
-    }
-  }
-  return true;
-}
-
-inline void CellGrid::Within(const float q[3], float radius, RadiusMatches& out) const {
-  out.clear();
-  const float r2 = radius * radius;
-  auto scan = [&](uint32_t begin, uint32_t end) {
-    AppendInside(q, begin, end, r2, UINT32_MAX, out,
-                 [](uint32_t id, float d2) { return std::pair<uint32_t, float>(id, d2); });
-  };
-  if (!ForEachRun(q, radius, scan)) scan(0, static_cast<uint32_t>(entries_.size()));
-}
 
 }  // namespace scanprep

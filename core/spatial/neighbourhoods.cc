@@ -189,34 +189,34 @@ bool Neighbourhoods::Encode(size_t i, const uint32_t* idx) {
 
 void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
                             uint8_t skip) const {
-  WithinUncapped(cloud, i, radius, out, skip);
-  const size_t cap = max_ball_points();
-  if (out.size() <= cap) return;
-  std::nth_element(out.begin(), out.begin() + (cap - 1), out.end(),
-                   [](const auto& a, const auto& b) {
-                     return a.second < b.second || (a.second == b.second && a.first < b.first);
-                   });
+  const size_t left_out = Ball(cloud, i, radius, max_ball_points(), skip, out);
+  if (left_out == 0) return;
   capped_balls_.fetch_add(1, std::memory_order_relaxed);
-  capped_points_.fetch_add(out.size() - cap, std::memory_order_relaxed);
-  out.resize(cap);
+  capped_points_.fetch_add(left_out, std::memory_order_relaxed);
 }
 
 void Neighbourhoods::WithinUncapped(const PointCloud& cloud, size_t i, float radius,
                                     RadiusMatches& out, uint8_t skip) const {
+  Ball(cloud, i, radius, SIZE_MAX, skip, out);
+}
+
+size_t Neighbourhoods::Ball(const PointCloud& cloud, size_t i, float radius, size_t cap,
+                            uint8_t skip, RadiusMatches& out) const {
   out.clear();
-  auto skipped = [&](size_t j) { return (cloud.flags[j] & skip) != 0; };
-  if (k_ > 0 && !moved_ && radius <= dk(i)) {
+  if (k_ > 0 && !moved_ && radius <= dk(i)) {  // at most k + 1 points: never capped
+    auto skipped = [&](size_t j) { return (cloud.flags[j] & skip) != 0; };
     if (!skipped(i)) out.emplace_back(static_cast<uint32_t>(i), 0.f);
     for (const uint32_t j : knn(i)) {
       const float d2 = cloud.squared_distance(i, j);
       if (!(d2 < radius * radius)) break;  // the list is nearest first
       if (!skipped(j)) out.emplace_back(j, d2);
     }
-    return;
+    return 0;
   }
   const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-  grid_.Within(q, radius, out);
-  std::erase_if(out, [&](const auto& m) { return skipped(m.first); });
+  return grid_.Ball(
+      q, {.limit_sq = radius * radius, .count = cap, .flags = cloud.flags.data(), .skip = skip},
+      radius, out);
 }
 
 }  // namespace scanprep

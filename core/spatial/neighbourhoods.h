@@ -157,6 +157,9 @@ class Neighbourhoods {
  private:
   Neighbourhoods() = default;
   void ComputeGlobalRadius();
+  // Within and WithinUncapped (cap = SIZE_MAX): returns how many points the cap left out.
+  size_t Ball(const PointCloud& cloud, size_t i, float radius, size_t cap, uint8_t skip,
+              RadiusMatches& out) const;
   // Stores idx (k indices) as i's list of rank differences; false, with the list marked wide,
   // when one does not fit 16 bits.
   bool Encode(size_t i, const uint32_t* idx);

@@ -50,7 +50,10 @@ size_t MaxCandidates(const PointCloud& cloud) {
   for (size_t i = 0; i < cloud.size(); ++i) {
     const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
     if (std::abs(q[0]) > 1e5f) continue;  // the stray point's own ball is the whole cloud
-    most = std::max(most, (*nb)->grid().Candidates(q, (*nb)->dk(i)));
+    const uint64_t before = candidates_examined_by_this_thread;
+    RadiusMatches ball;
+    (*nb)->grid().Within(q, (*nb)->dk(i), ball);
+    most = std::max<size_t>(most, candidates_examined_by_this_thread - before);
   }
   return most;
 }
