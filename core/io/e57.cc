@@ -22,6 +22,7 @@
 #include "core/free_memory.h"
 #include "core/io/byte_order.h"
 #include "core/io/e57_xml.h"
+#include "core/io/local_frame.h"
 #include "core/io/read_file.h"
 #include "core/status_macros.h"
 
@@ -298,9 +299,11 @@ absl::StatusOr<Pose> ReadPose(const XmlNode& scan, const std::string& what) {
   return pose;
 }
 
-// What one scan contributes, before the scans are joined.
+// What one scan contributes, before the scans are joined; its positions go to the file's
+// WideCoordinates.
 struct ScanPoints {
-  std::vector<float> x, y, z, intensity;
+  uint64_t count = 0;  // valid points
+  std::vector<float> intensity;
   std::vector<uint32_t> line;  // empty without a grid
   bool has_intensity = false;
   uint64_t invalid = 0;
@@ -345,9 +348,10 @@ absl::StatusOr<std::vector<uint32_t>> GridLines(const std::vector<double>& row,
   return order;
 }
 
+// The scan's valid points, moved by its pose in double, are appended to `positions`.
 absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size,
                                     const XmlNode& scan, const Pose& pose, const std::string& what,
-                                    std::vector<std::string>& unused) {
+                                    WideCoordinates& positions, std::vector<std::string>& unused) {
   const XmlNode* points = scan.Child("points");
   if (points == nullptr || points->Attribute("type") != "CompressedVector") {
     return absl::InvalidArgumentError(absl::StrCat(what, ": no points (CompressedVector)"));
@@ -415,6 +419,7 @@ absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size
   if (row && col) {
     SCANPREP_ASSIGN_OR_RETURN(order, GridLines(*row, *col, line, what));
   }
+  positions.Reserve(positions.size() + order.size());  // no doubling of 24 B per point
   for (size_t k = 0; k < order.size(); ++k) {
     const uint32_t i = order[k];
     Eigen::Vector3d p;
@@ -428,16 +433,11 @@ absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size
       ++out.invalid;
       continue;
     }
+    // Kept in double: a georeferenced pose (a UTM easting of 5e5 m) would leave float a 3 cm
+    // lattice; the file's local origin is taken off before narrowing.
     p = pose.rotation * p + pose.translation;
-    const Eigen::Vector3f q = p.cast<float>();
-    if (!q.allFinite()) {
-      return absl::InvalidArgumentError(absl::StrCat(what, ": record ", i, " at (", p.x(), ", ",
-                                                     p.y(), ", ", p.z(),
-                                                     ") is beyond the range of a float"));
-    }
-    out.x.push_back(q.x());
-    out.y.push_back(q.y());
-    out.z.push_back(q.z());
+    positions.Push(p.x(), p.y(), p.z());
+    ++out.count;
     if (intensity) out.intensity.push_back(static_cast<float>((*intensity)[i]));
     if (!line.empty()) out.line.push_back(line[k]);
   }
@@ -497,6 +497,7 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
   }
 
   PointCloud cloud;
+  WideCoordinates positions;
   std::vector<ScanPoints> scans;
   std::vector<std::string> unused, no_pose;
   uint64_t invalid = 0;
@@ -513,7 +514,7 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
       no_pose.push_back(meta.id);
     }
     SCANPREP_ASSIGN_OR_RETURN(ScanPoints points,
-                              ReadScan(logical, page_size, node, pose, what, unused));
+                              ReadScan(logical, page_size, node, pose, what, positions, unused));
     invalid += points.invalid;
     cloud.scans.push_back(std::move(meta));
     scans.push_back(std::move(points));
@@ -525,10 +526,7 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
   uint64_t line_base = 0;
   for (size_t s = 0; s < scans.size(); ++s) {
     ScanPoints& p = scans[s];
-    cloud.x.insert(cloud.x.end(), p.x.begin(), p.x.end());
-    cloud.y.insert(cloud.y.end(), p.y.begin(), p.y.end());
-    cloud.z.insert(cloud.z.end(), p.z.begin(), p.z.end());
-    cloud.scan.resize(cloud.x.size(), static_cast<uint32_t>(s));
+    cloud.scan.resize(cloud.scan.size() + p.count, static_cast<uint32_t>(s));
     if (intensity)
       cloud.intensity.insert(cloud.intensity.end(), p.intensity.begin(), p.intensity.end());
     if (lines) {
@@ -546,8 +544,18 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
     }
     p = {};
   }
-  if (cloud.x.empty()) {
+  if (cloud.scan.empty()) {
     return absl::InvalidArgumentError(absl::StrCat(name, ": no valid point in any scan"));
+  }
+  SCANPREP_RETURN_IF_ERROR(positions.Narrow(cloud, name));
+  // Positions, like the points, are relative to the cloud's origin.
+  for (ScanMeta& meta : cloud.scans) {
+    if (!meta.camera_position) continue;
+    *meta.camera_position -= cloud.origin;
+    if (!meta.camera_position->allFinite()) {  // a pose ~1e308 m from the other scans' points
+      return absl::InvalidArgumentError(absl::StrCat(
+          name, ": scan '", meta.id, "' pose translation is beyond double's range of the points"));
+    }
   }
   if (invalid > 0) {
     warnings.push_back(absl::StrCat(name, ": ", invalid,

@@ -19,8 +19,10 @@ namespace scanprep::io {
 // Elevation converted to cartesian, then moved by the scan's pose (rotation quaternion and
 // translation) into the file's frame; the pose's translation is the scan's camera_position
 // (E57's scanner origin). E57 is metres by definition; the coordinates stay as they are, and
-// the caller states the unit. Points whose cartesian/spherical invalid state is not 0 (no
-// measurement, or a direction only) are left out and counted in a warning, like PCD's NaN
+// the caller states the unit. Points and poses are combined in double and stored relative to a
+// round origin near the data (WideCoordinates, cloud.origin; camera positions too), so a
+// georeferenced scan keeps its precision. Points whose cartesian/spherical invalid state is not 0
+// (no measurement, or a direction only) are left out and counted in a warning, like PCD's NaN
 // points. intensity -> intensity when every scan has it. A scan with rowIndex and columnIndex is
 // a grid: its scanlines are the index that changes least often along the records (a scanner
 // writes a line at a time), points of a line in the order of the other index.

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Readers of formats that store coordinates in double or as scaled integers (LAS, PLY double,
-// PCD F8) keep them exact in float by storing them relative to a round origin near the data
-// (PointCloud::origin); the writers add it back in double.
+// PCD F8, text, E57 with its poses) keep them exact in float by storing them relative to a round
+// origin near the data (PointCloud::origin); the writers add it back in double.
 #pragma once
 
 #include <cstddef>
@@ -28,6 +28,7 @@ class WideCoordinates {
  public:
   void Resize(size_t n) { x_.resize(n), y_.resize(n), z_.resize(n); }
   void Reserve(size_t n) { x_.reserve(n), y_.reserve(n), z_.reserve(n); }
+  size_t size() const { return x_.size(); }
   double& at(int axis, size_t i) { return (axis == 0 ? x_ : axis == 1 ? y_ : z_)[i]; }
   void Push(double x, double y, double z) { x_.push_back(x), y_.push_back(y), z_.push_back(z); }
 

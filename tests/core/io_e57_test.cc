@@ -12,8 +12,10 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "core/io/scan_file.h"
 #include "tests/support/test_data.h"
 
@@ -242,6 +244,81 @@ TEST(E57, TwoScansCartesianScaledAndSphericalWithPoses) {
   EXPECT_THAT(warnings, ::testing::Contains(HasSubstr("1 points without a valid position")));
   EXPECT_THAT(warnings, ::testing::Contains(HasSubstr("no pose (scanner origin) for side")));
   EXPECT_THAT(warnings, ::testing::Contains(HasSubstr("fields not used: colorRed")));
+}
+
+// A georeferenced file: two scans posed 5e5 m out (a UTM easting; 5e8 mm), one in doubles and one
+// in 0.1 mm ScaledIntegers, each turned by its own quaternion. Float would hold them on a
+// 3 cm lattice; origin + local must equal the pose applied in double to within 1e-4 mm.
+TEST(E57, PosesFarFromZeroKeepFullPrecision) {
+  struct Far {
+    Eigen::Quaterniond rotation;
+    Eigen::Vector3d translation;
+  };
+  const Far poses[] = {
+      {Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d(1, 2, 3).normalized())),
+       Eigen::Vector3d(500'123.456789, 5'400'987.654321, 312.125)},
+      {Eigen::Quaterniond(Eigen::AngleAxisd(-2.0, Eigen::Vector3d(0, 0, 1))),
+       Eigen::Vector3d(500'123.0, 5'400'987.5, 312.0)}};
+  auto pose_xml = [](const Far& f) {
+    const Eigen::Quaterniond& q = f.rotation;
+    const Eigen::Vector3d& t = f.translation;
+    return absl::StrFormat(
+        "<pose type=\"Structure\"><rotation type=\"Structure\"><w type=\"Float\">%.17g</w>"
+        "<x type=\"Float\">%.17g</x><y type=\"Float\">%.17g</y><z type=\"Float\">%.17g</z>"
+        "</rotation><translation type=\"Structure\"><x type=\"Float\">%.17g</x>"
+        "<y type=\"Float\">%.17g</y><z type=\"Float\">%.17g</z></translation></pose>",
+        q.w(), q.x(), q.y(), q.z(), t.x(), t.y(), t.z());
+  };
+  // A part about 0.4 m across in its scanner's frame, as the file stores it.
+  constexpr int kPoints = 500;
+  std::vector<double> x, y, z;
+  std::vector<int64_t> xi, yi, zi;
+  for (int i = 0; i < kPoints; ++i) {
+    xi.push_back(i * 7919 % 4000 - 2000);  // 0.1 mm steps: -0.2 .. 0.2 m
+    yi.push_back(i * 104729 % 4000 - 2000);
+    zi.push_back(i * 31 % 2000);
+    x.push_back(xi.back() * 1e-4 + 0.123456789);
+    y.push_back(yi.back() * 1e-4 - 0.0987654321);
+    z.push_back(zi.back() * 1e-4 + 0.05);
+  }
+  const std::string scaled = "scale=\"0.0001\" offset=\"0.25\"";
+  Scan doubles{
+      .name = "doubles",
+      .pose_xml = pose_xml(poses[0]),
+      .columns = {Doubles("cartesianX", x), Doubles("cartesianY", y), Doubles("cartesianZ", z)},
+      .records = kPoints};
+  Scan integers{.name = "integers",
+                .pose_xml = pose_xml(poses[1]),
+                .columns = {Integers("cartesianX", xi, -2000, 2000, scaled),
+                            Integers("cartesianY", yi, -2000, 2000, scaled),
+                            Integers("cartesianZ", zi, 0, 2000, scaled)},
+                .records = kPoints};
+  std::vector<std::string> warnings;
+  auto cloud = Read(E57File({doubles, integers}), warnings);
+  ASSERT_TRUE(cloud.ok()) << cloud.status();
+  ASSERT_EQ(cloud->size(), 2u * kPoints);
+  constexpr double kTolerance = 1e-7;  // metres: 1e-4 mm
+  double worst = 0;
+  for (int s = 0; s < 2; ++s) {
+    for (int i = 0; i < kPoints; ++i) {
+      const Eigen::Vector3d in =
+          s == 0 ? Eigen::Vector3d(x[i], y[i], z[i])
+                 : Eigen::Vector3d(xi[i] * 1e-4 + 0.25, yi[i] * 1e-4 + 0.25, zi[i] * 1e-4 + 0.25);
+      const Eigen::Vector3d exact = poses[s].rotation * in + poses[s].translation;
+      const size_t k = s * kPoints + i;
+      const Eigen::Vector3d read =
+          cloud->origin + Eigen::Vector3d(cloud->x[k], cloud->y[k], cloud->z[k]);
+      worst = std::max(worst, (read - exact).cwiseAbs().maxCoeff());
+      EXPECT_EQ(cloud->scan[k], static_cast<uint32_t>(s));
+    }
+    ASSERT_TRUE(cloud->scans[s].camera_position.has_value());
+    EXPECT_LE((*cloud->scans[s].camera_position + cloud->origin - poses[s].translation)
+                  .cwiseAbs()
+                  .maxCoeff(),
+              kTolerance)
+        << s;
+  }
+  EXPECT_LE(worst, kTolerance);
 }
 
 // A grid written column by column (a terrestrial scanner's vertical sweeps): each column is a
