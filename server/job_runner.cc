@@ -20,6 +20,19 @@ std::vector<StageProgress> RunningJob::DrainProgress() {
   return std::exchange(progress_, {});
 }
 
+void RunningJob::End(absl::Status why) {
+  {
+    std::lock_guard lock(mu_);
+    if (ended_.ok()) ended_ = std::move(why);
+  }
+  cancel_.Cancel();
+}
+
+bool RunningJob::done() const {
+  std::lock_guard lock(mu_);
+  return result_.has_value();
+}
+
 void RunningJob::OnProgress(const ProgressEvent& e) {
   if (hook_) hook_(e.stage, e.stage_fraction);
   const StageProgress p{.stage = std::string(e.stage),
@@ -46,6 +59,7 @@ void RunningJob::Run() {
     result = absl::InternalError(absl::StrCat("processing failed: ", e.what()));
   }
   std::lock_guard lock(mu_);
+  if (!result.ok() && !ended_.ok()) result = ended_;
   result_ = std::move(result);
   done_cv_.notify_all();
 }
@@ -58,8 +72,10 @@ JobRunner::JobRunner(int threads, ProgressHook hook)
       // No slot reserved for an external thread: every job is enqueued, none is executed.
       arena_(threads_, 0) {}
 
-std::shared_ptr<RunningJob> JobRunner::Start(PointCloud cloud, PipelineOptions options) {
-  auto job = std::make_shared<RunningJob>(std::move(cloud), std::move(options), hook_);
+std::shared_ptr<RunningJob> JobRunner::Start(PointCloud cloud, PipelineOptions options,
+                                             uint64_t reservation_bytes) {
+  auto job =
+      std::make_shared<RunningJob>(std::move(cloud), std::move(options), hook_, reservation_bytes);
   {
     std::lock_guard lock(mu_);
     std::erase_if(jobs_, [](const std::weak_ptr<RunningJob>& j) { return j.expired(); });
@@ -72,6 +88,15 @@ std::shared_ptr<RunningJob> JobRunner::Start(PointCloud cloud, PipelineOptions o
     job->Run();
   });
   return job;
+}
+
+std::vector<std::shared_ptr<RunningJob>> JobRunner::Processing() const {
+  std::vector<std::shared_ptr<RunningJob>> processing;
+  std::lock_guard lock(mu_);
+  for (const std::weak_ptr<RunningJob>& j : jobs_) {
+    if (auto job = j.lock(); job != nullptr && !job->done()) processing.push_back(std::move(job));
+  }
+  return processing;
 }
 
 void JobRunner::CancelAll() {

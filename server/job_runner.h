@@ -39,10 +39,21 @@ struct StageProgress {
 // it. The job owns its cloud, so the task never outlives the data it works on.
 class RunningJob {
  public:
-  RunningJob(PointCloud cloud, PipelineOptions options, ProgressHook hook)
-      : cloud_(std::move(cloud)), options_(std::move(options)), hook_(std::move(hook)) {}
+  // `reservation_bytes`: the memory admission reserved for the job (memory_budget.h).
+  RunningJob(PointCloud cloud, PipelineOptions options, ProgressHook hook,
+             uint64_t reservation_bytes)
+      : cloud_(std::move(cloud)),
+        options_(std::move(options)),
+        hook_(std::move(hook)),
+        reservation_bytes_(reservation_bytes) {}
 
   void Cancel() { cancel_.Cancel(); }
+  // Cancels the job and makes `why` its result in place of the cancellation the stages return
+  // (the memory guard's reason); a job that finished already keeps its result.
+  void End(absl::Status why);
+  // Whether the pipeline finished (or failed): its stages hold no more memory.
+  bool done() const;
+  uint64_t reservation_bytes() const { return reservation_bytes_; }
   // True once the pipeline finished (or failed); waits at most `timeout`.
   bool WaitFor(std::chrono::milliseconds timeout);
   // Progress events since the last call; consecutive updates of one stage are coalesced.
@@ -59,8 +70,10 @@ class RunningJob {
   PointCloud cloud_;
   PipelineOptions options_;
   ProgressHook hook_;
+  const uint64_t reservation_bytes_;
   CancelToken cancel_;
-  std::mutex mu_;
+  mutable std::mutex mu_;
+  absl::Status ended_;  // End()'s reason; OK unless ended
   std::condition_variable done_cv_;
   std::optional<absl::StatusOr<PipelineReport>> result_;
   std::vector<StageProgress> progress_;
@@ -71,8 +84,12 @@ class JobRunner {
   // `threads` = arena concurrency; 0 = hardware concurrency.
   explicit JobRunner(int threads, ProgressHook hook = {});
 
-  // Starts the job on the arena; cancelled at once after CancelAll().
-  std::shared_ptr<RunningJob> Start(PointCloud cloud, PipelineOptions options);
+  // Starts the job, which reserved `reservation_bytes`, on the arena; cancelled at once after
+  // CancelAll().
+  std::shared_ptr<RunningJob> Start(PointCloud cloud, PipelineOptions options,
+                                    uint64_t reservation_bytes);
+  // The jobs whose pipeline has not finished, in the order they started.
+  std::vector<std::shared_ptr<RunningJob>> Processing() const;
   // The server's grace period ended: cancels every running job through its CancelToken, without
   // waiting for the RPC threads that watch them to notice.
   void CancelAll();

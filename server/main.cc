@@ -69,6 +69,16 @@ ABSL_FLAG(uint64_t, memory_budget, 0,
           "\"Admission control\"); a call waits until its job fits, a job that never can is "
           "refused. 0 = the container's memory limit (cgroup) minus 128 MiB for the server, else "
           "half the RAM");
+ABSL_FLAG(
+    bool, memory_guard, true,
+    "end a job in processing with RESOURCE_EXHAUSTED (MEMORY_RESERVATION_EXCEEDED) once the "
+    "server's resident memory above its idle baseline exceeds the running jobs' "
+    "reservations by a quarter of a 64 MiB margin (docs/operations.md, \"Admission control\"); "
+    "off in sanitizer builds, whose own memory is resident");
+ABSL_FLAG(uint64_t, test_bytes_per_point, 0,
+          "TEST HOOK, not for production: the per-point memory estimate in bytes in place of the "
+          "measured 416, so a test can send an ordinary job that takes more than its reservation "
+          "(0 = 416)");
 ABSL_FLAG(int, threads, 0, "threads of the shared processing arena (0 = hardware concurrency)");
 ABSL_FLAG(double, default_budget_seconds, 0,
           "total time budget for jobs that state none (0 = no budget); reported and counted in "
@@ -198,6 +208,7 @@ int main(int argc, char** argv) {
     std::cerr << "scanprep-server: " << s.message() << "\n";
     return 1;
   }
+  scanprep::server::SetBytesPerPointForTesting(absl::GetFlag(FLAGS_test_bytes_per_point));
   auto memory = scanprep::server::ResolveMemoryLimits(absl::GetFlag(FLAGS_memory_budget),
                                                       absl::GetFlag(FLAGS_max_points_per_job));
   if (!memory.ok()) {
@@ -205,6 +216,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   options.memory_budget_bytes = memory->budget.bytes;
+  options.memory_guard.enabled = absl::GetFlag(FLAGS_memory_guard);
   options.limits.max_points_per_job = memory->max_points_per_job;
   auto server = scanprep::server::ScanPrepServer::Start(options);
   if (!server.ok()) {
@@ -215,7 +227,7 @@ int main(int argc, char** argv) {
   std::cout << "scanprep-server " SCANPREP_VERSION " listening on port " << (*server)->port()
             << " (" << transport->description << ")" << std::endl;
   std::cout << "scanprep-server: memory budget " << memory->budget.bytes << " bytes ("
-            << memory->budget.source << "), " << scanprep::server::kBytesPerPoint
+            << memory->budget.source << "), " << scanprep::server::BaseBytesPerPoint()
             << " B/point estimated, max_points_per_job " << memory->max_points_per_job << std::endl;
   if ((*server)->metrics_port() != 0) {
     std::cout << "scanprep-server: metrics on port " << (*server)->metrics_port() << std::endl;

@@ -2,6 +2,7 @@
 #include "server/memory_budget.h"
 
 #include <algorithm>
+#include <atomic>
 #include <fstream>
 #include <sstream>
 
@@ -32,7 +33,16 @@ uint64_t MemTotal() {
   return 0;
 }
 
+std::atomic<uint64_t> bytes_per_point_for_testing{0};
+
 }  // namespace
+
+void SetBytesPerPointForTesting(uint64_t bytes) { bytes_per_point_for_testing.store(bytes); }
+
+uint64_t BaseBytesPerPoint() {
+  const uint64_t hook = bytes_per_point_for_testing.load();
+  return hook > 0 ? hook : kBytesPerPoint;
+}
 
 std::string FormatMiB(double bytes) { return absl::StrFormat("%.0f MiB", bytes / 1048576.0); }
 
@@ -42,8 +52,8 @@ uint64_t BytesPerPoint(const ParamOverrides& params) {
     double value = 0;
     if (absl::SimpleAtod(it->second, &value)) k = static_cast<int>(value);
   }
-  return kBytesPerPoint + kBytesPerPointPerExtraNeighbour *
-                              static_cast<uint64_t>(std::max(0, k - kDefaultNeighbours));
+  return BaseBytesPerPoint() + kBytesPerPointPerExtraNeighbour *
+                                   static_cast<uint64_t>(std::max(0, k - kDefaultNeighbours));
 }
 
 uint64_t EstimateJobBytes(uint64_t points, const ParamOverrides& params) {
@@ -97,7 +107,8 @@ absl::StatusOr<MemoryBudget> DetectMemoryBudget() {
 }
 
 uint64_t LargestJobPoints(uint64_t budget_bytes) {
-  return budget_bytes > kJobOverheadBytes ? (budget_bytes - kJobOverheadBytes) / kBytesPerPoint : 0;
+  return budget_bytes > kJobOverheadBytes ? (budget_bytes - kJobOverheadBytes) / BaseBytesPerPoint()
+                                          : 0;
 }
 
 absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t budget_flag, uint64_t max_points_flag) {
@@ -119,8 +130,8 @@ absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t budget_flag, uint64_t 
   if (max_points_flag > largest) {
     return absl::InvalidArgumentError(absl::StrCat(
         "--max_points_per_job=", max_points_flag, " needs an estimated ",
-        FormatMiB(kJobOverheadBytes + static_cast<double>(max_points_flag) * kBytesPerPoint), " (",
-        FormatMiB(kJobOverheadBytes), " + ", kBytesPerPoint,
+        FormatMiB(kJobOverheadBytes + static_cast<double>(max_points_flag) * BaseBytesPerPoint()),
+        " (", FormatMiB(kJobOverheadBytes), " + ", BaseBytesPerPoint(),
         " B/point), more than the memory budget of ", FormatMiB(budget->bytes), " (",
         budget->source, "): such a job could never run; lower --max_points_per_job to at most ",
         largest, " or raise --memory_budget"));

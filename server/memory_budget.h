@@ -51,8 +51,33 @@ inline constexpr uint64_t kServerReserveBytes = uint64_t{128} << 20;
 // Without a container limit, the share of the machine's RAM the jobs may take.
 inline constexpr double kShareOfRam = 0.5;
 
+// The memory guard (memory_guard.h) holds every job to its estimate whatever the input: no job
+// takes more than its reservation plus this margin. Measured as the server's resident memory
+// (/proc/self/statm, what the container's limit and VmHWM count) above its idle baseline (the
+// resident memory at startup, then whenever no call holds a reservation), sampled every
+// kMemoryGuardPeriodMs against the sum of the reservations of the calls holding a slot. The guard
+// ends a job once that sum is crossed by a quarter of the margin (kMemoryGuardTripBytes); the
+// other three quarters, 48 MiB, cover what the job's stage still allocates after the crossing:
+// in the sampling period, and until it next looks at its cancel token (within 0.2 s, but an
+// array a stage allocates in one step lands whole). Measured in subprocess_test
+// (MemoryGuardHoldsAJobToItsReservation, a 1 M-point job reserving 17.8 MB that needs about
+// 150): the server peaked 45-49 MB above idle, 28-31 MB over the reservation, six runs on two
+// cores shared with compilers, 2026-11-26 (at a trip of half the margin, the largest step after
+// the crossing was 33 MiB); without the guard 149-156 MB. With the 128 MiB kServerReserveBytes over
+// the budget, the margin and the idle server (20 MiB) fit under the container's limit.
+inline constexpr uint64_t kMemoryGuardMarginBytes = uint64_t{64} << 20;
+inline constexpr uint64_t kMemoryGuardTripBytes = kMemoryGuardMarginBytes / 4;
+inline constexpr int kMemoryGuardPeriodMs = 10;
+
 // "93 MiB", for messages.
 std::string FormatMiB(double bytes);
+
+// TEST HOOK (scanprep-server --test_bytes_per_point): replaces kBytesPerPoint in every estimate
+// this process makes from now on, so a test can send an ordinary job that genuinely takes more
+// than its reservation, whatever input classes the estimate covers by then. 0 = kBytesPerPoint.
+void SetBytesPerPointForTesting(uint64_t bytes);
+// kBytesPerPoint, or the test hook's value.
+uint64_t BaseBytesPerPoint();
 
 // Bytes one job's points cost at the peak, for `params`' neighbourhoods.k (validated already).
 uint64_t BytesPerPoint(const ParamOverrides& params);

@@ -82,6 +82,7 @@ ScanPrepServer::ScanPrepServer(const ServerOptions& options)
                   .memory_budget_bytes = options.memory_budget_bytes},
                  metrics_),
       runner_(options.threads, options.on_progress),
+      guard_(options.memory_guard, admission_, runner_, metrics_, log_),
       service_(options.limits, options.timeouts, admission_, runner_, metrics_, peers_, log_) {
   metrics_.SetDefaultBudget(options.limits.default_budget_seconds);
 }

@@ -16,6 +16,7 @@
 #include "server/call_log.h"
 #include "server/job_assembler.h"
 #include "server/job_runner.h"
+#include "server/memory_guard.h"
 #include "server/metrics/http_exporter.h"
 #include "server/metrics/registry.h"
 #include "server/peer_limiter.h"
@@ -47,6 +48,8 @@ struct ServerOptions {
   int max_queued_jobs = 8;
   // What the jobs holding a slot may reserve together (memory_budget.h); 0 = DetectMemoryBudget().
   uint64_t memory_budget_bytes = 0;
+  // Ends a job whose memory crosses its reservation (memory_guard.h); off unless enabled.
+  MemoryGuardOptions memory_guard;
   int threads = 0;  // arena threads; 0 = hardware concurrency
   // Process calls one client host may have in progress (queued included); 0 = CallsPerPeer's
   // default.
@@ -97,6 +100,7 @@ class ScanPrepServer {
   PeerLimiter peers_;
   AdmissionQueue admission_;
   JobRunner runner_;
+  MemoryGuard guard_;  // after the runner and admission it watches: stops before they go
   ScanPrepService service_;
   std::unique_ptr<metrics::HttpExporter> exporter_;
   std::unique_ptr<grpc::Server> server_;  // declared last: destroyed before what it serves

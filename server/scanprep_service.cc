@@ -173,8 +173,10 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   const ReturnFreedMemoryOnExit return_freed_memory;
   absl::StatusOr<AssembledJob> job = absl::UnknownError("not uploaded");
   if (grpc::Status s = Upload(context, stream, record, slot, job); !s.ok()) return s;
+  // The reservation as admission made it, for the memory guard's message.
+  const uint64_t reservation = EstimateJobBytes(job->points_received, job->options.params);
   std::shared_ptr<RunningJob> running =
-      runner_.Start(std::move(job->cloud), std::move(job->options));
+      runner_.Start(std::move(job->cloud), std::move(job->options), reservation);
   if (grpc::Status s = Relay(context, stream, *running); !s.ok()) return s;
   metrics_.JobProcessed(*running->result());
   return Download(context, stream, *job, *running, record);
@@ -334,7 +336,7 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
   limits->set_idle_timeout_seconds(absl::ToDoubleSeconds(timeouts_.idle));
   limits->set_min_upload_bytes_per_second(timeouts_.min_upload_rate);
   limits->set_memory_budget_bytes(admission_.memory_budget_bytes());
-  limits->set_bytes_per_point(kBytesPerPoint);
+  limits->set_bytes_per_point(BaseBytesPerPoint());
   const std::vector<std::string> defaults = DefaultStages();
   for (const StageInfo& stage : StageRegistry()) {
     v1::StageInfo* s = info->add_stages();

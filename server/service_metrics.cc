@@ -133,6 +133,11 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r)
       memory_reserved_(r.AddGauge("scanprep_memory_reserved_bytes",
                                   "Estimated memory of the jobs holding a slot.")
                            .WithLabels({})),
+      memory_guard_trips_(
+          r.AddCounter("scanprep_memory_guard_trips_total",
+                       "Jobs the memory guard ended because the server's resident memory crossed "
+                       "the jobs' reservations plus its margin (MEMORY_RESERVATION_EXCEEDED).")
+              .WithLabels({})),
       phase_seconds_(r.AddHistogram("scanprep_phase_seconds",
                                     "Time of one phase of a Process call: queue (wait for a "
                                     "slot), upload, processing (all stages), download.",
@@ -166,6 +171,8 @@ void ServiceMetrics::SetMemoryBudget(uint64_t bytes) {
 void ServiceMetrics::SetMemoryReserved(uint64_t bytes) {
   memory_reserved_.Set(static_cast<double>(bytes));
 }
+
+void ServiceMetrics::MemoryGuardTripped() { memory_guard_trips_.Inc(); }
 
 void ServiceMetrics::SetDefaultBudget(double seconds) { budget_.Set(seconds); }
 

@@ -55,6 +55,8 @@ class ServiceMetrics {
   void SetAdmissionState(int in_flight, int queued);
   // The estimated bytes the jobs holding a slot reserved from the memory budget.
   void SetMemoryReserved(uint64_t bytes);
+  // The memory guard ended a job that took more than its reservation (memory_guard.h).
+  void MemoryGuardTripped();
   // A phase of a Process call that ended (queue: also a zero wait for a free slot).
   void PhaseEnded(Phase phase, double seconds);
 
@@ -85,6 +87,7 @@ class ServiceMetrics {
   metrics::Gauge& budget_;
   metrics::Gauge& memory_budget_;
   metrics::Gauge& memory_reserved_;
+  metrics::Counter& memory_guard_trips_;
   metrics::Family<metrics::Histogram>& phase_seconds_;
   metrics::Family<metrics::Histogram>& stage_seconds_;
 };

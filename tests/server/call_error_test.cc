@@ -2,11 +2,14 @@
 // What the client makes of a failed call: the server's ErrorInfo reason and RetryInfo delay reach
 // the absl::Status, and the exit code says "retry later" exactly when a retry can succeed and "fix
 // the input" when the job itself was refused.
+#include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <regex>
 #include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -123,6 +126,21 @@ std::set<std::string> ReasonsInServerSources() {
 // own code: the reason, a RetryInfo exactly when a retry can succeed, a field violation exactly
 // for INVALID_ARGUMENT, and the exit code that follows.
 TEST(CallError, EveryReasonIsParsedByTheClient) {
+  // A server whose resident memory (a test source, sampled first at 1 GiB while idle) jumps by
+  // 1 TiB once a job is processing: the memory guard ends the job. The job's first progress event
+  // holds it until the guard has had many samples to see it.
+  constexpr uint64_t kIdle = uint64_t{1} << 30, kBlownUp = uint64_t{1} << 40;
+  std::atomic<uint64_t> resident{kIdle};
+  server::ServerOptions guarded_options;
+  guarded_options.memory_guard.enabled = true;
+  guarded_options.memory_guard.resident_bytes = [&resident]() -> std::optional<uint64_t> {
+    return resident.load();
+  };
+  guarded_options.on_progress = [&resident](std::string_view, double) {
+    if (resident.exchange(kBlownUp) == kIdle)
+      std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  };
+  InProcessServer guarded(guarded_options);
   InProcessServer busy(server::ServerOptions{.max_concurrent_jobs = 1, .max_queued_jobs = 0});
   InProcessServer per_host(server::ServerOptions{.max_calls_per_peer = 1});
   server::ServerOptions small;
@@ -170,6 +188,7 @@ TEST(CallError, EveryReasonIsParsedByTheClient) {
       {"SHUTTING_DOWN", RawCall(*draining.Stub(), small_job), ""},
       {"JOB_EXCEEDS_MEMORY",
        RawCall(*tight_memory.Stub(), {HeaderRequest(SimpleHeader(), 200'000)}), ""},
+      {"MEMORY_RESERVATION_EXCEEDED", RawCall(*guarded.Stub(), small_job), ""},
       {"TOO_MANY_SCANS", RawCall(*stub, {HeaderRequest(two_scans, 10)}), ""},
       {"CHUNK_TOO_LARGE",
        RawCall(*stub, {HeaderRequest(SimpleHeader(), 100), ChunkRequest(LineChunk(100))}), ""},

@@ -846,14 +846,17 @@ TEST(Cli, InfoPrintsStagesAndLimits) {
   EXPECT_THAT(r.output, HasSubstr("outliers.multiplier"));
 }
 
-// Peak resident memory of a live process (VmHWM), in bytes; 0 when unreadable.
-uint64_t PeakRss(pid_t pid) {
+// A live process's memory line `key` ("VmHWM:" the peak resident memory, "VmRSS:" the current)
+// from /proc/PID/status, in bytes; 0 when unreadable.
+uint64_t StatusBytes(pid_t pid, const std::string& key) {
   std::ifstream in("/proc/" + std::to_string(pid) + "/status");
   for (std::string line; std::getline(in, line);) {
-    if (line.rfind("VmHWM:", 0) == 0) return std::stoull(line.substr(6)) * 1024;
+    if (line.rfind(key, 0) == 0) return std::stoull(line.substr(key.size())) * 1024;
   }
   return 0;
 }
+
+uint64_t PeakRss(pid_t pid) { return StatusBytes(pid, "VmHWM:"); }
 
 // The server's peak RSS over twelve 250,000-point jobs sent at once (`scanprep load`, twelve
 // workers) to a server with `memory_budget` and room for all twelve to run together: twelve
@@ -891,6 +894,63 @@ TEST(ServerBinary, ConcurrentJobsStayWithinTheMemoryBudget) {
   std::cout << "peak RSS of 12 x 250,000-point jobs: " << unbounded / 1e6
             << " MB with a 4 GB budget, " << bounded / 1e6 << " MB with a " << kBudget / 1e6
             << " MB budget\n";
+}
+
+// One simulated 1 M-point job (two scans) processed by a server whose estimate is 1 B/point
+// (the test hook --test_bytes_per_point), so the job reserves 17 MiB and genuinely needs about
+// ten times that, whatever inputs the real estimate covers; `guard_flag` turns the memory guard
+// on or off. Returns the server's peak resident memory above its idle resident memory, the CLI's
+// result and the guard's trip counter.
+struct UnderEstimatedJob {
+  uint64_t peak_above_idle = 0;
+  CommandResult cli;
+  double trips = -1;
+};
+UnderEstimatedJob ProcessUnderEstimatedJob(const fs::path& dir, const std::string& guard_flag) {
+  ServerProcess server({"--memory_budget=300000000", "--test_bytes_per_point=1", guard_flag});
+  EXPECT_GT(server.port(), 0);
+  const uint64_t idle = StatusBytes(server.pid(), "VmRSS:");
+  UnderEstimatedJob run;
+  run.cli =
+      RunCli("process " + (dir / "guard_frontal.ply").string() + " " +
+             (dir / "guard_oblique.ply").string() + " --job " + (dir / "guard.job.json").string() +
+             " -o " + (dir / "guard_out.ply").string() + " --server " + server.target());
+  run.peak_above_idle = PeakRss(server.pid()) - idle;
+  run.trips = Sample(server.metrics_port(), "scanprep_memory_guard_trips_total");
+  return run;
+}
+
+// The memory guard holds a job that needs more than its reservation to the reservation plus the
+// stated margin and ends it with the reason; without the guard the same job goes past that bound,
+// so the guarded run cannot pass by accident.
+TEST(ServerBinary, MemoryGuardHoldsAJobToItsReservation) {
+#ifdef SCANPREP_SANITIZED
+  GTEST_SKIP() << "the guard is off in sanitizer builds, whose own memory is resident";
+#endif
+  const fs::path dir = ::testing::TempDir();
+  const CommandResult simulated =
+      RunCli("simulate --points 1000000 --scans 2 -o " + (dir / "guard.ply").string());
+  ASSERT_EQ(simulated.exit_code, 0) << simulated.output;
+  // At most 1,000,000 points at 1 B each on top of the fixed per-job 16 MiB.
+  const uint64_t bound = server::kJobOverheadBytes + 1'000'000 + server::kMemoryGuardMarginBytes;
+
+  const UnderEstimatedJob guarded = ProcessUnderEstimatedJob(dir, "--memory_guard=true");
+  EXPECT_EQ(guarded.cli.exit_code, 4) << guarded.cli.output;
+  EXPECT_THAT(guarded.cli.output, HasSubstr("RESOURCE_EXHAUSTED"));
+  EXPECT_THAT(guarded.cli.output, HasSubstr("(reason MEMORY_RESERVATION_EXCEEDED)"));
+  EXPECT_THAT(guarded.cli.output, HasSubstr("this job reserved 17 MiB"));
+  EXPECT_EQ(guarded.trips, 1);
+  EXPECT_GT(guarded.peak_above_idle, 0u);
+  EXPECT_LE(guarded.peak_above_idle, bound);
+
+  const UnderEstimatedJob control = ProcessUnderEstimatedJob(dir, "--memory_guard=false");
+  EXPECT_EQ(control.cli.exit_code, 0) << control.cli.output;
+  EXPECT_EQ(control.trips, 0);
+  EXPECT_GT(control.peak_above_idle, bound);
+  std::cout << "a 1 M-point job reserving " << (bound - server::kMemoryGuardMarginBytes) / 1e6
+            << " MB peaked " << guarded.peak_above_idle / 1e6 << " MB above the idle server with "
+            << "the memory guard, " << control.peak_above_idle / 1e6 << " MB without; bound "
+            << bound / 1e6 << " MB\n";
 }
 
 }  // namespace
