@@ -16,8 +16,9 @@ CHUNK = 32768
 
 
 def encode_packed(scan):
-    header = _header([scan], "mm", None, None, False, None, 0.0, "")
-    return [r.SerializeToString() for r in _requests(header, [scan], CHUNK)]
+    offsets = [None]  # float32 points: sent as they are
+    header = _header([scan], offsets, None, "mm", None, None, False, None, 0.0, "")
+    return [r.SerializeToString() for r in _requests(header, [scan], offsets, CHUNK)]
 
 
 def encode_repeated(scan):

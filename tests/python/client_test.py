@@ -43,6 +43,17 @@ def bunny_scan(name: str) -> Scan:
     raise KeyError(name)
 
 
+def spiky_plane():
+    """A 74.5 mm square plane (150 scanlines of 150 points, 0.5 mm apart, 0.01 mm noise) with 100
+    spikes 2-5 mm above it: the points (float64), each point's scanline, the spikes' indices."""
+    rng = np.random.default_rng(7)
+    u, v = np.meshgrid(np.arange(150) * 0.5, np.arange(150) * 0.5)
+    plane = np.column_stack([u.ravel(), v.ravel(), rng.normal(0, 0.01, u.size)])
+    spikes = rng.choice(u.size, 100, replace=False)
+    plane[spikes, 2] += rng.uniform(2, 5, spikes.size)
+    return plane, np.repeat(np.arange(150, dtype=np.uint32), 150), spikes
+
+
 class ClientTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -92,20 +103,60 @@ class ClientTest(unittest.TestCase):
         self.assertLess(outliers, 0.05 * sent)
 
     def test_spikes_on_a_plane_are_flagged_and_the_rest_comes_back_unchanged(self):
-        rng = np.random.default_rng(7)
-        u, v = np.meshgrid(np.arange(150) * 0.5, np.arange(150) * 0.5)
-        plane = np.column_stack([u.ravel(), v.ravel(), rng.normal(0, 0.01, u.size)])
-        spikes = rng.choice(u.size, 100, replace=False)
-        plane[spikes, 2] += rng.uniform(2, 5, spikes.size)
-        rows = np.repeat(np.arange(150, dtype=np.uint32), 150)
+        plane, rows, spikes = spiky_plane()
         scan = Scan(points=plane.astype(np.float32), scanline=rows, scanline_spacing=0.5,
                     view_direction=(0, 0, 1), uncertainty=0.01)
         result = self.client.process([scan], stages=["outliers"], include_removed=True,
                                      chunk_points=4000)
+        # float32 near zero: no offset, no origin, float32 back, as before origins existed.
+        self.assertIsNone(result.origin)
+        self.assertEqual(result.points.dtype, np.float32)
         np.testing.assert_array_equal(result.points, scan.points)
         removed = set(np.flatnonzero(result.flags & int(Flag.REMOVED_OUTLIER)))
         self.assertLessEqual(set(spikes), removed)                # every spike
-        self.assertLessEqual(len(removed - set(spikes)), 0.001 * u.size)  # ≤ 0.1 % of the plane
+        self.assertLessEqual(len(removed - set(spikes)), 0.001 * len(plane))  # ≤ 0.1 % of it
+
+    def test_a_scan_far_from_zero_gives_the_same_result_as_at_zero(self):
+        # Centred on zero, so that the far copy's local origin is its offset exactly, and on a
+        # 2^-20 mm grid, so that double holds it exactly at 1e7 mm too: both jobs then see the same
+        # local points, and the whole pipeline must agree to 1e-4 mm. Sent as float32 at 1e7 mm
+        # the scan would sit on a 1 mm lattice.
+        plane, rows, _ = spiky_plane()
+        centred = np.round((plane - [37.25, 37.25, 0]) * 2**20) / 2**20
+        far = np.array([1e7, -1e7, 5e6])
+        results = []
+        for offset in (np.zeros(3), far):
+            scan = Scan(points=centred + offset, scanline=rows, scanline_spacing=0.5,
+                        view_direction=(0, 0, 1), uncertainty=0.01)
+            results.append(self.client.process([scan], include_removed=True, timeout=120))
+        near, distant = results
+        self.assertIsNone(near.origin)  # float64 near zero: sent as it always was
+        np.testing.assert_array_equal(distant.origin, far)
+        self.assertEqual(distant.points.dtype, np.float64)
+        np.testing.assert_array_equal(distant.flags, near.flags)
+        self.assertGreater(np.count_nonzero(near.flags & int(Flag.SMOOTHED)), 0)
+        self.assertLessEqual(np.abs((distant.points - far) - near.points).max(), 1e-4)
+
+    def test_far_points_come_back_in_the_callers_coordinates(self):
+        # 45° about z into the common frame: the job's origin is the offset turned likewise, and
+        # the returned points are the sent ones turned (outliers moves none), to 1e-4 mm.
+        plane, rows, spikes = spiky_plane()
+        points = plane + [5e8, 1e7, -3e6]
+        c = s = np.sqrt(0.5)
+        turn = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+        scan = Scan(points=points, scanline=rows, scanline_spacing=0.5, view_direction=(0, 0, 1),
+                    uncertainty=0.01, to_common=((0, 0, np.sin(np.pi / 8), np.cos(np.pi / 8)),
+                                                 (100, 200, 300)))
+        result = self.client.process([scan], stages=["outliers"], include_removed=True)
+        expected = points @ turn.T + [100, 200, 300]
+        self.assertEqual(result.points.dtype, np.float64)
+        self.assertLessEqual(np.abs(result.points - expected).max(), 1e-4)
+        self.assertLessEqual(set(spikes), set(np.flatnonzero(result.flags & int(Flag.REMOVED))))
+        # The caller's own origin near the turned data: the same points, relative to it on the way.
+        mine = (346_482_400, 360_624_700, -2_999_700)
+        given = self.client.process([scan], stages=["outliers"], include_removed=True, origin=mine)
+        np.testing.assert_array_equal(given.origin, mine)
+        self.assertLessEqual(np.abs(given.points - expected).max(), 1e-4)
 
     def test_a_refused_parameter_names_its_field(self):
         scan = Scan(points=np.zeros((10, 3), dtype=np.float32))

@@ -4,6 +4,6 @@ flags and the report out. The generated modules (scanprep.v1.scanprep_pb2 and _g
 come from the build (`cmake --build build --target python_stubs`, into build/python): put that
 directory and this one on PYTHONPATH."""
 
-from scanprep_client.client import Client, Flag, Result, Scan, ScanprepError
+from scanprep_client.client import Client, Flag, Result, Scan, ScanprepError, local_origin
 
-__all__ = ["Client", "Flag", "Result", "Scan", "ScanprepError"]
+__all__ = ["Client", "Flag", "Result", "Scan", "ScanprepError", "local_origin"]

@@ -34,7 +34,12 @@ class Flag(enum.IntFlag):
 @dataclasses.dataclass
 class Scan:
     """One scan: points (n×3, in the job's unit, the scan's own frame) and what the scanner
-    knows. Vectors are 3-sequences; to_common is (quaternion x, y, z, w; translation x, y, z)."""
+    knows. Vectors are 3-sequences; to_common is (quaternion x, y, z, w; translation x, y, z).
+
+    float32 points are sent as they are. Points of any other type (float64, integers) are read in
+    double and sent relative to points_offset: the caller's, else a round origin near the data
+    (local_origin), so a scan far from zero (a georeferenced survey, a plant grid) keeps its
+    precision on the float wire. Points and positions are always absolute in the scan frame."""
     points: np.ndarray
     scan_id: str = ""
     camera_position: Optional[Sequence[float]] = None
@@ -48,16 +53,19 @@ class Scan:
     scanline: Optional[np.ndarray] = None   # uint32 per point
     quality: Optional[np.ndarray] = None    # float in [0, 1] per point
     intensity: Optional[np.ndarray] = None  # float per point
+    points_offset: Optional[Sequence[float]] = None  # None = chosen (see above)
 
 
 @dataclasses.dataclass
 class Result:
-    """The returned points in the job's unit and the common frame, with the service's report."""
-    points: np.ndarray               # n×3 float32
+    """The returned points in the job's unit and the common frame, with the service's report.
+    With a job origin the service's local coordinates come back with it added, in float64."""
+    points: np.ndarray               # n×3 float32, or float64 when origin is set
     normals: Optional[np.ndarray]    # n×3 float32, or None
     flags: np.ndarray                # uint8 per point (Flag bits)
     scan_index: np.ndarray           # uint32 per point
     report: pb.Report
+    origin: Optional[np.ndarray] = None  # the job's origin (float64 × 3), None when it had none
 
     @property
     def kept(self) -> np.ndarray:
@@ -78,14 +86,73 @@ def _vec(target, values) -> None:
     target.x, target.y, target.z = (float(v) for v in values)
 
 
-def _header(scans: Sequence[Scan], unit: str, stages, params, include_removed, labels,
-            budget_seconds, job_id) -> pb.JobHeader:
+def local_origin(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The origin for coordinates within [lo, hi], by the rule of the C++ readers
+    (core/io/local_frame.cc): zero when the box's centre lies within 16 extents of zero (an
+    ordinary scan is sent as before), else its centre rounded to a power of ten no larger than the
+    extent, so local coordinates stay within about the extent and a round offset cancels exactly."""
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    centre = 0.5 * lo + 0.5 * hi
+    extent = float(np.max(hi - lo))
+    if not np.isfinite(extent) or not np.all(np.isfinite(centre)):
+        return np.zeros(3)
+    if np.max(np.abs(centre)) <= 16 * extent:  # float loses at most 5 of its 24 bits
+        return np.zeros(3)
+    if extent == 0:
+        return centre
+    step = 10.0 ** np.floor(np.log10(extent))
+    # C++ std::round: halves away from zero (numpy's round goes to even).
+    return np.copysign(np.floor(np.abs(centre / step) + 0.5), centre) * step
+
+
+def _points_offset(scan: Scan) -> Optional[np.ndarray]:
+    """What scan's points are sent relative to: the caller's offset, else for points that are
+    not float32 the local origin of their finite ones; None when nothing is to be taken off."""
+    if scan.points_offset is not None:
+        return np.asarray(scan.points_offset, dtype=np.float64).reshape(3)
+    points = np.asarray(scan.points)
+    if points.dtype == np.float32 or points.size == 0:
+        return None
+    points = points.astype(np.float64, copy=False).reshape(-1, 3)
+    finite = points[np.all(np.isfinite(points), axis=1)]
+    if len(finite) == 0:
+        return None
+    origin = local_origin(finite.min(axis=0), finite.max(axis=0))
+    return origin if np.any(origin != 0) else None
+
+
+def _rotate(quaternion_xyzw: Sequence[float], v: np.ndarray) -> np.ndarray:
+    """v turned by the (normalised) quaternion, in double, as Eigen's q * v."""
+    q = np.asarray(quaternion_xyzw, dtype=np.float64)
+    q = q / np.linalg.norm(q)
+    u, w = q[:3], q[3]
+    t = 2 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def _wire_points(scan: Scan, offset: Optional[np.ndarray], index: int) -> np.ndarray:
+    """scan's points as float32 relative to offset (subtracted in double). A finite point that
+    float cannot hold is refused here, naming it, instead of travelling as infinity."""
+    if offset is None:
+        return np.asarray(scan.points, dtype="<f4").reshape(-1, 3)
+    wide = np.asarray(scan.points, dtype=np.float64).reshape(-1, 3)
+    local = (wide - offset).astype("<f4")
+    lost = np.flatnonzero(np.any(np.isfinite(wide) & ~np.isfinite(local), axis=1))
+    if len(lost):
+        raise ValueError(f"scan {index} ({scan.scan_id!r}): point {lost[0]} "
+                         f"{wide[lost[0]].tolist()} is beyond float's range from points_offset "
+                         f"{offset.tolist()}")
+    return local
+
+
+def _header(scans: Sequence[Scan], offsets: Sequence[Optional[np.ndarray]], origin, unit: str,
+            stages, params, include_removed, labels, budget_seconds, job_id) -> pb.JobHeader:
     if unit not in _UNITS:
         raise ValueError(f"unit {unit!r}: one of {sorted(_UNITS)}")
     header = pb.JobHeader(job_id=job_id, unit=_UNITS[unit],
                           result_arrays=pb.ARRAY_ENCODING_PACKED,
                           total_points=sum(len(s.points) for s in scans))
-    for scan in scans:
+    for scan, offset in zip(scans, offsets):
         s = header.scans.add(scan_id=scan.scan_id, scanline_spacing=scan.scanline_spacing,
                              uncertainty=scan.uncertainty, point_spacing=scan.point_spacing)
         for name in ("camera_position", "view_direction", "projector_position",
@@ -97,6 +164,10 @@ def _header(scans: Sequence[Scan], unit: str, stages, params, include_removed, l
             s.to_common.rotation.x, s.to_common.rotation.y = qx, qy
             s.to_common.rotation.z, s.to_common.rotation.w = qz, qw
             _vec(s.to_common.translation, translation)
+        if offset is not None:
+            _vec(s.points_offset, offset)
+    if origin is not None:
+        _vec(header.origin, origin)
     header.options.stages.extend(stages or [])
     header.options.params.update({k: str(v) for k, v in (params or {}).items()})
     header.options.include_removed = include_removed
@@ -116,9 +187,23 @@ def _column(scans: Sequence[Scan], name: str, dtype: str) -> Optional[np.ndarray
     return np.concatenate([np.asarray(getattr(s, name), dtype=dtype).ravel() for s in scans])
 
 
-def _requests(header: pb.JobHeader, scans: Sequence[Scan],
+def _job_origin(scans: Sequence[Scan],
+                offsets: Sequence[Optional[np.ndarray]]) -> Optional[np.ndarray]:
+    """As the C++ client (SetJobOrigin): the first scan with an offset gives the job's origin,
+    that offset moved into the common frame by the scan's to_common; no offset, no origin."""
+    for scan, offset in zip(scans, offsets):
+        if offset is None:
+            continue
+        if scan.to_common is None:
+            return offset
+        rotation, translation = scan.to_common
+        return _rotate(rotation, offset) + np.asarray(translation, dtype=np.float64)
+    return None
+
+
+def _requests(header: pb.JobHeader, scans: Sequence[Scan], offsets: Sequence[Optional[np.ndarray]],
               chunk_points: int) -> Iterator[pb.ProcessRequest]:
-    xyz = np.concatenate([np.asarray(s.points, dtype="<f4").reshape(-1, 3) for s in scans])
+    xyz = np.concatenate([_wire_points(s, o, i) for i, (s, o) in enumerate(zip(scans, offsets))])
     arrays = {"xyz": xyz,
               "scan_index": np.concatenate([np.full(len(s.points), i, dtype="<u4")
                                             for i, s in enumerate(scans)]),
@@ -185,17 +270,25 @@ class Client:
                 labels: Optional[Mapping[str, str]] = None, budget_seconds: float = 0.0,
                 job_id: str = "", timeout: Optional[float] = None,
                 chunk_points: int = _CHUNK_POINTS,
-                progress: Optional[Callable[[pb.Progress], None]] = None) -> Result:
+                progress: Optional[Callable[[pb.Progress], None]] = None,
+                origin: Optional[Sequence[float]] = None) -> Result:
         """Runs one job. Raises ScanprepError when the service refuses or fails it, and when the
-        result arrives incomplete or corrupted (its end message's count or CRC-32 disagrees)."""
-        header = _header(scans, unit, stages, params, include_removed, labels, budget_seconds,
-                         job_id)
+        result arrives incomplete or corrupted (its end message's count or CRC-32 disagrees).
+
+        origin (common frame, job unit): the service's local zero; None = the first sent
+        points_offset in the common frame, or none when no scan has one (the job is then sent as
+        before origins existed). With an origin, Result.points are origin + local in float64."""
+        offsets = [_points_offset(s) for s in scans]
+        origin = (_job_origin(scans, offsets) if origin is None
+                  else np.asarray(origin, dtype=np.float64).reshape(3))
+        header = _header(scans, offsets, origin, unit, stages, params, include_removed, labels,
+                         budget_seconds, job_id)
         parts: dict[str, list[bytes]] = {"xyz": [], "normal": [], "scan_index": []}
         flags: list[bytes] = []
         report = end = None
         crc = 0
         try:
-            for response in self._stub.Process(_requests(header, scans, chunk_points),
+            for response in self._stub.Process(_requests(header, scans, offsets, chunk_points),
                                                timeout=timeout):
                 kind = response.WhichOneof("kind")
                 if kind == "points":
@@ -223,7 +316,9 @@ class Client:
                                 f"points, end message {end}")
         normals = (np.frombuffer(b"".join(parts["normal"]), dtype="<f4").reshape(-1, 3)
                    if parts["normal"] else None)
+        if origin is not None:  # the service's local coordinates, back in the caller's frame
+            points = points.astype(np.float64) + origin
         return Result(points=points, normals=normals,
                       flags=np.frombuffer(b"".join(flags), dtype=np.uint8),
                       scan_index=np.frombuffer(b"".join(parts["scan_index"]), dtype="<u4"),
-                      report=report)
+                      report=report, origin=origin)
