@@ -6,7 +6,11 @@
 # with one thing wrong (deploy/lib/hostile_cases.py): far points at 1e6 and 1e8 mm, 10 % and 50 %
 # coincident points, all points on one line, one plane, metre data sent as mm and mm data sent as
 # metres, a no-pose unorganized scene (a floor and separated spheres, no camera, no scanlines),
-# 1,000 scans of one point (alone, and the ordinary cloud in 1,000 scans); then every numeric
+# 1,000 scans of one point (alone, and the ordinary cloud in 1,000 scans); DRAWN cases (default
+# 200) drawn from SEED (default random, printed) by deploy/lib/hostile_cases.py: far parts in a
+# random direction at 1e3-1e9 mm holding 0.5-30 % of the points, clusters of 1-50 k
+# near-identical points within 0-1e-3 mm, lines at 1e-4 mm, offsets of the whole job up to
+# 5e8 mm, and their mixes; then every numeric
 # parameter `scanprep info` lists, one at a time, set to each of -1, 0, 1e-30, 1e30, 2^32 and
 # NaN. Each case runs `scanprep process` (the default pipeline) against a fresh scanprep-server
 # on loopback, timed end to end, with the server's peak resident memory (/proc VmHWM) taken when
@@ -20,7 +24,8 @@
 # Usage: deploy/run-hostile-benchmark.sh [POINTS]   (default 100000 points per cloud)
 # Environment: BUILD_DIR (default build), SKIP_BUILD=1 when the caller has just built, THREADS
 # (server worker threads, default 2), CASE_TIMEOUT (seconds, default 10x the ordinary cloud's
-# time, at least 10), MEMORY_CAP_MIB (default 2048), CASES (regex on case names, default all).
+# time, at least 10), MEMORY_CAP_MIB (default 2048), CASES (regex on case names, default all),
+# DRAWN and SEED (above).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 points=${1:-100000}
@@ -46,7 +51,10 @@ mkdir -p "$work"/{ordinary,plane,scene,cases}
 "$cli" simulate --points "$points" --scans 2 --part plane -o "$work/plane/sim.ply" >/dev/null
 "$cli" simulate --points $((points / 2)) --part plane -o "$work/scene/plane.ply" >/dev/null
 "$cli" simulate --points 1000 --part sphere -o "$work/scene/sphere.ply" >/dev/null
-python3 deploy/lib/hostile_cases.py "$work"/{ordinary,plane,scene,cases} >"$work/manifest"
+seed=${SEED:-$RANDOM$RANDOM}
+echo "drawn cases: ${DRAWN:-200} from seed $seed (SEED=$seed repeats them)" >&2
+python3 deploy/lib/hostile_cases.py "$work"/{ordinary,plane,scene,cases} "${DRAWN:-200}" "$seed" \
+  >"$work/manifest"
 
 # The numeric parameters of the registry: `info` lists each as "  NAME  real in [...]..." or
 # "  NAME  integer in [...]..." (a choice parameter says "one of {...}").
@@ -123,7 +131,7 @@ while IFS=$'\t' read -ra args; do
   run_case "$limit" "${args[@]}"
 done <"$work/manifest"
 
-echo "machine: $(nproc) cores, $(free -g | awk '/Mem:/ {print $2}') GiB;" \
+echo "machine: $(nproc) cores, $(free -g | awk '/Mem:/ {print $2}') GiB; drawn cases: seed $seed;" \
   "server threads: $threads; case timeout: $limit s; memory cap: $((memory_cap_kb / 1024)) MiB"
 python3 - "$work/results" <<'PY'
 import re, statistics, sys

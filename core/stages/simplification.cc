@@ -18,6 +18,7 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
+#include "core/free_memory.h"
 #include "core/pipeline/field_error.h"
 #include "core/pipeline/job_context.h"
 #include "core/pipeline/parallel.h"
@@ -125,15 +126,22 @@ absl::StatusOr<std::vector<uint32_t>> VisitOrder(const PointCloud& cloud, const 
 // batch of the next centres not yet removed, then applied one by one in order. Centres are in
 // quality order, so a batch is spread over the whole part and few of its centres remove one
 // another's points: little gathered work is wasted, and Apply makes the result identical to one
-// query per visit. A batch holds about 2^18 gathered points (2 MiB) at most, so a large r_s means
-// fewer centres a batch rather than more memory (and fewer centres a batch-mate removes).
+// query per visit. A batch holds about 2^18 gathered points (2 MiB) on the cloud's global
+// density, so a large r_s means fewer centres a batch rather than more memory (and fewer centres
+// a batch-mate removes). A ball far fuller than that density says (a cluster of near-identical
+// points: thousands in every one of its centres' balls) is not kept but queried again when its
+// turn comes; by then its first centre has usually removed the rest, so the batch holds at most
+// four times its share wherever the points are.
 absl::Status RunSequential(JobContext& ctx, Thinner& thinner, const std::vector<uint32_t>& order) {
   constexpr double kGatheredPoints = 1 << 18;
   const size_t batch = std::min(
       order.size(),
       static_cast<size_t>(std::clamp(kGatheredPoints / thinner.ExpectedBallSize(), 16.0, 4096.0)));
+  const size_t most_kept = 4 * std::max<size_t>(64, static_cast<size_t>(kGatheredPoints) / batch);
   const PointCloud& cloud = ctx.cloud();
   std::vector<RadiusMatches> balls(batch);
+  std::vector<uint8_t> again(batch);
+  RadiusMatches fresh;
   std::vector<uint32_t> centres, candidates;
   centres.reserve(batch);
   for (size_t next = 0; next < order.size();) {
@@ -144,11 +152,22 @@ absl::Status RunSequential(JobContext& ctx, Thinner& thinner, const std::vector<
     absl::Status status = ParallelFor(
         centres.size(), ctx.cancel(),
         [&](size_t begin, size_t end) {
-          for (size_t b = begin; b < end; ++b) thinner.Gather(centres[b], balls[b]);
+          for (size_t b = begin; b < end; ++b) {
+            thinner.Gather(centres[b], balls[b]);
+            again[b] = balls[b].capacity() > most_kept;
+            if (again[b]) balls[b] = RadiusMatches();  // frees it
+          }
         },
         /*grain=*/16);
     if (!status.ok()) return status;
-    for (size_t b = 0; b < centres.size(); ++b) thinner.Apply(centres[b], balls[b], candidates);
+    for (size_t b = 0; b < centres.size(); ++b) {
+      if (again[b]) {
+        thinner.Visit(centres[b], fresh, candidates);
+      } else {
+        thinner.Apply(centres[b], balls[b], candidates);
+      }
+    }
+    FreeMemory(fresh);  // one ball of a cluster: not held into the next batch
     ctx.Progress(double(next) / order.size());
   }
   return absl::OkStatus();

@@ -2,15 +2,18 @@
 # SPDX-License-Identifier: Apache-2.0
 # The hostile-input cases of deploy/run-hostile-benchmark.sh, made from clouds `scanprep simulate`
 # generated (so every case is the ordinary workload with one thing wrong, not a new generator).
-# Usage: hostile_cases.py ORDINARY_DIR PLANE_DIR SCENE_DIR OUT_DIR
+# Usage: hostile_cases.py ORDINARY_DIR PLANE_DIR SCENE_DIR OUT_DIR [DRAWN SEED]
 #   ORDINARY_DIR: `simulate --scans 2 -o sim.ply` (sim_frontal.ply, sim_oblique.ply, sim.job.json)
 #   PLANE_DIR:    the same with --part plane;  SCENE_DIR: plane.ply (--part plane, one scan, half
 #   the points) and sphere.ply (--part sphere, one scan), the parts of the no-pose scene.
+#   DRAWN, SEED: that many cases drawn at random from SEED (Cases.drawn: far parts, clusters,
+#   lines, offsets and their mixes), after the named ones.
 # Writes each case's files under OUT_DIR/CASE/ and prints one line per case on stdout:
 #   CASE <TAB> POINTS <TAB> the `scanprep process` arguments, tab-separated (no -o, no --server).
 import json
 import math
 import os
+import random
 import struct
 import sys
 
@@ -38,7 +41,7 @@ def read_ply(path):
 
 
 def write_ply(path, names, fmt, rows):
-    kinds = {v: k for k, v in TYPES.items() if k in ("uchar", "uint", "float", "int")}
+    kinds = {v: k for k, v in TYPES.items() if k in ("uchar", "uint", "float", "double", "int")}
     with open(path, "wb") as f:
         f.write(f"ply\nformat binary_little_endian 1.0\nelement vertex {len(rows)}\n".encode())
         for name, code in zip(names, fmt[1:]):
@@ -155,6 +158,94 @@ class Cases:
         self.emit(f"ordinary_in_{scans}_scans", {**ordinary, **extra}, ordinary_job)
 
 
+    def drawn(self, rng, number):
+        """A case drawn from the hostile classes, each present with probability 1/2 (at least
+        one): a far part (a contiguous stretch of 0.5-30 % of a scan's points moved 1e3-1e9 mm in
+        a random direction: a fixture or sphere beside the part); 1-3 clusters of near-identical
+        points (1 k-50 k points each, at most a fifth of the cloud, within 0-1e-3 mm); a line
+        (a tenth of the points 1e-4 mm apart); an offset (the whole job 1e3-5e8 mm from the
+        origin in a random direction, written as doubles, as georeferenced data arrives)."""
+        classes = []
+        while not classes:
+            classes = [c for c in ("far", "clusters", "line", "offset") if rng.random() < 0.5]
+        total = sum(len(rows) for _, _, rows in self.scans.values())
+
+        def direction():
+            v = [rng.gauss(0, 1) for _ in range(3)]
+            norm = math.sqrt(sum(a * a for a in v)) or 1.0
+            return [a / norm for a in v]
+        scans = self.mapped(lambda rows, names: None)  # copies
+        stems = list(scans)
+        parts = []
+        used = {stem: [] for stem in stems}  # (start, end) of the rows each class took
+
+        def region(count):
+            """A scan and a stretch of `count` of its rows no other class took (shorter when the
+            scan has no such stretch)."""
+            for _ in range(100):
+                stem = rng.choice(stems)
+                rows = scans[stem][2]
+                size = min(count, len(rows))
+                start = rng.randrange(0, len(rows) - size + 1)
+                if all(start + size <= a or b <= start for a, b in used[stem]):
+                    used[stem].append((start, start + size))
+                    return scans[stem][0], rows[start:start + size]
+                count = max(1, count * 3 // 4)
+            return scans[stems[0]][0], []
+
+        if "far" in classes:
+            share = rng.uniform(0.005, 0.30)
+            names, taken = region(int(share * total))
+            count = len(taken)
+            distance = 10 ** rng.uniform(3, 9)
+            shift = [distance * a for a in direction()]
+            for row in taken:
+                for axis, a in enumerate(names.index(c) for c in "xyz"):
+                    row[a] += shift[axis]
+            parts.append(f"far {100 * count / total:.1f}% at {distance:.2g}mm")
+        if "clusters" in classes:
+            for _ in range(rng.randint(1, 3)):
+                names, taken = region(min(total // 5, rng.randint(1000, 50000)))
+                if not taken:
+                    continue
+                count = len(taken)
+                jitter = rng.uniform(0, 1e-3)
+                xyz = [names.index(c) for c in "xyz"]
+                at = [taken[count // 2][a] for a in xyz]
+                for row in taken:
+                    for axis, a in enumerate(xyz):
+                        row[a] = at[axis] + rng.uniform(-jitter, jitter)
+                parts.append(f"cluster {count} within {jitter:.1g}mm")
+        if "line" in classes:
+            names, taken = region(total // 10)
+            count = len(taken)
+            x, y, z = (names.index(c) for c in "xyz")
+            origin = [taken[0][x], taken[0][y], taken[0][z]] if taken else []
+            for k, row in enumerate(taken):
+                row[x], row[y], row[z] = origin[0] + 1e-4 * k, origin[1], origin[2]
+            parts.append(f"line {count} at 1e-4mm")
+        job = json.loads(json.dumps(self.job))
+        if "offset" in classes:
+            distance = 10 ** rng.uniform(3, math.log10(5e8))
+            shift = [distance * a for a in direction()]
+            for stem in stems:
+                names, fmt, rows = scans[stem]
+                xyz = [names.index(c) for c in "xyz"]
+                for row in rows:
+                    for axis, a in enumerate(xyz):
+                        row[a] += shift[axis]
+                scans[stem] = (names, "<" + "".join(
+                    "d" if i in xyz else code for i, code in enumerate(fmt[1:])), rows)
+            for scan in job["scans"]:
+                for key in ("cameraPosition", "projectorPosition"):
+                    if key in scan:
+                        scan[key] = {axis: v + shift["xyz".index(axis)]
+                                     for axis, v in scan[key].items()}
+            parts.append(f"offset {distance:.2g}mm")
+        self.emit(f"drawn_{number:03d}:" + ",".join(p.replace(" ", "_") for p in parts),
+                  scans, job)
+
+
 def no_pose_scene(scene_dir, cases, points):
     """A generated equivalent of rs1: one unorganized scan (x y z only, no job metadata, so no
     camera, view direction or scanlines) of a floor twenty times the plane part's size with spheres
@@ -184,6 +275,11 @@ def main():
     cases.unit_slips()
     no_pose_scene(scene_dir, cases, sum(len(r) for _, _, r in cases.scans.values()))
     cases.one_point_scans(1000)
+    if len(sys.argv) > 6:
+        drawn, seed = int(sys.argv[5]), int(sys.argv[6])
+        rng = random.Random(seed)
+        for number in range(drawn):
+            cases.drawn(rng, number)
 
 
 if __name__ == "__main__":

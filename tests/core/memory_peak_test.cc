@@ -14,7 +14,9 @@
 #include <gtest/gtest.h>
 
 #include "core/pipeline/parallel.h"
+#include "core/pipeline/pipeline.h"
 #include "core/spatial/cell_grid.h"
+#include "tests/support/hostile_mix.h"
 #include "tests/support/random_clouds.h"
 
 namespace {
@@ -92,6 +94,32 @@ TEST(MemoryPeak, SortMovesHalfItsItemsAside) {
   // Control: the counter sees the room set aside (more than one block needs merging).
   EXPECT_GE(extra, static_cast<long>(kItems / 2 * sizeof(uint64_t)));
   EXPECT_TRUE(std::is_sorted(items.begin(), items.end()));
+}
+
+// The whole pipeline's heap above what it started with, on a cloud the caller owns.
+long PipelinePeak(PointCloud cloud) {
+  const long held = live_bytes.load();
+  peak_bytes = held;
+  auto report = RunPipeline(cloud, PipelineOptions(), CancelToken());
+  EXPECT_TRUE(report.ok()) << report.status();
+  return peak_bytes.load() - held;
+}
+
+// No input shape may push a job's memory past a bound per point: drawn hostile clouds (far parts,
+// clusters of near-identical points, lines; tests/support/hostile_mix.h) peak within twice the
+// ordinary sheet of the same size. Simplification gathered a batch of balls ahead, sized for
+// balls of the global density: in a cluster each held thousands of points (450 MB at 100 k
+// points, 26x the ordinary job) until a ball that full was queried again at its turn instead.
+TEST(MemoryPeak, HostileCloudsPeakWithinTwiceTheOrdinary) {
+  constexpr size_t kPoints = 50'000;
+  const long ordinary = PipelinePeak(testing::DrawHostileMix(kPoints, 1, {.none = true}).cloud);
+  const uint64_t seed = std::random_device()();
+  for (uint64_t draw = 0; draw < 4; ++draw) {
+    const testing::HostileMix mix =
+        testing::DrawHostileMix(kPoints, seed + draw, {.clusters = draw == 0});
+    SCOPED_TRACE(mix.description + "seed " + std::to_string(seed + draw));
+    EXPECT_LE(PipelinePeak(mix.cloud), 2 * ordinary) << "ordinary peak " << ordinary;
+  }
 }
 
 }  // namespace

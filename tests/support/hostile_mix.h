@@ -23,9 +23,10 @@ struct HostileMix {
   std::string description;  // what was drawn, for the failure message
 };
 
-// Classes a draw must include (the rest are drawn).
+// Classes a draw must include (the rest are drawn); `none`: the ordinary sheet alone, the
+// control.
 struct MustInclude {
-  bool far = false, clusters = false;
+  bool far = false, clusters = false, none = false;
 };
 
 inline HostileMix DrawHostileMix(size_t n, uint64_t seed, MustInclude must = {}) {
@@ -39,8 +40,9 @@ inline HostileMix DrawHostileMix(size_t n, uint64_t seed, MustInclude must = {})
     cloud.y.push_back(static_cast<float>(y));
     cloud.z.push_back(static_cast<float>(z));
   };
-  const bool far = (unit(rng) < 0.6) || must.far, clusters = (unit(rng) < 0.6) || must.clusters;
-  const bool line = unit(rng) < 0.4;
+  const bool far = !must.none && (unit(rng) < 0.6 || must.far);
+  const bool clusters = !must.none && (unit(rng) < 0.6 || must.clusters);
+  const bool line = !must.none && unit(rng) < 0.4;
   const double far_share = far ? 0.005 + 0.295 * unit(rng) : 0;
   const size_t cluster_count = clusters ? 1 + rng() % 3 : 0;
   // Each cluster 1 k to 50 k points, at most a fifth of the cloud.
@@ -48,8 +50,12 @@ inline HostileMix DrawHostileMix(size_t n, uint64_t seed, MustInclude must = {})
   const size_t line_points = line ? n / 10 : 0;
   const size_t far_points = static_cast<size_t>(far_share * n);
   const size_t sheet = n - far_points - cluster_count * cluster_points - line_points;
-  // The ordinary part: a 100 mm sheet with a bump, 0.01 mm noise.
+  // The ordinary part: a 100 mm sheet with a bump, 0.01 mm noise, seen from +z by one scanner.
   const size_t side = static_cast<size_t>(std::sqrt(double(sheet))) + 1;
+  cloud.scans.push_back(ScanMeta{.id = "sheet",
+                                 .view_direction = Eigen::Vector3d::UnitZ(),
+                                 .scanline_spacing = 100.0 / double(side),
+                                 .uncertainty = 0.01});
   for (size_t s = 0; s < sheet; ++s) {
     const double u = 100.0 * double(s % side) / side, v = 100.0 * double(s / side) / side;
     add(u, v, 5 * std::exp(-((u - 50) * (u - 50) + (v - 50) * (v - 50)) / 400) + 0.01 * gauss(rng));
