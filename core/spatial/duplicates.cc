@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <random>
 #include <utility>
 
 #include "core/pipeline/parallel.h"
@@ -20,6 +21,14 @@ uint64_t Mix(uint64_t h) {  // splitmix64's finaliser
   h ^= h >> 27;
   h *= 0x94d049bb133111ebull;
   return h ^ (h >> 31);
+}
+
+// A key drawn once per process: equal hashes of distinct positions make a run that is compared
+// pairwise, and a fixed key would let a client craft such runs. Which points are grouped never
+// depends on it, only how they are found.
+uint64_t HashKey() {
+  static const uint64_t key = uint64_t{std::random_device()()} << 32 | std::random_device()();
+  return key;
 }
 
 bool SamePosition(const PointCloud& cloud, uint32_t a, uint32_t b) {
@@ -46,9 +55,10 @@ absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const Ca
   // (hash of the position, scan · 2³² + index) sorted: the points at one position are adjacent,
   // scan by scan, each scan's lowest index first.
   std::vector<std::pair<uint64_t, uint64_t>> keyed(n);
+  const uint64_t key = HashKey();
   absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
-      const uint64_t h = Mix((uint64_t(Bits(cloud.x[i])) << 32) ^ Bits(cloud.y[i]));
+      const uint64_t h = Mix(key ^ (uint64_t(Bits(cloud.x[i])) << 32) ^ Bits(cloud.y[i]));
       keyed[i] = {Mix(h ^ Bits(cloud.z[i])), (uint64_t(cloud.scan[i]) << 32) | i};
     }
   });

@@ -78,12 +78,13 @@ class KeySet {
   }
   bool full() const { return keys_.size() >= query_.count; }
   // nanoflann offers a point only when its distance is below this, and visits a node only when
-  // its lower bound is at most this: once full, the next float above the worst kept distance, so
-  // a point tied with it (which wins on a lower index) is still offered.
+  // its lower bound is at most this: once full, the worst kept distance, so a point tied with it
+  // is not offered. Ties at the count's edge go to the point the tree reached first, as in
+  // nanoflann's own k-NN search: offering them to decide by index would read every tie, and a
+  // query far from a part (1e9 mm) finds most of its points at one float distance.
   float worstDist() const {
     if (keys_.size() < query_.count) return query_.limit_sq;
-    return std::nextafter(std::bit_cast<float>(static_cast<uint32_t>(keys_.front() >> 32)),
-                          HUGE_VALF);
+    return std::bit_cast<float>(static_cast<uint32_t>(keys_.front() >> 32));
   }
 
  private:
@@ -129,9 +130,8 @@ void EntryTree::Nearest(const float q[3], const NearestQuery& query,
   keys.clear();
   if (query.count == 0 || index_->adaptor.entries.empty()) return;
   KeySet set(query, index_->ids, keys);
-  // eps slightly below 0 makes the node test mindist·(1 − 1e-5) ≤ worst: a node whose lower
-  // bound float rounding pushed just above a point it holds is still visited.
-  index_->tree->findNeighbors(set, q, nanoflann::SearchParams(32, -1e-5f));
+  // Exact (eps 0): nanoflann's node bounds, as in the reference kd-tree.
+  index_->tree->findNeighbors(set, q, nanoflann::SearchParams(32, 0.f));
 }
 
 }  // namespace scanprep

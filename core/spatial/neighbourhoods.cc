@@ -188,22 +188,10 @@ bool Neighbourhoods::Encode(size_t i, const uint32_t* idx) {
 }
 
 void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
-                            uint8_t skip) const {
-  const size_t left_out = Ball(cloud, i, radius, max_ball_points(), skip, out);
-  if (left_out == 0) return;
-  capped_balls_.fetch_add(1, std::memory_order_relaxed);
-  capped_points_.fetch_add(left_out, std::memory_order_relaxed);
-}
-
-void Neighbourhoods::WithinUncapped(const PointCloud& cloud, size_t i, float radius,
-                                    RadiusMatches& out, uint8_t skip) const {
-  Ball(cloud, i, radius, SIZE_MAX, skip, out);
-}
-
-size_t Neighbourhoods::Ball(const PointCloud& cloud, size_t i, float radius, size_t cap,
-                            uint8_t skip, RadiusMatches& out) const {
+                            uint8_t skip, size_t cap) const {
   out.clear();
-  if (k_ > 0 && !moved_ && radius <= dk(i)) {  // at most k + 1 points: never capped
+  if (cap == 0) cap = max_ball_points();
+  if (k_ > 0 && !moved_ && radius <= dk(i) && cap > k_) {  // at most k + 1 points: not capped
     auto skipped = [&](size_t j) { return (cloud.flags[j] & skip) != 0; };
     if (!skipped(i)) out.emplace_back(static_cast<uint32_t>(i), 0.f);
     for (const uint32_t j : knn(i)) {
@@ -211,12 +199,15 @@ size_t Neighbourhoods::Ball(const PointCloud& cloud, size_t i, float radius, siz
       if (!(d2 < radius * radius)) break;  // the list is nearest first
       if (!skipped(j)) out.emplace_back(j, d2);
     }
-    return 0;
+    return;
   }
   const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-  return grid_.Ball(
+  const size_t left_out = grid_.Ball(
       q, {.limit_sq = radius * radius, .count = cap, .flags = cloud.flags.data(), .skip = skip},
       radius, out);
+  if (left_out == 0) return;
+  capped_balls_.fetch_add(1, std::memory_order_relaxed);
+  capped_points_.fetch_add(left_out, std::memory_order_relaxed);
 }
 
 }  // namespace scanprep

@@ -131,16 +131,13 @@ class Neighbourhoods {
   float adaptive_radius(size_t i) const { return std::max(min_radius(i), dk(i)); }
 
   // Unremoved points within `radius` of point i (i itself included), as (index, squared
-  // distance), at most max_ball_points() of them: a fuller ball keeps its nearest (ties to the
-  // lower index) and is counted in capped_balls(). Answers from the k-NN list when the radius
-  // fits inside it and no point has moved since the build, else asks the grid. `skip`: the removal
-  // flags that leave a point out (smoothing still fits to the points merging took out).
+  // distance), at most `cap` of them (0: max_ball_points()): a fuller ball keeps its nearest
+  // (ties to the lower index) and is counted in capped_balls(). Answers from the k-NN list when
+  // the radius fits inside it and no point has moved since the build, else asks the grid.
+  // `skip`: the removal flags that leave a point out (smoothing still fits to the points merging
+  // took out).
   void Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
-              uint8_t skip = kRemovedMask) const;
-  // Every unremoved point within `radius`, for a caller whose total work stays O(n) however full
-  // the balls (simplification: each point lies in the balls of a bounded number of kept centres).
-  void WithinUncapped(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
-                      uint8_t skip = kRemovedMask) const;
+              uint8_t skip = kRemovedMask, size_t cap = 0) const;
   uint32_t max_ball_points() const { return std::max<uint32_t>(kMaxBallPointsPerK * k_, 64); }
   // Balls capped so far, and the points they left out.
   uint64_t capped_balls() const { return capped_balls_.load(std::memory_order_relaxed); }
@@ -157,9 +154,6 @@ class Neighbourhoods {
  private:
   Neighbourhoods() = default;
   void ComputeGlobalRadius();
-  // Within and WithinUncapped (cap = SIZE_MAX): returns how many points the cap left out.
-  size_t Ball(const PointCloud& cloud, size_t i, float radius, size_t cap, uint8_t skip,
-              RadiusMatches& out) const;
   // Stores idx (k indices) as i's list of rank differences; false, with the list marked wide,
   // when one does not fit 16 bits.
   bool Encode(size_t i, const uint32_t* idx);

@@ -41,6 +41,14 @@ class Thinner {
       : cloud_(cloud), nb_(nb), m_(m), plan_(plan), locked_(cloud.size(), 0) {}
 
   bool InEdgeSet(uint32_t i) const { return m_.curvature[i] >= plan_.edge_threshold; }
+  // A centre thins at most its nearest BallCap() points: eight times what a ball of r_s holds on
+  // a surface of the cloud's global density, at least the stages' max_ball_points(). Only a
+  // cluster far denser than the cloud fills it (r_s is held to 10·r_g), where every point still
+  // lies in the balls of a bounded number of centres.
+  size_t BallCap() const {
+    return std::max<size_t>(nb_.max_ball_points(), static_cast<size_t>(8 * ExpectedBallSize()));
+  }
+  bool Full(const RadiusMatches& ball) const { return ball.size() >= BallCap(); }
 
   // κ̂ of Eq. (13), rescaled so that the flat-noise band [0, floor] keeps nothing.
   float KeptShare(uint32_t i) const {
@@ -60,15 +68,18 @@ class Thinner {
     Apply(i, matches, candidates);
   }
 
-  // The read-only half of a visit: the unremoved points within r_s of centre i. Safe to run for
-  // many centres at once while nothing is being removed.
+  // The read-only half of a visit: the unremoved points within r_s of centre i, the nearest
+  // BallCap() where more are. Safe to run for many centres at once while nothing is being
+  // removed.
   void Gather(uint32_t i, RadiusMatches& matches) const {
     matches.clear();
-    if (!cloud_.removed(i)) nb_.WithinUncapped(cloud_, i, plan_.spacing, matches);
+    if (!cloud_.removed(i)) nb_.Within(cloud_, i, plan_.spacing, matches, kRemovedMask, BallCap());
   }
 
   // The writing half: `matches` may be a superset gathered before other centres removed some of
-  // its points; those are skipped here, so the outcome equals a visit with a fresh query.
+  // its points; those are skipped here, so the outcome equals a visit with a fresh query (unless
+  // the ball was full: a fresh one could then hold points beyond it, so Full balls are not
+  // applied from a gather).
   void Apply(uint32_t i, const RadiusMatches& matches, std::vector<uint32_t>& candidates) {
     if (cloud_.removed(i)) return;
     candidates.clear();
@@ -128,10 +139,10 @@ absl::StatusOr<std::vector<uint32_t>> VisitOrder(const PointCloud& cloud, const 
 // another's points: little gathered work is wasted, and Apply makes the result identical to one
 // query per visit. A batch holds about 2^18 gathered points (2 MiB) on the cloud's global
 // density, so a large r_s means fewer centres a batch rather than more memory (and fewer centres
-// a batch-mate removes). A ball far fuller than that density says (a cluster of near-identical
-// points: thousands in every one of its centres' balls) is not kept but queried again when its
-// turn comes; by then its first centre has usually removed the rest, so the batch holds at most
-// four times its share wherever the points are.
+// a batch-mate removes). A ball far fuller than that density says, or full (a cluster of
+// near-identical points: thousands in every one of its centres' balls), is not kept but queried
+// again when its turn comes, so the batch holds at most four times its share wherever the points
+// are and a full ball is always a fresh one.
 absl::Status RunSequential(JobContext& ctx, Thinner& thinner, const std::vector<uint32_t>& order) {
   constexpr double kGatheredPoints = 1 << 18;
   const size_t batch = std::min(
@@ -154,7 +165,7 @@ absl::Status RunSequential(JobContext& ctx, Thinner& thinner, const std::vector<
         [&](size_t begin, size_t end) {
           for (size_t b = begin; b < end; ++b) {
             thinner.Gather(centres[b], balls[b]);
-            again[b] = balls[b].capacity() > most_kept;
+            again[b] = balls[b].capacity() > most_kept || thinner.Full(balls[b]);
             if (again[b]) balls[b] = RadiusMatches();  // frees it
           }
         },
