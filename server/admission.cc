@@ -31,10 +31,46 @@ AdmissionQueue::AdmissionQueue(AdmissionOptions options, ServiceMetrics& metrics
 }
 
 AdmissionQueue::Slot::~Slot() {
-  if (queue_ != nullptr) queue_->Release(since_, bytes_);
+  if (queue_ != nullptr) queue_->Release(since_, holder_);
 }
 
-absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(uint64_t bytes, absl::Time deadline,
+uint64_t AdmissionQueue::Slot::claim_bytes() const {
+  std::lock_guard lock(queue_->mu_);
+  return holder_->claim;
+}
+
+uint64_t AdmissionQueue::Slot::reserved_bytes() const {
+  std::lock_guard lock(queue_->mu_);
+  return holder_->reserved;
+}
+
+absl::Status AdmissionQueue::Slot::Reserve(uint64_t bytes, const std::function<bool()>& cancelled) {
+  AdmissionQueue& q = *queue_;
+  std::unique_lock lock(q.mu_);
+  Waiter self{.claim = holder_->claim,
+              .reserve = std::min(bytes, holder_->claim),
+              .holds_slot = true,
+              .holder = holder_};
+  if (self.reserve <= holder_->reserved) return absl::OkStatus();
+  if (q.FitsLocked(self)) {  // any safe reservation may go first (GrantLocked)
+    q.reserved_bytes_ += self.reserve - holder_->reserved;
+    holder_->reserved = self.reserve;
+    q.PublishLocked();
+    return absl::OkStatus();
+  }
+  const auto position = q.growing_.insert(q.growing_.end(), &self);
+  q.WaitLocked(lock, self, cancelled);
+  if (self.granted) return absl::OkStatus();  // GrantLocked took it off the list
+  q.growing_.erase(position);
+  q.GrantLocked();  // the reservations behind it may be safe now
+  q.PublishLocked();
+  return absl::CancelledError(
+      "the call was cancelled or its deadline passed while it waited for memory");
+}
+
+absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(uint64_t claim_bytes,
+                                                           uint64_t reserve_bytes,
+                                                           absl::Time deadline,
                                                            const std::function<bool()>& cancelled) {
   const absl::Time arrived = options_.now();
   std::unique_lock lock(mu_);
@@ -42,37 +78,39 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(uint64_t bytes, absl:
     metrics_.Rejected(RejectReason::kDraining);
     return DrainingError();
   }
-  if (bytes > options_.memory_budget_bytes) {
+  if (claim_bytes > options_.memory_budget_bytes) {
     metrics_.Rejected(RejectReason::kMemory);
     absl::Status refused = WithReason(
         absl::ResourceExhaustedError(absl::StrCat(
-            "the job's estimated memory of ", FormatMiB(bytes), " (", bytes,
+            "the job's estimated memory of ", FormatMiB(claim_bytes), " (", claim_bytes,
             " bytes, from header.total_points) exceeds the server's whole memory budget of ",
             FormatMiB(options_.memory_budget_bytes), " (", options_.memory_budget_bytes,
             " bytes, memory_budget), so it could never run here; send fewer points per job or "
             "raise the server's --memory_budget")),
         "JOB_EXCEEDS_MEMORY");
-    refused = WithMetadata(std::move(refused), "estimate_bytes", absl::StrCat(bytes));
+    refused = WithMetadata(std::move(refused), "estimate_bytes", absl::StrCat(claim_bytes));
     return WithMetadata(std::move(refused), "budget_bytes",
                         absl::StrCat(options_.memory_budget_bytes));
   }
-  if (waiting_.empty() && FitsLocked(bytes)) {
-    ++in_flight_;
-    reserved_bytes_ += bytes;
+  Waiter self{.claim = claim_bytes, .reserve = std::min(reserve_bytes, claim_bytes)};
+  if (waiting_.empty() && FitsLocked(self)) {
+    reserved_bytes_ += self.reserve;
+    const auto holder = holders_.insert(holders_.end(), Holder{claim_bytes, self.reserve});
     PublishLocked();
     metrics_.PhaseEnded(Phase::kQueue, 0);
-    return Slot(this, arrived, bytes);
+    return Slot(this, arrived, holder);
   }
   if (static_cast<int>(waiting_.size()) >= options_.max_queued_jobs) {
     metrics_.Rejected(RejectReason::kQueueFull);
     // Retry once the queue can be expected to have moved; at least a second, so that refused
     // clients do not hammer a server that has not finished a job yet.
+    const int in_flight = static_cast<int>(holders_.size());
     return WithReason(
         absl::ResourceExhaustedError(absl::StrCat(
-            in_flight_ >= options_.max_concurrent_jobs
+            in_flight >= options_.max_concurrent_jobs
                 ? absl::StrCat("the server is running its limit of ", options_.max_concurrent_jobs,
                                " concurrent jobs (max_concurrent_jobs)")
-                : absl::StrCat("the server's ", in_flight_, " running jobs hold ",
+                : absl::StrCat("the server's ", in_flight, " running jobs hold ",
                                FormatMiB(reserved_bytes_), " of its ",
                                FormatMiB(options_.memory_budget_bytes),
                                " memory budget (memory_budget)"),
@@ -89,16 +127,12 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(uint64_t bytes, absl:
         expected, std::max(0.0, remaining), static_cast<int>(waiting_.size()), mean_hold_seconds_));
   }
 
-  Waiter self{.bytes = bytes};
   const auto position = waiting_.insert(waiting_.end(), &self);
   PublishLocked();
-  while (!self.granted && !draining_) {
-    if (changed_.wait_for(lock, kPollInterval, [&] { return self.granted || draining_; })) break;
-    if (cancelled()) break;
-  }
+  WaitLocked(lock, self, cancelled);
   if (self.granted) {  // GrantLocked already moved it from the queue to a slot
     metrics_.PhaseEnded(Phase::kQueue, absl::ToDoubleSeconds(options_.now() - arrived));
-    return Slot(this, options_.now(), bytes);
+    return Slot(this, options_.now(), self.holder);
   }
   waiting_.erase(position);
   GrantLocked();  // the calls behind it may fit now
@@ -110,35 +144,89 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(uint64_t bytes, absl:
   return absl::CancelledError("the call was cancelled or its deadline passed while queued");
 }
 
-void AdmissionQueue::Release(absl::Time since, uint64_t bytes) {
+void AdmissionQueue::WaitLocked(std::unique_lock<std::mutex>& lock, Waiter& self,
+                                const std::function<bool()>& cancelled) {
+  // A holder keeps its slot through a drain: only calls still waiting for one are released.
+  const auto done = [&] { return self.granted || (draining_ && !self.holds_slot); };
+  while (!done()) {
+    if (changed_.wait_for(lock, kPollInterval, done)) break;
+    if (cancelled()) break;
+  }
+}
+
+void AdmissionQueue::Release(absl::Time since, std::list<Holder>::iterator holder) {
   const double held = absl::ToDoubleSeconds(options_.now() - since);
   std::lock_guard lock(mu_);
   mean_hold_seconds_ =
       have_mean_ ? (1 - options_.mean_weight) * mean_hold_seconds_ + options_.mean_weight * held
                  : held;
   have_mean_ = true;
-  --in_flight_;
-  reserved_bytes_ -= bytes;
+  reserved_bytes_ -= holder->reserved;
+  holders_.erase(holder);
   GrantLocked();
   PublishLocked();
 }
 
-bool AdmissionQueue::FitsLocked(uint64_t bytes) const {
-  return in_flight_ < options_.max_concurrent_jobs &&
-         bytes <= options_.memory_budget_bytes - reserved_bytes_;
+bool AdmissionQueue::FitsLocked(const Waiter& waiter) const {
+  if (!waiter.holds_slot && static_cast<int>(holders_.size()) >= options_.max_concurrent_jobs) {
+    return false;
+  }
+  const uint64_t extra = waiter.reserve - (waiter.holds_slot ? waiter.holder->reserved : 0);
+  return extra <= options_.memory_budget_bytes - reserved_bytes_ && SafeLocked(waiter);
+}
+
+bool AdmissionQueue::SafeLocked(const Waiter& waiter) const {
+  // What each holder still needs and what it returns when done, with the waiter's request in
+  // place. Served smallest need first: if any order lets every holder finish, that one does (the
+  // free bytes only grow as holders finish).
+  struct Claim {
+    uint64_t need;
+    uint64_t reserved;
+  };
+  std::vector<Claim> claims;
+  claims.reserve(holders_.size() + 1);
+  for (auto it = holders_.begin(); it != holders_.end(); ++it) {
+    const uint64_t reserved =
+        waiter.holds_slot && it == waiter.holder ? waiter.reserve : it->reserved;
+    claims.push_back({it->claim - reserved, reserved});
+  }
+  if (!waiter.holds_slot) claims.push_back({waiter.claim - waiter.reserve, waiter.reserve});
+  uint64_t reserved = 0;
+  for (const Claim& c : claims) reserved += c.reserved;
+  std::sort(claims.begin(), claims.end(),
+            [](const Claim& a, const Claim& b) { return a.need < b.need; });
+  uint64_t free = options_.memory_budget_bytes - reserved;
+  for (const Claim& c : claims) {
+    if (c.need > free) return false;
+    free += c.reserved;
+  }
+  return true;
 }
 
 void AdmissionQueue::GrantLocked() {
-  if (draining_) return;
   bool granted = false;
+  // Reservations first, any that is safe: their holders run once their claims are complete, and
+  // free everything when done.
+  for (auto it = growing_.begin(); it != growing_.end();) {
+    Waiter* next = *it;
+    if (!FitsLocked(*next)) {
+      ++it;
+      continue;
+    }
+    reserved_bytes_ += next->reserve - next->holder->reserved;
+    next->holder->reserved = next->reserve;
+    next->granted = true;
+    it = growing_.erase(it);
+    granted = true;
+  }
   // Only the oldest call may take what is free: one behind it that would fit waits too, or a
   // stream of small jobs could hold a large one back forever.
-  while (!waiting_.empty() && FitsLocked(waiting_.front()->bytes)) {
+  while (!draining_ && !waiting_.empty() && FitsLocked(*waiting_.front())) {
     Waiter* next = waiting_.front();
     waiting_.pop_front();
+    reserved_bytes_ += next->reserve;
+    next->holder = holders_.insert(holders_.end(), Holder{next->claim, next->reserve});
     next->granted = true;
-    ++in_flight_;
-    reserved_bytes_ += next->bytes;
     granted = true;
   }
   if (granted) changed_.notify_all();
@@ -152,7 +240,7 @@ void AdmissionQueue::Drain() {
 
 int AdmissionQueue::in_flight() const {
   std::lock_guard lock(mu_);
-  return in_flight_;
+  return static_cast<int>(holders_.size());
 }
 
 uint64_t AdmissionQueue::memory_reserved_bytes() const {
@@ -176,7 +264,7 @@ double AdmissionQueue::ExpectedWaitLocked() const {
 }
 
 void AdmissionQueue::PublishLocked() {
-  metrics_.SetAdmissionState(in_flight_, static_cast<int>(waiting_.size()));
+  metrics_.SetAdmissionState(static_cast<int>(holders_.size()), static_cast<int>(waiting_.size()));
   metrics_.SetMemoryReserved(reserved_bytes_);
 }
 

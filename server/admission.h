@@ -5,11 +5,15 @@
 // holds no points, so memory stays bounded by the running jobs, and a full server refuses before
 // the client sends anything large.
 //
-// Each call also reserves its job's estimated memory (memory_budget.h) for as long as it holds a
-// slot, and the reservations never exceed `memory_budget_bytes`: a call waits until both a slot
-// and its bytes are free. The oldest waiting call is served first even when a smaller one behind
-// it would fit, so a large job is not starved; a job whose estimate exceeds the whole budget is
-// refused at once.
+// Each call also claims its job's estimated memory (memory_budget.h), and the reservations never
+// exceed `memory_budget_bytes`. A claim is reserved as the job's data arrives (Slot::Reserve), so
+// a large declaration that sends little holds little; a job runs only once all of its claim is
+// reserved. A reservation is granted only when it leaves every holder able to reserve the rest of
+// its claim in some order, each returning all of it when done (the banker's algorithm for one
+// resource), so slot holders waiting for each other's memory can never deadlock. A call waits
+// until both a slot and the bytes it reserves at once are free; the oldest waiting call is served
+// first even when a smaller one behind it would fit, so a large job is not starved; a job whose
+// claim exceeds the whole budget is refused at once.
 #pragma once
 
 #include <condition_variable>
@@ -18,6 +22,7 @@
 #include <list>
 #include <mutex>
 #include <utility>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
@@ -28,7 +33,7 @@ namespace scanprep::server {
 struct AdmissionOptions {
   int max_concurrent_jobs = 4;
   int max_queued_jobs = 8;
-  // Sum of the estimates of the jobs holding a slot; the default is no limit.
+  // Sum of the reservations of the calls holding a slot; the default is no limit.
   uint64_t memory_budget_bytes = std::numeric_limits<uint64_t>::max();
   // Weight of the newest job in the running mean of slot hold times.
   double mean_weight = 0.3;
@@ -40,30 +45,46 @@ class AdmissionQueue {
  public:
   AdmissionQueue(AdmissionOptions options, ServiceMetrics& metrics);
 
-  // A held slot; destroying it frees the slot for the next waiting call and feeds its hold time
-  // into the mean.
+ private:
+  // What one slot holder claimed of the memory budget and has reserved so far.
+  struct Holder {
+    uint64_t claim = 0;
+    uint64_t reserved = 0;
+  };
+
+ public:
+  // A held slot; destroying it frees the slot and its reservation for the next waiting call and
+  // feeds its hold time into the mean.
   class Slot {
    public:
     Slot(Slot&& o) noexcept
-        : queue_(std::exchange(o.queue_, nullptr)), since_(o.since_), bytes_(o.bytes_) {}
+        : queue_(std::exchange(o.queue_, nullptr)), since_(o.since_), holder_(o.holder_) {}
     Slot& operator=(Slot&&) = delete;
     ~Slot();
 
+    // Raises this call's reservation to `bytes` (at most its claim; a lower value changes
+    // nothing), waiting while that is unsafe (see above). CANCELLED when `cancelled()` turns true
+    // while waiting (polled).
+    absl::Status Reserve(uint64_t bytes, const std::function<bool()>& cancelled);
+    uint64_t claim_bytes() const;
+    uint64_t reserved_bytes() const;
+
    private:
     friend class AdmissionQueue;
-    Slot(AdmissionQueue* queue, absl::Time since, uint64_t bytes)
-        : queue_(queue), since_(since), bytes_(bytes) {}
+    Slot(AdmissionQueue* queue, absl::Time since, std::list<Holder>::iterator holder)
+        : queue_(queue), since_(since), holder_(holder) {}
     AdmissionQueue* queue_;
     absl::Time since_;
-    uint64_t bytes_;  // reserved from the memory budget
+    std::list<Holder>::iterator holder_;
   };
 
-  // A slot and `bytes` of the memory budget for one call, waiting for them when taken. Fails at
-  // once with RESOURCE_EXHAUSTED when `bytes` exceeds the whole budget (JOB_EXCEEDS_MEMORY) or
+  // A slot for one call claiming `claim_bytes` of the memory budget, with `reserve_bytes` of the
+  // claim reserved at once (Slot::Reserve the rest), waiting for them when taken. Fails at
+  // once with RESOURCE_EXHAUSTED when the claim exceeds the whole budget (JOB_EXCEEDS_MEMORY) or
   // the queue is full (QUEUE_FULL), DEADLINE_EXCEEDED when the expected wait already
   // exceeds `deadline`, UNAVAILABLE while draining (also for calls still waiting when the drain
   // starts), and CANCELLED when `cancelled()` turns true while waiting (polled).
-  absl::StatusOr<Slot> Admit(uint64_t bytes, absl::Time deadline,
+  absl::StatusOr<Slot> Admit(uint64_t claim_bytes, uint64_t reserve_bytes, absl::Time deadline,
                              const std::function<bool()>& cancelled);
 
   // Refuse new calls and release the waiting ones with UNAVAILABLE; slots held stay valid.
@@ -73,22 +94,34 @@ class AdmissionQueue {
   int max_queued_jobs() const { return options_.max_queued_jobs; }
   uint64_t memory_budget_bytes() const { return options_.memory_budget_bytes; }
   uint64_t memory_reserved_bytes() const;
-  int in_flight() const;
+  int in_flight() const;  // slots held
   int queued() const;
   // Seconds a newly queued call would wait: the calls ahead of it plus itself, each needing a
   // slot to free up, at the running mean hold time shared by all slots. 0 before any call ended.
   double ExpectedWaitSeconds() const;
 
  private:
+  // A call waiting for a slot, or a holder waiting for more of its claim.
   struct Waiter {
-    uint64_t bytes = 0;
+    uint64_t claim = 0;
+    uint64_t reserve = 0;  // the reservation it waits to reach
+    bool holds_slot = false;
+    std::list<Holder>::iterator holder;  // when holds_slot, or once granted a slot
     bool granted = false;
   };
-  void Release(absl::Time since, uint64_t bytes);
-  // Whether a call needing `bytes` can take a slot now.
-  bool FitsLocked(uint64_t bytes) const;
-  // Hands slots to the waiting calls in arrival order while the oldest one fits.
+  void Release(absl::Time since, std::list<Holder>::iterator holder);
+  // Whether `waiter` can have what it waits for now: a free slot (for a new call), and its
+  // reservation within the budget with every claim still able to finish.
+  bool FitsLocked(const Waiter& waiter) const;
+  // Whether every holder could still reserve the rest of its claim, one after the other, once
+  // `waiter` had what it waits for.
+  bool SafeLocked(const Waiter& waiter) const;
+  // Grants every waiting reservation that fits, then slots to the waiting calls in arrival order
+  // while the oldest one fits.
   void GrantLocked();
+  // Waits until `self` is granted, the drain starts (slot waiters only) or `cancelled()`.
+  void WaitLocked(std::unique_lock<std::mutex>& lock, Waiter& self,
+                  const std::function<bool()>& cancelled);
   double ExpectedWaitLocked() const;
   void PublishLocked();
 
@@ -96,9 +129,10 @@ class AdmissionQueue {
   ServiceMetrics& metrics_;
   mutable std::mutex mu_;
   std::condition_variable changed_;
-  int in_flight_ = 0;
+  std::list<Holder> holders_;  // one per slot held
   uint64_t reserved_bytes_ = 0;
-  std::list<Waiter*> waiting_;  // arrival order
+  std::list<Waiter*> waiting_;  // calls waiting for a slot, arrival order
+  std::list<Waiter*> growing_;  // holders waiting for more of their claim, arrival order
   double mean_hold_seconds_ = 0;
   bool have_mean_ = false;
   bool draining_ = false;

@@ -10,13 +10,14 @@ namespace scanprep::server {
 
 std::string IdleWatch::Entry::Expired(absl::Time now) const {
   if (due == idle_due) {
-    return absl::StrCat(awaited, " did not arrive within ", absl::FormatDuration(limit), " (",
-                        limit_name, ")");
+    return absl::StrCat(overdue, " within ", absl::FormatDuration(limit), " (", limit_name, ")");
   }
   return absl::StrFormat(
-      "the upload sent %d bytes in %.1f s since it was admitted, under the minimum of %.0f "
+      "%s %d bytes in %.1f s of waiting for the client since %s, under the minimum of %.0f "
       "bytes/s after the first %s (%s)",
-      rate_bytes, absl::ToDoubleSeconds(now - rate_since), min_rate,
+      direction == Direction::kUpload ? "the upload sent" : "the client read", rate_bytes,
+      absl::ToDoubleSeconds(now - rate_since),
+      direction == Direction::kUpload ? "it was admitted" : "the download began", min_rate,
       absl::FormatDuration(rate_grace), rate_name);
 }
 
@@ -43,11 +44,16 @@ IdleWatch::Call::~Call() {
 }
 
 void IdleWatch::Call::Expect(absl::Duration limit, std::string_view limit_name,
-                             std::string awaited) {
+                             std::string overdue) {
   {
     std::lock_guard lock(watch_->mu_);
     Entry& e = *entry_;
-    e.idle_due = absl::Now() + limit;
+    const absl::Time now = absl::Now();
+    if (e.paused_since != absl::InfiniteFuture()) {
+      e.rate_since += now - e.paused_since;
+      e.paused_since = absl::InfiniteFuture();
+    }
+    e.idle_due = now + limit;
     e.due = e.idle_due;
     if (e.min_rate > 0) {
       const absl::Time rate_due = e.rate_since + e.rate_grace +
@@ -56,22 +62,29 @@ void IdleWatch::Call::Expect(absl::Duration limit, std::string_view limit_name,
     }
     e.limit = limit;
     e.limit_name = std::string(limit_name);
-    e.awaited = std::move(awaited);
+    e.overdue = std::move(overdue);
   }
   watch_->changed_.notify_all();
 }
 
-void IdleWatch::Call::ExpectRate(double bytes_per_second, absl::Duration grace,
+void IdleWatch::Call::ExpectRate(Direction direction, double bytes_per_second, absl::Duration grace,
                                  std::string_view limit_name) {
   std::lock_guard lock(watch_->mu_);
+  entry_->direction = direction;
   entry_->min_rate = bytes_per_second;
   entry_->rate_name = std::string(limit_name);
   entry_->rate_since = absl::Now();
+  entry_->paused_since = absl::InfiniteFuture();
   entry_->rate_grace = grace;
   entry_->rate_bytes = 0;
 }
 
-void IdleWatch::Call::Received(uint64_t bytes) {
+void IdleWatch::Call::StopRate() {
+  std::lock_guard lock(watch_->mu_);
+  entry_->min_rate = 0;
+}
+
+void IdleWatch::Call::Transferred(uint64_t bytes) {
   std::lock_guard lock(watch_->mu_);
   entry_->rate_bytes += bytes;
 }
@@ -79,6 +92,7 @@ void IdleWatch::Call::Received(uint64_t bytes) {
 void IdleWatch::Call::Pause() {
   std::lock_guard lock(watch_->mu_);
   entry_->due = absl::InfiniteFuture();
+  if (entry_->paused_since == absl::InfiniteFuture()) entry_->paused_since = absl::Now();
 }
 
 std::string IdleWatch::Call::reason() const {

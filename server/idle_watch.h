@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
-// Ends calls whose client sends nothing for too long, or too little. A synchronous gRPC Read
-// cannot time out, so one thread watches every upload's next-message deadline and cancels the
-// calls that miss it; without this a stream that sends no header, or one point every few seconds,
-// holds a server thread (and its slot) for as long as it likes.
+// Ends calls whose client sends or reads nothing for too long, or too little. A synchronous gRPC
+// Read cannot time out, and a Write to a client that stops reading blocks once gRPC's flow-control
+// window is full, so one thread watches every call's next deadline and cancels the calls that miss
+// it (TryCancel is the only thing that ends a blocked Read or Write); without this a stream that
+// sends no header, one point every few seconds, or never reads its result holds a server thread
+// (and its slot) for as long as it likes.
 #pragma once
 
 #include <condition_variable>
@@ -20,18 +22,26 @@
 namespace scanprep::server {
 
 class IdleWatch {
+ public:
+  // Which way the bytes counted against a minimum rate move.
+  enum class Direction { kUpload, kDownload };
+
+ private:
   struct Entry {
     grpc::ServerContext* context;
     absl::Time due = absl::InfiniteFuture();
-    std::string awaited;  // what the call waits for, for the reason
+    std::string overdue;  // what is late when the idle limit passes, for the reason
     absl::Time idle_due = absl::InfiniteFuture();
     absl::Duration limit;
     std::string limit_name;
-    // The minimum average rate, once set: `rate_bytes` must have arrived by
-    // rate_since + rate_grace + rate_bytes / min_rate.
+    // The minimum average rate, once set: `rate_bytes` must have moved by
+    // rate_since + rate_grace + rate_bytes / min_rate, where rate_since moves on by the time the
+    // call spent paused (the server's time, not the client's).
     double min_rate = 0;  // bytes per second; 0 = none
+    Direction direction = Direction::kUpload;
     std::string rate_name;
     absl::Time rate_since;
+    absl::Time paused_since = absl::InfiniteFuture();  // InfiniteFuture: not paused
     absl::Duration rate_grace;
     uint64_t rate_bytes = 0;
     std::string reason;  // set when the watch cancelled the call
@@ -51,17 +61,22 @@ class IdleWatch {
     ~Call();
     Call(const Call&) = delete;
     Call& operator=(const Call&) = delete;
-    // The next message (`awaited`, e.g. "the header") must arrive within `limit` (the server's
-    // `limit_name`), or the call is cancelled.
-    void Expect(absl::Duration limit, std::string_view limit_name, std::string awaited);
-    // From now on the upload must also average at least `bytes_per_second` (the server's
-    // `limit_name`; 0 = no minimum), measured after a first `grace`: a client that keeps every
-    // gap under the idle limit but sends next to nothing is ended too. Takes effect at the next
-    // Expect.
-    void ExpectRate(double bytes_per_second, absl::Duration grace, std::string_view limit_name);
-    // `bytes` more arrived (counted against the rate).
-    void Received(uint64_t bytes);
-    // No message is due (the server is busy, not the client).
+    // The client's next step (the next message arriving, or it taking the response being
+    // written) must happen within `limit` (the server's `limit_name`), or the call is cancelled;
+    // `overdue` says what is late then, e.g. "the header did not arrive".
+    void Expect(absl::Duration limit, std::string_view limit_name, std::string overdue);
+    // From now on the transfer in `direction` must also average at least `bytes_per_second` (the
+    // server's `limit_name`; 0 = no minimum), measured after a first `grace`: a client that keeps
+    // every gap under the idle limit but sends or reads next to nothing is ended too. Takes effect
+    // at the next Expect.
+    void ExpectRate(Direction direction, double bytes_per_second, absl::Duration grace,
+                    std::string_view limit_name);
+    // No minimum rate from now on (the server is busy, not the client).
+    void StopRate();
+    // `bytes` more moved in the rate's direction (counted against the rate).
+    void Transferred(uint64_t bytes);
+    // Nothing is due from the client until the next Expect (the server is busy, not the
+    // client); the time until then does not count against the rate.
     void Pause();
     // Why the watch cancelled the call; empty if it did not.
     std::string reason() const;

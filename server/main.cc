@@ -93,10 +93,14 @@ ABSL_FLAG(absl::Duration, header_timeout, absl::Seconds(10),
           "a Process call whose header has not arrived this long after it started is cancelled");
 ABSL_FLAG(absl::Duration, idle_timeout, absl::Seconds(30),
           "a Process call whose next upload message has not arrived this long after the previous "
-          "one is cancelled (time queued for a slot does not count)");
+          "one, or whose client has not read a response this long after it was written, is "
+          "cancelled (time queued for a slot does not count)");
 ABSL_FLAG(double, min_upload_rate, 64 * 1024,
           "bytes per second a Process upload must average from its admission on, after a first "
           "--idle_timeout; a slower one is cancelled (0 = no minimum)");
+ABSL_FLAG(double, min_download_rate, 64 * 1024,
+          "result bytes per second a Process client must read, averaged from the download's "
+          "start, after a first --idle_timeout; a slower one is cancelled (0 = no minimum)");
 ABSL_FLAG(absl::Duration, max_connection_age, absl::InfiniteDuration(),
           "a client connection older than this is sent GOAWAY, so the client reconnects and "
           "re-resolves DNS, reaching replicas added since (e.g. 300s behind an autoscaler; "
@@ -195,7 +199,8 @@ int main(int argc, char** argv) {
   options.threads = absl::GetFlag(FLAGS_threads);
   options.timeouts = {.header = absl::GetFlag(FLAGS_header_timeout),
                       .idle = absl::GetFlag(FLAGS_idle_timeout),
-                      .min_upload_rate = absl::GetFlag(FLAGS_min_upload_rate)};
+                      .min_upload_rate = absl::GetFlag(FLAGS_min_upload_rate),
+                      .min_download_rate = absl::GetFlag(FLAGS_min_download_rate)};
   options.connection = {.max_age = absl::GetFlag(FLAGS_max_connection_age),
                         .max_age_grace = absl::GetFlag(FLAGS_max_connection_age_grace),
                         .keepalive_time = absl::GetFlag(FLAGS_keepalive_time),

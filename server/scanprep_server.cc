@@ -115,10 +115,13 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
       options.timeouts.idle <= absl::ZeroDuration()) {
     return absl::InvalidArgumentError("header_timeout and idle_timeout must be positive");
   }
-  if (!(options.timeouts.min_upload_rate >= 0 && options.timeouts.min_upload_rate < 1e12)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("min_upload_rate must be in [0, 1e12) bytes per second, got ",
-                     options.timeouts.min_upload_rate));
+  for (const auto& [name, rate] :
+       {std::pair{"min_upload_rate", options.timeouts.min_upload_rate},
+        std::pair{"min_download_rate", options.timeouts.min_download_rate}}) {
+    if (!(rate >= 0 && rate < 1e12)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(name, " must be in [0, 1e12) bytes per second, got ", rate));
+    }
   }
   if (options.max_calls_per_peer < 0) {
     return absl::InvalidArgumentError("max_calls_per_peer must be at least 0 (0 = the default)");

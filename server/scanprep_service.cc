@@ -92,6 +92,15 @@ grpc::Status ScanPrepService::Gone(const grpc::ServerContext& context,
       absl::StrCat("the call was cancelled by the client during ", std::string(phase)));
 }
 
+grpc::Status ScanPrepService::Ended(const grpc::ServerContext& context,
+                                    const IdleWatch::Call& watch, std::string_view phase) const {
+  if (const std::string reason = watch.reason(); !reason.empty()) {
+    return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
+                        absl::StrCat(reason, "; the server ended the call"));
+  }
+  return Gone(context, phase);
+}
+
 grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stream) {
   metrics_.RpcStarted(kProcessRpc);
   CallRecord record{.start = absl::Now()};
@@ -131,23 +140,33 @@ void ScanPrepService::LogCall(const std::string& peer, const CallRecord& record,
                    " ", outcome, " ", absl::StrFormat("%.3fs", absl::ToDoubleSeconds(elapsed))));
 }
 
-bool ScanPrepService::Send(Stream* stream, const v1::ProcessResponse& response) {
+bool ScanPrepService::Send(Stream* stream, IdleWatch::Call& watch,
+                           const v1::ProcessResponse& response) {
   metrics_.ResponseSent(response.ByteSizeLong(),
                         response.has_points() ? ChunkPoints(response.points()) : 0);
-  return stream->Write(response);
+  watch.Expect(timeouts_.idle, "idle_timeout",
+               absl::StrCat("the client did not read the next ",
+                            response.has_points()     ? "result chunk"
+                            : response.has_progress() ? "progress message"
+                            : response.has_report()   ? "report"
+                                                      : "response"));
+  const bool written = stream->Write(response);
+  watch.Pause();  // until the next write, the server is busy, not the client
+  return written;
 }
 
-bool ScanPrepService::SendProgress(Stream* stream, v1::Progress::Phase phase, double fraction,
-                                   uint64_t points) {
+bool ScanPrepService::SendProgress(Stream* stream, IdleWatch::Call& watch,
+                                   v1::Progress::Phase phase, double fraction, uint64_t points) {
   v1::ProcessResponse response;
   v1::Progress* p = response.mutable_progress();
   p->set_phase(phase);
   p->set_fraction(fraction);
   p->set_points(points);
-  return Send(stream, response);
+  return Send(stream, watch, response);
 }
 
-bool ScanPrepService::SendStageProgress(Stream* stream, const StageProgress& stage) {
+bool ScanPrepService::SendStageProgress(Stream* stream, IdleWatch::Call& watch,
+                                        const StageProgress& stage) {
   v1::ProcessResponse response;
   v1::Progress* p = response.mutable_progress();
   p->set_phase(v1::Progress::PHASE_PROCESSING);
@@ -156,7 +175,14 @@ bool ScanPrepService::SendStageProgress(Stream* stream, const StageProgress& sta
   p->set_stage_index(stage.stage_index);
   p->set_stage_count(stage.stage_count);
   p->set_job_fraction(stage.job_fraction);
-  return Send(stream, response);
+  return Send(stream, watch, response);
+}
+
+uint64_t ScanPrepService::ReserveAhead(const JobAssembler& assembler) const {
+  return EstimateJobBytes(
+      std::min<uint64_t>(assembler.total_points(),
+                         assembler.points_received() + limits_.max_chunk_points),
+      assembler.options().params);
 }
 
 grpc::Status ScanPrepService::Refuse(const absl::Status& status) {
@@ -172,39 +198,42 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   std::optional<AdmissionQueue::Slot> slot;
   const ReturnFreedMemoryOnExit return_freed_memory;
   absl::StatusOr<AssembledJob> job = absl::UnknownError("not uploaded");
-  if (grpc::Status s = Upload(context, stream, record, slot, job); !s.ok()) return s;
-  // The reservation as admission made it, for the memory guard's message.
-  const uint64_t reservation = EstimateJobBytes(job->points_received, job->options.params);
+  IdleWatch::Call watch = idle_.Watch(context);
+  if (grpc::Status s = Upload(context, stream, watch, record, slot, job); !s.ok()) return s;
+  // The whole claim (Upload reserved it), for the memory guard's message.
+  const uint64_t reservation = slot->reserved_bytes();
   std::shared_ptr<RunningJob> running =
       runner_.Start(std::move(job->cloud), std::move(job->options), reservation);
-  if (grpc::Status s = Relay(context, stream, *running); !s.ok()) return s;
+  if (grpc::Status s = Relay(context, stream, watch, *running); !s.ok()) return s;
   metrics_.JobProcessed(*running->result());
-  return Download(context, stream, *job, *running, record);
+  return Download(context, stream, watch, *job, *running, record);
 }
 
 grpc::Status ScanPrepService::Upload(grpc::ServerContext* context, Stream* stream,
-                                     CallRecord& record, std::optional<AdmissionQueue::Slot>& slot,
+                                     IdleWatch::Call& watch, CallRecord& record,
+                                     std::optional<AdmissionQueue::Slot>& slot,
                                      absl::StatusOr<AssembledJob>& job) {
   // Validates each message as it arrives; the first error ends the call without reading the
-  // rest. The call queues for a slot once its header is valid, before any points arrive.
+  // rest. The call queues for a slot once its header is valid, before any points arrive, and
+  // reserves its job's memory as the points arrive (admission.h).
   absl::Time upload_start;
+  const std::function<bool()> cancelled = [context] { return context->IsCancelled(); };
   JobAssembler assembler(limits_);
   v1::ProcessRequest request;
-  IdleWatch::Call watch = idle_.Watch(context);
-  watch.Expect(timeouts_.header, "header_timeout", "the header");
+  watch.Expect(timeouts_.header, "header_timeout", "the header did not arrive");
   while (stream->Read(&request)) {
     const size_t bytes = request.ByteSizeLong();
     metrics_.RequestReceived(bytes, request.has_points() ? ChunkPoints(request.points()) : 0);
-    watch.Received(bytes);
+    watch.Transferred(bytes);
     absl::Status added = assembler.Add(request);
     record.job_id = assembler.job_id();
     record.points = assembler.points_received();
     if (!added.ok()) return Refuse(added);
+    watch.Pause();            // waiting for a slot or memory is the server's time, not the client's
     if (!slot.has_value()) {  // the assembler accepts only a header first
-      watch.Pause();          // waiting for a slot is the server's time, not the client's
       auto admitted =
           admission_.Admit(EstimateJobBytes(assembler.total_points(), assembler.options().params),
-                           CallDeadline(*context), [context] { return context->IsCancelled(); });
+                           ReserveAhead(assembler), CallDeadline(*context), cancelled);
       if (!admitted.ok()) {
         // Cancelled while waiting: by the client, or by gRPC because the deadline passed.
         return admitted.status().code() == absl::StatusCode::kCancelled
@@ -213,35 +242,39 @@ grpc::Status ScanPrepService::Upload(grpc::ServerContext* context, Stream* strea
       }
       slot.emplace(std::move(*admitted));
       upload_start = absl::Now();
-      watch.ExpectRate(timeouts_.min_upload_rate, timeouts_.idle, "min_upload_rate");
-      watch.Expect(timeouts_.idle, "idle_timeout", "the first chunk");
+      watch.ExpectRate(IdleWatch::Direction::kUpload, timeouts_.min_upload_rate, timeouts_.idle,
+                       "min_upload_rate");
+      watch.Expect(timeouts_.idle, "idle_timeout", "the first chunk did not arrive");
       continue;
+    }
+    if (!slot->Reserve(ReserveAhead(assembler), cancelled).ok()) {
+      return Gone(*context, "the wait for memory");
     }
     const uint64_t received = assembler.points_received();
     const double fraction = static_cast<double>(received) / assembler.total_points();
-    if (!SendProgress(stream, v1::Progress::PHASE_UPLOAD, fraction, received)) {
-      return Gone(*context, "upload");
+    if (!SendProgress(stream, watch, v1::Progress::PHASE_UPLOAD, fraction, received)) {
+      return Ended(*context, watch, "upload");
     }
     watch.Expect(timeouts_.idle, "idle_timeout",
-                 absl::StrCat("the next message after ", received, " points"));
+                 absl::StrCat("the next message after ", received, " points did not arrive"));
   }
   watch.Pause();
-  if (const std::string reason = watch.reason(); !reason.empty()) {
-    // The client never sees this status (the call was cancelled to free its thread); the log and
-    // the metrics do.
-    return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
-                        absl::StrCat(reason, "; the server ended the call"));
-  }
-  if (context->IsCancelled()) return Gone(*context, "upload");
+  if (context->IsCancelled()) return Ended(*context, watch, "upload");
   job = assembler.Finish();
   if (!job.ok()) return Refuse(job.status());
+  // Every point arrived, so this reserves nothing more unless the job sent fewer points than
+  // declared; either way it never runs on less than its whole claim.
+  if (!slot->Reserve(slot->claim_bytes(), cancelled).ok()) {
+    return Gone(*context, "the wait for memory");
+  }
   metrics_.PhaseEnded(Phase::kUpload, absl::ToDoubleSeconds(absl::Now() - upload_start));
   return grpc::Status::OK;
 }
 
 grpc::Status ScanPrepService::Relay(grpc::ServerContext* context, Stream* stream,
-                                    RunningJob& running) {
+                                    IdleWatch::Call& watch, RunningJob& running) {
   // The job runs on the shared arena; this thread only relays progress and cancellation.
+  watch.StopRate();  // the upload's; processing is the server's time
   bool client_gone = false;
   for (bool done = false; !done;) {
     done = running.WaitFor(kPollInterval);
@@ -251,13 +284,13 @@ grpc::Status ScanPrepService::Relay(grpc::ServerContext* context, Stream* stream
     }
     for (const StageProgress& p : running.DrainProgress()) {
       if (client_gone) break;
-      if (!SendStageProgress(stream, p)) {
+      if (!SendStageProgress(stream, watch, p)) {
         client_gone = true;
         running.Cancel();
       }
     }
   }
-  if (client_gone) return Gone(*context, "processing");
+  if (client_gone) return Ended(*context, watch, "processing");
   const absl::StatusOr<PipelineReport>& result = running.result();
   if (!result.ok()) {
     return runner_.cancelled_all() ? Gone(*context, "processing")
@@ -267,11 +300,15 @@ grpc::Status ScanPrepService::Relay(grpc::ServerContext* context, Stream* stream
 }
 
 grpc::Status ScanPrepService::Download(grpc::ServerContext* context, Stream* stream,
-                                       const AssembledJob& job, const RunningJob& running,
-                                       const CallRecord& record) {
+                                       IdleWatch::Call& watch, const AssembledJob& job,
+                                       const RunningJob& running, const CallRecord& record) {
   // The kept points (all of them with include_removed), the report, then the end message with
-  // the points' count and CRC-32.
+  // the points' count and CRC-32. The client must read them at the minimum rate: a Write returns
+  // once its message is in gRPC's flow-control window, so the bytes written are what the client
+  // took, give or take one window.
   const absl::Time download_start = absl::Now();
+  watch.ExpectRate(IdleWatch::Direction::kDownload, timeouts_.min_download_rate, timeouts_.idle,
+                   "min_download_rate");
   const PointCloud& cloud = running.cloud();
   std::vector<uint32_t> indices;
   indices.reserve(cloud.size());
@@ -285,17 +322,19 @@ grpc::Status ScanPrepService::Download(grpc::ServerContext* context, Stream* str
     ResultChunk(cloud, indices, begin, end, job.mm_per_unit, response.mutable_points());
     if (job.packed_results) PackArrays(*response.mutable_points());
     sent.Add(response.points());
-    if (!Send(stream, response) || !SendProgress(stream, v1::Progress::PHASE_DOWNLOAD,
-                                                 static_cast<double>(end) / indices.size(), end)) {
-      return Gone(*context, "download");
+    const bool written = Send(stream, watch, response);
+    watch.Transferred(response.ByteSizeLong());
+    if (!written || !SendProgress(stream, watch, v1::Progress::PHASE_DOWNLOAD,
+                                  static_cast<double>(end) / indices.size(), end)) {
+      return Ended(*context, watch, "download");
     }
   }
   v1::ProcessResponse response;
   FillReport(job, *running.result(), indices.size(), record, *response.mutable_report());
-  if (!Send(stream, response)) return Gone(*context, "download");
+  if (!Send(stream, watch, response)) return Ended(*context, watch, "download");
   response.Clear();
   *response.mutable_end() = sent.End();
-  if (!Send(stream, response)) return Gone(*context, "download");
+  if (!Send(stream, watch, response)) return Ended(*context, watch, "download");
   metrics_.PhaseEnded(Phase::kDownload, absl::ToDoubleSeconds(absl::Now() - download_start));
   return grpc::Status::OK;
 }

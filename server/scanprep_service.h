@@ -25,12 +25,17 @@ inline constexpr uint32_t kRecommendedChunkPoints = 32'768;
 // chunk at the default max_chunk_points with every optional array is about 2 MiB.
 inline constexpr int kMaxMessageBytes = 4 << 20;
 
-// How long a client may keep the server waiting for its next upload message.
+// How long a client may keep the server waiting for its next upload message, or for it to read
+// the next response.
 struct StreamTimeouts {
   absl::Duration header = absl::Seconds(10);  // from the call's start to its header
-  absl::Duration idle = absl::Seconds(30);    // between later upload messages
+  // Between later upload messages; and the longest one response may wait to be read.
+  absl::Duration idle = absl::Seconds(30);
   // Bytes per second the upload must average from its admission on, after a first `idle`.
   double min_upload_rate = 64 * 1024;
+  // Result bytes per second the client must read, averaged from the download's start, after a
+  // first `idle`.
+  double min_download_rate = 64 * 1024;
 };
 
 class ScanPrepService final : public v1::ScanPrep::Service {
@@ -62,25 +67,40 @@ class ScanPrepService final : public v1::ScanPrep::Service {
   // A Process call's phases: upload (validated as it arrives, a slot taken once the header is
   // valid), processing (progress relayed, cancellation passed on), download (points, report,
   // end). Each returns OK to go on, else the call's status.
+  // One IdleWatch::Call watches the client through all three.
   grpc::Status ProcessJob(grpc::ServerContext* context, Stream* stream, CallRecord& record);
-  grpc::Status Upload(grpc::ServerContext* context, Stream* stream, CallRecord& record,
-                      std::optional<AdmissionQueue::Slot>& slot, absl::StatusOr<AssembledJob>& job);
-  grpc::Status Relay(grpc::ServerContext* context, Stream* stream, RunningJob& running);
-  grpc::Status Download(grpc::ServerContext* context, Stream* stream, const AssembledJob& job,
-                        const RunningJob& running, const CallRecord& record);
+  grpc::Status Upload(grpc::ServerContext* context, Stream* stream, IdleWatch::Call& watch,
+                      CallRecord& record, std::optional<AdmissionQueue::Slot>& slot,
+                      absl::StatusOr<AssembledJob>& job);
+  grpc::Status Relay(grpc::ServerContext* context, Stream* stream, IdleWatch::Call& watch,
+                     RunningJob& running);
+  grpc::Status Download(grpc::ServerContext* context, Stream* stream, IdleWatch::Call& watch,
+                        const AssembledJob& job, const RunningJob& running,
+                        const CallRecord& record);
   static void FillReport(const AssembledJob& job, const PipelineReport& result, size_t returned,
                          const CallRecord& record, v1::Report& report);
   void LogCall(const std::string& peer, const CallRecord& record, const grpc::Status& status,
                absl::Duration elapsed);
-  // Writes one response and counts it; false when the client is gone.
-  bool Send(Stream* stream, const v1::ProcessResponse& response);
+  // Writes one response and counts it; false when the client is gone. The write must complete
+  // within the idle timeout (`watch`): a client that stops reading blocks it once gRPC's
+  // flow-control window is full.
+  bool Send(Stream* stream, IdleWatch::Call& watch, const v1::ProcessResponse& response);
   // Upload or download progress: the phase's fraction and the points moved so far.
-  bool SendProgress(Stream* stream, v1::Progress::Phase phase, double fraction, uint64_t points);
+  bool SendProgress(Stream* stream, IdleWatch::Call& watch, v1::Progress::Phase phase,
+                    double fraction, uint64_t points);
   // Processing progress: the stage, its place in the plan and the job's fraction.
-  bool SendStageProgress(Stream* stream, const StageProgress& stage);
+  bool SendStageProgress(Stream* stream, IdleWatch::Call& watch, const StageProgress& stage);
   // The status of a call that ended during `phase` other than by its own fault: the server's
   // grace period ended (UNAVAILABLE), its deadline passed, or the client cancelled it or vanished.
   grpc::Status Gone(const grpc::ServerContext& context, std::string_view phase) const;
+  // The status of a call that ended during `phase` without an error of its own: why `watch` ended
+  // it (DEADLINE_EXCEEDED; the client sees only CANCELLED, the log and metrics see the reason),
+  // else Gone.
+  grpc::Status Ended(const grpc::ServerContext& context, const IdleWatch::Call& watch,
+                     std::string_view phase) const;
+  // What a job must have reserved before its next message is read: the estimate for the points
+  // received so far and one more chunk at the largest size, at most the whole declared job.
+  uint64_t ReserveAhead(const JobAssembler& assembler) const;
   // The status for a job the assembler refused, counted as a rejection.
   grpc::Status Refuse(const absl::Status& status);
 

@@ -51,15 +51,16 @@ class QueueUnderTest {
     std::lock_guard lock(mu_);
     now_ += d;
   }
+  // Claims `bytes` and reserves all of them at once.
   absl::StatusOr<AdmissionQueue::Slot> AdmitNow(uint64_t bytes = 0) {
-    return queue_.Admit(bytes, absl::InfiniteFuture(), [] { return false; });
+    return queue_.Admit(bytes, bytes, absl::InfiniteFuture(), [] { return false; });
   }
   // Admit on another thread; the future resolves when the call got a slot or failed.
   std::future<absl::StatusOr<AdmissionQueue::Slot>> AdmitAsync(
       absl::Time deadline = absl::InfiniteFuture(), std::atomic<bool>* cancelled = nullptr,
       uint64_t bytes = 0) {
     return std::async(std::launch::async, [this, deadline, cancelled, bytes] {
-      return queue_.Admit(bytes, deadline,
+      return queue_.Admit(bytes, bytes, deadline,
                           [cancelled] { return cancelled != nullptr && cancelled->load(); });
     });
   }
@@ -176,7 +177,7 @@ TEST(AdmissionQueue, FailsFastWhenTheExpectedWaitExceedsTheDeadline) {
   auto running = q.AdmitNow();
   ASSERT_TRUE(running.ok());
 
-  auto refused = q.queue().Admit(0, q.now() + absl::Seconds(5), [] { return false; });
+  auto refused = q.queue().Admit(0, 0, q.now() + absl::Seconds(5), [] { return false; });
   EXPECT_EQ(refused.status().code(), absl::StatusCode::kDeadlineExceeded);
   EXPECT_THAT(refused.status().message(), HasSubstr("expected wait 10 s exceeds the deadline 5 s"));
   EXPECT_EQ(q.Metric("scanprep_jobs_rejected_total{reason=\"deadline\"}"), 1);
@@ -346,6 +347,59 @@ TEST(AdmissionQueue, WhenTheHeadOfTheQueueLeavesTheCallsBehindItThatFitAreAdmitt
   auto small_slot = small.get();
   ASSERT_TRUE(small_slot.ok()) << small_slot.status();
   EXPECT_EQ(q.queue().memory_reserved_bytes(), 700u);
+}
+
+TEST(AdmissionQueue, AClaimIsReservedAsItsDataArrivesSoTheRestServesOtherCalls) {
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
+  // A call that claims 900 bytes but has reserved 100 of them (its data so far).
+  auto large = q.queue().Admit(900, 100, absl::InfiniteFuture(), [] { return false; });
+  ASSERT_TRUE(large.ok()) << large.status();
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 100u);
+  // A 200-byte job runs at once (with 900 reserved at the header it would have queued).
+  auto small = q.AdmitNow(200);
+  ASSERT_TRUE(small.ok()) << small.status();
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 300u);
+  EXPECT_EQ(q.Metric("scanprep_memory_reserved_bytes"), 300);
+
+  // The large call's data arrives: its reservation grows while it fits, then waits for the
+  // small job to end.
+  EXPECT_TRUE(large->Reserve(500, [] { return false; }).ok());
+  EXPECT_EQ(large->reserved_bytes(), 500u);
+  auto rest =
+      std::async(std::launch::async, [&] { return large->Reserve(900, [] { return false; }); });
+  EXPECT_EQ(rest.wait_for(std::chrono::milliseconds(100)), std::future_status::timeout);
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 700u);
+  { auto release = std::move(*small); }
+  EXPECT_TRUE(rest.get().ok());
+  EXPECT_EQ(large->reserved_bytes(), 900u);
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 900u);
+  // More than the claim reserves the claim, no more.
+  EXPECT_TRUE(large->Reserve(5'000, [] { return false; }).ok());
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 900u);
+}
+
+TEST(AdmissionQueue, AReservationThatCouldLeaveNoClaimAbleToFinishWaits) {
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
+  auto a = q.queue().Admit(600, 300, absl::InfiniteFuture(), [] { return false; });
+  auto c = q.queue().Admit(600, 300, absl::InfiniteFuture(), [] { return false; });
+  ASSERT_TRUE(a.ok() && c.ok());
+  ASSERT_TRUE(a->Reserve(500, [] { return false; }).ok());  // a needs 100 more, 200 are free
+  // 200 more for c fit in the budget, but then a and c would each wait for the other's bytes
+  // forever: c waits instead, a completes its claim and runs.
+  auto c_grows =
+      std::async(std::launch::async, [&] { return c->Reserve(500, [] { return false; }); });
+  EXPECT_EQ(c_grows.wait_for(std::chrono::milliseconds(100)), std::future_status::timeout);
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 800u);
+  ASSERT_TRUE(a->Reserve(600, [] { return false; }).ok());
+  EXPECT_EQ(c_grows.wait_for(std::chrono::milliseconds(100)), std::future_status::timeout);
+  { auto done = std::move(*a); }
+  EXPECT_TRUE(c_grows.get().ok());
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 500u);
+  // A waiting reservation gives up when its call is cancelled.
+  auto d = q.queue().Admit(600, 0, absl::InfiniteFuture(), [] { return false; });
+  ASSERT_TRUE(d.ok());
+  EXPECT_EQ(d->Reserve(600, [] { return true; }).code(), absl::StatusCode::kCancelled);
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 500u);
 }
 
 TEST(Admission, AQueuedCallWaitsBeforeItsUploadAndRunsWhenTheSlotFrees) {

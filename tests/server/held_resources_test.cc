@@ -1,0 +1,170 @@
+// SPDX-License-Identifier: Apache-2.0
+// Nothing held for free: a client that stops reading its result loses its slot, and a job that
+// declares many points but sends few holds only the memory of what it sent, so neither keeps
+// another client's small job waiting.
+#include <atomic>
+#include <sstream>
+#include <thread>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "server/memory_budget.h"
+#include "tests/server/service_fixtures.h"
+
+namespace scanprep::testing {
+namespace {
+
+using ::testing::HasSubstr;
+
+using Stream = grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>;
+
+// A small job with a deadline: its status, and whether its report came.
+struct SmallJob {
+  grpc::Status status;
+  bool report = false;
+};
+
+SmallJob RunSmallJob(v1::ScanPrep::Stub& stub, absl::Duration deadline) {
+  std::vector<v1::ProcessRequest> requests = {HeaderRequest(SimpleHeader(), 100),
+                                              ChunkRequest(LineChunk(100))};
+  requests.push_back(EndRequest(requests));
+  grpc::ClientContext context;
+  context.set_deadline(absl::ToChronoTime(absl::Now() + deadline));
+  auto stream = stub.Process(&context);
+  for (const v1::ProcessRequest& r : requests) {
+    if (!stream->Write(r)) break;
+  }
+  stream->WritesDone();
+  SmallJob job;
+  v1::ProcessResponse response;
+  while (stream->Read(&response)) job.report = job.report || response.has_report();
+  job.status = stream->Finish();
+  return job;
+}
+
+// One slot. The first client uploads a whole job and never reads a response: once gRPC's
+// flow-control window is full the server's write blocks, and before the change nothing ended it,
+// so the second client's job waited for the slot into its deadline. Now the idle timeout ends the
+// stalled call and the second job runs.
+TEST(HeldResources, AClientThatStopsReadingLosesItsSlotToTheNextJob) {
+  server::ServerOptions options;
+  options.max_concurrent_jobs = 1;
+  options.max_queued_jobs = 1;
+  options.timeouts.idle = absl::Milliseconds(500);
+  std::ostringstream log;
+  options.log = &log;
+  auto server = std::make_unique<InProcessServer>(options);
+  auto stub = server->Stub();
+
+  // 250,000 points come back as about 5 MB of result chunks, more than gRPC buffers for a reader
+  // that takes nothing.
+  const GeneratedScan scan = NoisyPlaneWithSpikes(500, 1.f);
+  v1::JobHeader header = SimpleHeader(1.0);
+  header.mutable_options()->add_stages("outliers");
+  header.set_total_points(scan.cloud.size());
+  std::vector<v1::ProcessRequest> requests = JobRequests(header, scan.cloud, 32'768);
+  requests.push_back(EndRequest(requests));
+  grpc::ClientContext stalled_context;
+  std::unique_ptr<Stream> stalled = stub->Process(&stalled_context);
+  for (const v1::ProcessRequest& r : requests) ASSERT_TRUE(stalled->Write(r));
+  ASSERT_TRUE(stalled->WritesDone());
+
+  // Queued behind the stalled call; 20 s is far beyond the 0.5 s idle limit and the job's time.
+  const SmallJob next = RunSmallJob(*stub, absl::Seconds(20));
+  EXPECT_TRUE(next.status.ok()) << next.status.error_message();
+  EXPECT_TRUE(next.report);
+
+  // What gRPC buffered before the server ended the call, then its end (Finish waits for every
+  // message to be read).
+  bool report = false;
+  for (v1::ProcessResponse response; stalled->Read(&response);) {
+    report = report || response.has_report();
+  }
+  EXPECT_FALSE(report);
+  EXPECT_EQ(stalled->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  server.reset();  // every call logged
+  EXPECT_THAT(log.str(),
+              HasSubstr("DEADLINE_EXCEEDED: \"the client did not read the next result chunk "
+                        "within 500ms (idle_timeout); the server ended the call\""));
+}
+
+// A reader that takes its result, but slower than --min_download_rate, is ended too, though no
+// single write waits as long as the idle limit.
+TEST(HeldResources, AClientReadingUnderTheMinimumRateLosesItsSlot) {
+  server::ServerOptions options;
+  options.max_concurrent_jobs = 1;
+  options.timeouts.idle = absl::Seconds(1);
+  options.timeouts.min_download_rate = 4 << 20;  // 4 MiB/s
+  std::ostringstream log;
+  options.log = &log;
+  auto server = std::make_unique<InProcessServer>(options);
+  // Without BDP probing the client's flow-control window stays at gRPC's initial 64 KiB, so the
+  // server's writes follow what the client reads instead of filling a window grown to megabytes.
+  grpc::ChannelArguments args;
+  args.SetInt(GRPC_ARG_HTTP2_BDP_PROBE, 0);
+  auto stub = v1::ScanPrep::NewStub(
+      grpc::CreateCustomChannel(server->target(), grpc::InsecureChannelCredentials(), args));
+
+  const GeneratedScan scan = NoisyPlaneWithSpikes(500, 1.f);
+  v1::JobHeader header = SimpleHeader(1.0);
+  header.mutable_options()->add_stages("outliers");
+  header.set_total_points(scan.cloud.size());
+  std::vector<v1::ProcessRequest> requests = JobRequests(header, scan.cloud, 32'768);
+  requests.push_back(EndRequest(requests));
+  grpc::ClientContext context;
+  std::unique_ptr<Stream> slow = stub->Process(&context);
+  for (const v1::ProcessRequest& r : requests) ASSERT_TRUE(slow->Write(r));
+  ASSERT_TRUE(slow->WritesDone());
+  // One result chunk (about 600 kB) every 500 ms: each write waits well under the 1 s idle
+  // limit, and the client reads about 1.2 MB/s, so the whole result (eight chunks) would arrive
+  // after 4 s.
+  v1::ProcessResponse response;
+  bool report = false;
+  while (slow->Read(&response)) {
+    report = report || response.has_report();
+    if (response.has_points()) std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  }
+  EXPECT_EQ(slow->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  EXPECT_FALSE(report);
+  server.reset();
+  EXPECT_THAT(log.str(), HasSubstr("DEADLINE_EXCEEDED: \"the client read "));
+  EXPECT_THAT(log.str(), HasSubstr("under the minimum of 4194304 bytes/s after the first 1s "
+                                   "(min_download_rate); the server ended the call\""));
+}
+
+// A budget that holds one job of a million points. One client declares that job and sends a few
+// points at a time, above the minimum upload rate; before the change the declaration reserved the
+// whole budget at its header, and another client's 100-point job waited into its deadline.
+TEST(HeldResources, ALargeDeclarationSentSlowlyDoesNotStarveASmallJob) {
+  constexpr uint64_t kDeclared = 1'000'000;
+  server::ServerOptions options;
+  options.memory_budget_bytes = server::EstimateJobBytes(kDeclared, {});
+  options.timeouts.idle = absl::Seconds(5);
+  options.timeouts.min_upload_rate = 100;  // bytes/s; the trickle sends about 6 kB/s
+  auto server = std::make_unique<InProcessServer>(options);
+  auto stub = server->Stub();
+
+  grpc::ClientContext trickle_context;
+  std::unique_ptr<Stream> trickle = stub->Process(&trickle_context);
+  ASSERT_TRUE(trickle->Write(HeaderRequest(SimpleHeader(), kDeclared)));
+  std::atomic<bool> stop{false};
+  std::thread sender([&] {
+    while (!stop && trickle->Write(ChunkRequest(LineChunk(100)))) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    }
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // admitted, sending
+
+  const SmallJob small = RunSmallJob(*stub, absl::Seconds(5));
+  EXPECT_TRUE(small.status.ok()) << small.status.error_message();
+  EXPECT_TRUE(small.report);
+
+  stop = true;
+  sender.join();
+  trickle_context.TryCancel();
+  trickle->Finish();
+}
+
+}  // namespace
+}  // namespace scanprep::testing
