@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <random>
 #include <utility>
 
@@ -35,9 +36,51 @@ bool SamePosition(const PointCloud& cloud, uint32_t a, uint32_t b) {
   return cloud.x[a] == cloud.x[b] && cloud.y[a] == cloud.y[b] && cloud.z[a] == cloud.z[b];
 }
 
+// The cells points of one scan are taken as one measurement in: cubes of edge u/100 for the
+// finest stated uncertainty u of the job's scans (a hundredth of what the sensor can tell apart),
+// at most an eighth of any stated point or scanline spacing, so that two samples the sensor took
+// apart never share one. Measured on the simulated box (21 k points, u = 0.03 mm): u/(4√3)
+// joined 281 points of one scan where grazing walls crowd the samples, u/100 none. 0 (exact
+// positions) when no scan gives a positive u.
+constexpr double kCellPerUncertainty = 0.01;
+double ResolutionCell(const PointCloud& cloud) {
+  double edge = HUGE_VAL;
+  for (const ScanMeta& scan : cloud.scans) {
+    if (scan.uncertainty > 0) edge = std::min(edge, kCellPerUncertainty * scan.uncertainty);
+    for (const double spacing : {scan.point_spacing, scan.scanline_spacing}) {
+      if (spacing > 0) edge = std::min(edge, spacing / 8);
+    }
+  }
+  return std::isfinite(edge) ? edge : 0;
+}
+
+// A point's cell of edge `edge` (its exact coordinates when edge is 0), as three integers.
+struct Cell {
+  int64_t v[3];
+  bool operator==(const Cell&) const = default;
+};
+Cell CellOf(const PointCloud& cloud, uint32_t i, double edge) {
+  const float p[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+  Cell cell;
+  for (int a = 0; a < 3; ++a) {
+    cell.v[a] = edge > 0 ? static_cast<int64_t>(std::floor(double(p[a]) / edge)) : Bits(p[a]);
+  }
+  return cell;
+}
+
 bool HoldsPosition(const PointCloud& cloud, const std::vector<uint32_t>& points, uint32_t i) {
   return std::any_of(points.begin(), points.end(),
                      [&](uint32_t p) { return SamePosition(cloud, p, i); });
+}
+
+// Each group's first input point, in group order.
+std::vector<uint32_t> GroupFirsts(const DuplicateGroups& groups) {
+  std::vector<uint32_t> firsts;
+  firsts.reserve(groups.multiplicity.size());
+  for (size_t i = 0; i < groups.group_of.size(); ++i) {
+    if (groups.group_of[i] == firsts.size()) firsts.push_back(static_cast<uint32_t>(i));
+  }
+  return firsts;
 }
 
 template <typename T>
@@ -52,22 +95,24 @@ void KeepFirsts(const std::vector<T>& from, const std::vector<uint32_t>& firsts,
 
 absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const CancelToken& cancel) {
   const size_t n = cloud.size();
-  // (hash of the position, scan · 2³² + index) sorted: the points at one position are adjacent,
-  // scan by scan, each scan's lowest index first.
+  // (hash of the resolution cell, scan · 2³² + index) sorted: the points of one cell are
+  // adjacent, scan by scan, each scan's lowest index first. Points at one position share a cell.
+  const double edge = ResolutionCell(cloud);
   std::vector<std::pair<uint64_t, uint64_t>> keyed(n);
   const uint64_t key = HashKey();
   absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
-      const uint64_t h = Mix(key ^ (uint64_t(Bits(cloud.x[i])) << 32) ^ Bits(cloud.y[i]));
-      keyed[i] = {Mix(h ^ Bits(cloud.z[i])), (uint64_t(cloud.scan[i]) << 32) | i};
+      const Cell c = CellOf(cloud, static_cast<uint32_t>(i), edge);
+      const uint64_t h = Mix(key ^ uint64_t(c.v[0]) ^ Mix(uint64_t(c.v[1]) ^ Mix(c.v[2])));
+      keyed[i] = {h, (uint64_t(cloud.scan[i]) << 32) | i};
     }
   });
   if (!status.ok()) return status;
   SCANPREP_RETURN_IF_ERROR(CancellableSort(keyed, cancel));
 
   // first[i]: the lowest index of i's group. Within a run of equal hashes each point is compared
-  // with the distinct points of its scan so far and with the distinct positions of the lower
-  // scans (one each, unless 64-bit hashes collide).
+  // with the groups of its scan so far (one, unless 64-bit hashes collide) and with the positions
+  // of the lower scans' groups' first points.
   std::vector<uint32_t> first(n);
   std::vector<uint32_t> scan_points, earlier_positions;
   size_t across = 0;
@@ -89,7 +134,7 @@ absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const Ca
       const uint32_t i = static_cast<uint32_t>(keyed[e].second);
       uint32_t group = i;
       for (const uint32_t d : scan_points) {
-        if (SamePosition(cloud, d, i)) group = d;
+        if (CellOf(cloud, d, edge) == CellOf(cloud, i, edge)) group = d;
       }
       if (group == i) scan_points.push_back(i);
       first[i] = group;
@@ -114,11 +159,7 @@ absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const Ca
 }
 
 PointCloud CompactDuplicates(const PointCloud& cloud, const DuplicateGroups& groups) {
-  std::vector<uint32_t> firsts;
-  firsts.reserve(groups.multiplicity.size());
-  for (size_t i = 0; i < groups.group_of.size(); ++i) {
-    if (groups.group_of[i] == firsts.size()) firsts.push_back(static_cast<uint32_t>(i));
-  }
+  const std::vector<uint32_t> firsts = GroupFirsts(groups);
   PointCloud compact;
   compact.scans = cloud.scans;
   compact.kind = cloud.kind;
@@ -137,9 +178,19 @@ void ExpandDuplicates(const PointCloud& compact, const DuplicateGroups& groups, 
   if (compact.has_normals()) {
     cloud.nx.resize(n), cloud.ny.resize(n), cloud.nz.resize(n);
   }
+  // Each group's first point as it came in, before its result overwrites it: a member elsewhere
+  // in the cell moves as its group's first did (smoothing's shift), an exact copy lands on it.
+  const std::vector<uint32_t> firsts = GroupFirsts(groups);
+  std::vector<Eigen::Vector3f> came_in(firsts.size());
+  for (size_t g = 0; g < firsts.size(); ++g) came_in[g] = cloud.point(firsts[g]);
   for (size_t i = 0; i < n; ++i) {
     const uint32_t g = groups.group_of[i];
-    cloud.x[i] = compact.x[g], cloud.y[i] = compact.y[g], cloud.z[i] = compact.z[g];
+    const Eigen::Vector3f moved = compact.point(g) - came_in[g];
+    if (cloud.point(i) != came_in[g]) {
+      cloud.x[i] += moved.x(), cloud.y[i] += moved.y(), cloud.z[i] += moved.z();
+    } else {
+      cloud.x[i] = compact.x[g], cloud.y[i] = compact.y[g], cloud.z[i] = compact.z[g];
+    }
     if (compact.has_normals()) {
       cloud.nx[i] = compact.nx[g], cloud.ny[i] = compact.ny[g], cloud.nz[i] = compact.nz[g];
     }

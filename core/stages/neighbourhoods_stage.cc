@@ -105,9 +105,10 @@ class NeighbourhoodsStage : public Stage {
     }
     if (const size_t collapsed = ctx.duplicates_collapsed(); collapsed > 0) {
       ctx.Warn(absl::StrCat("neighbourhoods: ", collapsed,
-                            " points coincide exactly with another "
-                            "point of their scan; each group was processed once and every "
-                            "point of it returned with that result"));
+                            " points lie within a hundredth of the uncertainty u (one cube of "
+                            "edge u/100) of another point of their scan: exact repeats or a "
+                            "cluster of near-identical returns; each group was processed once "
+                            "and every point of it returned with that result"));
     }
     ctx.Record("neighbourhoods.duplicates_collapsed",
                static_cast<double>(ctx.duplicates_collapsed()));

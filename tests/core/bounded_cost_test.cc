@@ -109,14 +109,15 @@ TEST(BoundedCost, CoincidentPointsAreCollapsedAndExpanded) {
   }
 }
 
-// A blob of 2,000 points within a micrometre (a scanner's repeated sample with float jitter, not
-// exact duplicates) inside the r_min balls of its neighbours: every such ball keeps its nearest
-// 32·k points; the control without the blob caps none.
+// A blob of 2,000 points within 0.02 mm (far denser than the surface, yet coarser than the
+// scan's resolution cubes of u/100, which would make it one measurement: duplicates.h) inside
+// the r_min balls of its neighbours: every such ball keeps its nearest 32·k points; the control
+// without the blob caps none.
 TEST(BoundedCost, BallsInADenseClusterKeepTheirNearest) {
   for (const bool blob : {false, true}) {
     PointCloud cloud = Plane(60);
     std::mt19937 rng(3);
-    std::uniform_real_distribution<float> jitter(-1e-3f, 1e-3f);
+    std::uniform_real_distribution<float> jitter(-1e-2f, 1e-2f);
     for (int b = 0; blob && b < 2000; ++b)
       AddPoint(cloud, 3.f + jitter(rng), 3.f + jitter(rng), jitter(rng));
     cloud.FinishLoading();

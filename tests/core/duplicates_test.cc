@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // Points that coincide across scans (a scan sent twice): counted in the report with a warning,
 // against a count taken by brute force over the scans' positions.
+#include <cmath>
+#include <random>
 #include <set>
 #include <string>
 #include <tuple>
@@ -16,6 +18,8 @@ namespace scanprep {
 namespace {
 
 using sim::Part;
+
+uint64_t SharingAResolutionCube(const PointCloud& cloud);
 
 // The ground truth: points whose exact position a lower-numbered scan holds.
 uint64_t CoincidentAcrossScans(const PointCloud& cloud) {
@@ -124,9 +128,61 @@ TEST(CoincidentAcrossScans, PartialRepeatsAndWithinScanDuplicates) {
   const PipelineReport report = RunNeighbourhoods(cloud);
   EXPECT_EQ(report.points_coincident_across_scans, truth);
   EXPECT_TRUE(WarnsAboutCoincidence(report));
-  // Only the within-scan copies are collapsed.
+  // Only the points within one scan's resolution cube are collapsed: the exact copies, and the
+  // pairs of scan 1's two noisy simulations of one sampling grid that fell within u/100.
   EXPECT_EQ(report.stages.front().parameters.at("neighbourhoods.duplicates_collapsed"),
-            double((base.size() + 4) / 5));
+            double(SharingAResolutionCube(cloud)));
+  EXPECT_GE(SharingAResolutionCube(cloud), (base.size() + 4) / 5);
+}
+
+// The ground truth of what is collapsed: points whose cube of edge u/100 (u the scans' finest
+// uncertainty, at most an eighth of a stated spacing: core/spatial/duplicates.h) already holds
+// a point of their scan.
+uint64_t SharingAResolutionCube(const PointCloud& cloud) {
+  double edge = HUGE_VAL;
+  for (const ScanMeta& scan : cloud.scans) {
+    edge =
+        std::min({edge, scan.uncertainty / 100, scan.point_spacing / 8, scan.scanline_spacing / 8});
+  }
+  std::set<std::tuple<uint32_t, int64_t, int64_t, int64_t>> seen;
+  uint64_t count = 0;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    count += !seen.insert({cloud.scan[i], int64_t(std::floor(double(cloud.x[i]) / edge)),
+                           int64_t(std::floor(double(cloud.y[i]) / edge)),
+                           int64_t(std::floor(double(cloud.z[i]) / edge))})
+                  .second;
+  }
+  return count;
+}
+
+// A cluster of 20,000 distinct points within 1e-4 mm (a sensor's zero-range returns) beside a
+// plane of one scan: collapsed to the points its cubes hold, so no ball around it fills up; the
+// control, the same cluster spread over 2 mm, keeps every point.
+TEST(ResolutionCubes, ANearIdenticalClusterIsOneMeasurement) {
+  for (const double spread : {1e-4, 2.0}) {
+    PointCloud cloud =
+        sim::Simulate(Part::kBoxWithBore, sim::FrontalSensor(Part::kBoxWithBore), 9).cloud;
+    std::mt19937 rng(4);
+    std::uniform_real_distribution<double> jitter(0, spread);
+    const size_t plane = cloud.size();
+    for (int c = 0; c < 20'000; ++c) {
+      cloud.x.push_back(static_cast<float>(1 + jitter(rng)));
+      cloud.y.push_back(static_cast<float>(1 + jitter(rng)));
+      cloud.z.push_back(static_cast<float>(20 + jitter(rng)));
+      cloud.scan.push_back(0);
+      cloud.scanline.push_back(0);
+    }
+    const uint64_t truth = SharingAResolutionCube(cloud);
+    const PipelineReport report = RunNeighbourhoods(cloud);
+    const double collapsed =
+        report.stages.front().parameters.at("neighbourhoods.duplicates_collapsed");
+    EXPECT_EQ(collapsed, double(truth)) << "spread " << spread;
+    if (spread < 1e-3) {
+      EXPECT_GT(collapsed, 19'000) << "u = " << cloud.scans[0].uncertainty;
+    } else {
+      EXPECT_LT(collapsed, 100) << plane;
+    }
+  }
 }
 
 }  // namespace
