@@ -311,6 +311,17 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
       if (!cloud->origin.isZero(0)) SetVec3(cloud->origin, scan->mutable_points_offset());
       scan_files.push_back(file);
     }
+    // A LAS output keeps the grid of the first LAS read (the result comes back in the files'
+    // unit, so the grid still fits it); another file's points are written on that grid too.
+    if (cloud->grid && !job.points.grid) {
+      job.points.grid = cloud->grid;
+    } else if (cloud->grid && (cloud->grid->scale != job.points.grid->scale ||
+                               cloud->grid->offset != job.points.grid->offset)) {
+      job.notes.push_back(absl::StrCat(
+          file,
+          ": its LAS scale and offset differ from the first LAS file's; a LAS output is "
+          "written on the first's"));
+    }
     clouds.push_back(std::move(*cloud));
   }
   if (!from_job.empty()) {

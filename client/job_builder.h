@@ -17,7 +17,7 @@ namespace scanprep::client {
 
 struct Job {
   scanprep::v1::JobHeader header;
-  PointCloud points;               // points.scan indexes header.scans
+  PointCloud points;               // points.scan indexes header.scans; points.grid a LAS input's
   std::vector<std::string> notes;  // things the user should know (dropped optional arrays)
 };
 

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// `scanprep process SCAN... -o OUT`: one job through the service, the result to a PLY, PCD or XYZ
-// file chosen by the extension.
+// `scanprep process SCAN... -o OUT`: one job through the service, the result to a PLY, PCD, LAS or
+// XYZ file chosen by the extension.
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -12,6 +12,7 @@
 #include <Eigen/Geometry>
 
 #include "absl/status/statusor.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
 #include "client/call_error.h"
@@ -80,18 +81,20 @@ absl::StatusOr<io::ScanFormat> OutputFormat(const ParsedArgs& args) {
     if (format.ok()) return format;
     return absl::InvalidArgumentError(
         absl::StrCat("-o ", out,
-                     ": the result is written as PLY, PCD or XYZ, chosen by the extension; give a "
-                     "file name ending in .ply, .pcd, .xyz, .asc or .txt (or -o - with "
-                     "--output_format)"));
+                     ": the result is written as PLY, PCD, LAS or XYZ, chosen by the extension; "
+                     "give a file name ending in .ply, .pcd, .las, .xyz, .asc or .txt (or -o - "
+                     "with --output_format)"));
   }
   if (!args.Has("output_format")) {
     return absl::InvalidArgumentError(
         "-o - writes the result to standard output: say its format with --output_format (ply, "
-        "pcd, xyz)");
+        "pcd, las, xyz)");
   }
   auto format = io::ParseScanFormat(args.Get("output_format"));
-  if (format.ok() && !io::Writable(*format)) {
-    return absl::InvalidArgumentError("--output_format: the result is written as ply, pcd or xyz");
+  if (format.ok() &&
+      (!io::Writable(*format) || absl::EqualsIgnoreCase(args.Get("output_format"), "laz"))) {
+    return absl::InvalidArgumentError(
+        "--output_format: the result is written as ply, pcd, las (uncompressed) or xyz");
   }
   return format;
 }
@@ -195,6 +198,8 @@ int RunProcess(const ParsedArgs& args) {
     return FailCall("process", server, result.status());
   }
   const std::string out = args.Get("out");
+  // The result is in the job's unit, the scan files' own, so a LAS input's grid fits it.
+  result->cloud.grid = job->points.grid;
   const io::WriteOptions write_options{.include_removed = write_removed};
   const absl::Time write_start = absl::Now();
   // With the result on standard output, what is said about it goes to standard error.
@@ -247,8 +252,8 @@ int RunProcess(const ParsedArgs& args) {
 Command ProcessCommand() {
   std::vector<FlagSpec> flags = {
       {"out", FlagSpec::kValue,
-       "output file (required): .ply, .pcd or .xyz/.asc/.txt; - for standard output", "o"},
-      {"output_format", FlagSpec::kValue, "format of -o -: ply, pcd or xyz"},
+       "output file (required): .ply, .pcd, .las or .xyz/.asc/.txt; - for standard output", "o"},
+      {"output_format", FlagSpec::kValue, "format of -o -: ply, pcd, las or xyz"},
       {"server", FlagSpec::kValue, absl::StrCat(kServerFlagHelp, " (default localhost:50051)")},
   };
   AddTlsFlags(flags);
@@ -275,7 +280,7 @@ Command ProcessCommand() {
       .summary =
           "send scans (.ply, .pcd, .e57, .las, .xyz/.asc/.txt/.pts; an E57 file holds several) "
           "through "
-          "the service; write the result with normals and flags as PLY, PCD or XYZ (by -o's "
+          "the service; write the result with normals and flags as PLY, PCD, LAS or XYZ (by -o's "
           "extension)",
       .flags = std::move(flags),
       .run = RunProcess,

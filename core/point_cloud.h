@@ -43,6 +43,13 @@ struct ScanMeta {
   double point_spacing = 0.0;  // nominal spacing along a scanline; 0 = derive from data
 };
 
+// The grid a file stored its coordinates on as integers, per axis: value = integer * scale +
+// offset, in the file's unit (LAS). Kept with what is read from such a file so that a LAS written
+// back puts every point nothing moved on its own integer again.
+struct CoordinateGrid {
+  Eigen::Vector3d scale, offset;
+};
+
 struct PointCloud {
   // Coordinates in millimetres in the common frame, relative to `origin`: float carries about
   // seven digits, so a scan far from the frame's zero (a georeferenced LAS, a plant grid) is held
@@ -51,6 +58,8 @@ struct PointCloud {
   // Where the local zero of (x, y, z) lies in the frame, in the same unit; zero for a cloud near
   // the frame's zero. The stages never read it: every length they use is a difference.
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  // The grid of the file the points came from, when it had one (LAS); only the writers read it.
+  std::optional<CoordinateGrid> grid;
   // Index into `scans`; all zero for a single scan.
   std::vector<uint32_t> scan;
   // Scanline index within the scan; empty when the scanner has no scanlines. Points of one

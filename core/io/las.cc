@@ -138,6 +138,8 @@ absl::StatusOr<PointCloud> ReadLasBytes(std::string_view file, const std::string
 
   PointCloud cloud;
   cloud.origin = RecordsOrigin(h + offset, count, record, scale, shift);
+  cloud.grid = CoordinateGrid{.scale = {scale[0], scale[1], scale[2]},
+                              .offset = {shift[0], shift[1], shift[2]}};
   cloud.x.resize(count), cloud.y.resize(count), cloud.z.resize(count);
   cloud.intensity.resize(count);
   std::vector<uint32_t> line(count);

@@ -1,14 +1,17 @@
 // SPDX-License-Identifier: Apache-2.0
-// LAS (ASPRS) reader: what line and mobile scanners and PDAL write.
+// LAS (ASPRS) reader and writer: what line and mobile scanners and PDAL write.
 #pragma once
 
 #include <filesystem>
 #include <istream>
+#include <ostream>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "core/io/cloud_writer.h"
 #include "core/point_cloud.h"
 
 namespace scanprep::io {
@@ -26,12 +29,26 @@ namespace scanprep::io {
 // INVALID_ARGUMENT naming a way to decompress it: no LASzip decoder is packaged for Debian 12.
 // Counts, offsets and record lengths are checked against the file before anything is allocated, and
 // records the header's count leaves out are refused like PLY's and PCD's. One scan, id = file stem,
-// no sensor origin (LAS has none; a warning says how to give one); FinishLoading() has been called.
+// no sensor origin (LAS has none; a warning says how to give one); cloud.grid is the header's
+// scale and offset; FinishLoading() has been called.
 absl::StatusOr<PointCloud> ReadLas(const std::filesystem::path& path,
                                    std::vector<std::string>& warnings);
 absl::StatusOr<PointCloud> ReadLas(std::istream& in, const std::string& name_for_errors,
                                    std::vector<std::string>& warnings);
 absl::StatusOr<PointCloud> ReadLasBytes(std::string_view file, const std::string& name_for_errors,
                                         std::vector<std::string>& warnings);
+
+// LAS 1.2, point data format 0, no variable-length records. X, Y, Z on cloud.grid (the file the
+// points were read from: a point nothing moved gets its own integer back), else on a grid of
+// 1/1000 of the unit (1 µm in mm) offset by the cloud's origin rounded to a whole unit;
+// INVALID_ARGUMENT naming the point and value when a coordinate is beyond a 32-bit integer of that
+// grid. Intensity when the cloud has it (INVALID_ARGUMENT for a value that is not an integer in 0
+// to 65535), scanprep's flags in the user data byte and classification 7 (noise) for removed points
+// (written with include_removed, else left out), the scan index as point source ID, and the scan
+// direction flag turned at each new scanline so that ReadLas finds the same lines. Normals,
+// quality: LAS format 0 has no field for them.
+absl::Status WriteLas(const std::filesystem::path& path, const PointCloud& cloud,
+                      const WriteOptions& options = {});
+absl::Status WriteLas(std::ostream& out, const PointCloud& cloud, const WriteOptions& options = {});
 
 }  // namespace scanprep::io

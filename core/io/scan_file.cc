@@ -16,7 +16,7 @@ namespace scanprep::io {
 namespace {
 
 constexpr char kReadable[] = ".ply, .pcd, .e57, .las, .xyz, .asc, .txt, .pts";
-constexpr char kWritten[] = ".ply, .pcd, .xyz, .asc, .txt";
+constexpr char kWritten[] = ".ply, .pcd, .las, .xyz, .asc, .txt";
 
 // One dispatch for files and streams: every reader and writer takes either a path or a stream
 // (with a name for its errors) as its first arguments.
@@ -51,10 +51,11 @@ absl::Status WriteAs(ScanFormat format, Target&& target, const PointCloud& cloud
       return WritePly(target, cloud, options);
     case ScanFormat::kPcd:
       return WritePcd(target, cloud, options);
+    case ScanFormat::kLas:
+      return WriteLas(target, cloud, options);
     case ScanFormat::kXyz:
       return WriteXyz(target, cloud, options);
     case ScanFormat::kE57:
-    case ScanFormat::kLas:
       break;
   }
   return absl::InvalidArgumentError(
@@ -84,9 +85,7 @@ absl::StatusOr<ScanFormat> ScanFormatOf(const std::filesystem::path& path) {
   return format;
 }
 
-bool Writable(ScanFormat format) {
-  return format != ScanFormat::kE57 && format != ScanFormat::kLas;
-}
+bool Writable(ScanFormat format) { return format != ScanFormat::kE57; }
 
 absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
                                         std::vector<std::string>& warnings,
@@ -105,7 +104,8 @@ absl::StatusOr<PointCloud> ReadScanStream(std::istream& in, ScanFormat format,
 absl::StatusOr<ScanFormat> WritableFormatOf(const std::filesystem::path& path) {
   const std::string extension = absl::AsciiStrToLower(path.extension().string());
   auto format = ScanFormatOf(path);
-  if (!format.ok() || !Writable(*format) || extension == ".pts") {  // PTS's count line: not written
+  // PTS's count line is not written, and LAZ's compression is not either.
+  if (!format.ok() || !Writable(*format) || extension == ".pts" || extension == ".laz") {
     return absl::InvalidArgumentError(absl::StrCat(path.string(), ": cannot write '",
                                                    path.extension().string(),
                                                    "' files (written: ", kWritten, ")"));

@@ -25,11 +25,11 @@ absl::StatusOr<ScanFormat> ParseScanFormat(std::string_view name);
 // By extension: .ply, .pcd, .e57, .las/.laz, .xyz/.asc/.txt/.pts; INVALID_ARGUMENT naming the
 // supported ones.
 absl::StatusOr<ScanFormat> ScanFormatOf(const std::filesystem::path& path);
-// Whether WriteScanFile/WriteScanStream can write `format` (PLY, PCD and XYZ; E57 and LAS are
-// read only).
+// Whether WriteScanFile/WriteScanStream can write `format` (PLY, PCD, LAS and XYZ; E57 is read
+// only).
 bool Writable(ScanFormat format);
-// The format WriteScanFile writes `path` in: .ply, .pcd, .xyz/.asc/.txt; INVALID_ARGUMENT for any
-// other extension (.pts, a read-only format) naming the written ones.
+// The format WriteScanFile writes `path` in: .ply, .pcd, .las, .xyz/.asc/.txt; INVALID_ARGUMENT for
+// any other extension (.pts, .laz, a read-only format) naming the written ones.
 absl::StatusOr<ScanFormat> WritableFormatOf(const std::filesystem::path& path);
 
 struct ReadOptions {
@@ -49,8 +49,8 @@ absl::StatusOr<PointCloud> ReadScanStream(std::istream& in, ScanFormat format,
                                           std::vector<std::string>& warnings,
                                           const ReadOptions& options = {});
 
-// WritePly (binary), WritePcd (binary) or WriteXyz (text) by the file's extension (.ply, .pcd,
-// .xyz/.asc/.txt); INVALID_ARGUMENT for any other, before anything is written.
+// WritePly (binary), WritePcd (binary), WriteLas or WriteXyz (text) by the file's extension (.ply,
+// .pcd, .las, .xyz/.asc/.txt); INVALID_ARGUMENT for any other, before anything is written.
 absl::Status WriteScanFile(const std::filesystem::path& path, const PointCloud& cloud,
                            const WriteOptions& options = {});
 absl::Status WriteScanStream(std::ostream& out, ScanFormat format, const PointCloud& cloud,

@@ -1,10 +1,14 @@
 // SPDX-License-Identifier: Apache-2.0
 // The LAS reader against files written here from the ASPRS specification's layouts: LAS 1.2
 // format 0, LAS 1.4 format 6 (64-bit count, moved flags, wide scan angle), records with extra
-// bytes, scanlines from the scan direction and edge flags, LAZ and damaged headers refused.
+// bytes, scanlines from the scan direction and edge flags, LAZ and damaged headers refused. The
+// LAS writer against the records' raw bytes: a georeferenced file written back has its own
+// integers, a cloud far from zero comes back within half a unit of its scale, and a coordinate
+// beyond 32 bits of the grid is refused by name.
 #include "core/io/las.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <sstream>
@@ -185,26 +189,37 @@ TEST(Las, HeaderCountBelowTheRecordsIsRefused) {
 }
 
 // A georeferenced file in metres (UTM-like, 5e5 m east, 5e6 m north): float alone keeps 3 cm
-// there, the scale is 1 mm. Every coordinate comes back to half a unit of its scale, so a file
-// written from it has the same integers.
-TEST(Las, UtmCoordinatesKeepEveryUnitOfTheirScale) {
+// there, the scale is 1 mm. 200 points of format 1 over 50 m.
+constexpr double kUtmOffset[3] = {500'000.0, 5'000'000.0, 100.0};
+std::vector<LasPoint> UtmPoints() {
   std::vector<LasPoint> points;
   for (int i = 0; i < 200; ++i) {
-    points.push_back(
-        {.x = 37 * i - 3001, .y = 1 + (i * 7919) % 50'000, .z = -13 * i, .intensity = 0});
+    points.push_back({.x = 37 * i - 3001,
+                      .y = 1 + (i * 7919) % 50'000,
+                      .z = -13 * i,
+                      .intensity = static_cast<uint16_t>(i * 311)});
   }
+  return points;
+}
+std::string UtmFile(const std::vector<LasPoint>& points) {
   std::string bytes = LasFile(2, 1, points);
-  const double offset[3] = {500'000.0, 5'000'000.0, 100.0};
-  for (int k = 0; k < 3; ++k) PutAt<double>(bytes, 155 + 8 * k, offset[k]);
+  for (int k = 0; k < 3; ++k) PutAt<double>(bytes, 155 + 8 * k, kUtmOffset[k]);
+  return bytes;
+}
+
+// Every coordinate comes back to half a unit of its scale, so a file written from it has the same
+// integers.
+TEST(Las, UtmCoordinatesKeepEveryUnitOfTheirScale) {
+  const std::vector<LasPoint> points = UtmPoints();
   std::vector<std::string> warnings;
-  auto cloud = Read(bytes, warnings);
+  auto cloud = Read(UtmFile(points), warnings);
   ASSERT_TRUE(cloud.ok()) << cloud.status();
   for (size_t i = 0; i < points.size(); ++i) {
     const int32_t integers[3] = {points[i].x, points[i].y, points[i].z};
     for (int k = 0; k < 3; ++k) {
-      const double truth = integers[k] * 0.001 + offset[k];
+      const double truth = integers[k] * 0.001 + kUtmOffset[k];
       ASSERT_NEAR(World(*cloud, k, i), truth, 0.5e-3) << i << " axis " << k;
-      EXPECT_EQ(std::lround((World(*cloud, k, i) - offset[k]) / 0.001), integers[k]);
+      EXPECT_EQ(std::lround((World(*cloud, k, i) - kUtmOffset[k]) / 0.001), integers[k]);
     }
   }
   // Local coordinates stay within the data's extent (50 m), not its distance from zero.
@@ -220,7 +235,124 @@ TEST(Las, ReadThroughTheScanFileDispatchByExtensionAndStream) {
   ASSERT_TRUE(cloud.ok()) << cloud.status();
   EXPECT_EQ(cloud->size(), 7u);
   EXPECT_EQ(ScanFormatOf("scan.LAS").value(), ScanFormat::kLas);
-  EXPECT_FALSE(Writable(ScanFormat::kLas));
+  EXPECT_TRUE(Writable(ScanFormat::kLas));
+}
+
+template <class T>
+T At(const std::string& file, size_t at) {
+  T value;
+  std::memcpy(&value, file.data() + at, sizeof value);
+  return value;
+}
+
+// Where point i's record starts, by the header's offset to the points and record length.
+size_t Record(const std::string& file, size_t i) {
+  return At<uint32_t>(file, 96) + i * At<uint16_t>(file, 105);
+}
+
+std::array<int32_t, 3> Integers(const std::string& file, size_t i) {
+  const size_t at = Record(file, i);
+  return {At<int32_t>(file, at), At<int32_t>(file, at + 4), At<int32_t>(file, at + 8)};
+}
+
+absl::StatusOr<std::string> Written(const PointCloud& cloud, const WriteOptions& options = {}) {
+  std::ostringstream out;
+  if (absl::Status s = WriteScanStream(out, ScanFormat::kLas, cloud, options); !s.ok()) return s;
+  return out.str();
+}
+
+// The georeferenced file read and written back untouched: the same scale, offset, count and
+// integers (what PDAL or LAStools would read back), bounds from the input's integers.
+TEST(LasWrite, UtmFileWrittenBackKeepsEveryInteger) {
+  const std::vector<LasPoint> points = UtmPoints();
+  const std::string input = UtmFile(points);
+  std::vector<std::string> warnings;
+  auto cloud = Read(input, warnings);
+  ASSERT_TRUE(cloud.ok()) << cloud.status();
+  auto output = Written(*cloud);
+  ASSERT_TRUE(output.ok()) << output.status();
+  ASSERT_EQ(output->substr(0, 4), "LASF");
+  EXPECT_EQ((*output)[24], 1);
+  EXPECT_EQ((*output)[25], 2);
+  EXPECT_EQ((*output)[104], 0);  // point data format 0
+  ASSERT_EQ(At<uint32_t>(*output, 107), points.size());
+  ASSERT_EQ(output->size(), Record(*output, points.size()));
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(At<double>(*output, 131 + 8 * k), 0.001) << k;
+    EXPECT_EQ(At<double>(*output, 155 + 8 * k), kUtmOffset[k]) << k;
+  }
+  std::array<int32_t, 3> lo = Integers(input, 0), hi = lo;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const std::array<int32_t, 3> in = Integers(input, i), out = Integers(*output, i);
+    EXPECT_EQ(out, in) << "point " << i;
+    EXPECT_EQ(At<uint16_t>(*output, Record(*output, i) + 12), points[i].intensity) << i;
+    for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], in[k]), hi[k] = std::max(hi[k], in[k]);
+  }
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(At<double>(*output, 179 + 16 * k), hi[k] * 0.001 + kUtmOffset[k]) << k;
+    EXPECT_EQ(At<double>(*output, 187 + 16 * k), lo[k] * 0.001 + kUtmOffset[k]) << k;
+  }
+}
+
+// A cloud from no LAS (1 µm grid around its origin), 5e5 m east and 5e6 m north in millimetres,
+// with scanlines and removed points: read back within half a unit of the grid, the same lines, the
+// flags in the user data byte and removed points as noise (class 7) only when asked for.
+TEST(LasWrite, FarCloudComesBackWithinHalfAUnitWithItsLinesAndFlags) {
+  PointCloud cloud;
+  cloud.origin = {5e8, 5e9, 1e5};
+  std::vector<uint8_t> flags;
+  for (uint32_t i = 0; i < 60; ++i) {
+    cloud.x.push_back(0.1234567f * i - 3.f);
+    cloud.y.push_back(-7.654321f * i);
+    cloud.z.push_back(1e-3f * static_cast<float>(i * i));
+    cloud.scanline.push_back(i / 20);
+    flags.push_back(i % 9 == 4 ? kRemovedOutlier : kEdge);
+  }
+  cloud.scans.push_back(ScanMeta{.id = "far"});
+  cloud.FinishLoading(flags);
+  for (bool include_removed : {false, true}) {
+    auto output = Written(cloud, {.include_removed = include_removed});
+    ASSERT_TRUE(output.ok()) << output.status();
+    std::vector<std::string> warnings;
+    auto back = Read(*output, warnings);
+    ASSERT_TRUE(back.ok()) << back.status();
+    ASSERT_TRUE(back->has_scanlines());
+    size_t k = 0;
+    for (size_t i = 0; i < cloud.size(); ++i) {
+      if (!include_removed && cloud.removed(i)) continue;
+      const float local[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+      for (int axis = 0; axis < 3; ++axis) {
+        const double truth = cloud.origin[axis] + local[axis];
+        // Half a unit of the grid, plus ReadLas's half float step at 451 mm (2.7e-5).
+        EXPECT_NEAR(World(*back, axis, k), truth, 0.5e-3 + 3e-5) << i;
+      }
+      EXPECT_EQ(back->scanline[k], cloud.scanline[i]) << i;
+      const size_t at = Record(*output, k);
+      EXPECT_EQ(static_cast<uint8_t>((*output)[at + 17]), cloud.flags[i]) << i;
+      EXPECT_EQ((*output)[at + 15], cloud.removed(i) ? 7 : 0) << i;
+      ++k;
+    }
+    EXPECT_EQ(k, back->size());
+    EXPECT_EQ(k, include_removed ? 60u : 53u);
+  }
+}
+
+// Control for the grid: 3 km from an offset of zero is 3e9 steps of 1 µm, beyond a 32-bit
+// integer; refused by name, not wrapped. So is an intensity LAS cannot hold.
+TEST(LasWrite, ACoordinateBeyondThirtyTwoBitsIsRefusedByName) {
+  PointCloud cloud;
+  cloud.x = {0, 3e6f}, cloud.y = {0, 0}, cloud.z = {0, 0};
+  cloud.FinishLoading();
+  auto output = Written(cloud);
+  EXPECT_EQ(output.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(output.status().message(),
+              HasSubstr("point 1 x = 3000000 is 3000000000 steps of its scale 0.001 from its "
+                        "offset 0, beyond a 32-bit integer"));
+  cloud.x[1] = 2e6f;  // 2e9 steps: within
+  EXPECT_TRUE(Written(cloud).ok());
+  cloud.intensity = {1, 0.5f};
+  EXPECT_THAT(Written(cloud).status().message(),
+              HasSubstr("point 1 intensity 0.5 is not an integer from 0 to 65535"));
 }
 
 }  // namespace

@@ -108,7 +108,7 @@ INSTANTIATE_TEST_SUITE_P(Formats, Writers,
 TEST(Writers, TheExtensionChoosesTheFormat) {
   const std::filesystem::path dir = ::testing::TempDir();
   const PointCloud cloud = Sample();
-  for (const char* name : {"w.ply", "w.PCD", "w.xyz", "w.asc", "w.txt"}) {
+  for (const char* name : {"w.ply", "w.PCD", "w.las", "w.xyz", "w.asc", "w.txt"}) {
     ASSERT_TRUE(WriteScanFile(dir / name, cloud).ok()) << name;
     std::vector<std::string> warnings;
     auto back = ReadScanFile(dir / name, warnings);
@@ -119,6 +119,8 @@ TEST(Writers, TheExtensionChoosesTheFormat) {
   EXPECT_EQ(obj.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(obj.message(), HasSubstr("cannot write '.obj' files"));
   EXPECT_FALSE(std::filesystem::exists(dir / "w.obj"));
+  // LAS is written uncompressed: a .laz name would promise what it is not.
+  EXPECT_THAT(WriteScanFile(dir / "w.laz", cloud).message(), HasSubstr("cannot write '.laz'"));
 }
 
 // A PCD from elsewhere with a float "flags" field: not ours, so not read as flags.

@@ -763,7 +763,7 @@ TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {
   EXPECT_THAT(r.output, HasSubstr("-o OUT.ply is required"));
   r = RunCli("process " + scan.string() + " -o " + (tmp / "x.obj").string());
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_THAT(r.output, HasSubstr("the result is written as PLY, PCD or XYZ"));
+  EXPECT_THAT(r.output, HasSubstr("the result is written as PLY, PCD, LAS or XYZ"));
   r = RunCli("process " + scan.string() + " -o -");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.output, HasSubstr("say its format with --output_format"));

@@ -1,0 +1,163 @@
+// SPDX-License-Identifier: Apache-2.0
+// LAS 1.2 writer, point data format 0: a first pass puts every written point on the grid and checks
+// that LAS can hold it (the header needs the count and bounds before the records), a second writes
+// the records.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <string>
+
+#include "absl/strings/str_format.h"
+#include "core/io/byte_order.h"
+#include "core/io/cloud_writer.h"
+#include "core/io/las.h"
+#include "core/status_macros.h"
+
+namespace scanprep::io {
+namespace {
+
+constexpr size_t kHeaderBytes = 227;  // LAS 1.2's public header; no variable-length records follow
+constexpr size_t kRecordBytes = 20;   // point data format 0
+constexpr uint8_t kNoiseClass = 7;    // ASPRS "low point (noise)": what a removed point is
+
+template <class T>
+void Store(char* at, T value) {
+  if constexpr (kHostIsBigEndian) value = ByteSwapped(value);
+  std::memcpy(at, &value, sizeof(T));
+}
+
+// A cloud read from a LAS keeps that file's grid; any other gets 1/1000 of its unit around its
+// origin, which LocalOrigin made round already, rounded to a whole unit for a readable header.
+CoordinateGrid GridOf(const PointCloud& cloud) {
+  if (cloud.grid) return *cloud.grid;
+  return {.scale = Eigen::Vector3d::Constant(0.001), .offset = cloud.origin.array().round()};
+}
+
+// Point i's coordinate on `axis` in steps of the grid's scale from its offset, to the nearest step.
+// The origin and the offset are subtracted first: both are far from zero for a georeferenced
+// cloud, the local float is not.
+double Steps(const PointCloud& cloud, const CoordinateGrid& grid, size_t i, int axis) {
+  const float local = axis == 0 ? cloud.x[i] : axis == 1 ? cloud.y[i] : cloud.z[i];
+  return std::round(((cloud.origin[axis] - grid.offset[axis]) + local) / grid.scale[axis]);
+}
+
+struct Extent {
+  size_t count = 0;
+  std::array<int32_t, 3> lo{}, hi{};
+};
+
+// The written points' count and integer bounds; INVALID_ARGUMENT naming the first point LAS format
+// 0 cannot hold (a coordinate beyond 32 bits of the grid, an intensity that is no 16-bit integer,
+// a scan index beyond the 16-bit point source ID).
+absl::StatusOr<Extent> Measure(const PointCloud& cloud, const CoordinateGrid& grid,
+                               const WriteOptions& options) {
+  constexpr double kMin = std::numeric_limits<int32_t>::min();
+  constexpr double kMax = std::numeric_limits<int32_t>::max();
+  Extent extent;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (!Written(cloud, i, options)) continue;
+    for (int k = 0; k < 3; ++k) {
+      const double steps = Steps(cloud, grid, i, k);
+      if (!(steps >= kMin && steps <= kMax)) {
+        return absl::InvalidArgumentError(absl::StrFormat(
+            "cannot write LAS: point %d %c = %.17g is %.17g steps of its scale %g from its offset "
+            "%.17g, beyond a 32-bit integer (PLY and PCD keep any double)",
+            i, "xyz"[k], WorldPoint(cloud, i)[k], steps, grid.scale[k], grid.offset[k]));
+      }
+      const auto v = static_cast<int32_t>(steps);
+      extent.lo[k] = extent.count == 0 ? v : std::min(extent.lo[k], v);
+      extent.hi[k] = extent.count == 0 ? v : std::max(extent.hi[k], v);
+    }
+    if (!cloud.intensity.empty()) {
+      const float value = cloud.intensity[i];
+      if (!(value >= 0 && value <= 65535 && value == std::round(value))) {
+        return absl::InvalidArgumentError(absl::StrFormat(
+            "cannot write LAS: point %d intensity %g is not an integer from 0 to 65535 (PLY and "
+            "PCD keep any intensity)",
+            i, value));
+      }
+    }
+    if (!cloud.scan.empty() && cloud.scan[i] > 65535) {
+      return absl::InvalidArgumentError(absl::StrFormat(
+          "cannot write LAS: point %d of scan %d: the point source ID holds scans 0 to 65535", i,
+          cloud.scan[i]));
+    }
+    ++extent.count;
+  }
+  if (extent.count > std::numeric_limits<uint32_t>::max()) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "cannot write LAS: %d points, LAS 1.2 counts at most 4294967295", extent.count));
+  }
+  return extent;
+}
+
+std::string Header(const CoordinateGrid& grid, const Extent& extent) {
+  std::string h(kHeaderBytes, '\0');
+  std::memcpy(h.data(), "LASF", 4);
+  h[24] = 1, h[25] = 2;  // version 1.2
+  constexpr char kName[] = "scanprep";
+  std::memcpy(h.data() + 26, kName, sizeof kName - 1);  // system identifier
+  std::memcpy(h.data() + 58, kName, sizeof kName - 1);  // generating software
+  Store<uint16_t>(h.data() + 94, kHeaderBytes);
+  Store<uint32_t>(h.data() + 96, kHeaderBytes);  // the points follow the header
+  h[104] = 0;                                    // point data format 0
+  Store<uint16_t>(h.data() + 105, kRecordBytes);
+  const auto count = static_cast<uint32_t>(extent.count);
+  Store<uint32_t>(h.data() + 107, count);
+  Store<uint32_t>(h.data() + 111, count);  // every point is return 1 of 1
+  for (int k = 0; k < 3; ++k) {
+    Store<double>(h.data() + 131 + 8 * k, grid.scale[k]);
+    Store<double>(h.data() + 155 + 8 * k, grid.offset[k]);
+    const double a = extent.lo[k] * grid.scale[k] + grid.offset[k];
+    const double b = extent.hi[k] * grid.scale[k] + grid.offset[k];
+    Store<double>(h.data() + 179 + 16 * k, std::max(a, b));  // a scale may be negative
+    Store<double>(h.data() + 187 + 16 * k, std::min(a, b));
+  }
+  return h;
+}
+
+}  // namespace
+
+absl::Status WriteLas(std::ostream& out, const PointCloud& cloud, const WriteOptions& options) {
+  SCANPREP_RETURN_IF_ERROR(CheckWritable(cloud, "LAS"));
+  const CoordinateGrid grid = GridOf(cloud);
+  SCANPREP_ASSIGN_OR_RETURN(const Extent extent, Measure(cloud, grid, options));
+  const std::string header = Header(grid, extent);
+  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+
+  // ReadLas starts a scanline where the scan direction flag turns, so it turns at each new line.
+  bool direction = false, first = true;
+  uint64_t line = 0;
+  char record[kRecordBytes];
+  for (size_t i = 0; i < cloud.size() && out; ++i) {
+    if (!Written(cloud, i, options)) continue;
+    const uint32_t scan = cloud.scan.empty() ? 0 : cloud.scan[i];
+    const uint64_t this_line =
+        (uint64_t{scan} << 32) | (cloud.has_scanlines() ? cloud.scanline[i] : 0);
+    if (!first && this_line != line) direction = !direction;
+    first = false, line = this_line;
+    std::memset(record, 0, sizeof record);
+    for (int k = 0; k < 3; ++k) {
+      Store<int32_t>(record + 4 * k, static_cast<int32_t>(Steps(cloud, grid, i, k)));
+    }
+    if (!cloud.intensity.empty()) Store(record + 12, static_cast<uint16_t>(cloud.intensity[i]));
+    record[14] = static_cast<char>(0x09 | (direction ? 0x40 : 0));  // return 1 of 1
+    const uint8_t flags = cloud.flags.empty() ? 0 : cloud.flags[i];
+    record[15] = static_cast<char>((flags & kRemovedMask) != 0 ? kNoiseClass : 0);
+    record[17] = static_cast<char>(flags);  // user data: scanprep's flags as the other writers
+    Store<uint16_t>(record + 18, static_cast<uint16_t>(scan));
+    out.write(record, sizeof record);
+  }
+  if (!out) return absl::UnavailableError("cannot write LAS: output stream failed");
+  return absl::OkStatus();
+}
+
+absl::Status WriteLas(const std::filesystem::path& path, const PointCloud& cloud,
+                      const WriteOptions& options) {
+  return WriteFile(path, [&](std::ostream& out) { return WriteLas(out, cloud, options); });
+}
+
+}  // namespace scanprep::io
