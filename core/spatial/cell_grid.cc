@@ -208,6 +208,14 @@ bool CellGrid::CollectRuns(const float q[3], float radius, size_t budget, Runs& 
   return true;
 }
 
+bool CellGrid::AffordOverflow(const float q[3], float radius, Runs& runs) const {
+  // Not once the tree is built, nor for a query crossing too many columns.
+  if (fallback_->ready.load(std::memory_order_acquire) != nullptr) return false;
+  if (!CollectRuns(q, radius, SIZE_MAX, runs)) return false;
+  const uint64_t before = fallback_->overflow_read.fetch_add(runs.candidates);
+  return before + runs.candidates <= OverflowAllowance();
+}
+
 const EntryTree* CellGrid::Tree() const {
   if (const EntryTree* tree = fallback_->ready.load(std::memory_order_acquire)) return tree;
   std::lock_guard<std::mutex> lock(fallback_->mutex);
@@ -235,7 +243,8 @@ size_t CellGrid::Ball(const float q[3], const NearestQuery& query, float radius,
   out.clear();
   const bool capped = query.count != SIZE_MAX;
   Runs runs;
-  if (CollectRuns(q, radius, GridBudget(capped ? query.count : 0), runs)) {
+  if (CollectRuns(q, radius, GridBudget(capped ? query.count : 0), runs) ||
+      AffordOverflow(q, radius, runs)) {
     candidates_examined_by_this_thread += runs.candidates;
     for (size_t r = 0; r < runs.count; ++r) {
       AppendInside(q, runs.run[r].first, runs.run[r].second, query.limit_sq, query.exclude, out,
@@ -272,23 +281,32 @@ size_t CellGrid::Ball(const float q[3], const NearestQuery& query, float radius,
 }
 
 size_t CellGrid::Knn(const float q[3], size_t k, uint32_t exclude, float guess, uint32_t* idx,
-                     float* dist_sq, std::vector<uint64_t>& scratch) const {
+                     float* dist_sq, std::vector<uint64_t>& scratch, size_t budget) const {
   const size_t available = entries_.size() - (exclude < entries_.size() ? 1 : 0);
   k = std::min(k, available);
   if (k == 0) return 0;
   // Candidates as (squared distance bits, index): non-negative floats order like their bits,
   // so one integer sort ranks by distance with ties to the lower index.
   float radius = guess > 0 && std::isfinite(guess) ? guess : cell_edge();
-  size_t budget = GridBudget(k);
-  bool gridded = true;
+  if (budget == 0) budget = GridBudget(k);
+  bool gridded = true, restarted = false;
   Runs runs;
   while (true) {
     if (!CollectRuns(q, radius, budget, runs)) {
-      gridded = false;
-      break;
+      // A guess far too wide (the previous query's, an isolated point's d_k) starts over from
+      // one cell before the tree is asked.
+      if (radius > cell_edge() && !restarted) {
+        radius = cell_edge();
+        restarted = true;
+        continue;
+      }
+      if (!AffordOverflow(q, radius, runs)) {
+        gridded = false;
+        break;
+      }
     }
     // Each widening reads its ball again: the budget is for all of them together.
-    budget -= runs.candidates;
+    budget -= std::min(budget, runs.candidates);
     candidates_examined_by_this_thread += runs.candidates;
     scratch.clear();
     const float r2 = radius * radius;

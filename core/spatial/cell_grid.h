@@ -13,12 +13,14 @@
 // candidates from the cells (GridBudget); a query that would read more (cells stretched by a far
 // part, a cluster of near-identical points in one cell, an isolated point whose neighbours lie
 // across thousands of empty columns) is answered by a kd-tree over the same entries
-// (entry_tree.h), built the first time one is needed.
+// (entry_tree.h). Building that tree costs about as much as reading the grid's points a few
+// times over, so, as one rents before buying, such queries read their cells anyway until they
+// have read OverflowAllowance() candidates in all, and only then is the tree built.
 //
 // Exact: a ball returns precisely the points whose squared distance, computed as nanoflann does
 // it (((q−p)ₓ² + (q−p)ᵧ²) + (q−p)_z² in float), is below r², so its sets equal the kd-tree's;
-// a capped one and a k-NN list keep the nearest, ties at the count's edge to the lower index
-// where the grid answers and to the first reached where the tree does (as nanoflann's k-NN).
+// a capped one and a k-NN list keep the nearest, ties to the lower index, on either path: which
+// path answered is never visible in a result.
 #pragma once
 
 #include <algorithm>
@@ -57,15 +59,21 @@ class CellGrid {
   // The most columns a query reads from the grid, and the fewest candidates it may read from
   // their cells (GridBudget). On the benchmark scans (100 k points, default pipeline) 99.95 % of
   // the capped balls read 64-1,023 candidates and none more than 2,047; every uncapped ball and
-  // k-NN query fewer than 256. A ball in a cluster of thousands of near-identical points reads
-  // them all to keep its nearest 32·k: the kd-tree finds those reading a few hundred more.
-  static constexpr size_t kMaxColumns = 256;
+  // k-NN query fewer than 256; a point off the surface (1 M points) reaches 8 cells (289
+  // columns) for its k nearest. A ball in a cluster of thousands of points reads them all to
+  // keep its nearest 32·k: the kd-tree finds those reading a few hundred more.
+  static constexpr size_t kMaxColumns = 1024;
   static constexpr size_t kMinGridCandidates = 2048;
   // The candidates a query that wants `wanted` points (k, a ball's cap; 0 = all) may read from
   // the grid's cells before the kd-tree answers it instead.
   static size_t GridBudget(size_t wanted) {
     return std::max<size_t>(kMinGridCandidates, 2 * std::min<size_t>(wanted, SIZE_MAX / 2));
   }
+  // The candidates queries over their budget may read from the cells in all before the kd-tree
+  // is built: four passes over the points (a 1 M-point tree costs about 2·10⁹ instructions to
+  // build, reading 4 M candidates about 10⁸). On the benchmark scans 407 of 1 M k-NN queries
+  // (points off the surface with dense columns below) read 1.6 M: no tree.
+  size_t OverflowAllowance() const { return 4 * entries_.size() + 65536; }
   // Whether a query of this grid has needed the kd-tree yet (for tests and the report).
   bool tree_built() const { return fallback_->ready.load(std::memory_order_acquire) != nullptr; }
 
@@ -81,9 +89,11 @@ class CellGrid {
   // The k nearest points to q other than `exclude`, nearest first (ties: lower index first;
   // which of those tied at the k-th distance are in: see above), as
   // indices and squared distances; returns how many were found (< k only if the cloud has fewer).
-  // `guess` is a radius to try first; `scratch` is reused between calls.
+  // `guess` is a radius to try first; `scratch` is reused between calls. `budget`: the candidates
+  // it may read from the grid before the kd-tree answers instead (0: GridBudget(k)); a caller
+  // asking only a fixed number of queries may allow more rather than build the tree for them.
   size_t Knn(const float q[3], size_t k, uint32_t exclude, float guess, uint32_t* idx,
-             float* dist_sq, std::vector<uint64_t>& scratch) const;
+             float* dist_sq, std::vector<uint64_t>& scratch, size_t budget = 0) const;
 
  private:
   using Entry = GridEntry;
@@ -116,6 +126,9 @@ class CellGrid {
     }
     out.resize(at);
   }
+  // For a query over its budget: its runs, if they fit the column limit and the overflow
+  // allowance still holds their candidates (which are then counted against it).
+  bool AffordOverflow(const float q[3], float radius, Runs& runs) const;
   // The kd-tree over the entries, built on first use (cancelled with the token of the loop that
   // asks, running_loop_token); null when that token fired first.
   const EntryTree* Tree() const;
@@ -144,6 +157,7 @@ class CellGrid {
     std::mutex mutex;
     std::atomic<const EntryTree*> ready{nullptr};
     std::unique_ptr<EntryTree> tree;
+    std::atomic<uint64_t> overflow_read{0};  // candidates over-budget queries read from the cells
   };
   std::unique_ptr<Fallback> fallback_ = std::make_unique<Fallback>();
 };

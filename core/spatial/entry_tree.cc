@@ -78,13 +78,13 @@ class KeySet {
   }
   bool full() const { return keys_.size() >= query_.count; }
   // nanoflann offers a point only when its distance is below this, and visits a node only when
-  // its lower bound is at most this: once full, the worst kept distance, so a point tied with it
-  // is not offered. Ties at the count's edge go to the point the tree reached first, as in
-  // nanoflann's own k-NN search: offering them to decide by index would read every tie, and a
-  // query far from a part (1e9 mm) finds most of its points at one float distance.
+  // its lower bound is at most this: once full, the next float above the worst kept distance, so
+  // a point tied with it (which wins on a lower index) is still offered, and the answer is the
+  // grid's to the last tie.
   float worstDist() const {
     if (keys_.size() < query_.count) return query_.limit_sq;
-    return std::bit_cast<float>(static_cast<uint32_t>(keys_.front() >> 32));
+    return std::nextafter(std::bit_cast<float>(static_cast<uint32_t>(keys_.front() >> 32)),
+                          HUGE_VALF);
   }
 
  private:

@@ -47,9 +47,9 @@ class EntryTree {
   ~EntryTree();
 
   // The points `query` asks for, as keys (squared distance bits << 32 | point index: they order
-  // by distance, then index), unsorted, into `keys`. Exact like nanoflann's own search: the
-  // squared distance is summed as the grid and nanoflann sum it, and no node that could hold a
-  // nearer point is pruned.
+  // by distance, then index), unsorted, into `keys`. Exact, and the same answer as the grid's:
+  // the squared distance is summed as the grid and nanoflann sum it, no node that could hold a
+  // point it keeps is pruned, and ties at the count's edge go to the lower index.
   void Nearest(const float q[3], const NearestQuery& query, std::vector<uint64_t>& keys) const;
 
  private:

@@ -24,10 +24,14 @@ namespace {
 // threads, whole pipeline): 1.0·d_k 5.61 / 40.4 s, 1.5 5.34, 2.0 5.20 / 34.2, 2.5 5.33.
 constexpr float kCellEdgePerDk = 2.0f;
 
-// Median d_k over an evenly strided sample, from a grid of any cell size.
+// Median d_k over an evenly strided sample, from a grid of any cell size. The first grid's
+// cells are sized as if the points filled its box, so on a surface they hold hundreds: each of
+// the 1,000 queries may read n/64 candidates (16·n in all, one k-NN pass's worth) before the
+// grid builds its kd-tree for them (a quarter second at 1 M points, for nothing on a scan).
 float SampleDk(const PointCloud& cloud, const CellGrid& grid, uint32_t k) {
   const size_t n = cloud.size();
   const size_t sample = std::min<size_t>(n, 1000);
+  const size_t budget = std::max(CellGrid::GridBudget(k), n / 64);
   std::vector<float> dk(sample);
   std::vector<uint32_t> idx(k);
   std::vector<float> d2(k);
@@ -36,7 +40,7 @@ float SampleDk(const PointCloud& cloud, const CellGrid& grid, uint32_t k) {
     const size_t i = s * n / sample;
     const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
     const size_t found =
-        grid.Knn(q, k, static_cast<uint32_t>(i), 0.f, idx.data(), d2.data(), scratch);
+        grid.Knn(q, k, static_cast<uint32_t>(i), 0.f, idx.data(), d2.data(), scratch, budget);
     dk[s] = found ? std::sqrt(d2[found - 1]) : 0.f;
   }
   std::nth_element(dk.begin(), dk.begin() + sample / 2, dk.end());
