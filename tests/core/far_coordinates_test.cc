@@ -11,25 +11,12 @@
 #include "core/pipeline/cancel.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "tests/support/lattice_scan.h"
 
 namespace scanprep {
 namespace {
 
 namespace fs = std::filesystem;
-
-// The box with a bore seen by two overlapping sensors with 1 % spikes: every stage has work. Its
-// coordinates on a 2^-16 mm (15 nm) lattice, as a scanner's are on its resolution's: double
-// carries 2^-23 mm at 5e8 mm, so the file there holds exactly the same scan (unquantised, the
-// file itself would move points by up to 6e-8 mm and a threshold could flip).
-sim::SimulatedCloud Scan() {
-  std::vector<sim::SimSensor> sensors = sim::TwoOverlappingSensors(sim::Part::kBoxWithBore);
-  for (sim::SimSensor& s : sensors) s.outlier_fraction = 0.01;
-  sim::SimulatedCloud scan = sim::Simulate(sim::Part::kBoxWithBore, sensors, 41);
-  for (std::vector<float>* axis : {&scan.cloud.x, &scan.cloud.y, &scan.cloud.z}) {
-    for (float& v : *axis) v = std::ldexp(std::round(std::ldexp(v, 16)), -16);
-  }
-  return scan;
-}
 
 Eigen::Vector3d World(const PointCloud& cloud, size_t i) {
   return cloud.origin + cloud.point(i).cast<double>();
@@ -39,7 +26,7 @@ Eigen::Vector3d World(const PointCloud& cloud, size_t i) {
 // when the offset is not 0), read back and processed; the sensors move with it, as the scan's
 // metadata would say.
 PointCloud ProcessAt(double offset) {
-  PointCloud placed = Scan().cloud;
+  PointCloud placed = testing::LatticeBoxScans().cloud;
   placed.origin = Eigen::Vector3d::Constant(offset);
   const fs::path path = fs::path(::testing::TempDir()) / "far_scan.ply";
   EXPECT_TRUE(io::WriteScanFile(path, placed).ok());

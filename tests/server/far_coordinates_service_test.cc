@@ -15,6 +15,7 @@
 #include "core/io/scan_file.h"
 #include "core/sim/scan_simulator.h"
 #include "tests/server/service_fixtures.h"
+#include "tests/support/lattice_scan.h"
 
 namespace scanprep::testing {
 namespace {
@@ -22,23 +23,11 @@ namespace {
 using ::testing::HasSubstr;
 namespace fs = std::filesystem;
 
-// The box with a bore seen by two sensors with spikes, on a 2^-16 mm lattice so that a double
-// file holds it exactly at every offset (tests/core/far_coordinates_test.cc says why).
-sim::SimulatedCloud Scan() {
-  std::vector<sim::SimSensor> sensors = sim::TwoOverlappingSensors(sim::Part::kBoxWithBore);
-  for (sim::SimSensor& s : sensors) s.outlier_fraction = 0.01;
-  sim::SimulatedCloud scan = sim::Simulate(sim::Part::kBoxWithBore, sensors, 41);
-  for (std::vector<float>* axis : {&scan.cloud.x, &scan.cloud.y, &scan.cloud.z}) {
-    for (float& v : *axis) v = std::ldexp(std::round(std::ldexp(v, 16)), -16);
-  }
-  return scan;
-}
-
 // The scan `offset` mm away along the diagonal, as a PLY file, through `scanprep process`'s job
 // builder (its scan metadata as a job file would give it, absolute) and the service.
 client::ProcessResult ProcessAt(const InProcessServer& server, double offset,
                                 v1::JobHeader* sent = nullptr) {
-  const sim::SimulatedCloud scan = Scan();
+  const sim::SimulatedCloud scan = LatticeBoxScans();
   PointCloud placed = scan.cloud;
   placed.origin = Eigen::Vector3d::Constant(offset);
   const fs::path path = fs::path(::testing::TempDir()) / "far_part.ply";

@@ -47,6 +47,18 @@ SmallJob RunSmallJob(v1::ScanPrep::Stub& stub, absl::Duration deadline) {
 // flow-control window is full the server's write blocks, and before the change nothing ended it,
 // so the second client's job waited for the slot into its deadline. Now the idle timeout ends the
 // stalled call and the second job runs.
+// A 250,000-point outliers job, every request of it: its result comes back as about 5 MB of
+// chunks, more than gRPC buffers for a reader that takes nothing.
+std::vector<v1::ProcessRequest> LargeResultJob() {
+  const GeneratedScan scan = NoisyPlaneWithSpikes(500, 1.f);
+  v1::JobHeader header = SimpleHeader(1.0);
+  header.mutable_options()->add_stages("outliers");
+  header.set_total_points(scan.cloud.size());
+  std::vector<v1::ProcessRequest> requests = JobRequests(header, scan.cloud, 32'768);
+  requests.push_back(EndRequest(requests));
+  return requests;
+}
+
 TEST(HeldResources, AClientThatStopsReadingLosesItsSlotToTheNextJob) {
   server::ServerOptions options;
   options.max_concurrent_jobs = 1;
@@ -57,14 +69,7 @@ TEST(HeldResources, AClientThatStopsReadingLosesItsSlotToTheNextJob) {
   auto server = std::make_unique<InProcessServer>(options);
   auto stub = server->Stub();
 
-  // 250,000 points come back as about 5 MB of result chunks, more than gRPC buffers for a reader
-  // that takes nothing.
-  const GeneratedScan scan = NoisyPlaneWithSpikes(500, 1.f);
-  v1::JobHeader header = SimpleHeader(1.0);
-  header.mutable_options()->add_stages("outliers");
-  header.set_total_points(scan.cloud.size());
-  std::vector<v1::ProcessRequest> requests = JobRequests(header, scan.cloud, 32'768);
-  requests.push_back(EndRequest(requests));
+  const std::vector<v1::ProcessRequest> requests = LargeResultJob();
   grpc::ClientContext stalled_context;
   std::unique_ptr<Stream> stalled = stub->Process(&stalled_context);
   for (const v1::ProcessRequest& r : requests) ASSERT_TRUE(stalled->Write(r));
@@ -106,12 +111,7 @@ TEST(HeldResources, AClientReadingUnderTheMinimumRateLosesItsSlot) {
   auto stub = v1::ScanPrep::NewStub(
       grpc::CreateCustomChannel(server->target(), grpc::InsecureChannelCredentials(), args));
 
-  const GeneratedScan scan = NoisyPlaneWithSpikes(500, 1.f);
-  v1::JobHeader header = SimpleHeader(1.0);
-  header.mutable_options()->add_stages("outliers");
-  header.set_total_points(scan.cloud.size());
-  std::vector<v1::ProcessRequest> requests = JobRequests(header, scan.cloud, 32'768);
-  requests.push_back(EndRequest(requests));
+  const std::vector<v1::ProcessRequest> requests = LargeResultJob();
   grpc::ClientContext context;
   std::unique_ptr<Stream> slow = stub->Process(&context);
   for (const v1::ProcessRequest& r : requests) ASSERT_TRUE(slow->Write(r));
