@@ -59,11 +59,14 @@ struct Cell {
   int64_t v[3];
   bool operator==(const Cell&) const = default;
 };
+// A coordinate whose cell number would not fit 62 bits (or is not finite) is its own cell, by
+// its bits, apart from every numbered one.
 Cell CellOf(const PointCloud& cloud, uint32_t i, double edge) {
   const float p[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
   Cell cell;
   for (int a = 0; a < 3; ++a) {
-    cell.v[a] = edge > 0 ? static_cast<int64_t>(std::floor(double(p[a]) / edge)) : Bits(p[a]);
+    const double c = edge > 0 ? std::floor(double(p[a]) / edge) : HUGE_VAL;
+    cell.v[a] = std::abs(c) < 0x1p62 ? static_cast<int64_t>(c) : (int64_t{1} << 62) + Bits(p[a]);
   }
   return cell;
 }

@@ -46,7 +46,8 @@ class Thinner {
   // cluster far denser than the cloud fills it (r_s is held to 10·r_g), where every point still
   // lies in the balls of a bounded number of centres.
   size_t BallCap() const {
-    return std::max<size_t>(nb_.max_ball_points(), static_cast<size_t>(8 * ExpectedBallSize()));
+    return std::max<size_t>(nb_.max_ball_points(),
+                            static_cast<size_t>(std::min(8 * ExpectedBallSize(), 1e9)));
   }
   bool Full(const RadiusMatches& ball) const { return ball.size() >= BallCap(); }
 
