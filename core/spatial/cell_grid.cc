@@ -152,7 +152,7 @@ absl::Status CellGrid::Sort(const PointCloud& cloud, int z_bits, int key_bits,
   });
 }
 
-bool CellGrid::CollectRuns(const float q[3], float radius, size_t budget, Runs& runs) const {
+bool CellGrid::CollectRuns(const float q[3], float radius, Runs& runs) const {
   runs.count = runs.candidates = 0;
   if (entries_.empty()) return true;
   // Padded so that float rounding in the caller's distance test cannot admit a point the cell
@@ -202,18 +202,15 @@ bool CellGrid::CollectRuns(const float q[3], float radius, size_t budget, Runs& 
       if (end == first) continue;
       runs.run[runs.count++] = {cell_start_[first], cell_start_[end]};
       runs.candidates += cell_start_[end] - cell_start_[first];
-      if (runs.candidates > budget) return false;
     }
   }
   return true;
 }
 
-bool CellGrid::AffordOverflow(const float q[3], float radius, Runs& runs) const {
-  // Not once the tree is built, nor for a query crossing too many columns.
-  if (fallback_->ready.load(std::memory_order_acquire) != nullptr) return false;
-  if (!CollectRuns(q, radius, SIZE_MAX, runs)) return false;
-  const uint64_t before = fallback_->overflow_read.fetch_add(runs.candidates);
-  return before + runs.candidates <= OverflowAllowance();
+bool CellGrid::AffordOverflow(size_t candidates) const {
+  if (fallback_->ready.load(std::memory_order_acquire) != nullptr) return false;  // built already
+  const uint64_t before = fallback_->overflow_read.fetch_add(candidates);
+  return before + candidates <= OverflowAllowance();
 }
 
 const EntryTree* CellGrid::Tree() const {
@@ -243,8 +240,8 @@ size_t CellGrid::Ball(const float q[3], const NearestQuery& query, float radius,
   out.clear();
   const bool capped = query.count != SIZE_MAX;
   Runs runs;
-  if (CollectRuns(q, radius, GridBudget(capped ? query.count : 0), runs) ||
-      AffordOverflow(q, radius, runs)) {
+  if (CollectRuns(q, radius, runs) && (runs.candidates <= GridBudget(capped ? query.count : 0) ||
+                                       AffordOverflow(runs.candidates))) {
     candidates_examined_by_this_thread += runs.candidates;
     for (size_t r = 0; r < runs.count; ++r) {
       AppendInside(q, runs.run[r].first, runs.run[r].second, query.limit_sq, query.exclude, out,
@@ -292,7 +289,8 @@ size_t CellGrid::Knn(const float q[3], size_t k, uint32_t exclude, float guess, 
   bool gridded = true, restarted = false;
   Runs runs;
   while (true) {
-    if (!CollectRuns(q, radius, budget, runs)) {
+    const bool fits = CollectRuns(q, radius, runs);
+    if (!fits || runs.candidates > budget) {
       // A guess far too wide (the previous query's, an isolated point's d_k) starts over from
       // one cell before the tree is asked.
       if (radius > cell_edge() && !restarted) {
@@ -300,7 +298,7 @@ size_t CellGrid::Knn(const float q[3], size_t k, uint32_t exclude, float guess, 
         restarted = true;
         continue;
       }
-      if (!AffordOverflow(q, radius, runs)) {
+      if (!fits || !AffordOverflow(runs.candidates)) {
         gridded = false;
         break;
       }
@@ -321,7 +319,7 @@ size_t CellGrid::Knn(const float q[3], size_t k, uint32_t exclude, float guess, 
   }
   if (!gridded) {
     const EntryTree* tree = Tree();
-    if (tree == nullptr) {  // cancelled: a placeholder the caller's loop discards
+    if (tree == nullptr) {  // cancelled: a filler result the caller's loop discards
       std::fill_n(idx, k, id_[0]);
       std::fill_n(dist_sq, k, HUGE_VALF);
       return k;

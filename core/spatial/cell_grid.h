@@ -106,9 +106,9 @@ class CellGrid {
     size_t count = 0;
     size_t candidates = 0;
   };
-  // Collects the runs of entries in cells that may hold a point within `radius` of q; false when
-  // they would cross more than kMaxColumns columns or hold more than `budget` candidates.
-  bool CollectRuns(const float q[3], float radius, size_t budget, Runs& runs) const;
+  // Collects the runs of entries in cells that may hold a point within `radius` of q, and how
+  // many candidates they hold; false when they would cross more than kMaxColumns columns.
+  bool CollectRuns(const float q[3], float radius, Runs& runs) const;
   // Appends make(id, d2) for the entries [begin, end) with squared distance d2 < limit and
   // id != exclude. Branch-free: every candidate is written, the end advances only past those
   // kept (about half of them, which a branch would mispredict).
@@ -126,9 +126,9 @@ class CellGrid {
     }
     out.resize(at);
   }
-  // For a query over its budget: its runs, if they fit the column limit and the overflow
-  // allowance still holds their candidates (which are then counted against it).
-  bool AffordOverflow(const float q[3], float radius, Runs& runs) const;
+  // For a query over its budget: whether the overflow allowance still holds its `candidates`
+  // (which are then counted against it) and the tree is not built yet.
+  bool AffordOverflow(size_t candidates) const;
   // The kd-tree over the entries, built on first use (cancelled with the token of the loop that
   // asks, running_loop_token); null when that token fired first.
   const EntryTree* Tree() const;

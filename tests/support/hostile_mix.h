@@ -50,6 +50,10 @@ inline HostileMix DrawHostileMix(size_t n, uint64_t seed, MustInclude must = {})
   const size_t cluster_count = clusters ? 1 + rng() % 3 : 0;
   // Each cluster 1 k to 50 k points, at most a fifth of the cloud.
   const size_t cluster_points = std::min<size_t>(n / 5, 1000 + rng() % 49'000);
+  // The far part's place before any point is drawn, so a seed names the same part at any size.
+  Eigen::Vector3d direction(gauss(rng), gauss(rng), gauss(rng));
+  direction.normalize();
+  const double distance = std::pow(10.0, 3 + 3 * unit(rng));
   const size_t line_points = line ? n / 10 : 0;
   const size_t far_points = static_cast<size_t>(far_share * n);
   const size_t sheet = n - far_points - cluster_count * cluster_points - line_points;
@@ -64,9 +68,6 @@ inline HostileMix DrawHostileMix(size_t n, uint64_t seed, MustInclude must = {})
     add(u, v, 5 * std::exp(-((u - 50) * (u - 50) + (v - 50) * (v - 50)) / 400) + 0.01 * gauss(rng));
   }
   if (far) {
-    Eigen::Vector3d direction(gauss(rng), gauss(rng), gauss(rng));
-    direction.normalize();
-    const double distance = std::pow(10.0, 3 + 3 * unit(rng));
     const Eigen::Vector3d centre = Eigen::Vector3d(50, 50, 0) + distance * direction;
     for (size_t f = 0; f < far_points; ++f) {  // a 10 mm sphere's surface
       Eigen::Vector3d d(gauss(rng), gauss(rng), gauss(rng));
