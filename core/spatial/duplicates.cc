@@ -40,8 +40,10 @@ bool SamePosition(const PointCloud& cloud, uint32_t a, uint32_t b) {
 // finest stated uncertainty u of the job's scans (a hundredth of what the sensor can tell apart),
 // at most an eighth of any stated point or scanline spacing, so that two samples the sensor took
 // apart never share one. Measured on the simulated box (21 k points, u = 0.03 mm): u/(4√3)
-// joined 281 points of one scan where grazing walls crowd the samples, u/100 none. 0 (exact
-// positions) when no scan gives a positive u.
+// joined 281 points of one scan where grazing walls crowd the samples, u/100 none. The default
+// u (0.1 mm) counts too when none is stated: cubes of 1 µm part no optical scanner's samples,
+// and without them 8,000 returns within 1e-4 mm beside a 50 k-point plane cost 8.6x the plane.
+// 0 (exact positions) when no scan has a positive u.
 constexpr double kCellPerUncertainty = 0.01;
 double ResolutionCell(const PointCloud& cloud) {
   double edge = HUGE_VAL;
