@@ -162,9 +162,10 @@ class Cases:
         """A case drawn from the hostile classes, each present with probability 1/2 (at least
         one): a far part (a contiguous stretch of 0.5-30 % of a scan's points moved 1e3-1e9 mm in
         a random direction: a fixture or sphere beside the part); 1-3 clusters of near-identical
-        points (1 k-50 k points each, at most a fifth of the cloud, within 0-1e-3 mm); a line
-        (a tenth of the points 1e-4 mm apart); an offset (the whole job 1e3-5e8 mm from the
-        origin in a random direction, written as doubles, as georeferenced data arrives)."""
+        points (1 k-50 k points each, at most a fifth of the cloud, within 1e-7-1e-2 mm,
+        log-uniform: some inside a scan's duplicate cubes, some just beyond); a line (a tenth of
+        the points 1e-4 mm apart); an offset (the whole job 1e3-5e8 mm from the origin in a
+        random direction, written as doubles, as georeferenced data arrives)."""
         classes = []
         while not classes:
             classes = [c for c in ("far", "clusters", "line", "offset") if rng.random() < 0.5]
@@ -209,7 +210,7 @@ class Cases:
                 if not taken:
                     continue
                 count = len(taken)
-                jitter = rng.uniform(0, 1e-3)
+                jitter = 10 ** rng.uniform(-7, -2)
                 xyz = [names.index(c) for c in "xyz"]
                 at = [taken[count // 2][a] for a in xyz]
                 for row in taken:

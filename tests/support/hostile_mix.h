@@ -2,7 +2,8 @@
 // Hostile clouds drawn at random, for the index's work-counter tests: an ordinary surface (a
 // gently curved, noisy sheet) with any mix of the shapes that broke uniform grids — a far part
 // in a random direction, at 1e3-1e6 mm, holding 0.5-30 % of the points; clusters of
-// near-identical points (jitter 0-1e-3 mm); lines at 1e-4 mm spacing. The same classes as
+// near-identical points (spread 1e-7-1e-2 mm, log-uniform: some inside the cubes the duplicates
+// pass joins, the rest just beyond them); lines at 1e-4 mm spacing. The same classes as
 // deploy/lib/hostile_cases.py draws for the service benchmark, which sends far parts out to
 // 1e9 mm: beyond about 2e5 mm float cannot hold a point to a scanner's uncertainty, and the
 // service refuses such a job before any index sees it (docs/api.md), so the index is held to
@@ -27,9 +28,10 @@ struct HostileMix {
 };
 
 // Classes a draw must include (the rest are drawn); `none`: the ordinary sheet alone, the
-// control.
+// control. `cluster_spread` > 0: every cluster spreads this wide (mm) instead of a drawn width.
 struct MustInclude {
   bool far = false, clusters = false, none = false;
+  double cluster_spread = 0;
 };
 
 inline HostileMix DrawHostileMix(size_t n, uint64_t seed, MustInclude must = {}) {
@@ -79,7 +81,8 @@ inline HostileMix DrawHostileMix(size_t n, uint64_t seed, MustInclude must = {})
                         distance, direction.x(), direction.y(), direction.z());
   }
   for (size_t c = 0; c < cluster_count; ++c) {
-    const double jitter = 1e-3 * unit(rng);
+    const double drawn = std::pow(10.0, -7 + 5 * unit(rng));
+    const double jitter = must.cluster_spread > 0 ? must.cluster_spread : drawn;
     const double cx = 100 * unit(rng), cy = 100 * unit(rng);
     for (size_t p = 0; p < cluster_points; ++p) {
       add(cx + jitter * unit(rng), cy + jitter * unit(rng), 1 + jitter * unit(rng));
