@@ -9,6 +9,7 @@
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
 #include "core/io/read_file.h"
+#include "core/pipeline/did_you_mean.h"
 #include "core/pipeline/job_context.h"
 #include "core/status_macros.h"
 
@@ -35,10 +36,10 @@ absl::Status AddEntry(const std::string& name, const std::string& value, const s
     return absl::OkStatus();
   }
   if (FindStage(name) == nullptr) {
-    std::vector<std::string> known;
-    for (const StageInfo& s : StageRegistry()) known.push_back(s.name);
-    return absl::InvalidArgumentError(absl::StrCat(where, ": unknown stage '", name,
-                                                   "' (known: ", absl::StrJoin(known, ", "), ")"));
+    const std::vector<std::string> known = StageNames();
+    return absl::InvalidArgumentError(absl::StrCat(where, ": unknown stage '", name, "'",
+                                                   DidYouMean(name, known),
+                                                   " (known: ", absl::StrJoin(known, ", "), ")"));
   }
   defaults.stage_seconds[name] = *seconds;
   return absl::OkStatus();

@@ -8,6 +8,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "core/pipeline/did_you_mean.h"
 #include "core/pipeline/field_error.h"
 #include "core/status_macros.h"
 
@@ -124,7 +125,9 @@ absl::Status ValidateOverrides(const ParamOverrides& overrides,
     const std::string& text = override.second;
     const ParamSpec* spec = Find(specs, name);
     if (spec == nullptr) {
-      return FieldError(Field(name), "unknown parameter");
+      std::vector<std::string> known;
+      for (const ParamSpec& s : specs) known.push_back(s.name);
+      return FieldError(Field(name), absl::StrCat("unknown parameter", DidYouMean(name, known)));
     }
     if (spec->kind != ParamKind::kChoice) {
       double value = 0;

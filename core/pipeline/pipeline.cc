@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "core/pipeline/did_you_mean.h"
 #include "core/pipeline/field_error.h"
 #include "core/pipeline/job_context.h"
 #include "core/spatial/duplicates.h"
@@ -22,11 +23,10 @@ absl::Status ValidateOptions(const PipelineOptions& options) {
   std::set<std::string> seen;
   for (const std::string& name : options.stages) {
     if (FindStage(name) == nullptr) {
-      std::vector<std::string> known;
-      for (const StageInfo& s : StageRegistry()) known.push_back(s.name);
-      return FieldError(
-          "options.stages",
-          absl::StrCat("unknown stage '", name, "' (known: ", absl::StrJoin(known, ", "), ")"));
+      const std::vector<std::string> known = StageNames();
+      return FieldError("options.stages",
+                        absl::StrCat("unknown stage '", name, "'", DidYouMean(name, known),
+                                     " (known: ", absl::StrJoin(known, ", "), ")"));
     }
     if (!seen.insert(name).second) {
       return FieldError("options.stages", absl::StrCat("stage '", name, "' is listed twice"));
@@ -34,7 +34,9 @@ absl::Status ValidateOptions(const PipelineOptions& options) {
   }
   for (const auto& [name, seconds] : options.stage_budget_seconds) {
     const std::string field = absl::StrCat("budget.stage_seconds['", name, "']");
-    if (FindStage(name) == nullptr) return FieldError(field, "unknown stage");
+    if (FindStage(name) == nullptr) {
+      return FieldError(field, absl::StrCat("unknown stage", DidYouMean(name, StageNames())));
+    }
     if (!(seconds >= 0)) return FieldError(field, "must be >= 0");
   }
   if (!(options.budget_seconds >= 0)) {

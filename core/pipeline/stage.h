@@ -40,6 +40,8 @@ struct StageInfo {
 // Every stage the service offers, in the paper's execution order.
 const std::vector<StageInfo>& StageRegistry();
 const StageInfo* FindStage(std::string_view name);
+// The stages' names, in StageRegistry() order (for messages naming the known ones).
+std::vector<std::string> StageNames();
 // All parameter specs of all stages (plus the shared neighbourhood ones).
 std::vector<ParamSpec> AllParamSpecs();
 const ParamSpec* FindParam(std::string_view name);

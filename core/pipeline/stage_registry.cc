@@ -29,6 +29,12 @@ const StageInfo* FindStage(std::string_view name) {
   return it == registry.end() ? nullptr : &*it;
 }
 
+std::vector<std::string> StageNames() {
+  std::vector<std::string> names;
+  for (const StageInfo& stage : StageRegistry()) names.push_back(stage.name);
+  return names;
+}
+
 std::vector<ParamSpec> AllParamSpecs() {
   std::vector<ParamSpec> specs;
   for (const StageInfo& stage : StageRegistry()) {

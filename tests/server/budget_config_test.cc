@@ -42,7 +42,7 @@ TEST(BudgetConfig, ErrorsNameTheSourceAndTheProblem) {
   absl::Status s = ParseStageBudgets("outliers=0.2,smooth=1", d);
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(s.message(), HasSubstr("--stage_budgets entry 'smooth=1': unknown stage 'smooth' "
-                                     "(known: "));
+                                     "(did you mean 'smoothing'?) (known: "));
   EXPECT_THAT(ParseStageBudgets("outliers", d).message(), HasSubstr("expected stage=seconds"));
   EXPECT_THAT(ParseStageBudgets("outliers=-1", d).message(),
               HasSubstr("'-1' is not a number of seconds >= 0"));
