@@ -1,0 +1,54 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "core/pipeline/presets.h"
+
+#include <algorithm>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "core/pipeline/did_you_mean.h"
+#include "core/pipeline/field_error.h"
+#include "core/pipeline/stage.h"
+
+namespace scanprep {
+
+std::vector<Preset> BuiltinPresets() {
+  return {
+      {.name = "metrology",
+       .description = "accuracy first: the declared defaults (the same as no preset)",
+       .params = {},
+       .built_in = true},
+      // The configuration docs/benchmarks.md measures as the paper's: no surface test after the
+      // global outlier rule, smoothing by the weighted mean of Eqs. 8-10 with moves over δ = u
+      // rejected. Everything else already defaults to the paper's rule.
+      {.name = "paper",
+       .description = "the paper's configuration, the fast one: its outlier rule alone, "
+                      "weighted-mean smoothing",
+       .params = {{"outliers.surface_sigmas", "0"}, {"smoothing.method", "mean"}},
+       .built_in = true},
+  };
+}
+
+absl::Status ValidatePreset(const Preset& preset) {
+  return ValidateOverrides(preset.params, AllParamSpecs());
+}
+
+absl::StatusOr<ParamOverrides> ResolvePreset(const std::vector<Preset>& presets,
+                                             std::string_view preset,
+                                             const ParamOverrides& explicit_params) {
+  if (preset.empty()) return explicit_params;
+  const auto found = std::find_if(presets.begin(), presets.end(),
+                                  [&](const Preset& p) { return p.name == preset; });
+  if (found == presets.end()) {
+    std::vector<std::string> known;
+    for (const Preset& p : presets) known.push_back(p.name);
+    return FieldError("options.preset", absl::StrCat("unknown preset '", std::string(preset), "'",
+                                                     DidYouMean(preset, known),
+                                                     " (known: ", absl::StrJoin(known, ", "), ")"));
+  }
+  ParamOverrides params = explicit_params;
+  // insert() keeps an explicit value: the job's own override beats the preset's.
+  params.insert(found->params.begin(), found->params.end());
+  return params;
+}
+
+}  // namespace scanprep
