@@ -18,7 +18,8 @@ packages=(
   prometheus  # prometheus and promtool: alert-rule and integration tests
   openssl     # tls_test makes its certificates at test time
   clang-format  # the clang_format test (deploy/check-format.sh)
-  python3-grpcio python3-protobuf python3-numpy  # client/python and its test (python_client)
+  python3-grpcio python3-protobuf python3-numpy  # client/python and its tests (python_client*)
+  python3-venv python3-pip python3-setuptools python3-wheel  # its wheel, built and installed offline
   python3-yaml  # deploy/check_manifests.py (kubernetes_manifests test)
 )
 if [[ ${1:-} == --sanitizers ]]; then

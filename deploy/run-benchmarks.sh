@@ -76,7 +76,8 @@ PY
 rm -f "$out"
 # The Python client's codec (client/python): packed arrays against the repeated fields.
 if [[ $filter == . || $filter == *ython* ]]; then
-  PYTHONPATH=build/python:client/python /usr/bin/python3 tests/bench/python_codec_bench.py
+  bash client/python/install-venv.sh build/python-client-venv
+  build/python-client-venv/bin/python tests/bench/python_codec_bench.py
 fi
 # The hostile family's service side is deploy/run-hostile-benchmark.sh, not these e2e rows.
 [[ ${1:-} != *Hostile* ]] || exit 0

@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: Apache-2.0
 """Python client codec: 1 M points encoded into request messages and decoded from result messages,
 with the packed arrays (what client/python sends and asks for) and with the repeated fields, in the
-same run. Run with PYTHONPATH=build/python:client/python (deploy/run-benchmarks.sh does)."""
+same run. Run with the client installed (client/python/install-venv.sh VENV, then VENV/bin/python;
+deploy/run-benchmarks.sh does)."""
 
 import sys
 import time

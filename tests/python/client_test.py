@@ -1,18 +1,19 @@
 # SPDX-License-Identifier: Apache-2.0
 """The Python client (client/python) against a real scanprep-server: the bunny scans from
-../shared/data, a plane with known spikes, and a refused parameter. Run by ctest with
-PYTHONPATH=build/python:client/python and SCANPREP_SERVER set (tests/CMakeLists.txt)."""
+../shared/data, a plane with known spikes, and a refused parameter. Run by ctest with the venv
+that python_client_install made (the installed package) and SCANPREP_SERVER set
+(tests/CMakeLists.txt)."""
 
 import os
 import pathlib
-import re
-import subprocess
 import unittest
 
 import grpc
 import numpy as np
 
 from scanprep_client import Client, Flag, Scan, ScanprepError
+
+from local_server import LocalServer
 
 DATA = pathlib.Path(os.environ.get(
     "SCANPREP_DATA_DIR", pathlib.Path(__file__).resolve().parents[2].parent / "shared" / "data"))
@@ -57,24 +58,8 @@ def spiky_plane():
 class ClientTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.server = subprocess.Popen(
-            [os.environ["SCANPREP_SERVER"], "--listen=127.0.0.1:0", "--plaintext", "--threads=2"],
-            stdout=subprocess.PIPE, text=True)
-        for line in cls.server.stdout:
-            match = re.search(r"listening on port (\d+)", line)
-            if match:
-                cls.target = f"127.0.0.1:{match.group(1)}"
-                break
-        else:
-            raise RuntimeError("scanprep-server did not start")
-        cls.client = Client(cls.target)
-
-    @classmethod
-    def tearDownClass(cls):
-        cls.client.close()
-        cls.server.terminate()
-        cls.server.wait(timeout=30)
-        cls.server.stdout.close()
+        server = cls.enterClassContext(LocalServer())
+        cls.client = cls.enterClassContext(Client(server.target))
 
     def test_bunny_scans_in_one_job(self):
         if not (DATA / "stanford_bunny_range_scans" / "bun.conf").exists():
@@ -106,8 +91,8 @@ class ClientTest(unittest.TestCase):
         plane, rows, spikes = spiky_plane()
         scan = Scan(points=plane.astype(np.float32), scanline=rows, scanline_spacing=0.5,
                     view_direction=(0, 0, 1), uncertainty=0.01)
-        result = self.client.process([scan], stages=["outliers"], include_removed=True,
-                                     chunk_points=4000)
+        result = self.client.process([scan], unit="mm", stages=["outliers"],
+                                     include_removed=True, chunk_points=4000)
         # float32 near zero: no offset, no origin, float32 back, as before origins existed.
         self.assertIsNone(result.origin)
         self.assertEqual(result.points.dtype, np.float32)
@@ -128,7 +113,8 @@ class ClientTest(unittest.TestCase):
         for offset in (np.zeros(3), far):
             scan = Scan(points=centred + offset, scanline=rows, scanline_spacing=0.5,
                         view_direction=(0, 0, 1), uncertainty=0.01)
-            results.append(self.client.process([scan], include_removed=True, timeout=120))
+            results.append(self.client.process([scan], unit="mm", include_removed=True,
+                                               timeout=120))
         near, distant = results
         self.assertIsNone(near.origin)  # float64 near zero: sent as it always was
         np.testing.assert_array_equal(distant.origin, far)
@@ -147,21 +133,22 @@ class ClientTest(unittest.TestCase):
         scan = Scan(points=points, scanline=rows, scanline_spacing=0.5, view_direction=(0, 0, 1),
                     uncertainty=0.01, to_common=((0, 0, np.sin(np.pi / 8), np.cos(np.pi / 8)),
                                                  (100, 200, 300)))
-        result = self.client.process([scan], stages=["outliers"], include_removed=True)
+        result = self.client.process([scan], unit="mm", stages=["outliers"], include_removed=True)
         expected = points @ turn.T + [100, 200, 300]
         self.assertEqual(result.points.dtype, np.float64)
         self.assertLessEqual(np.abs(result.points - expected).max(), 1e-4)
         self.assertLessEqual(set(spikes), set(np.flatnonzero(result.flags & int(Flag.REMOVED))))
         # The caller's own origin near the turned data: the same points, relative to it on the way.
         mine = (346_482_400, 360_624_700, -2_999_700)
-        given = self.client.process([scan], stages=["outliers"], include_removed=True, origin=mine)
+        given = self.client.process([scan], unit="mm", stages=["outliers"], include_removed=True,
+                                    origin=mine)
         np.testing.assert_array_equal(given.origin, mine)
         self.assertLessEqual(np.abs(given.points - expected).max(), 1e-4)
 
     def test_a_refused_parameter_names_its_field(self):
         scan = Scan(points=np.zeros((10, 3), dtype=np.float32))
         with self.assertRaises(ScanprepError) as caught:
-            self.client.process([scan], params={"smoothing.lambda": 7})
+            self.client.process([scan], unit="mm", params={"smoothing.lambda": 7})
         error = caught.exception
         self.assertEqual(error.code, grpc.StatusCode.INVALID_ARGUMENT)
         self.assertEqual(error.field, "header.options.params['smoothing.lambda']")

@@ -1,9 +1,11 @@
 # SPDX-License-Identifier: Apache-2.0
 """Python client of the scanprep service: numpy arrays and scanner metadata in, points, normals,
-flags and the report out. The generated modules (scanprep.v1.scanprep_pb2 and _grpc, google.rpc)
-come from the build (`cmake --build build --target python_stubs`, into build/python): put that
-directory and this one on PYTHONPATH."""
+flags and the report out, with typed errors, a deadline on every call and retries where the
+service asks for them. Install: pip install --no-index --no-build-isolation ./client/python into
+a venv made with --system-site-packages (the build generates the API modules from proto/)."""
 
-from scanprep_client.client import Client, Flag, Result, Scan, ScanprepError, local_origin
+from scanprep_client.client import Client, Flag, Result, Scan, local_origin
+from scanprep_client.errors import ScanprepError
+from scanprep_client.retry import RetryPolicy
 
-__all__ = ["Client", "Flag", "Result", "Scan", "ScanprepError", "local_origin"]
+__all__ = ["Client", "Flag", "Result", "RetryPolicy", "Scan", "ScanprepError", "local_origin"]

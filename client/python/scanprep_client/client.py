@@ -7,17 +7,19 @@ from __future__ import annotations
 import dataclasses
 import enum
 import zlib
-from typing import Callable, Iterator, Mapping, Optional, Sequence
+from typing import Callable, Iterator, Mapping, Optional, Sequence, TypeVar
 
 import grpc
 import numpy as np
 
-from google.rpc import error_details_pb2, status_pb2
 from scanprep.v1 import scanprep_pb2 as pb
 from scanprep.v1 import scanprep_pb2_grpc as pb_grpc
+from scanprep_client.errors import ScanprepError, error_from_rpc
+from scanprep_client.retry import RetryPolicy, call_with_retries
 
 _UNITS = {"mm": pb.LENGTH_UNIT_MILLIMETRE, "m": pb.LENGTH_UNIT_METRE, "um": pb.LENGTH_UNIT_MICROMETRE, "in": pb.LENGTH_UNIT_INCH}
 _CHUNK_POINTS = 32768  # the service's recommended chunk size (GetInfo().limits)
+T = TypeVar("T")
 
 
 class Flag(enum.IntFlag):
@@ -71,15 +73,6 @@ class Result:
     def kept(self) -> np.ndarray:
         """Mask of the points not removed (all of them unless include_removed was asked)."""
         return (self.flags & int(Flag.REMOVED)) == 0
-
-
-class ScanprepError(Exception):
-    """A call the service refused or could not finish: the gRPC code, its message, and the
-    machine-readable reason and offending field from the status details when present."""
-
-    def __init__(self, code: grpc.StatusCode, message: str, reason: str = "", field: str = ""):
-        super().__init__(f"{code.name}: {message}")
-        self.code, self.message, self.reason, self.field = code, message, reason, field
 
 
 def _vec(target, values) -> None:
@@ -224,30 +217,22 @@ def _requests(header: pb.JobHeader, scans: Sequence[Scan], offsets: Sequence[Opt
     yield pb.ProcessRequest(end=pb.StreamEnd(points=len(xyz), crc32=crc))
 
 
-def _error(error: grpc.RpcError) -> ScanprepError:
-    reason = field = ""
-    for key, value in error.trailing_metadata() or ():
-        if key != "grpc-status-details-bin":
-            continue
-        status = status_pb2.Status.FromString(value)
-        for detail in status.details:
-            info, bad = error_details_pb2.ErrorInfo(), error_details_pb2.BadRequest()
-            if detail.Unpack(info):
-                reason = info.reason
-            elif detail.Unpack(bad) and bad.field_violations:
-                field = bad.field_violations[0].field
-    return ScanprepError(error.code(), error.details(), reason, field)
-
-
 class Client:
-    """A channel to one scanprep server (or a load-balanced name)."""
+    """A channel to one scanprep server (or a load-balanced name).
 
-    def __init__(self, target: str, credentials: Optional[grpc.ChannelCredentials] = None):
+    Every call has a deadline, timeout seconds unless the call names its own, shared by all its
+    attempts; a call the service asks to repeat (RetryInfo: queue full, replica shutting down) or
+    that reached no server (UNAVAILABLE) is repeated as retry says (RetryPolicy(max_attempts=1):
+    never). A job is repeated whole: the service keeps nothing of a refused or broken one."""
+
+    def __init__(self, target: str, credentials: Optional[grpc.ChannelCredentials] = None, *,
+                 timeout: float = 300.0, retry: RetryPolicy = RetryPolicy()):
         # Round-robin over every address of the target (ipv4:a:p,b:p or dns:///name:port).
         options = [("grpc.lb_policy_name", "round_robin")]
         self._channel = (grpc.secure_channel(target, credentials, options) if credentials
                          else grpc.insecure_channel(target, options))
         self._stub = pb_grpc.ScanPrepStub(self._channel)
+        self.timeout, self.retry = timeout, retry
 
     def close(self) -> None:
         self._channel.close()
@@ -258,13 +243,22 @@ class Client:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def info(self, timeout: Optional[float] = 10) -> pb.GetInfoResponse:
-        try:
-            return self._stub.GetInfo(pb.GetInfoRequest(), timeout=timeout)
-        except grpc.RpcError as e:
-            raise _error(e) from None
+    def _call(self, attempt: Callable[[float], T], timeout: Optional[float]) -> T:
+        """attempt(seconds left) with the retries and the deadline, its RpcError as a
+        ScanprepError whose cause is the RpcError."""
+        def translated(seconds: float):
+            try:
+                return attempt(seconds)
+            except grpc.RpcError as e:
+                raise error_from_rpc(e) from e
+        return call_with_retries(translated, self.retry,
+                                 self.timeout if timeout is None else timeout)
 
-    def process(self, scans: Sequence[Scan], *, unit: str = "mm",
+    def info(self, timeout: Optional[float] = None) -> pb.GetInfoResponse:
+        return self._call(lambda seconds: self._stub.GetInfo(pb.GetInfoRequest(),
+                                                             timeout=seconds), timeout)
+
+    def process(self, scans: Sequence[Scan], *, unit: str,
                 stages: Optional[Sequence[str]] = None,
                 params: Optional[Mapping[str, object]] = None, include_removed: bool = False,
                 labels: Optional[Mapping[str, str]] = None, budget_seconds: float = 0.0,
@@ -272,8 +266,10 @@ class Client:
                 chunk_points: int = _CHUNK_POINTS,
                 progress: Optional[Callable[[pb.Progress], None]] = None,
                 origin: Optional[Sequence[float]] = None) -> Result:
-        """Runs one job. Raises ScanprepError when the service refuses or fails it, and when the
-        result arrives incomplete or corrupted (its end message's count or CRC-32 disagrees).
+        """Runs one job. unit ("mm", "m", "um", "in") is required, as in the API: a scan in metres
+        read as millimetres would be processed with every length 1000 times off. Raises
+        ScanprepError when the service refuses or fails it, and when the result arrives
+        incomplete or corrupted (its end message's count or CRC-32 disagrees).
 
         origin (common frame, job unit): the service's local zero; None = the first sent
         points_offset in the common frame, or none when no scan has one (the job is then sent as
@@ -283,42 +279,48 @@ class Client:
                   else np.asarray(origin, dtype=np.float64).reshape(3))
         header = _header(scans, offsets, origin, unit, stages, params, include_removed, labels,
                          budget_seconds, job_id)
-        parts: dict[str, list[bytes]] = {"xyz": [], "normal": [], "scan_index": []}
-        flags: list[bytes] = []
-        report = end = None
-        crc = 0
-        try:
-            for response in self._stub.Process(_requests(header, scans, offsets, chunk_points),
-                                               timeout=timeout):
-                kind = response.WhichOneof("kind")
-                if kind == "points":
-                    chunk = response.points
-                    for name in ("xyz", "scan_index", "scanline", "quality", "intensity",
-                                 "normal"):
-                        data = getattr(chunk, f"{name}_packed")
-                        crc = zlib.crc32(data, crc)
-                        if name in parts and data:
-                            parts[name].append(data)
-                    crc = zlib.crc32(chunk.flags, crc)
-                    flags.append(chunk.flags)
-                elif kind == "report":
-                    report = response.report
-                elif kind == "end":
-                    end = response.end
-                elif kind == "progress" and progress is not None:
-                    progress(response.progress)
-        except grpc.RpcError as e:
-            raise _error(e) from None
-        points = np.frombuffer(b"".join(parts["xyz"]), dtype="<f4").reshape(-1, 3)
-        if report is None or end is None or end.points != len(points) or end.crc32 != crc:
-            raise ScanprepError(grpc.StatusCode.DATA_LOSS,
-                                f"the result arrived incomplete or corrupted: {len(points)} "
-                                f"points, end message {end}")
-        normals = (np.frombuffer(b"".join(parts["normal"]), dtype="<f4").reshape(-1, 3)
-                   if parts["normal"] else None)
-        if origin is not None:  # the service's local coordinates, back in the caller's frame
-            points = points.astype(np.float64) + origin
-        return Result(points=points, normals=normals,
-                      flags=np.frombuffer(b"".join(flags), dtype=np.uint8),
-                      scan_index=np.frombuffer(b"".join(parts["scan_index"]), dtype="<u4"),
-                      report=report, origin=origin)
+
+        def attempt(seconds: float) -> Result:
+            responses = self._stub.Process(_requests(header, scans, offsets, chunk_points),
+                                           timeout=seconds)
+            return _result(responses, origin, progress)
+        return self._call(attempt, timeout)
+
+
+def _result(responses: Iterator[pb.ProcessResponse], origin: Optional[np.ndarray],
+            progress: Optional[Callable[[pb.Progress], None]]) -> Result:
+    """The Result of one job's response stream, its checksum verified."""
+    parts: dict[str, list[bytes]] = {"xyz": [], "normal": [], "scan_index": []}
+    flags: list[bytes] = []
+    report = end = None
+    crc = 0
+    for response in responses:
+        kind = response.WhichOneof("kind")
+        if kind == "points":
+            chunk = response.points
+            for name in ("xyz", "scan_index", "scanline", "quality", "intensity", "normal"):
+                data = getattr(chunk, f"{name}_packed")
+                crc = zlib.crc32(data, crc)
+                if name in parts and data:
+                    parts[name].append(data)
+            crc = zlib.crc32(chunk.flags, crc)
+            flags.append(chunk.flags)
+        elif kind == "report":
+            report = response.report
+        elif kind == "end":
+            end = response.end
+        elif kind == "progress" and progress is not None:
+            progress(response.progress)
+    points = np.frombuffer(b"".join(parts["xyz"]), dtype="<f4").reshape(-1, 3)
+    if report is None or end is None or end.points != len(points) or end.crc32 != crc:
+        raise ScanprepError(grpc.StatusCode.DATA_LOSS,
+                            f"the result arrived incomplete or corrupted: {len(points)} "
+                            f"points, end message {end}")
+    normals = (np.frombuffer(b"".join(parts["normal"]), dtype="<f4").reshape(-1, 3)
+               if parts["normal"] else None)
+    if origin is not None:  # the service's local coordinates, back in the caller's frame
+        points = points.astype(np.float64) + origin
+    return Result(points=points, normals=normals,
+                  flags=np.frombuffer(b"".join(flags), dtype=np.uint8),
+                  scan_index=np.frombuffer(b"".join(parts["scan_index"]), dtype="<u4"),
+                  report=report, origin=origin)
