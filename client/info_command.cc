@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // `scanprep info`: what the server offers (GetInfo), readably or as JSON.
 #include <iostream>
+#include <map>
+#include <string>
 
 #include <google/protobuf/util/json_util.h>
 
@@ -80,6 +82,15 @@ int RunInfo(const ParsedArgs& args) {
               << (p.default_derived() ? "derived default: " : "default ") << p.default_value()
               << "\n      " << p.description() << "\n";
   }
+  std::cout << "\npresets (choose with --preset name; --param overrides them):\n";
+  for (const v1::PresetInfo& preset : info->presets()) {
+    // protobuf's map has no order: sorted, so that the listing is stable.
+    const std::map<std::string, std::string> params(preset.params().begin(), preset.params().end());
+    std::cout << "  " << preset.name() << (preset.built_in() ? " (built-in)" : "") << "  "
+              << (params.empty() ? "no overrides"
+                                 : absl::StrJoin(params, " ", absl::PairFormatter("=")))
+              << "\n      " << preset.description() << "\n";
+  }
   return 0;
 }
 
@@ -95,7 +106,7 @@ Command InfoCommand() {
       .name = "info",
       .synopsis =
           "info [--server HOST:PORT] [--json] [--tls_ca CA.pem [--tls_cert C.pem --tls_key K.pem]]",
-      .summary = "show the server's version, limits, stages and parameters",
+      .summary = "show the server's version, limits, stages, parameters and presets",
       .flags = std::move(flags),
       .run = RunInfo,
   };

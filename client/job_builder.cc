@@ -106,6 +106,7 @@ absl::Status ApplyOptionFlags(const ParsedArgs& args, v1::JobHeader& header) {
     }
     (*options->mutable_params())[param.substr(0, eq)] = param.substr(eq + 1);
   }
+  if (args.Has("preset")) options->set_preset(args.Get("preset"));
   if (args.Bool("include_removed")) options->set_include_removed(true);
   for (const char* flag : {"scanline_spacing", "uncertainty"}) {
     if (!args.Has(flag)) continue;
@@ -156,6 +157,8 @@ std::vector<FlagSpec> JobFlags() {
        "scanalyze .conf with each file's pose (sent as to_common; the server applies it)"},
       {"stages", FlagSpec::kValue, "comma-separated stage list (see `scanprep info`)"},
       {"param", FlagSpec::kRepeated, "parameter override name=value"},
+      {"preset", FlagSpec::kValue,
+       "named parameter set (see `scanprep info`), e.g. paper or metrology; --param overrides it"},
       {"scanline_spacing", FlagSpec::kValue, "scanline spacing of every scan, job unit"},
       {"profile_gap", FlagSpec::kValue,
        "text scan files (.xyz, .asc, .txt, .pts) written profile by profile: a jump longer than "

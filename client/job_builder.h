@@ -30,8 +30,8 @@ absl::StatusOr<scanprep::v1::JobHeader> ReadJobFile(const std::string& path);
 // The flags BuildJob reads, for the commands that build a job (process, load).
 std::vector<FlagSpec> JobFlags();
 
-// Flags used: --job, --conf, --unit, --stages, --param, --include_removed, --scanline_spacing,
-// --uncertainty; positional arguments are the scan files.
+// Flags used: --job, --conf, --unit, --stages, --param, --preset, --include_removed,
+// --scanline_spacing, --uncertainty; positional arguments are the scan files.
 // The scan arguments' formats, before anything is read: a file's by its extension, "-"
 // (standard input, at most once) by --input_format. INVALID_ARGUMENT: a usage error.
 absl::StatusOr<std::vector<io::ScanFormat>> ScanArgumentFormats(const ParsedArgs& args);

@@ -249,6 +249,13 @@ void ParamSpecToProto(const ParamSpec& spec, v1::ParameterInfo* out) {
   out->set_at_most(spec.at_most);
 }
 
+void PresetToProto(const Preset& preset, v1::PresetInfo* out) {
+  out->set_name(preset.name);
+  out->set_description(preset.description);
+  out->mutable_params()->insert(preset.params.begin(), preset.params.end());
+  out->set_built_in(preset.built_in);
+}
+
 void ResultChunk(const PointCloud& cloud, const std::vector<uint32_t>& indices, size_t begin,
                  size_t end, double mm_per_unit, v1::PointChunk* out) {
   const size_t n = end - begin;

@@ -12,6 +12,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/pipeline/pipeline.h"
+#include "core/pipeline/presets.h"
 #include "core/pipeline/report.h"
 #include "core/point_cloud.h"
 #include "scanprep/v1/scanprep.pb.h"
@@ -92,6 +93,9 @@ void ReportToProto(const PipelineReport& report, v1::Report* out);
 
 // A parameter's declaration as GetInfo() lists it: kind, default and valid range.
 void ParamSpecToProto(const ParamSpec& spec, v1::ParameterInfo* out);
+
+// A preset as GetInfo() lists it: its name, description and overrides.
+void PresetToProto(const Preset& preset, v1::PresetInfo* out);
 
 // Writes points [begin, end) of `indices` into `out`, coordinates (relative to the job's origin)
 // divided by `mm_per_unit`.

@@ -110,6 +110,12 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
   job_.packed_results = header.result_arrays() == v1::ARRAY_ENCODING_PACKED;
   job_.options = OptionsFromHeader(header, limits_.default_budget_seconds,
                                    limits_.default_stage_budget_seconds);
+  // The preset is resolved first, so that its values are validated, estimated and reported like
+  // the job's own.
+  auto params = ResolvePreset(*limits_.presets, header.options().preset(), job_.options.params);
+  if (!params.ok()) return OptionsError(params.status());
+  job_.options.params = *std::move(params);
+  job_.preset = header.options().preset();
   if (absl::Status s = ValidateOptions(job_.options); !s.ok()) return OptionsError(s);
 
   SCANPREP_ASSIGN_OR_RETURN(const Eigen::Vector3d origin_mm, OriginFromProto(header, *mm));
@@ -161,6 +167,8 @@ absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
     }
   }
   SCANPREP_RETURN_IF_ERROR(CheckString("header.job_id", "the job id", header.job_id()));
+  SCANPREP_RETURN_IF_ERROR(
+      CheckString("header.options.preset", "the preset name", header.options().preset()));
   for (int i = 0; i < header.scans_size(); ++i) {
     if (auto s = CheckString(absl::StrCat("header.scans[", i, "].scan_id"), "the scan id",
                              header.scans(i).scan_id());

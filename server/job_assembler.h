@@ -6,12 +6,14 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "core/pipeline/pipeline.h"
+#include "core/pipeline/presets.h"
 #include "core/point_cloud.h"
 #include "proto/stream_checksum.h"
 #include "scanprep/v1/scanprep.pb.h"
@@ -40,6 +42,9 @@ struct JobLimits {
   uint32_t max_scans_per_job = 1'000;
   double default_budget_seconds = 0;
   std::map<std::string, double> default_stage_budget_seconds;
+  // What JobHeader.options.preset may name (presets_file.h); shared, not copied, by every call.
+  std::shared_ptr<const std::vector<Preset>> presets =
+      std::make_shared<const std::vector<Preset>>(BuiltinPresets());
 };
 
 struct AssembledJob {
@@ -53,6 +58,7 @@ struct AssembledJob {
   std::vector<std::string> warnings;
   std::map<std::string, std::string> labels;
   bool packed_results = false;  // header.result_arrays = ARRAY_ENCODING_PACKED
+  std::string preset;           // header.options.preset; its values are in options.params
 };
 
 class JobAssembler {

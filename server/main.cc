@@ -30,6 +30,7 @@
 #include "core/status_macros.h"
 #include "server/budget_config.h"
 #include "server/memory_budget.h"
+#include "server/presets_file.h"
 #include "server/scanprep_server.h"
 #include "server/transport_security.h"
 
@@ -89,6 +90,9 @@ ABSL_FLAG(std::string, stage_budgets, "",
 ABSL_FLAG(std::string, budget_config, "",
           "file of default budgets, one 'stage seconds' per line ('total seconds' for the whole "
           "pipeline, '#' comments)");
+ABSL_FLAG(std::string, presets_file, "",
+          "file of parameter presets per scanner model, one '[name]' section each with "
+          "'parameter = value' lines; validated at startup; jobs name one in options.preset");
 ABSL_FLAG(absl::Duration, header_timeout, absl::Seconds(10),
           "a Process call whose header has not arrived this long after it started is cancelled");
 ABSL_FLAG(absl::Duration, idle_timeout, absl::Seconds(30),
@@ -183,8 +187,15 @@ int main(int argc, char** argv) {
     std::cerr << "scanprep-server: " << transport.status().message() << "\n";
     return 1;
   }
+  auto presets = scanprep::server::LoadPresets(absl::GetFlag(FLAGS_presets_file));
+  if (!presets.ok()) {
+    std::cerr << "scanprep-server: --presets_file: " << presets.status().message() << "\n";
+    return 1;
+  }
   scanprep::server::ServerOptions options;
   options.credentials = transport->credentials;
+  options.limits.presets =
+      std::make_shared<const std::vector<scanprep::Preset>>(*std::move(presets));
   options.log = &std::cerr;
   options.listen = absl::GetFlag(FLAGS_listen);
   options.metrics_listen = absl::GetFlag(FLAGS_metrics_listen);

@@ -349,6 +349,7 @@ void ScanPrepService::FillReport(const AssembledJob& job, const PipelineReport& 
   for (const std::string& w : job.warnings) report.add_warnings(w);
   ReportToProto(result, &report);
   report.mutable_labels()->insert(job.labels.begin(), job.labels.end());
+  report.set_preset(job.preset);
   report.set_server_version(SCANPREP_VERSION);
   *report.mutable_started() = TimeUtil::NanosecondsToTimestamp(absl::ToUnixNanos(record.start));
   *report.mutable_finished() = TimeUtil::NanosecondsToTimestamp(absl::ToUnixNanos(absl::Now()));
@@ -385,6 +386,7 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
                            defaults.end());
   }
   for (const ParamSpec& spec : AllParamSpecs()) ParamSpecToProto(spec, info->add_parameters());
+  for (const Preset& preset : *limits_.presets) PresetToProto(preset, info->add_presets());
   info->set_default_budget_seconds(limits_.default_budget_seconds);
   for (const auto& [stage, seconds] : limits_.default_stage_budget_seconds) {
     (*info->mutable_default_stage_budget_seconds())[stage] = seconds;
