@@ -24,6 +24,7 @@
 #include "core/io/e57_xml.h"
 #include "core/io/local_frame.h"
 #include "core/io/read_file.h"
+#include "core/io/unmeasured_points.h"
 #include "core/status_macros.h"
 
 namespace scanprep::io {
@@ -306,7 +307,6 @@ struct ScanPoints {
   std::vector<float> intensity;
   std::vector<uint32_t> line;  // empty without a grid
   bool has_intensity = false;
-  uint64_t invalid = 0;
 };
 
 const std::vector<double>* Column(const std::vector<Field>& fields,
@@ -348,10 +348,13 @@ absl::StatusOr<std::vector<uint32_t>> GridLines(const std::vector<double>& row,
   return order;
 }
 
-// The scan's valid points, moved by its pose in double, are appended to `positions`.
+// The scan's valid points, moved by its pose in double, are appended to `positions`; the others
+// are counted in `unmeasured` as records of `label`.
 absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size,
                                     const XmlNode& scan, const Pose& pose, const std::string& what,
-                                    WideCoordinates& positions, std::vector<std::string>& unused) {
+                                    const std::string& label, WideCoordinates& positions,
+                                    UnmeasuredPoints& unmeasured,
+                                    std::vector<std::string>& unused) {
   const XmlNode* points = scan.Child("points");
   if (points == nullptr || points->Attribute("type") != "CompressedVector") {
     return absl::InvalidArgumentError(absl::StrCat(what, ": no points (CompressedVector)"));
@@ -430,7 +433,7 @@ absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size
       p = {r * std::cos(e) * std::cos(a), r * std::cos(e) * std::sin(a), r * std::sin(e)};
     }
     if ((invalid && (*invalid)[i] != 0) || !p.allFinite()) {
-      ++out.invalid;
+      unmeasured.Count(i, label);
       continue;
     }
     // Kept in double: a georeferenced pose (a UTM easting of 5e5 m) would leave float a 3 cm
@@ -500,7 +503,7 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
   WideCoordinates positions;
   std::vector<ScanPoints> scans;
   std::vector<std::string> unused, no_pose;
-  uint64_t invalid = 0;
+  UnmeasuredPoints unmeasured("record");
   for (size_t s = 0; s < data3d->children.size(); ++s) {
     const XmlNode& node = data3d->children[s];
     const XmlNode* title = node.Child("name");
@@ -513,9 +516,10 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
     } else {
       no_pose.push_back(meta.id);
     }
-    SCANPREP_ASSIGN_OR_RETURN(ScanPoints points,
-                              ReadScan(logical, page_size, node, pose, what, positions, unused));
-    invalid += points.invalid;
+    SCANPREP_ASSIGN_OR_RETURN(
+        ScanPoints points,
+        ReadScan(logical, page_size, node, pose, what, absl::StrCat("scan ", s, " '", meta.id, "'"),
+                 positions, unmeasured, unused));
     cloud.scans.push_back(std::move(meta));
     scans.push_back(std::move(points));
   }
@@ -544,9 +548,7 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
     }
     p = {};
   }
-  if (cloud.scan.empty()) {
-    return absl::InvalidArgumentError(absl::StrCat(name, ": no valid point in any scan"));
-  }
+  SCANPREP_RETURN_IF_ERROR(unmeasured.Finish(name, cloud.scan.size(), warnings));
   SCANPREP_RETURN_IF_ERROR(positions.Narrow(cloud, name));
   // Positions, like the points, are relative to the cloud's origin.
   for (ScanMeta& meta : cloud.scans) {
@@ -556,11 +558,6 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
       return absl::InvalidArgumentError(absl::StrCat(
           name, ": scan '", meta.id, "' pose translation is beyond double's range of the points"));
     }
-  }
-  if (invalid > 0) {
-    warnings.push_back(absl::StrCat(name, ": ", invalid,
-                                    " points without a valid position (E57 invalid state) left "
-                                    "out"));
   }
   if (!no_pose.empty()) {
     warnings.push_back(absl::StrCat(name, ": no pose (scanner origin) for ",

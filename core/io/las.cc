@@ -15,6 +15,7 @@
 #include "core/io/float_narrowing.h"
 #include "core/io/local_frame.h"
 #include "core/io/read_file.h"
+#include "core/io/unmeasured_points.h"
 #include "core/status_macros.h"
 
 namespace scanprep::io {
@@ -124,7 +125,8 @@ absl::StatusOr<PointCloud> ReadLasBytes(std::string_view file, const std::string
                      offset, " but the point data holds ", end - offset, " bytes (", room,
                      " points): wrong count (counts disagree)"));
   }
-  if (count == 0) return absl::InvalidArgumentError(absl::StrCat(name, ": no points"));
+  // Integer coordinates are always a measurement; an empty file fails as in every reader.
+  if (count == 0) return NoPointsError(name);
   double scale[3], shift[3];
   for (int k = 0; k < 3; ++k) {
     scale[k] = Load<double>(h + 131 + 8 * k);

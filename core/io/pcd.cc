@@ -22,6 +22,7 @@
 #include "core/io/pcd_header.h"
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
+#include "core/io/unmeasured_points.h"
 #include "core/status_macros.h"
 
 namespace scanprep::io {
@@ -229,7 +230,7 @@ void Reserve(const Header& header, const Layout& layout, PointCloud& cloud) {
 // Reads every point from `source`, keeping those with finite coordinates.
 template <class Source>
 absl::Status ReadPoints(const Header& header, const Layout& layout, Source& source,
-                        PointCloud& cloud, WideCoordinates* wide, uint64_t& invalid) {
+                        PointCloud& cloud, WideCoordinates* wide, UnmeasuredPoints& invalid) {
   const bool normals = layout.field[kNx].has_value();
   const bool intensity = layout.field[kIntensity].has_value();
   const bool flags = layout.field[kFlags].has_value();
@@ -250,7 +251,7 @@ absl::Status ReadPoints(const Header& header, const Layout& layout, Source& sour
             ? std::isfinite(raw[kX]) && std::isfinite(raw[kY]) && std::isfinite(raw[kZ])
             : std::isfinite(value[kX]) && std::isfinite(value[kY]) && std::isfinite(value[kZ]);
     if (!measured) {
-      ++invalid;
+      invalid.Count(i);
       continue;
     }
     if (wide != nullptr) {
@@ -326,18 +327,12 @@ absl::StatusOr<std::string> Decompress(std::string_view body, const Header& head
   return out;
 }
 
-void AddMetadataWarnings(const Header& header, const Layout& layout, uint64_t invalid,
-                         const std::string& name, PointCloud& cloud,
-                         std::vector<std::string>& warnings) {
+void AddMetadataWarnings(const Header& header, const Layout& layout, const std::string& name,
+                         PointCloud& cloud, std::vector<std::string>& warnings) {
   if (!layout.unused.empty()) {
     warnings.push_back(absl::StrCat(
         name, ": fields not used: ", absl::StrJoin(layout.unused, ", "),
         " (scanprep reads x y z, normal_x/y/z, intensity, and its own flags and scanline)"));
-  }
-  if (invalid > 0) {
-    warnings.push_back(absl::StrCat(
-        name, ": ", invalid, " of ", header.points,
-        " points have a NaN or infinite coordinate (no measurement) and were left out"));
   }
   constexpr std::array<double, 7> kPclDefault = {0, 0, 0, 1, 0, 0, 0};
   if (!header.viewpoint || *header.viewpoint == kPclDefault) {
@@ -362,7 +357,7 @@ absl::StatusOr<PointCloud> ParsePcd(std::string_view data, const std::string& na
   PointCloud cloud;
   // ParseHeader bounded POINTS by the body (binary_compressed: Decompress does, below).
   if (header->data != Data::kBinaryCompressed) Reserve(*header, *layout, cloud);
-  uint64_t invalid = 0;
+  UnmeasuredPoints invalid("point");
   // F8 coordinates can hold a position far from zero to a precision float cannot.
   const bool double_coordinates =
       std::any_of(layout->field.begin(), layout->field.begin() + 3, [&](const auto& f) {
@@ -387,13 +382,9 @@ absl::StatusOr<PointCloud> ParsePcd(std::string_view data, const std::string& na
   }
   if (status.ok() && wide != nullptr) status = wide->Narrow(cloud, name);
   if (!status.ok()) return status;
-  if (header->points > 0 && invalid == header->points) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(name, ": all ", header->points,
-                     " points have a NaN or infinite coordinate: no valid point"));
-  }
+  SCANPREP_RETURN_IF_ERROR(invalid.Finish(name, cloud.size(), warnings));
   cloud.scans.push_back(ScanMeta{.id = std::filesystem::path(name).stem().string()});
-  AddMetadataWarnings(*header, *layout, invalid, name, cloud, warnings);
+  AddMetadataWarnings(*header, *layout, name, cloud, warnings);
   cloud.FinishLoading(std::exchange(cloud.flags, {}));
   return cloud;
 }

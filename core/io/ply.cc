@@ -17,6 +17,7 @@
 #include "core/io/ply_header.h"
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
+#include "core/io/unmeasured_points.h"
 #include "core/status_macros.h"
 
 namespace scanprep::io {
@@ -383,17 +384,9 @@ class VertexBuilder {
         cloud_.scans.push_back(ScanMeta{.id = absl::StrCat(stem, ":", k)});
     }
     cloud_.FinishLoading(std::move(flags_));
-    if (const uint64_t unmeasured = DropUnmeasured(); unmeasured > 0) {
-      if (cloud_.size() == 0) {
-        return absl::InvalidArgumentError(
-            absl::StrCat(name, ": all ", unmeasured,
-                         " vertices have a NaN or infinite coordinate: no valid point"));
-      }
-      warnings.push_back(
-          absl::StrCat(name, ": ", unmeasured, " of ", count_,
-                       " vertices have a NaN or infinite coordinate (no measurement) "
-                       "and were left out"));
-    }
+    UnmeasuredPoints unmeasured("vertex");
+    DropUnmeasured(unmeasured);
+    SCANPREP_RETURN_IF_ERROR(unmeasured.Finish(name, cloud_.size(), warnings));
     return std::move(cloud_);
   }
 
@@ -412,16 +405,18 @@ class VertexBuilder {
                : "coordinate beyond the range of a float";
   }
 
-  // Leaves out the vertices without a position, every per-point array alike; returns how many.
-  uint64_t DropUnmeasured() {
+  // Leaves out the vertices without a position, every per-point array alike, counting them.
+  void DropUnmeasured(UnmeasuredPoints& unmeasured) {
     const size_t n = cloud_.size();
     std::vector<uint32_t> kept;
     for (uint32_t i = 0; i < n; ++i) {
       if (std::isfinite(cloud_.x[i]) && std::isfinite(cloud_.y[i]) && std::isfinite(cloud_.z[i])) {
         kept.push_back(i);
+      } else {
+        unmeasured.Count(i);
       }
     }
-    if (kept.size() == n) return 0;
+    if (kept.size() == n) return;
     auto compact = [&](auto& values) {
       if (values.empty()) return;
       for (size_t k = 0; k < kept.size(); ++k) values[k] = values[kept[k]];
@@ -430,7 +425,6 @@ class VertexBuilder {
     compact(cloud_.x), compact(cloud_.y), compact(cloud_.z), compact(cloud_.scan);
     compact(cloud_.scanline), compact(cloud_.quality), compact(cloud_.intensity);
     compact(cloud_.nx), compact(cloud_.ny), compact(cloud_.nz), compact(cloud_.flags);
-    return n - kept.size();
   }
 
   PointCloud cloud_;

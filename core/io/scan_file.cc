@@ -38,7 +38,7 @@ absl::StatusOr<PointCloud> ReadAs(ScanFormat format, std::vector<std::string>& w
     case ScanFormat::kLas:
       return ReadLas(std::forward<Source>(source)..., warnings);
     case ScanFormat::kXyz:
-      return ReadXyz(std::forward<Source>(source)..., options.profile_gap);
+      return ReadXyz(std::forward<Source>(source)..., warnings, options.profile_gap);
   }
   return absl::InternalError("unknown scan format");
 }

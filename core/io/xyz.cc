@@ -12,6 +12,7 @@
 #include "core/io/local_frame.h"
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
+#include "core/io/unmeasured_points.h"
 #include "core/status_macros.h"
 
 namespace scanprep::io {
@@ -80,7 +81,7 @@ void SplitProfiles(PointCloud& cloud, double gap) {
 }
 
 absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& name,
-                                    double profile_gap) {
+                                    std::vector<std::string>& warnings, double profile_gap) {
   if (!(profile_gap >= 0.0) || !std::isfinite(profile_gap)) {
     return absl::InvalidArgumentError(
         absl::StrCat("profile_gap must be a finite value >= 0, got ", profile_gap));
@@ -93,6 +94,7 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
   std::string_view line;
   Columns columns;
   WideCoordinates wide;
+  UnmeasuredPoints unmeasured("line");
   while (cursor.Next(line)) {
     if (first_data_line) {
       auto named = ParseColumns(line, name, cursor.line_number());
@@ -141,6 +143,13 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
     for (int k = 0; k < 3; ++k) {
       const int column = k == 0 ? columns.x : k == 1 ? columns.y : columns.z;
       SCANPREP_RETURN_IF_ERROR(number(column, xyz[k]));
+    }
+    if (!std::isfinite(xyz[0]) || !std::isfinite(xyz[1]) || !std::isfinite(xyz[2])) {
+      unmeasured.Count(cursor.line_number());  // "nan" or "inf" as written: no return
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) {
+      const int column = k == 0 ? columns.x : k == 1 ? columns.y : columns.z;
       if (!std::isfinite(NarrowToFloat(xyz[k]))) {
         return absl::InvalidArgumentError(absl::StrCat(name, ": line ", cursor.line_number(),
                                                        ": column ", column + 1,
@@ -164,10 +173,12 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
     }
   }
   SCANPREP_RETURN_IF_ERROR(wide.Narrow(cloud, name));
-  if (declared_count && *declared_count != cloud.size()) {
+  const uint64_t rows = cloud.size() + unmeasured.count();
+  if (declared_count && *declared_count != rows) {
     return absl::InvalidArgumentError(absl::StrCat(name, ": first line declares ", *declared_count,
-                                                   " points but the file has ", cloud.size()));
+                                                   " points but the file has ", rows));
   }
+  SCANPREP_RETURN_IF_ERROR(unmeasured.Finish(name, cloud.size(), warnings));
   if (profile_gap > 0.0 && columns.scanline < 0) SplitProfiles(cloud, profile_gap);
   cloud.scans.push_back(ScanMeta{.id = std::filesystem::path(name).stem().string()});
   cloud.FinishLoading(std::exchange(cloud.flags, {}));
@@ -176,17 +187,18 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
 
 }  // namespace
 
-absl::StatusOr<PointCloud> ReadXyz(const std::filesystem::path& path, double profile_gap) {
+absl::StatusOr<PointCloud> ReadXyz(const std::filesystem::path& path,
+                                   std::vector<std::string>& warnings, double profile_gap) {
   absl::StatusOr<std::string> text = ReadFileToString(path);
   if (!text.ok()) return text.status();
-  return ParseXyz(*text, path.string(), profile_gap);
+  return ParseXyz(*text, path.string(), warnings, profile_gap);
 }
 
 absl::StatusOr<PointCloud> ReadXyz(std::istream& in, const std::string& name_for_errors,
-                                   double profile_gap) {
+                                   std::vector<std::string>& warnings, double profile_gap) {
   absl::StatusOr<std::string> text = ReadStreamToString(in, name_for_errors);
   if (!text.ok()) return text.status();
-  return ParseXyz(*text, name_for_errors, profile_gap);
+  return ParseXyz(*text, name_for_errors, warnings, profile_gap);
 }
 
 }  // namespace scanprep::io

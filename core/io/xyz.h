@@ -6,6 +6,7 @@
 #include <istream>
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "core/io/cloud_writer.h"
@@ -20,10 +21,13 @@ namespace scanprep::io {
 // holding a single integer is taken as a point count (Leica PTS) and checked. When profile_gap > 0
 // the file order is taken as the scan order and a jump longer than profile_gap between consecutive
 // points starts a new scanline; otherwise the cloud has no scanlines. Coordinates stay in the
-// file's units. One scan, id = file stem; FinishLoading() has been called.
-absl::StatusOr<PointCloud> ReadXyz(const std::filesystem::path& path, double profile_gap = 0.0);
+// file's units. One scan, id = file stem; FinishLoading() has been called. A row with a NaN or
+// infinite coordinate ("nan", "inf") is left out and counted in `warnings`; no point is an error
+// (UnmeasuredPoints, as in every reader).
+absl::StatusOr<PointCloud> ReadXyz(const std::filesystem::path& path,
+                                   std::vector<std::string>& warnings, double profile_gap = 0.0);
 absl::StatusOr<PointCloud> ReadXyz(std::istream& in, const std::string& name_for_errors,
-                                   double profile_gap = 0.0);
+                                   std::vector<std::string>& warnings, double profile_gap = 0.0);
 
 // "# columns: x y z [nx ny nz] flags [scanline]", then one point per line, floats to nine
 // significant digits (read back exactly). Removed points are skipped unless include_removed.

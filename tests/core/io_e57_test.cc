@@ -241,7 +241,10 @@ TEST(E57, TwoScansCartesianScaledAndSphericalWithPoses) {
     EXPECT_EQ(cloud->scan[k], 1u);
   }
   EXPECT_FALSE(cloud->has_scanlines());
-  EXPECT_THAT(warnings, ::testing::Contains(HasSubstr("1 points without a valid position")));
+  EXPECT_THAT(warnings, ::testing::Contains(HasSubstr(
+                            "1 of 1200 points have no measurement (a NaN or infinite coordinate, "
+                            "or an invalid state) and were left out; the first is record 500 of "
+                            "scan 0 'front'")));
   EXPECT_THAT(warnings, ::testing::Contains(HasSubstr("no pose (scanner origin) for side")));
   EXPECT_THAT(warnings, ::testing::Contains(HasSubstr("fields not used: colorRed")));
 }
@@ -323,6 +326,21 @@ TEST(E57, PosesFarFromZeroKeepFullPrecision) {
 
 // A grid written column by column (a terrestrial scanner's vertical sweeps): each column is a
 // scanline, its points in row order, whatever order the records came in within it.
+// Every point of the file without a position (NaN, or its invalid state set): refused as any
+// reader refuses a file with no point, the first one's place named.
+TEST(E57, NoMeasuredPointIsNoPointInTheFile) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  Scan nan_scan{
+      .name = "holes",
+      .columns = {Doubles("cartesianX", {nan, 1}), Doubles("cartesianY", {0, 2}),
+                  Doubles("cartesianZ", {0, 3}), Integers("cartesianInvalidState", {0, 2}, 0, 2)},
+      .records = 2};
+  std::vector<std::string> warnings;
+  EXPECT_EQ(Read(E57File({nan_scan}), warnings).status().message(),
+            "test.e57: no points in the file: all 2 have no measurement (a NaN or infinite "
+            "coordinate, or an invalid state); the first is record 0 of scan 0 'holes'");
+}
+
 TEST(E57, GridColumnsBecomeScanlinesInRowOrder) {
   std::vector<double> x, y, z;
   std::vector<int64_t> rows, cols;

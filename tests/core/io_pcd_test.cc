@@ -216,13 +216,16 @@ TEST(Pcd, OrganisedCloudDropsNaNCellsLoudlyAndKeepsRowsAsScanlines) {
   ASSERT_EQ(r.cloud->size(), 4u);
   EXPECT_EQ(r.cloud->point(1), Eigen::Vector3f(points[2].x, points[2].y, points[2].z));
   EXPECT_EQ(r.cloud->scanline, (std::vector<uint32_t>{0, 0, 1, 1}));
-  EXPECT_TRUE(HasWarning(r, "2 of 6 points have a NaN or infinite coordinate"));
+  EXPECT_TRUE(HasWarning(r,
+                         "2 of 6 points have no measurement (a NaN or infinite coordinate, or "
+                         "an invalid state) and were left out; the first is point 1"));
 }
 
 TEST(Pcd, NoValidPointIsAnError) {
   const Read r = Parse("FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nDATA ascii\nnan nan nan\n");
   ASSERT_FALSE(r.cloud.ok());
-  EXPECT_NE(r.cloud.status().message().find("all 1 points have a NaN"), std::string::npos)
+  EXPECT_NE(r.cloud.status().message().find("no points in the file: all 1 have no measurement"),
+            std::string::npos)
       << r.cloud.status();
 }
 
@@ -339,7 +342,7 @@ TEST(PcdSharedData, OrganisedStereoTableScene) {
       ReadPcd(dir / "pcl_table_scene_mug_stereo/table_scene_mug_stereo_textured.pcd", r.warnings);
   ASSERT_TRUE(r.cloud.ok()) << r.cloud.status();
   ASSERT_EQ(r.cloud->size(), 209280u);
-  EXPECT_TRUE(HasWarning(r, "97920 of 307200 points have a NaN"));
+  EXPECT_TRUE(HasWarning(r, "97920 of 307200 points have no measurement"));
   EXPECT_TRUE(HasWarning(r, "fields not used: rgba"));
   std::vector<uint32_t> rows = r.cloud->scanline;
   EXPECT_TRUE(std::is_sorted(rows.begin(), rows.end()));

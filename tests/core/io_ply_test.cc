@@ -284,7 +284,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadInput{"CoordinateBeyondFloat", kAscii + kTwoVertices + "end_header\n1 1e300 3\n4 5 6\n",
                  "line 8: vertex 0: 'y' value 1e+300: coordinate beyond the range of a float"},
         BadInput{"NoVertexMeasured", kAscii + kTwoVertices + "end_header\n1 nan 3\ninf 5 6\n",
-                 "all 2 vertices have a NaN or infinite coordinate: no valid point"},
+                 "bad.ply: no points in the file: all 2 have no measurement (a NaN or infinite "
+                 "coordinate, or an invalid state); the first is vertex 0"},
         BadInput{"ListTooLong",
                  kAscii + kTwoVertices +
                      "element face 1\nproperty list uchar int vertex_indices\n" + kBody +
@@ -328,8 +329,8 @@ TEST(Ply, NanVerticesAreLeftOutAndCounted) {
   EXPECT_EQ(cloud->scan.size(), 2u);
   ASSERT_EQ(warnings.size(), 1u);
   EXPECT_EQ(warnings[0],
-            "holes.ply: 2 of 4 vertices have a NaN or infinite coordinate (no measurement) and "
-            "were left out");
+            "holes.ply: 2 of 4 points have no measurement (a NaN or infinite coordinate, or an "
+            "invalid state) and were left out; the first is vertex 1");
 }
 
 TEST(Ply, MissingFileIsNotFound) {

@@ -57,7 +57,7 @@ absl::StatusOr<PointCloud> RoundTrip(const PointCloud& cloud, Format format,
       return ReadPcd(bytes, "sample.pcd", warnings);
     case Format::kXyz:
       if (auto s = WriteXyz(bytes, cloud, options); !s.ok()) return s;
-      return ReadXyz(bytes, "sample.xyz");
+      return ReadXyz(bytes, "sample.xyz", warnings);
   }
   return absl::InternalError("format");
 }
@@ -136,8 +136,9 @@ TEST(Writers, AForeignPcdFlagsFieldIsNotTakenForOurs) {
 }
 
 TEST(Writers, XyzColumnsAreReadByNameAndCheckedByValue) {
+  std::vector<std::string> warnings;
   std::stringstream reordered("# columns: z y x flags\n3 2 1 8\n6 5 4 0\n");
-  auto cloud = ReadXyz(reordered, "r.xyz");
+  auto cloud = ReadXyz(reordered, "r.xyz", warnings);
   ASSERT_TRUE(cloud.ok()) << cloud.status();
   EXPECT_EQ(cloud->x, (std::vector<float>{1, 4}));
   EXPECT_EQ(cloud->z, (std::vector<float>{3, 6}));
@@ -145,17 +146,17 @@ TEST(Writers, XyzColumnsAreReadByNameAndCheckedByValue) {
   EXPECT_FALSE(cloud->has_normals());
 
   std::stringstream partial_normals("# columns: x y z nx ny\n1 2 3 0 1\n");
-  EXPECT_EQ(ReadXyz(partial_normals, "p.xyz").status().message(),
+  EXPECT_EQ(ReadXyz(partial_normals, "p.xyz", warnings).status().message(),
             "p.xyz: line 1: '# columns:' must name x, y and z, and nx, ny, nz all or none");
   std::stringstream big_flag("# columns: x y z flags\n1 2 3 300\n");
-  EXPECT_EQ(ReadXyz(big_flag, "f.xyz").status().message(),
+  EXPECT_EQ(ReadXyz(big_flag, "f.xyz", warnings).status().message(),
             "f.xyz: line 2: column 4 '300' is not an integer in [0, 255]");
   std::stringstream short_line("# columns: x y z flags\n1 2 3\n");
-  EXPECT_EQ(ReadXyz(short_line, "s.xyz").status().message(),
+  EXPECT_EQ(ReadXyz(short_line, "s.xyz", warnings).status().message(),
             "s.xyz: line 2: expected 4 values (# columns:), found 3 value(s)");
   // Without a columns line, extra columns are ignored as before.
   std::stringstream plain("1 2 3 300 abc\n");
-  auto ignored = ReadXyz(plain, "plain.xyz");
+  auto ignored = ReadXyz(plain, "plain.xyz", warnings);
   ASSERT_TRUE(ignored.ok()) << ignored.status();
   EXPECT_EQ(ignored->flags, (std::vector<uint8_t>{0}));
 }

@@ -17,7 +17,8 @@ namespace {
 
 absl::StatusOr<PointCloud> ParseText(const std::string& text, double profile_gap = 0.0) {
   std::istringstream in(text);
-  return ReadXyz(in, "points.xyz", profile_gap);
+  std::vector<std::string> warnings;
+  return ReadXyz(in, "points.xyz", warnings, profile_gap);
 }
 
 TEST(Xyz, AcceptsBlanksCommasCommentsAndExtraColumns) {
@@ -60,7 +61,8 @@ TEST(Xyz, ErrorsNameTheLineAndColumn) {
   EXPECT_EQ(cloud.status().message(), "points.xyz: line 1: column 3 is not a finite float");
   cloud = ParseText("1 2 3\n", -1.0);
   EXPECT_EQ(cloud.status().code(), absl::StatusCode::kInvalidArgument);
-  cloud = ReadXyz(std::filesystem::path("/nonexistent/points.xyz"));
+  std::vector<std::string> warnings;
+  cloud = ReadXyz(std::filesystem::path("/nonexistent/points.xyz"), warnings);
   EXPECT_EQ(cloud.status().code(), absl::StatusCode::kNotFound);
 }
 
@@ -81,8 +83,9 @@ TEST(Xyz, ProfileGapStartsANewScanlineAtEachJump) {
 
 TEST(XyzCognex, SixLaserProfilesInMillimetres) {
   SCANPREP_REQUIRE_SHARED_DATA(data);
+  std::vector<std::string> warnings;
   absl::StatusOr<PointCloud> cloud =
-      ReadXyz(data / "cognex_laser_line_scan" / "triangulated.xyz", 5.0);
+      ReadXyz(data / "cognex_laser_line_scan" / "triangulated.xyz", warnings, 5.0);
   ASSERT_TRUE(cloud.ok()) << cloud.status();
   ASSERT_EQ(cloud->size(), 2628u);
   std::map<uint32_t, size_t> profile_sizes;
@@ -110,7 +113,8 @@ TEST(XyzCognex, SixLaserProfilesInMillimetres) {
   std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
   EXPECT_NEAR(steps[steps.size() / 2], 0.40, 0.02);  // README: about 0.40 mm along each profile
 
-  absl::StatusOr<PointCloud> plain = ReadXyz(data / "cognex_laser_line_scan" / "triangulated.xyz");
+  absl::StatusOr<PointCloud> plain =
+      ReadXyz(data / "cognex_laser_line_scan" / "triangulated.xyz", warnings);
   ASSERT_TRUE(plain.ok()) << plain.status();
   EXPECT_FALSE(plain->has_scanlines());
 }

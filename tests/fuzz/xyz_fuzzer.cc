@@ -13,7 +13,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // profile_gap = 0 takes no scanlines; 1.0 makes every jump > 1 start a new scanline.
   for (double profile_gap : {0.0, 1.0}) {
     std::istringstream in(text);
-    auto cloud = scanprep::io::ReadXyz(in, "fuzz.xyz", profile_gap);
+    std::vector<std::string> warnings;
+    auto cloud = scanprep::io::ReadXyz(in, "fuzz.xyz", warnings, profile_gap);
     if (!cloud.ok()) continue;
     scanprep::fuzz::CheckCloud(*cloud);
     if (cloud->size() > 0) {
