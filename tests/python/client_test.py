@@ -145,6 +145,17 @@ class ClientTest(unittest.TestCase):
         np.testing.assert_array_equal(given.origin, mine)
         self.assertLessEqual(np.abs(given.points - expected).max(), 1e-4)
 
+    def test_a_preset_sets_its_parameters_and_params_override_it(self):
+        plane, rows, _ = spiky_plane()
+        scan = Scan(points=plane.astype(np.float32), scanline=rows, scanline_spacing=0.5,
+                    view_direction=(0, 0, 1), uncertainty=0.01)
+        result = self.client.process([scan], unit="mm", stages=["outliers"], preset="paper",
+                                     params={"outliers.multiplier": 3})
+        self.assertEqual(result.report.preset, "paper")
+        used = next(s for s in result.report.stages if s.name == "outliers").parameters
+        self.assertEqual(used["outliers.surface_sigmas"], 0)  # the paper's: no surface test
+        self.assertEqual(used["outliers.multiplier"], 3)      # the job's own value wins
+
     def test_a_refused_parameter_names_its_field(self):
         scan = Scan(points=np.zeros((10, 3), dtype=np.float32))
         with self.assertRaises(ScanprepError) as caught:

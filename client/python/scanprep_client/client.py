@@ -139,7 +139,8 @@ def _wire_points(scan: Scan, offset: Optional[np.ndarray], index: int) -> np.nda
 
 
 def _header(scans: Sequence[Scan], offsets: Sequence[Optional[np.ndarray]], origin, unit: str,
-            stages, params, include_removed, labels, budget_seconds, job_id) -> pb.JobHeader:
+            stages, params, preset, include_removed, labels, budget_seconds,
+            job_id) -> pb.JobHeader:
     if unit not in _UNITS:
         raise ValueError(f"unit {unit!r}: one of {sorted(_UNITS)}")
     header = pb.JobHeader(job_id=job_id, unit=_UNITS[unit],
@@ -163,6 +164,7 @@ def _header(scans: Sequence[Scan], offsets: Sequence[Optional[np.ndarray]], orig
         _vec(header.origin, origin)
     header.options.stages.extend(stages or [])
     header.options.params.update({k: str(v) for k, v in (params or {}).items()})
+    header.options.preset = preset
     header.options.include_removed = include_removed
     header.labels.update(labels or {})
     header.budget.total_seconds = budget_seconds
@@ -260,7 +262,8 @@ class Client:
 
     def process(self, scans: Sequence[Scan], *, unit: str,
                 stages: Optional[Sequence[str]] = None,
-                params: Optional[Mapping[str, object]] = None, include_removed: bool = False,
+                params: Optional[Mapping[str, object]] = None, preset: str = "",
+                include_removed: bool = False,
                 labels: Optional[Mapping[str, str]] = None, budget_seconds: float = 0.0,
                 job_id: str = "", timeout: Optional[float] = None,
                 chunk_points: int = _CHUNK_POINTS,
@@ -273,12 +276,15 @@ class Client:
 
         origin (common frame, job unit): the service's local zero; None = the first sent
         points_offset in the common frame, or none when no scan has one (the job is then sent as
-        before origins existed). With an origin, Result.points are origin + local in float64."""
+        before origins existed). With an origin, Result.points are origin + local in float64.
+
+        preset: a named set of parameters (info().presets: "metrology", "paper" or the server's
+        own per scanner model); params override it."""
         offsets = [_points_offset(s) for s in scans]
         origin = (_job_origin(scans, offsets) if origin is None
                   else np.asarray(origin, dtype=np.float64).reshape(3))
-        header = _header(scans, offsets, origin, unit, stages, params, include_removed, labels,
-                         budget_seconds, job_id)
+        header = _header(scans, offsets, origin, unit, stages, params, preset, include_removed,
+                         labels, budget_seconds, job_id)
 
         def attempt(seconds: float) -> Result:
             responses = self._stub.Process(_requests(header, scans, offsets, chunk_points),
