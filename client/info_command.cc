@@ -30,7 +30,7 @@ std::string Admits(const v1::ParameterInfo& p) {
 
 int RunInfo(const ParsedArgs& args) {
   auto target = ChannelTarget(args.Get("server", "localhost:50051"));
-  if (!target.ok()) return Fail("info", std::string(target.status().message()));
+  if (!target.ok()) return FailUsage("info", std::string(target.status().message()));
   const std::string& server = *target;
   auto credentials = CredentialsFromArgs(args);
   if (!credentials.ok()) return Fail("info", std::string(credentials.status().message()));

@@ -247,6 +247,13 @@ absl::StatusOr<std::vector<io::ScanFormat>> ScanArgumentFormats(const ParsedArgs
   return formats;
 }
 
+absl::Status CheckJobFlags(const ParsedArgs& args) {
+  v1::JobHeader scratch;  // the flags' values parsed as BuildJob will, into a header thrown away
+  SCANPREP_RETURN_IF_ERROR(ApplyOptionFlags(args, scratch));
+  if (args.Has("profile_gap")) return ParseLength(args, "profile_gap").status();
+  return absl::OkStatus();
+}
+
 absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   SCANPREP_ASSIGN_OR_RETURN(const std::vector<io::ScanFormat> formats, ScanArgumentFormats(args));
   const std::vector<std::string>& files = args.positional;

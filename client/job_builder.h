@@ -36,6 +36,11 @@ std::vector<FlagSpec> JobFlags();
 // (standard input, at most once) by --input_format. INVALID_ARGUMENT: a usage error.
 absl::StatusOr<std::vector<io::ScanFormat>> ScanArgumentFormats(const ParsedArgs& args);
 
+// The option flags' own values (--unit, --param NAME=VALUE, --scanline_spacing, --uncertainty,
+// --profile_gap) as BuildJob parses them, before any file is read: INVALID_ARGUMENT is a usage
+// error (exit 2), not a failure of the job.
+absl::Status CheckJobFlags(const ParsedArgs& args);
+
 absl::StatusOr<Job> BuildJob(const ParsedArgs& args);
 
 // Unless the header states its origin: the first scan with a points_offset gives it, moved into

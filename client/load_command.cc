@@ -81,14 +81,21 @@ absl::StatusOr<Job> LoadJob(const ParsedArgs& args) {
 }
 
 int RunLoadCommand(const ParsedArgs& args) {
-  if (!args.Has("server")) return Fail("load", "--server HOST:PORT is required (no default)");
+  if (!args.Has("server")) return FailUsage("load", "--server HOST:PORT is required (no default)");
   auto options = ParseLoadOptions(args);
-  if (!options.ok()) return Fail("load", std::string(options.status().message()));
+  if (!options.ok()) return FailUsage("load", std::string(options.status().message()));
   std::optional<double> budget;
   if (args.Has("budget")) {
     auto value = GetNumber(args, "budget", 0, 0);
-    if (!value.ok() || *value <= 0) return Fail("load", "--budget: seconds > 0");
+    if (!value.ok() || *value <= 0) return FailUsage("load", "--budget: seconds > 0");
     budget = *value;
+  }
+  if (absl::Status s = CheckJobFlags(args); !s.ok()) {
+    return FailUsage("load", std::string(s.message()));
+  }
+  auto channel_target = ChannelTarget(args.Get("server"));
+  if (!channel_target.ok()) {
+    return FailUsage("load", std::string(channel_target.status().message()));
   }
   // The scans are read (or generated) once; every call replays the same job.
   auto job = LoadJob(args);
@@ -96,8 +103,6 @@ int RunLoadCommand(const ParsedArgs& args) {
   for (const std::string& note : job->notes) std::cerr << "note: " << note << "\n";
   if (budget) job->header.mutable_budget()->set_total_seconds(*budget);
 
-  auto channel_target = ChannelTarget(args.Get("server"));
-  if (!channel_target.ok()) return Fail("load", std::string(channel_target.status().message()));
   const std::string& target = *channel_target;
   auto credentials = CredentialsFromArgs(args);
   if (!credentials.ok()) return Fail("load", std::string(credentials.status().message()));

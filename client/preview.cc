@@ -330,7 +330,15 @@ Image RenderPreview(const PreviewPanels& panels, const PreviewView& view) {
   return image;
 }
 
+absl::Status CheckPreviewPath(const std::filesystem::path& path) {
+  if (absl::AsciiStrToLower(path.extension().string()) == ".png") return absl::OkStatus();
+  return absl::InvalidArgumentError(
+      absl::StrCat(path.string(), ": cannot write a preview as '", path.extension().string(),
+                   "' (previews are written as PNG: give a .png file)"));
+}
+
 absl::Status WritePng(const std::filesystem::path& path, const Image& image) {
+  if (absl::Status s = CheckPreviewPath(path); !s.ok()) return s;
   std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path.c_str(), "wb"), &std::fclose);
   if (file == nullptr) return absl::UnavailableError(absl::StrCat("cannot create ", path.string()));
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);

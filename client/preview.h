@@ -72,6 +72,12 @@ struct PreviewPanels {
 // A single cloud (`result` only) gives one panel: its points by their flags.
 Image RenderPreview(const PreviewPanels& panels, const PreviewView& view);
 
+// OK for a path WritePng can write: a ".png" extension (any case). INVALID_ARGUMENT naming the
+// extension and the one written otherwise, so "x.jpg" is refused rather than filled with PNG
+// bytes a JPEG reader cannot open.
+absl::Status CheckPreviewPath(const std::filesystem::path& path);
+
+// PNG (RGB, 8 bits), after CheckPreviewPath.
 absl::Status WritePng(const std::filesystem::path& path, const Image& image);
 
 }  // namespace scanprep::client

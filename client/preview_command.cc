@@ -15,6 +15,9 @@ namespace {
 int RunPreview(const ParsedArgs& args) {
   if (args.positional.size() != 1) return FailUsage("preview", "give one scan file");
   if (!args.Has("out")) return FailUsage("preview", "-o OUT.png is required");
+  if (absl::Status s = CheckPreviewPath(args.Get("out")); !s.ok()) {
+    return FailUsage("preview", std::string(s.message()));
+  }
   std::vector<std::string> warnings;
   auto cloud = io::ReadScanFile(args.positional.front(), warnings);
   if (!cloud.ok()) return Fail("preview", std::string(cloud.status().message()));

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
@@ -34,12 +35,15 @@ namespace fs = std::filesystem;
 double SecondsSince(absl::Time start) { return absl::ToDoubleSeconds(absl::Now() - start); }
 
 // The report's JSON with the client's phase timings added as "phases" (the report message
-// itself carries only the server's side).
+// itself carries only the server's side). Keys are the proto's field names (snake_case), as in
+// every JSON the CLI writes (`info --json`, `load --json`, the job file of `simulate`).
 absl::StatusOr<std::string> ReportJson(const v1::Report& report, const PhaseSeconds& phases) {
   namespace pb = google::protobuf;
   std::string json;
   pb::Struct root;
-  if (auto s = pb::util::MessageToJsonString(report, &json); !s.ok()) {
+  pb::util::JsonPrintOptions names;
+  names.preserve_proto_field_names = true;
+  if (auto s = pb::util::MessageToJsonString(report, &json, names); !s.ok()) {
     return absl::InternalError(
         absl::StrCat("the report cannot be written as JSON: ", s.ToString()));
   }
@@ -49,16 +53,16 @@ absl::StatusOr<std::string> ReportJson(const v1::Report& report, const PhaseSeco
   }
   pb::Struct& out = *(*root.mutable_fields())["phases"].mutable_struct_value();
   const std::pair<const char*, double> values[] = {
-      {"readSeconds", phases.read},
-      {"uploadSeconds", phases.upload},
-      {"processingSeconds", phases.processing},
-      {"downloadSeconds", phases.download},
-      {"writeSeconds", phases.write},
-      {"totalSeconds", phases.total},
+      {"read_seconds", phases.read},
+      {"upload_seconds", phases.upload},
+      {"processing_seconds", phases.processing},
+      {"download_seconds", phases.download},
+      {"write_seconds", phases.write},
+      {"total_seconds", phases.total},
   };
   for (const auto& [name, seconds] : values)
     (*out.mutable_fields())[name].set_number_value(seconds);
-  pb::util::JsonPrintOptions options;
+  pb::util::JsonPrintOptions options = names;
   options.add_whitespace = true;
   json.clear();
   if (auto s = pb::util::MessageToJsonString(root, &json, options); !s.ok()) {
@@ -160,34 +164,44 @@ int RunProcess(const ParsedArgs& args) {
   if (auto in = ScanArgumentFormats(args); !in.ok()) {
     return FailUsage("process", std::string(in.status().message()));
   }
+  if (absl::Status s = CheckJobFlags(args); !s.ok()) {
+    return FailUsage("process", std::string(s.message()));
+  }
+  if (args.Has("preview")) {
+    if (absl::Status s = CheckPreviewPath(args.Get("preview")); !s.ok()) {
+      return FailUsage("process", std::string(s.message()));
+    }
+  }
+  std::optional<double> budget;
+  if (args.Has("budget")) {
+    auto seconds = GetNumber(args, "budget", 0, 0);
+    if (!seconds.ok()) return FailUsage("process", std::string(seconds.status().message()));
+    budget = *seconds;
+  }
+  CallOptions call;
+  if (args.Has("timeout")) {
+    auto timeout = GetDuration(args, "timeout", absl::ZeroDuration());
+    if (!timeout.ok()) return FailUsage("process", std::string(timeout.status().message()));
+    call.timeout = *timeout;
+  }
+  auto target = ChannelTarget(args.Get("server", "localhost:50051"));
+  if (!target.ok()) return FailUsage("process", std::string(target.status().message()));
   auto mode = ParseProgressMode(args.Get("progress", "auto"), isatty(STDERR_FILENO) != 0);
   if (!mode.ok()) return FailUsage("process", std::string(mode.status().message()));
   const absl::Time start = absl::Now();
   PhaseSeconds phases;
   auto job = BuildJob(args);
   if (!job.ok()) return Fail("process", std::string(job.status().message()));
-  if (args.Has("budget")) {
-    auto budget = GetNumber(args, "budget", 0, 0);
-    if (!budget.ok()) return FailUsage("process", std::string(budget.status().message()));
-    job->header.mutable_budget()->set_total_seconds(*budget);
-  }
+  if (budget) job->header.mutable_budget()->set_total_seconds(*budget);
   phases.read = SecondsSince(start);
   // The preview shows the removed points, so they come back; the output has them only if asked.
   const bool write_removed = job->header.options().include_removed();
   if (args.Has("preview")) job->header.mutable_options()->set_include_removed(true);
   for (const std::string& note : job->notes) std::cerr << "note: " << note << "\n";
 
-  CallOptions call;
-  if (args.Has("timeout")) {
-    auto timeout = GetDuration(args, "timeout", absl::ZeroDuration());
-    if (!timeout.ok()) return Fail("process", std::string(timeout.status().message()));
-    call.timeout = *timeout;
-  }
   ProgressView view(std::cerr, *mode);
   call.progress = [&view](const v1::Progress& p) { view.Update(p); };
 
-  auto target = ChannelTarget(args.Get("server", "localhost:50051"));
-  if (!target.ok()) return Fail("process", std::string(target.status().message()));
   const std::string& server = *target;
   auto credentials = CredentialsFromArgs(args);
   if (!credentials.ok()) return Fail("process", std::string(credentials.status().message()));

@@ -43,14 +43,14 @@ PointCloud ScanSubset(const PointCloud& cloud, uint32_t s) {
 }
 
 int RunSimulate(const ParsedArgs& args) {
-  if (!args.Has("out")) return Fail("simulate", "-o OUT.ply is required");
+  if (!args.Has("out")) return FailUsage("simulate", "-o OUT.ply is required");
   size_t points = 0;
   if (!absl::SimpleAtoi(args.Get("points"), &points)) {
-    return Fail("simulate",
-                absl::StrCat("--points: '", args.Get("points"), "' is not a point count"));
+    return FailUsage("simulate",
+                     absl::StrCat("--points: '", args.Get("points"), "' is not a point count"));
   }
   auto options = ParseGenerateOptions(args, points);
-  if (!options.ok()) return Fail("simulate", std::string(options.status().message()));
+  if (!options.ok()) return FailUsage("simulate", std::string(options.status().message()));
   auto cloud = GenerateScan(*options);
   if (!cloud.ok()) return Fail("simulate", std::string(cloud.status().message()));
 
@@ -85,6 +85,7 @@ int RunSimulate(const ParsedArgs& args) {
   std::string json;
   google::protobuf::util::JsonPrintOptions json_options;
   json_options.add_whitespace = true;
+  json_options.preserve_proto_field_names = true;  // snake_case, as every JSON the CLI writes
   (void)google::protobuf::util::MessageToJsonString(header, &json, json_options);
   std::ofstream job_file(job_path);
   job_file << json;

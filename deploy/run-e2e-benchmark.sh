@@ -47,19 +47,19 @@ for n in "${sizes[@]}"; do
 import json, sys
 report = json.load(open(sys.argv[1]))
 threads, idle_kb, peak_kb = int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
-points = int(report["pointsReceived"])
+points = int(report["points_received"])
 p = report["phases"]
-for case, key in [("upload", "uploadSeconds"), ("processing", "processingSeconds"),
-                  ("download", "downloadSeconds"), ("end to end", "totalSeconds")]:
+for case, key in [("upload", "upload_seconds"), ("processing", "processing_seconds"),
+                  ("download", "download_seconds"), ("end to end", "total_seconds")]:
     s = p[key]
     print(f"| {points:,} | {threads} | service: {case} | {s:.3f} | {points / s:,.0f} | "
           f"{peak_kb / 1024:,.0f} |")
-transport = (p["uploadSeconds"] + p["downloadSeconds"]) / p["processingSeconds"]
+transport = (p["upload_seconds"] + p["download_seconds"]) / p["processing_seconds"]
 print(f"note {points:,} points, {threads} threads: server peak RSS above idle: "
       f"{(peak_kb - idle_kb) * 1024 / points:.0f} bytes/point (idle {idle_kb / 1024:.0f} MiB); "
       f"upload + download = {100 * transport:.1f} % of processing; "
-      f"{report['pointsReturned']} points returned")
-print(f"seconds {p['processingSeconds']} {p['totalSeconds']}")
+      f"{report['points_returned']} points returned")
+print(f"seconds {p['processing_seconds']} {p['total_seconds']}")
 PY
     )
     grep '^|' <<<"$summary"

@@ -55,10 +55,10 @@ def scale_job(job, factor):
     """The job's lengths (positions, spacings, uncertainty) times `factor`: the same scanner
     described in another unit."""
     for scan in job["scans"]:
-        for key in ("cameraPosition", "projectorPosition"):
+        for key in ("camera_position", "projector_position"):
             if key in scan:
                 scan[key] = {axis: v * factor for axis, v in scan[key].items()}
-        for key in ("scanlineSpacing", "pointSpacing", "uncertainty"):
+        for key in ("scanline_spacing", "point_spacing", "uncertainty"):
             if key in scan:
                 scan[key] *= factor
     return job
@@ -68,7 +68,7 @@ class Cases:
     def __init__(self, ordinary_dir, out_dir):
         self.out = out_dir
         self.job = json.load(open(os.path.join(ordinary_dir, "sim.job.json")))
-        self.scans = {s["scanId"]: read_ply(os.path.join(ordinary_dir, s["scanId"] + ".ply"))
+        self.scans = {s["scan_id"]: read_ply(os.path.join(ordinary_dir, s["scan_id"] + ".ply"))
                       for s in self.job["scans"]}
 
     def emit(self, case, scans, job, extra=()):
@@ -98,7 +98,7 @@ class Cases:
     def far_point(self, distance):
         # One point of the first scan copied to x = distance beside the ordinary cloud.
         scans = self.mapped(lambda rows, names: None)  # copies
-        names, _, rows = scans[self.job["scans"][0]["scanId"]]
+        names, _, rows = scans[self.job["scans"][0]["scan_id"]]
         rows.append(list(rows[0]))
         rows[-1][names.index("x")] = distance
         self.emit(f"far_point_{distance:.0e}".replace("+0", ""), scans, self.job)
@@ -117,7 +117,7 @@ class Cases:
 
     def line(self):
         # All points on the x axis at the job's point spacing, in their scan order.
-        spacing = self.job["scans"][0]["pointSpacing"]
+        spacing = self.job["scans"][0]["point_spacing"]
         counter = iter(range(10**9))
 
         def flatten(rows, names):
@@ -141,13 +141,13 @@ class Cases:
         """`scans` scans of one point each (points of the first scan, with its metadata), alone;
         and the ordinary cloud in `scans` scans, all but its own of one point each. The server's
         default max_scans_per_job is 1,000."""
-        first = self.job["scans"][0]["scanId"]
+        first = self.job["scans"][0]["scan_id"]
         names, fmt, rows = self.scans[first]
         step = len(rows) // scans
         singles = {f"single_{n:04d}": (names, fmt, [rows[n * step]]) for n in range(scans)}
 
         def job(stems):
-            return dict(self.job, scans=[dict(self.job["scans"][0], scanId=s) for s in stems])
+            return dict(self.job, scans=[dict(self.job["scans"][0], scan_id=s) for s in stems])
         self.emit(f"one_point_scans_{scans}", singles, job(singles))
         extra = dict(list(singles.items())[:scans - len(self.scans)])
         taken = {n * step for n in range(len(extra))}
@@ -238,7 +238,7 @@ class Cases:
                 scans[stem] = (names, "<" + "".join(
                     "d" if i in xyz else code for i, code in enumerate(fmt[1:])), rows)
             for scan in job["scans"]:
-                for key in ("cameraPosition", "projectorPosition"):
+                for key in ("camera_position", "projector_position"):
                     if key in scan:
                         scan[key] = {axis: v + shift["xyz".index(axis)]
                                      for axis, v in scan[key].items()}

@@ -273,11 +273,11 @@ TEST_F(LoadCommand, UnreachableServerFailsAtOnce) {
 TEST_F(LoadCommand, BadFlagsAreNamed) {
   CommandResult r = RunCommand(std::string(SCANPREP_CLI_BINARY) +
                                " load --server 127.0.0.1:1 --concurrency 0 " + scan_->string());
-  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.exit_code, 2);  // a usage error
   EXPECT_THAT(r.output, HasSubstr("--concurrency"));
   r = RunCommand(std::string(SCANPREP_CLI_BINARY) + " load --server 127.0.0.1:1 --duration soon " +
                  scan_->string());
-  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.output, HasSubstr("--duration: 'soon' is not a positive duration"));
 }
 

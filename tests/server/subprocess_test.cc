@@ -549,12 +549,38 @@ TEST(Cli, PreviewsOfAJobAndOfAFile) {
   ASSERT_EQ(sim.exit_code, 0) << sim.output;
   ServerProcess server;
   ASSERT_GT(server.port(), 0);
-  const CommandResult r =
-      RunCli("process " + (dir / "sim.ply").string() + " --job " + (dir / "sim.job.json").string() +
-             " -o " + (dir / "out.ply").string() + " --preview " + (dir / "job.png").string() +
-             " --server " + server.target());
+  const std::string job = "process " + (dir / "sim.ply").string() + " --job " +
+                          (dir / "sim.job.json").string() + " -o " + (dir / "out.ply").string() +
+                          " --server " + server.target();
+  // A preview is PNG: any other extension is refused before the job is read or sent.
+  CommandResult jpg = RunCli(job + " --preview " + (dir / "job.jpg").string());
+  EXPECT_EQ(jpg.exit_code, 2) << jpg.output;
+  EXPECT_THAT(jpg.output, HasSubstr("job.jpg: cannot write a preview as '.jpg' (previews are "
+                                    "written as PNG: give a .png file)"));
+  EXPECT_FALSE(fs::exists(dir / "job.jpg"));
+  EXPECT_FALSE(fs::exists(dir / "out.ply"));
+  const CommandResult r = RunCli(job + " --preview " + (dir / "job.png").string() +
+                                 " --report_json " + (dir / "report.json").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(PngSize(dir / "job.png"), (std::pair<uint32_t, uint32_t>(1280, 576)));
+  // Every JSON the CLI writes has the proto's snake_case field names: the report (with the
+  // client's phases) as `info --json` and `load --json` do, and the job file of `simulate`.
+  for (const char* file : {"report.json", "sim.job.json"}) {
+    std::ifstream in(dir / file);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_THAT(text, ::testing::Not(::testing::ContainsRegex("\"[a-z]+[A-Z][A-Za-z]*\":")))
+        << file << ": " << text;
+  }
+  std::ifstream report_in(dir / "report.json");
+  google::protobuf::Struct report;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(
+                  std::string((std::istreambuf_iterator<char>(report_in)),
+                              std::istreambuf_iterator<char>()),
+                  &report)
+                  .ok());
+  EXPECT_TRUE(report.fields().contains("points_received"));
+  EXPECT_TRUE(report.fields().contains("processing_seconds"));
+  EXPECT_TRUE(report.fields().at("phases").struct_value().fields().contains("total_seconds"));
   std::vector<std::string> warnings;
   auto out = io::ReadScanFile(dir / "out.ply", warnings);
   ASSERT_TRUE(out.ok()) << out.status();
@@ -565,6 +591,13 @@ TEST(Cli, PreviewsOfAJobAndOfAFile) {
   ASSERT_EQ(one.exit_code, 0) << one.output;
   EXPECT_EQ(PngSize(dir / "file.png"), (std::pair<uint32_t, uint32_t>(640, 576)));
   EXPECT_EQ(RunCli("preview " + (dir / "out.ply").string()).exit_code, 2);  // no -o
+  jpg = RunCli("preview " + (dir / "out.ply").string() + " -o " + (dir / "file.JPG").string());
+  EXPECT_EQ(jpg.exit_code, 2) << jpg.output;
+  EXPECT_THAT(jpg.output, HasSubstr("cannot write a preview as '.JPG'"));
+  EXPECT_FALSE(fs::exists(dir / "file.JPG"));
+  EXPECT_EQ(RunCli("preview " + (dir / "out.ply").string() + " -o " + (dir / "upper.PNG").string())
+                .exit_code,
+            0);
   fs::remove_all(dir);
   EXPECT_EQ(server.Terminate(), 0);
 }
@@ -744,9 +777,49 @@ TEST(Cli, BadInvocationsExitNonZeroWithAClearMessage) {
   EXPECT_NE(r.exit_code, 0);
   EXPECT_THAT(r.output, HasSubstr("missing.ply"));
 
-  r = RunCli(base + " --unit furlong");
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_THAT(r.output, HasSubstr("unknown unit 'furlong'"));
+  // A misspelt parameter: the server names the one meant.
+  r = RunCli(base + " --param smoothing.iteratons=3");
+  EXPECT_EQ(r.exit_code, 4);
+  EXPECT_THAT(r.output, HasSubstr("options.params['smoothing.iteratons']: unknown parameter (did "
+                                  "you mean 'smoothing.iterations'?)"));
+
+  // A flag value that does not parse is a usage error (2), found before anything is read: the
+  // scan file does not exist, and no server is asked.
+  const std::string local = "process " + (tmp / "missing.xyz").string() + " -o " +
+                            (tmp / "x.ply").string() + " --server 127.0.0.1:1";
+  for (const auto& [flags, message] : std::vector<std::pair<std::string, std::string>>{
+           {" --unit furlong", "unknown unit 'furlong'"},
+           {" --param smoothing.lambda", "--param 'smoothing.lambda': expected name=value"},
+           {" --uncertainty -1", "--uncertainty: '-1' is not a length >= 0"},
+           {" --profile_gap wide", "--profile_gap: 'wide' is not a length >= 0"},
+           {" --timeout soon", "--timeout"},
+           {" --budget -3", "--budget"}}) {
+    r = RunCli(local + flags);
+    EXPECT_EQ(r.exit_code, 2) << flags << ": " << r.output;
+    EXPECT_THAT(r.output, HasSubstr(message)) << flags;
+    EXPECT_THAT(r.output, ::testing::Not(HasSubstr("missing.xyz"))) << flags;
+  }
+  r = RunCli("simulate --points 1000");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("-o OUT.ply is required"));
+  r = RunCli("simulate --points many -o " + (tmp / "s.ply").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  r = RunCli("load --concurrency 4 --simulate 1000");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("--server HOST:PORT is required"));
+  r = RunCli("load --server 127.0.0.1:1 --concurrency 0 --simulate 1000");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  // Control: a file that cannot be read is not a usage error.
+  r = RunCli(local);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("missing.xyz"));
+  // An empty scan file is refused by its reader, naming it, before anything is sent.
+  std::ofstream(tmp / "empty.xyz") << "# no points\n";
+  r = RunCli("process " + (tmp / "empty.xyz").string() + " -o " + (tmp / "x.ply").string() +
+             " --server " + server.target());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_THAT(r.output, HasSubstr((tmp / "empty.xyz").string() + ": no points in the file"));
+  EXPECT_THAT(r.output, ::testing::Not(HasSubstr("total_points")));
 
   r = RunCli(base + " --frobnicate");
   EXPECT_EQ(r.exit_code, 2);
