@@ -33,6 +33,11 @@ int Fail(const std::string& command, const std::string& message);
 // Prints "scanprep <command>: <message>" and returns exit code 2 (a bad command line).
 int FailUsage(const std::string& command, const std::string& message);
 
+// A flag whose check reads a file (--tls_ca, --tls_cert, --tls_key): INVALID_ARGUMENT (flags that
+// do not go together, a directory for a file) is a bad command line, exit 2; a file that cannot
+// be read, 1.
+int FailFlagFiles(const std::string& command, const absl::Status& status);
+
 // A failed call to `server`: prints "scanprep <command>: <server>: " and the status with its
 // error details, and returns the exit code that tells a script what to do (call_error.h).
 int FailCall(const std::string& command, const std::string& server, const absl::Status& status);

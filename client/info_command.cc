@@ -33,7 +33,7 @@ int RunInfo(const ParsedArgs& args) {
   if (!target.ok()) return FailUsage("info", std::string(target.status().message()));
   const std::string& server = *target;
   auto credentials = CredentialsFromArgs(args);
-  if (!credentials.ok()) return Fail("info", std::string(credentials.status().message()));
+  if (!credentials.ok()) return FailFlagFiles("info", credentials.status());
   auto info = ScanPrepClient::Connect(server, *credentials).GetInfo(absl::Seconds(10));
   if (!info.ok()) {
     return FailCall("info", server, info.status());

@@ -408,13 +408,18 @@ v1::ScanHeader ScanHeaderFromMeta(const ScanMeta& meta) {
   return scan;
 }
 
-absl::StatusOr<Job> BuildJobFromCloud(const ParsedArgs& args, PointCloud cloud) {
+absl::Status CheckGeneratedJobFlags(const ParsedArgs& args) {
   for (const char* flag : {"unit", "job", "conf"}) {
     if (args.Has(flag)) {
       return absl::InvalidArgumentError(
           absl::StrCat("--", flag, " does not apply to a generated scan (millimetres, posed)"));
     }
   }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<Job> BuildJobFromCloud(const ParsedArgs& args, PointCloud cloud) {
+  SCANPREP_RETURN_IF_ERROR(CheckGeneratedJobFlags(args));
   Job job;
   job.header.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
   job.header.set_scanner_kind(cloud.kind == ScannerKind::kLine ? v1::SCANNER_KIND_LINE

@@ -52,9 +52,13 @@ void SetJobOrigin(scanprep::v1::JobHeader& header);
 // The wire form of a scan's metadata, millimetres, identity pose.
 scanprep::v1::ScanHeader ScanHeaderFromMeta(const ScanMeta& meta);
 
+// INVALID_ARGUMENT for --unit, --job or --conf, which would contradict a generated cloud: a usage
+// error, checked before the cloud is generated.
+absl::Status CheckGeneratedJobFlags(const ParsedArgs& args);
+
 // The job for a cloud already in millimetres and in the common frame (a generated scan): one
-// ScanHeader per cloud.scans entry, then the option flags as BuildJob applies them except
-// --unit, --job and --conf, which would contradict the cloud (INVALID_ARGUMENT).
+// ScanHeader per cloud.scans entry, then the option flags as BuildJob applies them
+// (CheckGeneratedJobFlags first).
 absl::StatusOr<Job> BuildJobFromCloud(const ParsedArgs& args, PointCloud cloud);
 
 }  // namespace scanprep::client

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
+#include <optional>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -13,6 +14,7 @@
 #include "client/load_runner.h"
 #include "client/scan_generator.h"
 #include "client/scanprep_client.h"
+#include "core/status_macros.h"
 
 namespace scanprep::client {
 namespace {
@@ -63,8 +65,10 @@ absl::StatusOr<LoadOptions> ParseLoadOptions(const ParsedArgs& args) {
   return options;
 }
 
-absl::StatusOr<Job> LoadJob(const ParsedArgs& args) {
-  if (!args.Has("simulate")) return BuildJob(args);
+// --simulate's scan as the flags describe it, nothing for a job of SCAN files. Only the command
+// line is checked: INVALID_ARGUMENT is a usage error.
+absl::StatusOr<std::optional<GenerateOptions>> Generation(const ParsedArgs& args) {
+  if (!args.Has("simulate")) return std::nullopt;
   if (!args.positional.empty()) {
     return absl::InvalidArgumentError("give SCAN files or --simulate POINTS, not both");
   }
@@ -73,9 +77,14 @@ absl::StatusOr<Job> LoadJob(const ParsedArgs& args) {
     return absl::InvalidArgumentError(
         absl::StrCat("--simulate: '", args.Get("simulate"), "' is not a point count"));
   }
-  auto options = ParseGenerateOptions(args, points);
-  if (!options.ok()) return options.status();
-  auto cloud = GenerateScan(*options);
+  SCANPREP_RETURN_IF_ERROR(CheckGeneratedJobFlags(args));
+  return ParseGenerateOptions(args, points);
+}
+
+absl::StatusOr<Job> LoadJob(const ParsedArgs& args,
+                            const std::optional<GenerateOptions>& generation) {
+  if (!generation) return BuildJob(args);
+  auto cloud = GenerateScan(*generation);
   if (!cloud.ok()) return cloud.status();
   return BuildJobFromCloud(args, std::move(*cloud));
 }
@@ -93,19 +102,21 @@ int RunLoadCommand(const ParsedArgs& args) {
   if (absl::Status s = CheckJobFlags(args); !s.ok()) {
     return FailUsage("load", std::string(s.message()));
   }
+  auto generation = Generation(args);
+  if (!generation.ok()) return FailUsage("load", std::string(generation.status().message()));
   auto channel_target = ChannelTarget(args.Get("server"));
   if (!channel_target.ok()) {
     return FailUsage("load", std::string(channel_target.status().message()));
   }
+  auto credentials = CredentialsFromArgs(args);
+  if (!credentials.ok()) return FailFlagFiles("load", credentials.status());
   // The scans are read (or generated) once; every call replays the same job.
-  auto job = LoadJob(args);
+  auto job = LoadJob(args, *generation);
   if (!job.ok()) return Fail("load", std::string(job.status().message()));
   for (const std::string& note : job->notes) std::cerr << "note: " << note << "\n";
   if (budget) job->header.mutable_budget()->set_total_seconds(*budget);
 
   const std::string& target = *channel_target;
-  auto credentials = CredentialsFromArgs(args);
-  if (!credentials.ok()) return Fail("load", std::string(credentials.status().message()));
   std::shared_ptr<grpc::Channel> channel = RoundRobinChannel(target, *credentials);
   // An unreachable or refusing server fails here, once, rather than as a flood of errors.
   if (auto info = ScanPrepClient(channel).GetInfo(absl::Seconds(10)); !info.ok()) {

@@ -18,6 +18,12 @@ int FailUsage(const std::string& command, const std::string& message) {
   return kExitUsage;
 }
 
+int FailFlagFiles(const std::string& command, const absl::Status& status) {
+  return status.code() == absl::StatusCode::kInvalidArgument
+             ? FailUsage(command, std::string(status.message()))
+             : Fail(command, std::string(status.message()));
+}
+
 int FailCall(const std::string& command, const std::string& server, const absl::Status& status) {
   std::cerr << "scanprep " << command << ": " << server << ": " << Describe(status) << "\n";
   return ExitCodeFor(status);

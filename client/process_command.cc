@@ -186,6 +186,8 @@ int RunProcess(const ParsedArgs& args) {
   }
   auto target = ChannelTarget(args.Get("server", "localhost:50051"));
   if (!target.ok()) return FailUsage("process", std::string(target.status().message()));
+  auto credentials = CredentialsFromArgs(args);
+  if (!credentials.ok()) return FailFlagFiles("process", credentials.status());
   auto mode = ParseProgressMode(args.Get("progress", "auto"), isatty(STDERR_FILENO) != 0);
   if (!mode.ok()) return FailUsage("process", std::string(mode.status().message()));
   const absl::Time start = absl::Now();
@@ -203,8 +205,6 @@ int RunProcess(const ParsedArgs& args) {
   call.progress = [&view](const v1::Progress& p) { view.Update(p); };
 
   const std::string& server = *target;
-  auto credentials = CredentialsFromArgs(args);
-  if (!credentials.ok()) return Fail("process", std::string(credentials.status().message()));
   auto result =
       ScanPrepClient::Connect(server, *credentials).Process(job->header, job->points, call);
   view.Done();

@@ -190,7 +190,7 @@ TEST_F(LoadCommand, ReplaysAGeneratedScan) {
   // Generated scans are millimetres and posed already: file options contradict them.
   const CommandResult r = RunCommand(std::string(SCANPREP_CLI_BINARY) + " load --server " +
                                      server.target() + " --simulate 3000 --unit m");
-  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.exit_code, 2);  // a usage error
   EXPECT_THAT(r.output, HasSubstr("--unit does not apply to a generated scan"));
 }
 

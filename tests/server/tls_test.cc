@@ -157,8 +157,12 @@ TEST_F(MutualTls, TheCliConnectsWithTheTlsFlags) {
   EXPECT_EQ(no_cert.exit_code, 3);
   EXPECT_THAT(no_cert.output, HasSubstr("UNAVAILABLE"));
   const CommandResult half = RunCommand(cli + ca + " --tls_cert " + certs_->pem("client"));
-  EXPECT_EQ(half.exit_code, 1);
+  EXPECT_EQ(half.exit_code, 2);  // flags that do not go together: a usage error
   EXPECT_THAT(half.output, HasSubstr("--tls_cert and --tls_key go together"));
+  // Control: the flags go together but a file cannot be read: a local failure, not usage.
+  const CommandResult missing = RunCommand(cli + " --tls_ca /nonexistent/ca.pem");
+  EXPECT_EQ(missing.exit_code, 1) << missing.output;
+  EXPECT_THAT(missing.output, HasSubstr("file not found: /nonexistent/ca.pem"));
 }
 
 TEST(ServerTls, WithoutAClientCaAnyTlsClientIsServed) {
