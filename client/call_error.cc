@@ -71,8 +71,11 @@ ExitCode ExitCodeFor(const absl::Status& status) {
       status.code() == absl::StatusCode::kDataLoss) {
     return kExitRetryLater;
   }
+  // FAILED_PRECONDITION: the job failed on a warning its options.fail_on (--strict, --fail_on)
+  // named; the input must change for it to pass.
   if (status.code() == absl::StatusCode::kInvalidArgument ||
-      status.code() == absl::StatusCode::kResourceExhausted) {
+      status.code() == absl::StatusCode::kResourceExhausted ||
+      status.code() == absl::StatusCode::kFailedPrecondition) {
     return kExitFixInput;
   }
   return kExitFailure;

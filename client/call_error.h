@@ -25,7 +25,9 @@ enum ExitCode : int {
   // The server said a retry can succeed (RetryInfo), or it was UNAVAILABLE, or the transfer was
   // corrupted (DATA_LOSS: a count or checksum mismatch on the way up or down).
   kExitRetryLater = 3,
-  kExitFixInput = 4,  // INVALID_ARGUMENT, or RESOURCE_EXHAUSTED without RetryInfo (too large)
+  // INVALID_ARGUMENT, RESOURCE_EXHAUSTED without RetryInfo (too large), or FAILED_PRECONDITION
+  // (the job failed on a warning it named in options.fail_on)
+  kExitFixInput = 4,
   // `process --fail_on_budget_miss`: the job ran and its output was written, over its budget.
   kExitBudgetMissed = 5,
 };

@@ -9,6 +9,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "proto/warning_codes.h"
 
 namespace scanprep::client {
 
@@ -141,7 +142,19 @@ void PrintSummary(std::ostream& out, const v1::Report& report) {
   } else {
     out << absl::StrFormat("time: %.3f s (no budget)\n", report.processing_seconds());
   }
-  for (const std::string& w : report.warnings()) out << "warning: " << w << "\n";
+  // With its code, for a reader who will gate on it (--fail_on); a server that predates the codes
+  // sends the text alone.
+  if (report.warning_details_size() == report.warnings_size()) {
+    for (const v1::Warning& w : report.warning_details()) {
+      std::string_view code = v1::WarningCode_Name(w.code());  // empty for a newer code
+      if (code.starts_with(kProtoWarningCodePrefix))
+        code.remove_prefix(kProtoWarningCodePrefix.size());
+      out << "warning " << (code.empty() ? absl::StrCat(w.code()) : std::string(code)) << ": "
+          << w.message() << "\n";
+    }
+  } else {
+    for (const std::string& w : report.warnings()) out << "warning: " << w << "\n";
+  }
 }
 
 void PrintPhases(std::ostream& out, const PhaseSeconds& p) {

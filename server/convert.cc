@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "absl/strings/str_cat.h"
+#include "core/pipeline/field_error.h"
 #include "server/error_details.h"
 
 namespace scanprep::server {
@@ -221,7 +222,28 @@ void ReportToProto(const PipelineReport& report, v1::Report* out) {
   out->set_budget_met(report.budget_met);
   out->set_budget_outcome(Outcome(report.budget_seconds, report.budget_met));
   out->set_points_coincident_across_scans(report.points_coincident_across_scans);
-  for (const std::string& w : report.warnings) out->add_warnings(w);
+  for (const Warning& w : report.warnings) AddWarning(w, out);
+}
+
+absl::StatusOr<std::set<WarningCode>> FailOnFromProto(const v1::PipelineOptions& options) {
+  std::set<WarningCode> codes;
+  for (int i = 0; i < options.fail_on_size(); ++i) {
+    const std::optional<WarningCode> code = WarningCodeFromProto(options.fail_on(i));
+    if (!code) {
+      return FieldError(absl::StrCat("options.fail_on[", i, "]"),
+                        absl::StrCat(options.fail_on(i), " is not a warning code of this server"));
+    }
+    codes.insert(*code);
+  }
+  return codes;
+}
+
+void AddWarning(const Warning& warning, v1::Report* out) {
+  out->add_warnings(warning.message);
+  v1::Warning* detail = out->add_warning_details();
+  detail->set_code(WarningCodeToProto(warning.code));
+  detail->set_message(warning.message);
+  detail->mutable_params()->insert(warning.params.begin(), warning.params.end());
 }
 
 void ParamSpecToProto(const ParamSpec& spec, v1::ParameterInfo* out) {

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -14,7 +15,9 @@
 #include "core/pipeline/pipeline.h"
 #include "core/pipeline/presets.h"
 #include "core/pipeline/report.h"
+#include "core/pipeline/warning.h"
 #include "core/point_cloud.h"
+#include "proto/warning_codes.h"
 #include "scanprep/v1/scanprep.pb.h"
 
 namespace scanprep::server {
@@ -88,6 +91,13 @@ ScannerKind KindFromHeader(const v1::JobHeader& header);
 // header's stage budgets replace the defaults of the stages they name (0 there = no budget).
 PipelineOptions OptionsFromHeader(const v1::JobHeader& header, double default_budget_seconds,
                                   const std::map<std::string, double>& default_stage_seconds);
+
+// options.fail_on as core's codes; INVALID_ARGUMENT naming options.fail_on[i] (a FieldError)
+// for WARNING_CODE_UNSPECIFIED or a number this server does not know.
+absl::StatusOr<std::set<WarningCode>> FailOnFromProto(const v1::PipelineOptions& options);
+
+// One warning into both of the report's lists: `warnings` (text) and `warning_details`.
+void AddWarning(const Warning& warning, v1::Report* out);
 
 void ReportToProto(const PipelineReport& report, v1::Report* out);
 

@@ -8,6 +8,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "core/pipeline/field_error.h"
+#include "core/pipeline/warning.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
 
@@ -44,6 +45,16 @@ absl::Status OptionsError(absl::Status status) {
   const std::string field = ErrorField(status);
   return WithFieldViolation(std::move(status), "INVALID_PARAMETER",
                             field.empty() ? "header.options" : absl::StrCat("header.", field));
+}
+
+absl::Status FailedOnWarningError(absl::Status status) {
+  const std::optional<Warning> warning = FailedWarning(status);
+  if (!warning) return status;
+  status = WithMetadata(WithReason(std::move(status), WarningCodeName(warning->code)), "message",
+                        warning->message);
+  for (const auto& [key, value] : warning->params)
+    status = WithMetadata(std::move(status), key, value);
+  return status;
 }
 
 absl::Status WithMetadata(absl::Status status, std::string_view key, std::string_view value) {

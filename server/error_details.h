@@ -45,6 +45,11 @@ absl::Status WithFieldViolation(absl::Status status, std::string_view reason,
 // the field it names as a path in the request ("header." + the option's path).
 absl::Status OptionsError(absl::Status status);
 
+// A job failed on a warning (core's FailOnWarnings: PipelineOptions::fail_on), tagged with the
+// warning's code as the reason (e.g. UNIT_SUSPECT: WarningCodeName) and its text ("message") and
+// numbers as metadata; any other status unchanged.
+absl::Status FailedOnWarningError(absl::Status status);
+
 // The gRPC status, with ErrorInfo, RetryInfo and BadRequest details when `status` was tagged.
 grpc::Status ToGrpc(const absl::Status& status);
 

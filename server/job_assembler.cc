@@ -116,6 +116,9 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
   if (!params.ok()) return OptionsError(params.status());
   job_.options.params = *std::move(params);
   job_.preset = header.options().preset();
+  auto fail_on = FailOnFromProto(header.options());
+  if (!fail_on.ok()) return OptionsError(fail_on.status());
+  job_.options.fail_on = *std::move(fail_on);
   if (absl::Status s = ValidateOptions(job_.options); !s.ok()) return OptionsError(s);
 
   SCANPREP_ASSIGN_OR_RETURN(const Eigen::Vector3d origin_mm, OriginFromProto(header, *mm));
@@ -375,10 +378,16 @@ absl::StatusOr<AssembledJob> JobAssembler::Finish() {
         "INVALID_CHUNK", "points");
   }
   if (job_.points_invalid > 0) {
-    job_.warnings.push_back(absl::StrCat(job_.points_invalid, " of ", job_.points_received,
-                                         " points had NaN, infinite or out-of-range (> ",
-                                         kMaxCoordinateMm, " mm) coordinates and were excluded"));
+    job_.warnings.push_back({WarningCode::kPointsInvalid,
+                             absl::StrCat(job_.points_invalid, " of ", job_.points_received,
+                                          " points had NaN, infinite or out-of-range (> ",
+                                          kMaxCoordinateMm, " mm) coordinates and were excluded"),
+                             {{"points_invalid", absl::StrCat(job_.points_invalid)},
+                              {"points_received", absl::StrCat(job_.points_received)}}});
   }
+  // The upload's warnings fail a job that fails on them before any stage runs.
+  SCANPREP_RETURN_IF_ERROR(
+      FailedOnWarningError(FailOnWarnings(job_.warnings, job_.options.fail_on)));
   job_.cloud.FinishLoading();
   return std::move(job_);
 }

@@ -55,7 +55,7 @@ struct AssembledJob {
   double mm_per_unit = 1.0;
   uint64_t points_received = 0;
   uint64_t points_invalid = 0;
-  std::vector<std::string> warnings;
+  std::vector<Warning> warnings;  // of the upload (POINTS_INVALID)
   std::map<std::string, std::string> labels;
   bool packed_results = false;  // header.result_arrays = ARRAY_ENCODING_PACKED
   std::string preset;           // header.options.preset; its values are in options.params

@@ -294,7 +294,7 @@ grpc::Status ScanPrepService::Relay(grpc::ServerContext* context, Stream* stream
   const absl::StatusOr<PipelineReport>& result = running.result();
   if (!result.ok()) {
     return runner_.cancelled_all() ? Gone(*context, "processing")
-                                   : ToGrpc(OptionsError(result.status()));
+                                   : ToGrpc(FailedOnWarningError(OptionsError(result.status())));
   }
   return grpc::Status::OK;
 }
@@ -346,7 +346,7 @@ void ScanPrepService::FillReport(const AssembledJob& job, const PipelineReport& 
   report.set_points_invalid(job.points_invalid);
   report.set_points_processed(job.points_received - job.points_invalid);
   report.set_points_returned(returned);
-  for (const std::string& w : job.warnings) report.add_warnings(w);
+  for (const Warning& w : job.warnings) AddWarning(w, &report);
   ReportToProto(result, &report);
   report.mutable_labels()->insert(job.labels.begin(), job.labels.end());
   report.set_preset(job.preset);

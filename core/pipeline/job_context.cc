@@ -82,11 +82,12 @@ double JobContext::CapRadius(std::string_view what, double radius, double limit)
   // One warning per stage (a job of 1,000 scans would otherwise say it 1,000 times); the
   // counter has them all.
   if (current().parameters[absl::StrCat(stage, ".radii_capped")]++ > 0) return limit;
-  Warn(
-      absl::StrFormat("%s: %s of %g mm is more than the data's own scale allows (%g mm, a "
-                      "multiple of the global radius r_g); capped at %g mm. Check the job's "
-                      "unit, the scanner metadata (spacing, uncertainty) and radius overrides",
-                      stage, what, radius, limit, limit));
+  Warn(WarningCode::kRadiusCapped,
+       absl::StrFormat("%s: %s of %g mm is more than the data's own scale allows (%g mm, a "
+                       "multiple of the global radius r_g); capped at %g mm. Check the job's "
+                       "unit, the scanner metadata (spacing, uncertainty) and radius overrides",
+                       stage, what, radius, limit, limit),
+       {{"radius_mm", absl::StrCat(radius)}, {"limit_mm", absl::StrCat(limit)}});
   return limit;
 }
 
@@ -109,7 +110,10 @@ double JobContext::Recorded(std::string_view name, double value) {
   return value;
 }
 
-void JobContext::Warn(std::string message) { report_.warnings.push_back(std::move(message)); }
+void JobContext::Warn(WarningCode code, std::string message,
+                      std::map<std::string, std::string> params) {
+  report_.warnings.push_back({code, std::move(message), std::move(params)});
+}
 
 double JobContext::PlannedNumber(std::string_view name) const {
   const ParamSpec* spec = FindParam(name);
@@ -224,12 +228,14 @@ void JobContext::RecordCappedBalls(const std::string& stage) {
   if (static_cast<double>(capped) < kCappedBallsWarnShare * static_cast<double>(cloud_.size())) {
     return;
   }
-  Warn(absl::StrCat(stage, ": ", capped, " neighbourhoods held more than ",
+  Warn(WarningCode::kBallsCapped,
+       absl::StrCat(stage, ": ", capped, " neighbourhoods held more than ",
                     neighbourhoods_->max_ball_points(), " points and kept their nearest ",
                     neighbourhoods_->max_ball_points(), " (", cut,
                     " or more points left out); many "
                     "point to a radius far beyond the data's spacing: check the job's unit and "
-                    "radius overrides"));
+                    "radius overrides"),
+       {{"balls_capped", absl::StrCat(capped)}, {"points_left_out", absl::StrCat(cut)}});
 }
 
 absl::Status JobContext::RunStage(const StageInfo& info) {
@@ -255,9 +261,13 @@ absl::Status JobContext::RunStage(const StageInfo& info) {
   Emit(0.0);
 
   running_ = true;
+  const size_t first_warning = report_.warnings.size();
   const auto start = std::chrono::steady_clock::now();
   absl::Status status = info.make()->Run(*this);
   RecordCappedBalls(info.name);
+  if (status.ok()) {
+    status = FailOnWarnings(std::span(report_.warnings).subspan(first_warning), fail_on_);
+  }
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   running_ = nested;

@@ -5,9 +5,11 @@
 
 #include <atomic>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -19,6 +21,7 @@
 #include "core/pipeline/progress.h"
 #include "core/pipeline/report.h"
 #include "core/pipeline/stage.h"
+#include "core/pipeline/warning.h"
 #include "core/point_cloud.h"
 #include "core/point_measures.h"
 #include "core/spatial/duplicates.h"
@@ -56,7 +59,10 @@ class JobContext : private WorkMeter {
   // Records a value derived for scan `scan` as `name.scanN`, or as `name` when the job has one
   // scan.
   void RecordForScan(std::string_view name, size_t scan, double value);
-  void Warn(std::string message);
+  // A warning with its code and the numbers behind it (docs/api.md lists the codes).
+  void Warn(WarningCode code, std::string message, std::map<std::string, std::string> params = {});
+  // The codes that fail the job: RunStage() then fails the stage that warned one.
+  void FailOn(std::set<WarningCode> codes) { fail_on_ = std::move(codes); }
   // A radius from scanner metadata or an override (`what` names it), held to at most `limit`, a
   // multiple of the data's own scale r_g: a radius far beyond it makes every ball hold a large
   // part of the cloud. A cap is counted in the running stage's report as <stage>.radii_capped;
@@ -136,6 +142,7 @@ class JobContext : private WorkMeter {
   std::unique_ptr<Neighbourhoods> neighbourhoods_;
   std::vector<std::string> completed_;
   PipelineReport report_;
+  std::set<WarningCode> fail_on_;
   size_t current_stage_ = 0;
   bool running_ = false;  // a stage is running, so a RunStage() now is nested in it
 };

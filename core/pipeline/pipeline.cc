@@ -52,6 +52,7 @@ absl::StatusOr<PipelineReport> RunStages(PointCloud& cloud, const PipelineOption
                                          const DuplicateGroups& duplicates) {
   JobContext ctx(cloud, options.params, cancel, std::move(progress));
   ctx.SetDuplicates(&duplicates);
+  ctx.FailOn(options.fail_on);
   const std::vector<std::string> stages = options.stages.empty() ? DefaultStages() : options.stages;
   for (const StageInfo* stage : ctx.Plan(stages)) {
     if (ctx.HasRun(stage->name)) continue;  // pulled in early by a stage's Require()
@@ -70,6 +71,18 @@ absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOpti
   absl::StatusOr<DuplicateGroups> duplicates = FindDuplicates(cloud, cancel);
   if (!duplicates.ok()) return duplicates.status();
   const size_t coincident_across_scans = duplicates->coincident_across_scans;
+  std::vector<Warning> before_stages;
+  if (coincident_across_scans > 0) {
+    before_stages.push_back(
+        {WarningCode::kScanRepeated,
+         absl::StrCat(coincident_across_scans,
+                      " points lie exactly on a point of an earlier scan of the job (was a scan "
+                      "sent twice?); they are not merged: each is processed as a point of its "
+                      "own scan"),
+         {{"points", absl::StrCat(coincident_across_scans)}}});
+  }
+  // Known before any stage runs, so a job that fails on it does no work.
+  SCANPREP_RETURN_IF_ERROR(FailOnWarnings(before_stages, options.fail_on));
   absl::StatusOr<PipelineReport> result;
   if (duplicates->collapsed() == 0) {
     *duplicates = {};  // the identity: 8 bytes a point the stages never read
@@ -82,12 +95,7 @@ absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOpti
   if (!result.ok()) return result.status();
   PipelineReport report = *std::move(result);
   report.points_coincident_across_scans = coincident_across_scans;
-  if (coincident_across_scans > 0) {
-    report.warnings.push_back(absl::StrCat(
-        coincident_across_scans,
-        " points lie exactly on a point of an earlier scan of the job (was a scan sent twice?); "
-        "they are not merged: each is processed as a point of its own scan"));
-  }
+  report.warnings.insert(report.warnings.end(), before_stages.begin(), before_stages.end());
   report.total_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (StageReport& stage : report.stages) {

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,7 @@
 #include "core/pipeline/progress.h"
 #include "core/pipeline/report.h"
 #include "core/pipeline/stage.h"
+#include "core/pipeline/warning.h"
 #include "core/point_cloud.h"
 
 namespace scanprep {
@@ -21,6 +23,9 @@ struct PipelineOptions {
   ParamOverrides params;
   double budget_seconds = 0;                           // whole pipeline; 0 = none
   std::map<std::string, double> stage_budget_seconds;  // per stage name
+  // Warnings that fail the job (FAILED_PRECONDITION, FailOnWarnings) at the end of the stage
+  // that raised them, before any later stage runs.
+  std::set<WarningCode> fail_on;
 };
 
 // The paper's case-study order: outliers → correction → smoothing → simplification; the plan

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "core/pipeline/warning.h"
+
 namespace scanprep {
 
 struct StageReport {
@@ -30,7 +32,7 @@ struct PipelineReport {
   // Input points at exactly the position of a point of a lower-numbered scan (DuplicateGroups),
   // with a warning when there are any.
   uint64_t points_coincident_across_scans = 0;
-  std::vector<std::string> warnings;
+  std::vector<Warning> warnings;
 };
 
 }  // namespace scanprep

@@ -70,10 +70,10 @@ class CorrectionStage : public Stage {
     ctx.Record("correction.single_scan", cloud.scans.size() < 2 ? 1 : 0);
     if (cloud.scans.size() < 2) {  // nothing can overlap
       ctx.Record("correction.removed", 0);
-      ctx.Warn(
-          "correction: the job has one scan, so there is no overlap to merge and nothing "
-          "was changed; send each scan as its own scan (one file per scan, or a per-point "
-          "scan column)");
+      ctx.Warn(WarningCode::kSingleScanNoMerge,
+               "correction: the job has one scan, so there is no overlap to merge and nothing "
+               "was changed; send each scan as its own scan (one file per scan, or a per-point "
+               "scan column)");
       return absl::OkStatus();
     }
     const std::vector<float>& quality = ctx.measures().quality;
@@ -86,10 +86,10 @@ class CorrectionStage : public Stage {
     ctx.Record("correction.without_quality", uniform ? 1 : 0);
     if (uniform) {
       ctx.Record("correction.removed", 0);
-      ctx.Warn(
-          "correction: every point has the same viewing quality (no scan has sensor poses "
-          "or a per-point quality), so overlapping scans cannot be told apart and were not "
-          "merged; give view or camera/projector directions, or quality per point");
+      ctx.Warn(WarningCode::kUniformQualityNoMerge,
+               "correction: every point has the same viewing quality (no scan has sensor poses "
+               "or a per-point quality), so overlapping scans cannot be told apart and were not "
+               "merged; give view or camera/projector directions, or quality per point");
       return absl::OkStatus();
     }
     SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());

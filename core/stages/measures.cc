@@ -100,7 +100,8 @@ class MeasuresStage : public Stage {
       if (!TowardCamera(scan, Eigen::Vector3d::Zero()) &&
           !TowardProjector(scan, Eigen::Vector3d::Zero())) {
         ++without_pose;
-        ctx.Warn(absl::StrCat("measures: scan '", scan.id,
+        ctx.Warn(WarningCode::kNoPose,
+                 absl::StrCat("measures: scan '", scan.id,
                               "' has neither sensor poses nor a "
                               "per-point quality; its viewing quality is set to 1"));
       }
@@ -154,10 +155,10 @@ class MeasuresStage : public Stage {
     const bool line_scan_without_scanlines = cloud.kind == ScannerKind::kLine && !lines;
     ctx.Record("measures.line_scan_without_scanlines", line_scan_without_scanlines ? 1 : 0);
     if (line_scan_without_scanlines) {
-      ctx.Warn(
-          "measures: the line scans came without scanline indices, so curvature κ̂ is "
-          "surface variation (Eq. 12) everywhere instead of scanline curvature (Eq. 11); "
-          "send the scanline of every point");
+      ctx.Warn(WarningCode::kNoScanlines,
+               "measures: the line scans came without scanline indices, so curvature κ̂ is "
+               "surface variation (Eq. 12) everywhere instead of scanline curvature (Eq. 11); "
+               "send the scanline of every point");
     }
     if (lines) {
       ScanlineCurvatureCounts counts;
@@ -165,7 +166,8 @@ class MeasuresStage : public Stage {
       if (!s.ok()) return s;
       ctx.Record("measures.windows_capped", static_cast<double>(counts.windows_capped));
       if (counts.windows_capped > 0) {
-        ctx.Warn(absl::StrCat("measures: ", counts.windows_capped,
+        ctx.Warn(WarningCode::kWindowsCapped,
+                 absl::StrCat("measures: ", counts.windows_capped,
                               " scanline windows held more "
                               "than ",
                               kMaxWindowSide,

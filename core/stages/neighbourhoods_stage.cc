@@ -50,12 +50,14 @@ void WarnAboutMissingMetadata(JobContext& ctx, bool radius_forced) {
   ctx.Record("neighbourhoods.scans_default_uncertainty",
              static_cast<double>(no_uncertainty.size()));
   if (!no_spacing.empty() && !radius_forced) {
-    ctx.Warn(absl::StrCat("neighbourhoods: line scan(s) ", ScanList(cloud, no_spacing),
+    ctx.Warn(WarningCode::kNoScanlineSpacing,
+             absl::StrCat("neighbourhoods: line scan(s) ", ScanList(cloud, no_spacing),
                           " state no scanline spacing, so r_min (Eq. 2) is ε_u alone; give "
                           "scanline_spacing, or neighbourhoods.min_radius_mm"));
   }
   if (!no_uncertainty.empty()) {
-    ctx.Warn(absl::StrCat("neighbourhoods: scan(s) ", ScanList(cloud, no_uncertainty),
+    ctx.Warn(WarningCode::kNoUncertainty,
+             absl::StrCat("neighbourhoods: scan(s) ", ScanList(cloud, no_uncertainty),
                           " state no measuring uncertainty u; the default ", ScanMeta{}.uncertainty,
                           " mm is used for ε_u, the curvature window and the smoothing limit; "
                           "give the scanner's uncertainty"));
@@ -104,7 +106,8 @@ class NeighbourhoodsStage : public Stage {
       ctx.RecordForScan("neighbourhoods.min_radius_used_mm", s, (*nb)->scan_min_radius(s));
     }
     if (const size_t collapsed = ctx.duplicates_collapsed(); collapsed > 0) {
-      ctx.Warn(absl::StrCat("neighbourhoods: ", collapsed,
+      ctx.Warn(WarningCode::kDuplicatesCollapsed,
+               absl::StrCat("neighbourhoods: ", collapsed,
                             " points lie within a hundredth of the uncertainty u (one cube of "
                             "edge u/100) of another point of their scan: exact repeats or a "
                             "cluster of near-identical returns; each group was processed once "

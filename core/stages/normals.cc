@@ -15,6 +15,7 @@
 #include "core/spatial/local_moments.h"
 #include "core/stages/mitra_radius.h"
 #include "core/stages/normal_orientation.h"
+#include "core/stages/unit_plausibility.h"
 #include "core/status_macros.h"
 
 namespace scanprep {
@@ -143,10 +144,14 @@ class NormalsStage : public Stage {
     ctx.Record("normals.tree_bridges", static_cast<double>(counts.bridges));
     ctx.Record("normals.bridge_work", static_cast<double>(counts.bridge_work));
     if (counts.propagated > 0) {
-      ctx.Warn(absl::StrCat("normals: ", counts.propagated,
+      ctx.Warn(WarningCode::kNormalsPropagated,
+               absl::StrCat("normals: ", counts.propagated,
                             " normals oriented by spanning-tree propagation (no sensor pose); "
                             "their sign is consistent but may be globally inverted"));
     }
+    // Here because the fits measure the noise σ̂ that the unit is judged by, and with a fail_on
+    // the job then stops before any stage works in a wrong unit.
+    WarnIfUnitSuspect(ctx);
     return absl::OkStatus();
   }
 

@@ -61,7 +61,8 @@ class OutliersStage : public Stage {
     const int64_t k_asked = ctx.Integer("outliers.k");
     const uint32_t k_o = static_cast<uint32_t>(std::min<int64_t>(k_asked, nb.k()));
     if (k_o < k_asked) {
-      ctx.Warn(absl::StrCat("outliers: outliers.k = ", k_asked, " but the cloud has ", n,
+      ctx.Warn(WarningCode::kOutliersKReduced,
+               absl::StrCat("outliers: outliers.k = ", k_asked, " but the cloud has ", n,
                             " points; d is averaged over ", k_o, " neighbours"));
     }
     const double multiplier = ctx.Number("outliers.multiplier");
@@ -153,7 +154,8 @@ class OutliersStage : public Stage {
         if (noise[s]) {
           ctx.RecordForScan("outliers.surface_noise_mm", s, *noise[s]);
         } else {
-          ctx.Warn(absl::StrCat("outliers: scan ", s, " has fewer than ", kMinNoiseSamples,
+          ctx.Warn(WarningCode::kSurfaceSpikesSkipped,
+                   absl::StrCat("outliers: scan ", s, " has fewer than ", kMinNoiseSamples,
                                 " normal fits; it is not searched for surface spikes"));
         }
       }

@@ -265,9 +265,9 @@ double DefaultSpacing(JobContext& ctx, const Neighbourhoods& nb) {
   ctx.Record("simplification.spacing_from_density", pitch ? 0 : 1);
   if (pitch) return *pitch;
   if (!ctx.Overridden("simplification.spacing_mm")) {
-    ctx.Warn(
-        "simplification: no scan states a scanline spacing, so the thinning spacing is "
-        "derived from the cloud's density (2/√ρ) rather than the scanner's pitch");
+    ctx.Warn(WarningCode::kSpacingFromDensity,
+             "simplification: no scan states a scanline spacing, so the thinning spacing is "
+             "derived from the cloud's density (2/√ρ) rather than the scanner's pitch");
   }
   return nb.density() > 0 ? 2.0 / std::sqrt(nb.density()) : 0.0;
 }

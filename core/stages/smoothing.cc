@@ -42,9 +42,9 @@ class SmoothingStage : public Stage {
     const bool uniform = UniformQuality(cloud, m.quality);
     ctx.Record("smoothing.without_quality", uniform ? 1 : 0);
     if (uniform && settings.lambda > 0) {
-      ctx.Warn(
-          "smoothing: every point has the same viewing quality (no sensor poses), so the "
-          "weights of Eq. (6) tell points apart by flatness alone");
+      ctx.Warn(WarningCode::kSmoothingWithoutQuality,
+               "smoothing: every point has the same viewing quality (no sensor poses), so the "
+               "weights of Eq. (6) tell points apart by flatness alone");
     }
     const int iterations = static_cast<int>(ctx.Integer("smoothing.iterations"));
     ctx.ExpectWork(kLoopItemsPerIteration * iterations * double(n));
@@ -119,15 +119,20 @@ class SmoothingStage : public Stage {
       const double u = scan < cloud.scans.size() ? cloud.scans[scan].uncertainty : 0.1;
       double noise = forced_noise.value_or(measured[scan].value_or(u));
       if (s.own_side && !forced_noise && !measured[scan]) {
-        ctx.Warn(absl::StrCat("smoothing: scan ", scan,
+        ctx.Warn(WarningCode::kNoiseUnmeasured,
+                 absl::StrCat("smoothing: scan ", scan,
                               " has too few normal fits to measure its "
                               "noise; its stated uncertainty u = ",
                               u, " mm stands in"));
       }
       if (s.own_side && !forced_noise && measured[scan] && noise > 3 * u) {
-        ctx.Warn(absl::StrCat("smoothing: scan ", scan, " is noisier (σ̂ = ", noise,
+        ctx.Warn(WarningCode::kNoiseAboveUncertainty,
+                 absl::StrCat("smoothing: scan ", scan, " is noisier (σ̂ = ", noise,
                               " mm) than three times its stated uncertainty u = ", u,
-                              " mm: is the unit or u right?"));
+                              " mm: is the unit or u right?"),
+                 {{"scan", absl::StrCat(scan)},
+                  {"noise_mm", absl::StrCat(noise)},
+                  {"uncertainty_mm", absl::StrCat(u)}});
       }
       s.noise.push_back(static_cast<float>(noise));
       // δ = u (the paper), or kMoveSigmas·σ̂ at the scan's typical noise (own side).
@@ -137,7 +142,8 @@ class SmoothingStage : public Stage {
       const bool default_u = scan < cloud.scans.size() && !cloud.scans[scan].uncertainty_stated;
       if (!forced && s.fixed_tolerance && default_u) {
         ++tolerance_from_default;
-        ctx.Warn(absl::StrCat("smoothing: scan ", scan,
+        ctx.Warn(WarningCode::kToleranceFromDefaultUncertainty,
+                 absl::StrCat("smoothing: scan ", scan,
                               " states no uncertainty; δ is the default "
                               "u = ",
                               u, " mm (smoothing.method = own_side measures the noise)"));

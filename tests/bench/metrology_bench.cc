@@ -99,7 +99,7 @@ int Run(size_t points, uint64_t seed) {
       return 1;
     }
     PrintRow(r.name, testing::MeasureAgainstTruth(part, sim, run->cloud), raw, run->seconds);
-    for (const std::string& w : run->report.warnings) notes.push_back(r.name + (": " + w));
+    for (const Warning& w : run->report.warnings) notes.push_back(r.name + (": " + w.message));
   }
 
 #ifdef SCANPREP_HAVE_PCL

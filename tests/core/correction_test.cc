@@ -136,7 +136,9 @@ TEST(Correction, SingleScanIsUntouchedAndSaysSo) {
   EXPECT_EQ(report->stages.back().parameters.at("correction.single_scan"), 1);
   EXPECT_EQ(report->stages.back().parameters.at("correction.removed"), 0);
   ASSERT_EQ(report->warnings.size(), 1u);
-  EXPECT_NE(report->warnings[0].find("one scan"), std::string::npos) << report->warnings[0];
+  EXPECT_EQ(report->warnings[0].code, WarningCode::kSingleScanNoMerge);
+  EXPECT_NE(report->warnings[0].message.find("one scan"), std::string::npos)
+      << report->warnings[0].message;
 }
 
 // Two overlapping scans without poses or quality: every q̂ is 1, so no overlap can be resolved.
@@ -157,8 +159,8 @@ TEST(Correction, WithoutQualityTheMergeSaysItDidNothing) {
   EXPECT_EQ(report->stages.back().parameters.at("correction.without_quality"), 1);
   EXPECT_EQ(sim.cloud.CountKept(), sim.cloud.size());
   bool warned = false;
-  for (const std::string& w : report->warnings) {
-    warned = warned || w.find("were not merged") != std::string::npos;
+  for (const Warning& w : report->warnings) {
+    warned = warned || w.code == WarningCode::kUniformQualityNoMerge;
   }
   EXPECT_TRUE(warned);
 

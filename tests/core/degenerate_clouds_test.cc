@@ -203,7 +203,8 @@ TEST(DegenerateClouds, ScanlineSpacingFarTooLargeIsCappedAndReported) {
   EXPECT_EQ(nb.parameters.at("neighbourhoods.radii_capped"), 1);
   auto warned = [&](std::string_view a, std::string_view b) {
     return std::any_of(report->warnings.begin(), report->warnings.end(), [&](const auto& w) {
-      return w.find(a) != std::string::npos && w.find(b) != std::string::npos;
+      return w.code == WarningCode::kRadiusCapped && w.message.find(a) != std::string::npos &&
+             w.message.find(b) != std::string::npos;
     });
   };
   EXPECT_TRUE(warned("r_min", "scanner metadata"));

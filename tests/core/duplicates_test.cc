@@ -80,8 +80,8 @@ PipelineReport RunNeighbourhoods(PointCloud& cloud) {
 }
 
 bool WarnsAboutCoincidence(const PipelineReport& report) {
-  for (const std::string& w : report.warnings) {
-    if (w.find("earlier scan") != std::string::npos) return true;
+  for (const Warning& w : report.warnings) {
+    if (w.code == WarningCode::kScanRepeated) return true;
   }
   return false;
 }

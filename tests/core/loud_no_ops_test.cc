@@ -20,7 +20,7 @@ struct StageRun {
   PipelineReport report;
   bool Warned(std::string_view text) const {
     return std::any_of(report.warnings.begin(), report.warnings.end(),
-                       [&](const std::string& w) { return w.find(text) != std::string::npos; });
+                       [&](const Warning& w) { return w.message.find(text) != std::string::npos; });
   }
   double Record(std::string_view stage, const std::string& name) const {
     for (const StageReport& s : report.stages) {

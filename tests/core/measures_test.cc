@@ -299,7 +299,7 @@ TEST(Measures, CappedScanlineWindowsAreReported) {
   ASSERT_TRUE(report.ok()) << report.status();
   EXPECT_GT(report->stages.back().parameters.at("measures.windows_capped"), 0);
   bool warned = false;
-  for (const std::string& w : report->warnings) warned |= w.find("window_mm") != std::string::npos;
+  for (const Warning& w : report->warnings) warned |= w.code == WarningCode::kWindowsCapped;
   EXPECT_TRUE(warned);
 }
 

@@ -44,8 +44,8 @@ float LongestMove(const PointCloud& before, const PointCloud& after) {
 }
 
 bool HasWarning(const PipelineReport& report, std::string_view text) {
-  for (const std::string& w : report.warnings) {
-    if (w.find(text) != std::string::npos) return true;
+  for (const Warning& w : report.warnings) {
+    if (w.message.find(text) != std::string::npos) return true;
   }
   return false;
 }

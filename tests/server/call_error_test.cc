@@ -6,6 +6,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <regex>
 #include <set>
 #include <string>
@@ -100,6 +101,23 @@ TEST(CallError, AFieldViolationIsPrintedWithItsPath) {
   EXPECT_EQ(client::Describe(refused.status()),
             "INVALID_ARGUMENT: options.params['smoothing.lambda']: 1.5 is outside [0, 1] (reason "
             "INVALID_PARAMETER; field header.options.params['smoothing.lambda'])");
+}
+
+// A job failed on a warning it named (options.fail_on): the reason is the warning's code, a
+// name from core's list (so not among the server's literals below), and the input is at fault.
+TEST(CallError, AJobFailedOnAWarningMeansFixTheInput) {
+  InProcessServer server;
+  v1::JobHeader header = SimpleHeader();
+  header.mutable_options()->add_fail_on(v1::WARNING_CODE_POINTS_INVALID);
+  v1::PointChunk chunk = LineChunk(10);
+  chunk.set_xyz(0, std::numeric_limits<float>::infinity());
+  const absl::Status status =
+      client::FromGrpc(RawCall(*server.Stub(), {HeaderRequest(header, 10), ChunkRequest(chunk)}));
+  ASSERT_EQ(status.code(), absl::StatusCode::kFailedPrecondition) << status;
+  EXPECT_EQ(client::DetailsOf(status).reason, "POINTS_INVALID");
+  EXPECT_FALSE(client::DetailsOf(status).retry_delay.has_value());
+  EXPECT_EQ(client::ExitCodeFor(status), client::kExitFixInput);
+  EXPECT_THAT(client::Describe(status), HasSubstr("(reason POINTS_INVALID)"));
 }
 
 // The reasons the server can send: every UPPER_SNAKE_CASE string literal in server/ that is not

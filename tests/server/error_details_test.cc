@@ -4,10 +4,13 @@
 // can succeed later; every INVALID_ARGUMENT a reason and a google.rpc.BadRequest naming the field.
 // Parsed here from the grpc-status-details-bin trailer, independently of the client's code.
 #include <cmath>
+#include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "google/rpc/error_details.pb.h"
@@ -21,7 +24,8 @@ struct Details {
   std::string reason;
   std::string domain;
   std::optional<absl::Duration> retry_delay;
-  std::vector<std::string> fields;  // BadRequest field violations
+  std::vector<std::string> fields;              // BadRequest field violations
+  std::map<std::string, std::string> metadata;  // ErrorInfo's
 };
 
 std::optional<Details> Parse(const grpc::Status& status) {
@@ -44,6 +48,7 @@ std::optional<Details> Parse(const grpc::Status& status) {
     } else if (any.UnpackTo(&info)) {
       d.reason = info.reason();
       d.domain = info.domain();
+      d.metadata.insert(info.metadata().begin(), info.metadata().end());
     } else if (any.UnpackTo(&retry)) {
       d.retry_delay = absl::Seconds(retry.retry_delay().seconds()) +
                       absl::Nanoseconds(retry.retry_delay().nanos());
@@ -68,6 +73,34 @@ TEST(ErrorDetails, QueueFullIsRetryable) {
   EXPECT_EQ(d->domain, "scanprep.v1");
   ASSERT_TRUE(d->retry_delay.has_value());
   EXPECT_GE(*d->retry_delay, absl::Seconds(1));
+}
+
+// options.fail_on: the warning's code is the reason, its text and numbers the metadata. The
+// upload's POINTS_INVALID fails the job before any stage runs; the control fails on another code.
+TEST(ErrorDetails, AJobFailedOnAWarningNamesItsCodeAndNumbers) {
+  InProcessServer server;
+  auto stub = server.Stub();
+  v1::PointChunk chunk = LineChunk(100);
+  chunk.set_xyz(4, std::numeric_limits<float>::quiet_NaN());  // point 1's y
+  for (const auto& [fail_on, fails] : {std::pair{v1::WARNING_CODE_POINTS_INVALID, true},
+                                       std::pair{v1::WARNING_CODE_UNIT_SUSPECT, false}}) {
+    v1::JobHeader header = SimpleHeader();
+    header.mutable_options()->add_fail_on(fail_on);
+    const grpc::Status status = RawCall(*stub, {HeaderRequest(header), ChunkRequest(chunk)});
+    if (!fails) {
+      EXPECT_TRUE(status.ok()) << status.error_message();
+      continue;
+    }
+    ASSERT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+    const auto d = Parse(status);
+    ASSERT_TRUE(d.has_value());
+    EXPECT_EQ(d->reason, "POINTS_INVALID");
+    EXPECT_EQ(d->domain, "scanprep.v1");
+    EXPECT_FALSE(d->retry_delay.has_value());
+    EXPECT_EQ(d->metadata.at("points_invalid"), "1");
+    EXPECT_EQ(d->metadata.at("points_received"), "100");
+    EXPECT_THAT(d->metadata.at("message"), ::testing::HasSubstr("1 of 100 points had NaN"));
+  }
 }
 
 TEST(ErrorDetails, PerHostLimitIsRetryable) {

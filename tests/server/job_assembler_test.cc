@@ -62,6 +62,7 @@ TEST(JobAssembler, AppliesUnitAndPoseToPointsAndScannerMetadata) {
   EXPECT_EQ(job->points_received, 3u);
   EXPECT_EQ(job->points_invalid, 1u);
   ASSERT_EQ(job->warnings.size(), 1u);
+  EXPECT_EQ(job->warnings[0].code, WarningCode::kPointsInvalid);
   const PointCloud& c = job->cloud;
   ASSERT_EQ(c.size(), 2u);
   // (1,0,0) in → rotated (0,1,0) + (1,0,0) → (25.4, 25.4, 0) mm.

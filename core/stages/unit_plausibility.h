@@ -1,0 +1,22 @@
+// SPDX-License-Identifier: Apache-2.0
+// Is the job's unit right? Judged from the data: a scan's measured point spacing against the
+// spacing it states, and its measured noise σ̂ against its stated uncertainty u. A file in metres
+// sent as millimetres has both about 1000x smaller than stated (inches as mm: 25.4x larger).
+#pragma once
+
+#include "core/pipeline/job_context.h"
+
+namespace scanprep {
+
+// Measured and stated scales further apart than this factor (either way) point to a unit slip:
+// below inch↔mm (25.4) and far below m↔mm and µm↔mm (1000), above what an honest datasheet and
+// a real surface differ by (oblique views widen spacing, a 3σ figure read as 1σ is 3x).
+inline constexpr double kUnitSuspectFactor = 20;
+
+// Warns UNIT_SUSPECT for each scan whose every stated scale that can be checked (a stated
+// scanline or point spacing; a stated u when σ̂ is measured) disagrees with the data by more than
+// kUnitSuspectFactor in the same direction. A scan that states nothing is not judged. Needs the
+// shared neighbourhoods and the normal fits (run at the end of the normals stage).
+void WarnIfUnitSuspect(JobContext& ctx);
+
+}  // namespace scanprep

@@ -1,0 +1,144 @@
+// SPDX-License-Identifier: Apache-2.0
+// UNIT_SUSPECT from the data: a scan whose coordinates are in another unit than the job states
+// (a file in metres sent as millimetres) has its points and noise 1000x closer than its stated
+// spacing and uncertainty say. Controls: the same scans in the right unit, and a scan that
+// states nothing. And options.fail_on: the job stops at the end of the stage that warned.
+#include <algorithm>
+#include <set>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "core/pipeline/pipeline.h"
+#include "core/pipeline/warning.h"
+#include "tests/support/metrology_job.h"
+#include "tests/support/test_data.h"
+
+namespace scanprep {
+namespace {
+
+constexpr size_t kPoints = 30'000;
+constexpr uint64_t kSeed = 29;
+
+PointCloud Scaled(PointCloud cloud, float factor) {
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    cloud.x[i] *= factor, cloud.y[i] *= factor, cloud.z[i] *= factor;
+  }
+  return cloud;
+}
+
+std::vector<Warning> UnitWarnings(PointCloud cloud) {
+  PipelineOptions options;
+  options.stages = {"normals"};
+  auto report = RunPipeline(cloud, options, CancelToken());
+  EXPECT_TRUE(report.ok()) << report.status();
+  std::vector<Warning> found;
+  if (!report.ok()) return found;
+  for (const Warning& w : report->warnings) {
+    if (w.code == WarningCode::kUnitSuspect) found.push_back(w);
+  }
+  return found;
+}
+
+double Param(const Warning& w, const std::string& key) {
+  auto it = w.params.find(key);
+  EXPECT_NE(it, w.params.end()) << key;
+  return it == w.params.end() ? 0 : std::stod(it->second);
+}
+
+const sim::SimulatedCloud& Simulated() {
+  static const sim::SimulatedCloud sim = testing::SimulateEvaluationScan(kPoints, kSeed);
+  return sim;
+}
+
+TEST(UnitPlausibility, SimulatedScansInTheirStatedUnitAreNotSuspect) {
+  EXPECT_TRUE(UnitWarnings(testing::WithUserMetadata(Simulated())).empty());
+}
+
+TEST(UnitPlausibility, MetresSentAsMillimetresAreSuspectWithTheNumbers) {
+  const PointCloud mm = testing::WithUserMetadata(Simulated());
+  const std::vector<Warning> found = UnitWarnings(Scaled(mm, 1e-3f));
+  ASSERT_EQ(found.size(), mm.scans.size()) << "one per scan";
+  for (const Warning& w : found) {
+    EXPECT_NE(w.message.find("smaller"), std::string::npos) << w.message;
+    // Ground truth: the simulator's spacing and σ, stated in mm, against data 1000x smaller.
+    const double stated_spacing = Param(w, "stated_spacing_mm");
+    EXPECT_LT(Param(w, "measured_spacing_mm"), stated_spacing * 3e-3);
+    EXPECT_GT(Param(w, "measured_spacing_mm"), stated_spacing * 1e-4);
+    EXPECT_DOUBLE_EQ(Param(w, "stated_uncertainty_mm"), testing::kEvaluationSigmaMm);
+    EXPECT_LT(Param(w, "measured_noise_mm"), testing::kEvaluationSigmaMm * 3e-3);
+  }
+}
+
+TEST(UnitPlausibility, MillimetresSentAsMetresAreSuspectToo) {
+  const std::vector<Warning> found =
+      UnitWarnings(Scaled(testing::WithUserMetadata(Simulated()), 1e3f));
+  ASSERT_FALSE(found.empty());
+  EXPECT_NE(found.front().message.find("larger"), std::string::npos) << found.front().message;
+}
+
+TEST(UnitPlausibility, AScanThatStatesNothingIsNotJudged) {
+  PointCloud bare = testing::WithoutMetadata(Simulated());
+  bare.scans[0].uncertainty_stated = false;  // as the server reads a header without u
+  EXPECT_TRUE(UnitWarnings(Scaled(bare, 1e-3f)).empty());
+}
+
+TEST(UnitPlausibility, RealBunnyScansReadInTheWrongUnitAreSuspect) {
+  SCANPREP_REQUIRE_SHARED_DATA(data);
+  // The Cyberware's scanline spacing (0.82 mm) and u = 0.1 mm, as pipeline_test states them.
+  const PointCloud mm = testing::LoadRangeScansMm(data / "stanford_bunny_range_scans", "bun.conf",
+                                                  {"bun000", "bun045"}, 0.82);
+  ASSERT_EQ(mm.scans.size(), 2u);
+  EXPECT_TRUE(UnitWarnings(mm).empty()) << "control: the right unit";
+  EXPECT_EQ(UnitWarnings(Scaled(mm, 1e-3f)).size(), 2u) << "the file's metres read as mm";
+}
+
+TEST(FailOn, AJobFailsAtTheEndOfTheStageThatWarnedAndRunsNoLaterStage) {
+  PointCloud cloud = Scaled(testing::WithUserMetadata(Simulated()), 1e-3f);
+  PipelineOptions options;
+  options.fail_on = {WarningCode::kUnitSuspect};
+  std::set<std::string> started;
+  auto report = RunPipeline(cloud, options, CancelToken(),
+                            [&](const ProgressEvent& e) { started.insert(std::string(e.stage)); });
+  ASSERT_EQ(report.status().code(), absl::StatusCode::kFailedPrecondition) << report.status();
+  const std::optional<Warning> failed = FailedWarning(report.status());
+  ASSERT_TRUE(failed.has_value());
+  EXPECT_EQ(failed->code, WarningCode::kUnitSuspect);
+  EXPECT_EQ(WarningCodeName(failed->code), "UNIT_SUSPECT");
+  EXPECT_TRUE(failed->params.contains("measured_spacing_mm"));
+  EXPECT_TRUE(started.contains("normals"));  // UNIT_SUSPECT is judged there
+  EXPECT_FALSE(started.contains("outliers"));
+  EXPECT_FALSE(started.contains("smoothing"));
+
+  // Control: the same job in its stated unit runs every stage.
+  PointCloud right = testing::WithUserMetadata(Simulated());
+  auto ok = RunPipeline(right, options, CancelToken());
+  EXPECT_TRUE(ok.ok()) << ok.status();
+}
+
+TEST(FailOn, AWarningNotFailedOnStaysAWarning) {
+  PointCloud cloud = Scaled(testing::WithUserMetadata(Simulated()), 1e-3f);
+  PipelineOptions options;
+  options.stages = {"normals"};
+  options.fail_on = {WarningCode::kScanRepeated};
+  auto report = RunPipeline(cloud, options, CancelToken());
+  ASSERT_TRUE(report.ok()) << report.status();
+  EXPECT_TRUE(std::any_of(report->warnings.begin(), report->warnings.end(),
+                          [](const Warning& w) { return w.code == WarningCode::kUnitSuspect; }));
+}
+
+TEST(WarningCodes, EveryCodeHasAUniqueNameThatMapsBack) {
+  std::set<std::string_view> names;
+  for (WarningCode code : AllWarningCodes()) {
+    const std::string_view name = WarningCodeName(code);
+    EXPECT_TRUE(names.insert(name).second) << name;
+    EXPECT_EQ(WarningCodeFromName(name), code) << name;
+  }
+  EXPECT_FALSE(WarningCodeFromName("UNSPECIFIED").has_value());
+  for (WarningCode code : StrictWarningCodes()) {
+    EXPECT_TRUE(names.contains(WarningCodeName(code)));
+  }
+}
+
+}  // namespace
+}  // namespace scanprep
