@@ -70,6 +70,17 @@ TEST(UnitPlausibility, MetresSentAsMillimetresAreSuspectWithTheNumbers) {
   }
 }
 
+// Every simulated part as the simulator states it (spacing, u = its conservative 3σ, poses).
+TEST(UnitPlausibility, EverySimulatedPartIsJudgedRightInMillimetresAndSuspectInMetres) {
+  for (const sim::Part part : {sim::Part::kPlane, sim::Part::kSphere, sim::Part::kCylinder,
+                               sim::Part::kBoxWithBore, sim::Part::kSteppedBlock}) {
+    SCOPED_TRACE(static_cast<int>(part));
+    const PointCloud mm = sim::Simulate(part, sim::ThreeOverlappingSensors(part), kSeed).cloud;
+    EXPECT_TRUE(UnitWarnings(mm).empty());
+    EXPECT_EQ(UnitWarnings(Scaled(mm, 1e-3f)).size(), mm.scans.size());
+  }
+}
+
 TEST(UnitPlausibility, MillimetresSentAsMetresAreSuspectToo) {
   const std::vector<Warning> found =
       UnitWarnings(Scaled(testing::WithUserMetadata(Simulated()), 1e3f));
@@ -83,7 +94,7 @@ TEST(UnitPlausibility, AScanThatStatesNothingIsNotJudged) {
   EXPECT_TRUE(UnitWarnings(Scaled(bare, 1e-3f)).empty());
 }
 
-TEST(UnitPlausibility, RealBunnyScansReadInTheWrongUnitAreSuspect) {
+TEST(UnitPlausibility, RealScansAreJudgedRightAndTheBunnyInTheWrongUnitSuspect) {
   SCANPREP_REQUIRE_SHARED_DATA(data);
   // The Cyberware's scanline spacing (0.82 mm) and u = 0.1 mm, as pipeline_test states them.
   const PointCloud mm = testing::LoadRangeScansMm(data / "stanford_bunny_range_scans", "bun.conf",
@@ -91,6 +102,14 @@ TEST(UnitPlausibility, RealBunnyScansReadInTheWrongUnitAreSuspect) {
   ASSERT_EQ(mm.scans.size(), 2u);
   EXPECT_TRUE(UnitWarnings(mm).empty()) << "control: the right unit";
   EXPECT_EQ(UnitWarnings(Scaled(mm, 1e-3f)).size(), 2u) << "the file's metres read as mm";
+  // The Happy Buddha's scans (0.38 mm, as outliers_test states them): the right unit only.
+  const PointCloud buddha =
+      testing::LoadRangeScansMm(data / "stanford_happy_stand_range_scans", "happyStandRight.conf",
+                                {"happyStandRight_24", "happyStandRight_264", "happyStandRight_288",
+                                 "happyStandRight_312", "happyStandRight_336"},
+                                0.38);
+  ASSERT_EQ(buddha.scans.size(), 5u);
+  EXPECT_TRUE(UnitWarnings(buddha).empty());
 }
 
 TEST(FailOn, AJobFailsAtTheEndOfTheStageThatWarnedAndRunsNoLaterStage) {
