@@ -7,23 +7,49 @@
 #include <map>
 #include <optional>
 #include <regex>
+#include <set>
 
 #include <google/protobuf/util/json_util.h>
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "core/io/conf.h"
 #include "core/io/read_file.h"
 #include "core/io/scan_file.h"
+#include "core/pipeline/warning.h"
 #include "core/status_macros.h"
+#include "proto/warning_codes.h"
 
 namespace scanprep::client {
 namespace {
 
 namespace fs = std::filesystem;
 namespace v1 = ::scanprep::v1;
+
+// --strict's codes and --fail_on's, as options.fail_on.
+absl::Status SetFailOn(const ParsedArgs& args, v1::PipelineOptions& options) {
+  std::set<WarningCode> codes;
+  if (args.Bool("strict")) codes.insert(StrictWarningCodes().begin(), StrictWarningCodes().end());
+  if (args.Has("fail_on")) {
+    for (absl::string_view name : absl::StrSplit(args.Get("fail_on"), ',', absl::SkipEmpty())) {
+      const std::optional<WarningCode> code =
+          WarningCodeFromName(std::string_view(name.data(), name.size()));
+      if (!code) {
+        std::vector<std::string> known;
+        for (WarningCode c : AllWarningCodes()) known.emplace_back(WarningCodeName(c));
+        return absl::InvalidArgumentError(absl::StrCat("--fail_on: unknown warning code '", name,
+                                                       "' (known: ", absl::StrJoin(known, ", "),
+                                                       ")"));
+      }
+      codes.insert(*code);
+    }
+  }
+  for (WarningCode code : codes) options.add_fail_on(WarningCodeToProto(code));
+  return absl::OkStatus();
+}
 
 absl::StatusOr<double> ParseLength(const ParsedArgs& args, const std::string& flag) {
   double value = 0;
@@ -108,6 +134,7 @@ absl::Status ApplyOptionFlags(const ParsedArgs& args, v1::JobHeader& header) {
   }
   if (args.Has("preset")) options->set_preset(args.Get("preset"));
   if (args.Bool("include_removed")) options->set_include_removed(true);
+  SCANPREP_RETURN_IF_ERROR(SetFailOn(args, *options));
   for (const char* flag : {"scanline_spacing", "uncertainty"}) {
     if (!args.Has(flag)) continue;
     auto value = ParseLength(args, flag);
@@ -165,6 +192,11 @@ std::vector<FlagSpec> JobFlags() {
        "this (file units) between consecutive points starts a new scanline"},
       {"uncertainty", FlagSpec::kValue, "measuring uncertainty of every scan, job unit"},
       {"include_removed", FlagSpec::kBool, "also return removed points, flagged"},
+      {"strict", FlagSpec::kBool,
+       "fail the job (FAILED_PRECONDITION) on a warning that the request is probably wrong: "
+       "UNIT_SUSPECT, NOISE_ABOVE_UNCERTAINTY, SCAN_REPEATED, POINTS_INVALID"},
+      {"fail_on", FlagSpec::kValue,
+       "fail the job on these warning codes, comma-separated (docs/api.md), e.g. UNIT_SUSPECT"},
       {"input_format", FlagSpec::kValue,
        "format of the scan read from standard input (SCAN '-'): ply, pcd, e57, las or xyz"},
   };
