@@ -58,9 +58,12 @@ int RunInfo(const ParsedArgs& args) {
                    limits.max_points_per_job(), limits.max_chunk_points(),
                    limits.recommended_chunk_points(), limits.max_concurrent_jobs())
             << absl::StrFormat(
-                   "        %d queued, %d calls per client host; header within %gs, upload "
+                   "        %d queued, %s; header within %gs, upload "
                    "messages at most %gs apart, uploads at least %g bytes/s\n",
-                   limits.max_queued_jobs(), limits.max_calls_per_peer(),
+                   limits.max_queued_jobs(),
+                   limits.max_calls_per_peer() == 0
+                       ? std::string("no cap per client host (hosts take turns)")
+                       : absl::StrCat(limits.max_calls_per_peer(), " calls per client host"),
                    limits.header_timeout_seconds(), limits.idle_timeout_seconds(),
                    limits.min_upload_bytes_per_second())
             << absl::StrFormat(

@@ -68,7 +68,8 @@ absl::Status AdmissionQueue::Slot::Reserve(uint64_t bytes, const std::function<b
       "the call was cancelled or its deadline passed while it waited for memory");
 }
 
-absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(uint64_t claim_bytes,
+absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& host,
+                                                           uint64_t claim_bytes,
                                                            uint64_t reserve_bytes,
                                                            absl::Time deadline,
                                                            const std::function<bool()>& cancelled) {
@@ -92,10 +93,12 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(uint64_t claim_bytes,
     return WithMetadata(std::move(refused), "budget_bytes",
                         absl::StrCat(options_.memory_budget_bytes));
   }
-  Waiter self{.claim = claim_bytes, .reserve = std::min(reserve_bytes, claim_bytes)};
+  Waiter self{.claim = claim_bytes, .reserve = std::min(reserve_bytes, claim_bytes), .host = host};
   if (waiting_.empty() && FitsLocked(self)) {
     reserved_bytes_ += self.reserve;
-    const auto holder = holders_.insert(holders_.end(), Holder{claim_bytes, self.reserve});
+    const auto holder = holders_.insert(holders_.end(), Holder{claim_bytes, self.reserve, host});
+    AddCallLocked(host);
+    hosts_[host].last_served = ++grants_;
     PublishLocked();
     metrics_.PhaseEnded(Phase::kQueue, 0);
     return Slot(this, arrived, holder);
@@ -128,6 +131,7 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(uint64_t claim_bytes,
   }
 
   const auto position = waiting_.insert(waiting_.end(), &self);
+  AddCallLocked(host);
   PublishLocked();
   WaitLocked(lock, self, cancelled);
   if (self.granted) {  // GrantLocked already moved it from the queue to a slot
@@ -135,6 +139,8 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(uint64_t claim_bytes,
     return Slot(this, options_.now(), self.holder);
   }
   waiting_.erase(position);
+  EndCallLocked(host);
+  if (waiting_for_memory_ == &self) waiting_for_memory_ = nullptr;
   GrantLocked();  // the calls behind it may fit now
   PublishLocked();
   if (draining_) {
@@ -162,6 +168,7 @@ void AdmissionQueue::Release(absl::Time since, std::list<Holder>::iterator holde
                  : held;
   have_mean_ = true;
   reserved_bytes_ -= holder->reserved;
+  EndCallLocked(holder->host);
   holders_.erase(holder);
   GrantLocked();
   PublishLocked();
@@ -219,17 +226,53 @@ void AdmissionQueue::GrantLocked() {
     it = growing_.erase(it);
     granted = true;
   }
-  // Only the oldest call may take what is free: one behind it that would fit waits too, or a
-  // stream of small jobs could hold a large one back forever.
-  while (!draining_ && !waiting_.empty() && FitsLocked(*waiting_.front())) {
-    Waiter* next = waiting_.front();
-    waiting_.pop_front();
+  // Only the call whose turn it is may take what is free: one behind it that would fit waits
+  // too, or a stream of small jobs could hold a large one back forever.
+  while (!draining_ && !waiting_.empty()) {
+    const auto it = NextLocked();
+    Waiter* next = *it;
+    if (!FitsLocked(*next)) {
+      // A free slot but not the memory: the call keeps its turn until the memory is free, even
+      // against hosts that arrive meanwhile and would rank before it.
+      if (static_cast<int>(holders_.size()) < options_.max_concurrent_jobs) {
+        waiting_for_memory_ = next;
+      }
+      break;
+    }
+    waiting_.erase(it);
+    if (waiting_for_memory_ == next) waiting_for_memory_ = nullptr;
     reserved_bytes_ += next->reserve;
-    next->holder = holders_.insert(holders_.end(), Holder{next->claim, next->reserve});
+    next->holder = holders_.insert(holders_.end(), Holder{next->claim, next->reserve, next->host});
+    hosts_[next->host].last_served = ++grants_;
     next->granted = true;
     granted = true;
   }
   if (granted) changed_.notify_all();
+}
+
+std::list<AdmissionQueue::Waiter*>::iterator AdmissionQueue::NextLocked() {
+  if (waiting_for_memory_ != nullptr) {
+    return std::find(waiting_.begin(), waiting_.end(), waiting_for_memory_);
+  }
+  // waiting_ is in arrival order, so the first call of the least recently served host is both
+  // that host's oldest and, on a tie, the oldest host's. At most max_queued_jobs to look at.
+  auto best = waiting_.begin();
+  uint64_t best_served = hosts_.at((*best)->host).last_served;
+  for (auto it = std::next(best); it != waiting_.end(); ++it) {
+    const uint64_t served = hosts_.at((*it)->host).last_served;
+    if (served < best_served) {
+      best = it;
+      best_served = served;
+    }
+  }
+  return best;
+}
+
+void AdmissionQueue::AddCallLocked(const std::string& host) { ++hosts_[host].calls; }
+
+void AdmissionQueue::EndCallLocked(const std::string& host) {
+  const auto it = hosts_.find(host);
+  if (--it->second.calls == 0) hosts_.erase(it);
 }
 
 void AdmissionQueue::Drain() {

@@ -54,10 +54,14 @@ ABSL_FLAG(uint64_t, max_bytes_per_call, uint64_t{1} << 30,
 ABSL_FLAG(uint32_t, max_scans_per_job, 1'000,
           "scans one job header may declare; more end the call with RESOURCE_EXHAUSTED");
 ABSL_FLAG(int, max_calls_per_peer, 0,
-          "Process calls one client host (address without port) may have in progress, queued "
-          "included; more end at once with RESOURCE_EXHAUSTED. 0 = half of "
-          "--max_concurrent_jobs, at least 1; must be below max_concurrent_jobs + "
-          "max_queued_jobs, so one host cannot take every place");
+          "opt-in cap: Process calls one client host (see --trusted_proxies) may have in "
+          "progress, queued included; more end at once with RESOURCE_EXHAUSTED (PEER_LIMIT). "
+          "0 = no cap: one host may use every slot and queue place, and hosts that contend take "
+          "turns in the queue");
+ABSL_FLAG(std::string, trusted_proxies, "",
+          "comma-separated CIDR ranges (IPv4 or IPv6, e.g. 10.0.0.0/8,fd00::/8) of proxies whose "
+          "x-forwarded-for names the client host: from the right, the first address that is not "
+          "itself a trusted proxy. Empty = the direct peer is the client host");
 ABSL_FLAG(std::string, metrics_listen, "0.0.0.0:9464",
           "HOST:PORT of the Prometheus /metrics endpoint (port 0 = any free port; empty = off)");
 ABSL_FLAG(int, max_concurrent_jobs, 4,
@@ -203,6 +207,13 @@ int main(int argc, char** argv) {
   options.limits.max_bytes_per_call = absl::GetFlag(FLAGS_max_bytes_per_call);
   options.limits.max_scans_per_job = absl::GetFlag(FLAGS_max_scans_per_job);
   options.max_calls_per_peer = absl::GetFlag(FLAGS_max_calls_per_peer);
+  if (auto proxies = scanprep::server::ParseCidrList(absl::GetFlag(FLAGS_trusted_proxies));
+      proxies.ok()) {
+    options.trusted_proxies = *std::move(proxies);
+  } else {
+    std::cerr << "scanprep-server: --trusted_proxies: " << proxies.status().message() << "\n";
+    return 1;
+  }
   options.limits.default_budget_seconds = budgets->total_seconds;
   options.limits.default_stage_budget_seconds = budgets->stage_seconds;
   options.max_concurrent_jobs = absl::GetFlag(FLAGS_max_concurrent_jobs);
@@ -217,10 +228,6 @@ int main(int argc, char** argv) {
                         .keepalive_time = absl::GetFlag(FLAGS_keepalive_time),
                         .keepalive_timeout = absl::GetFlag(FLAGS_keepalive_timeout)};
   if (absl::Status s = scanprep::server::CheckConnectionOptions(options.connection); !s.ok()) {
-    std::cerr << "scanprep-server: " << s.message() << "\n";
-    return 1;
-  }
-  if (absl::Status s = scanprep::server::CheckCallsPerPeer(options); !s.ok()) {
     std::cerr << "scanprep-server: " << s.message() << "\n";
     return 1;
   }

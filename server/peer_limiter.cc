@@ -6,20 +6,12 @@
 
 namespace scanprep::server {
 
-std::string PeerHost(const std::string& peer) {
-  // gRPC writes IP peers as ipv4:ADDR:PORT and ipv6:[ADDR]:PORT (or %5BADDR%5D:PORT), always with
-  // the port; other schemes (unix:PATH) name no port.
-  const bool ip = peer.rfind("ipv4:", 0) == 0 || peer.rfind("ipv6:", 0) == 0;
-  const size_t colon = peer.rfind(':');
-  return ip && colon > 4 ? peer.substr(0, colon) : peer;
-}
-
 PeerLimiter::Lease::~Lease() {
   if (limiter_ != nullptr) limiter_->Release(host_);
 }
 
-absl::StatusOr<PeerLimiter::Lease> PeerLimiter::Acquire(const std::string& peer) {
-  std::string host = PeerHost(peer);
+absl::StatusOr<PeerLimiter::Lease> PeerLimiter::Acquire(const std::string& host) {
+  if (max_ == 0) return Lease(nullptr, host);
   std::lock_guard lock(mu_);
   int& calls = calls_[host];
   if (calls >= max_) {
@@ -31,7 +23,7 @@ absl::StatusOr<PeerLimiter::Lease> PeerLimiter::Acquire(const std::string& peer)
                       "PEER_LIMIT", absl::Seconds(1));
   }
   ++calls;
-  return Lease(this, std::move(host));
+  return Lease(this, host);
 }
 
 void PeerLimiter::Release(const std::string& host) {

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
-// Caps the calls one client host may have in progress at once, so a single machine cannot take
-// every admission slot and queue place. Hosts are told apart by address only: the port changes
-// with every connection.
+// An optional cap on the calls one client host (client_identity.h) may have in progress at once,
+// queued included (--max_calls_per_peer). Off by default: the admission queue already shares the
+// slots fairly between hosts that contend (admission.h), so one host may use every place while
+// nobody else waits. The cap is for operators who want a hard per-host share regardless.
 #pragma once
 
 #include <map>
@@ -13,12 +14,9 @@
 
 namespace scanprep::server {
 
-// gRPC's peer string without the port: "ipv4:10.0.0.7:51234" -> "ipv4:10.0.0.7",
-// "ipv6:[::1]:51234" -> "ipv6:[::1]"; peers that are not IP addresses are returned unchanged.
-std::string PeerHost(const std::string& peer);
-
 class PeerLimiter {
  public:
+  // 0 = no cap.
   explicit PeerLimiter(int max_calls_per_peer) : max_(max_calls_per_peer) {}
 
   // One call in progress; destroying it ends the call's claim.
@@ -31,12 +29,12 @@ class PeerLimiter {
    private:
     friend class PeerLimiter;
     Lease(PeerLimiter* limiter, std::string host) : limiter_(limiter), host_(std::move(host)) {}
-    PeerLimiter* limiter_;
+    PeerLimiter* limiter_;  // null when there is no cap
     std::string host_;
   };
 
-  // RESOURCE_EXHAUSTED naming the limit when the peer's host already has `max` calls.
-  absl::StatusOr<Lease> Acquire(const std::string& peer);
+  // RESOURCE_EXHAUSTED naming the cap when `host` already has `max` calls.
+  absl::StatusOr<Lease> Acquire(const std::string& host);
   int max_calls_per_peer() const { return max_; }
 
  private:

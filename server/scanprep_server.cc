@@ -57,33 +57,18 @@ void AddConnectionArguments(const ConnectionOptions& c, grpc::ServerBuilder& bui
 
 }  // namespace
 
-int CallsPerPeer(const ServerOptions& options) {
-  return options.max_calls_per_peer > 0 ? options.max_calls_per_peer
-                                        : std::max(1, options.max_concurrent_jobs / 2);
-}
-
-absl::Status CheckCallsPerPeer(const ServerOptions& options) {
-  const int per_peer = CallsPerPeer(options);
-  const int places = options.max_concurrent_jobs + options.max_queued_jobs;
-  if (per_peer == 1 || per_peer < places) return absl::OkStatus();
-  return absl::InvalidArgumentError(
-      absl::StrCat("--max_calls_per_peer=", per_peer,
-                   " would let one client host take every slot and queue "
-                   "place (max_concurrent_jobs + max_queued_jobs = ",
-                   places, "); it must be below ", places));
-}
-
 ScanPrepServer::ScanPrepServer(const ServerOptions& options)
     : metrics_(registry_),
       log_(options.log, options.max_log_lines_per_second),
-      peers_(CallsPerPeer(options)),
+      peers_(options.max_calls_per_peer),
       admission_({.max_concurrent_jobs = options.max_concurrent_jobs,
                   .max_queued_jobs = options.max_queued_jobs,
                   .memory_budget_bytes = options.memory_budget_bytes},
                  metrics_),
       runner_(options.threads, options.on_progress),
       guard_(options.memory_guard, admission_, runner_, metrics_, log_),
-      service_(options.limits, options.timeouts, admission_, runner_, metrics_, peers_, log_) {
+      service_(options.limits, options.timeouts, options.trusted_proxies, admission_, runner_,
+               metrics_, peers_, log_) {
   metrics_.SetDefaultBudget(options.limits.default_budget_seconds);
 }
 
@@ -124,7 +109,7 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
     }
   }
   if (options.max_calls_per_peer < 0) {
-    return absl::InvalidArgumentError("max_calls_per_peer must be at least 0 (0 = the default)");
+    return absl::InvalidArgumentError("max_calls_per_peer must be at least 0 (0 = no cap)");
   }
   ServerOptions resolved = options;
   if (resolved.memory_budget_bytes == 0) {

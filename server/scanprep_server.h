@@ -14,6 +14,7 @@
 #include "absl/time/time.h"
 #include "server/admission.h"
 #include "server/call_log.h"
+#include "server/cidr.h"
 #include "server/job_assembler.h"
 #include "server/job_runner.h"
 #include "server/memory_guard.h"
@@ -51,9 +52,11 @@ struct ServerOptions {
   // Ends a job whose memory crosses its reservation (memory_guard.h); off unless enabled.
   MemoryGuardOptions memory_guard;
   int threads = 0;  // arena threads; 0 = hardware concurrency
-  // Process calls one client host may have in progress (queued included); 0 = CallsPerPeer's
-  // default.
+  // Process calls one client host may have in progress (queued included); 0 = no cap (the
+  // admission queue shares the slots fairly between hosts).
   int max_calls_per_peer = 0;
+  // Proxies whose x-forwarded-for names the client host (client_identity.h); empty = none.
+  std::vector<Cidr> trusted_proxies;
   StreamTimeouts timeouts;
   // Connection lifetime and liveness; see ConnectionOptions.
   ConnectionOptions connection;
@@ -64,14 +67,6 @@ struct ServerOptions {
   int max_log_lines_per_second = CallLog::kMaxLinesPerSecond;  // beyond: dropped and counted
   ProgressHook on_progress;                                    // test hook, see ProgressHook
 };
-
-// The per-host limit in force: max_calls_per_peer, or when 0 half the slots (at least 1), so
-// one host leaves slots to others.
-int CallsPerPeer(const ServerOptions& options);
-// OK unless the per-host limit lets one host take every slot and queue place (a limit of 1 is
-// always accepted: one slot and no queue leave no smaller choice). Checked by scanprep-server at
-// startup; the in-process tests, whose clients all share one address, may exceed it.
-absl::Status CheckCallsPerPeer(const ServerOptions& options);
 
 class ScanPrepServer {
  public:

@@ -14,6 +14,7 @@
 #include "core/pipeline/job_context.h"
 #include "proto/chunk_arrays.h"
 #include "proto/stream_checksum.h"
+#include "server/client_identity.h"
 #include "server/convert.h"
 #include "server/error_details.h"
 #include "server/memory_budget.h"
@@ -103,12 +104,12 @@ grpc::Status ScanPrepService::Ended(const grpc::ServerContext& context,
 
 grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stream) {
   metrics_.RpcStarted(kProcessRpc);
-  CallRecord record{.start = absl::Now()};
-  grpc::Status status;
-  // Counted before anything is read, so one host's calls cannot fill every slot and queue place.
   // Read now: gRPC reports a cancelled call's peer as "unknown".
   const std::string peer = context->peer();
-  if (auto lease = peers_.Acquire(peer); !lease.ok()) {
+  CallRecord record{.start = absl::Now(), .client = ClientHost(*context, trusted_proxies_)};
+  grpc::Status status;
+  // The optional per-host cap, counted before anything is read.
+  if (auto lease = peers_.Acquire(record.client); !lease.ok()) {
     status = Refuse(lease.status());
   } else {
     try {
@@ -134,10 +135,10 @@ void ScanPrepService::LogCall(const std::string& peer, const CallRecord& record,
           : absl::StrCat(
                 absl::StatusCodeToString(static_cast<absl::StatusCode>(status.error_code())), ": ",
                 Quoted(status.error_message(), 300));
-  log_.Write(
-      routine ? CallLog::kInfo : CallLog::kWarning,
-      absl::StrCat("process peer=", peer, " job=", Quoted(record.job_id), " points=", record.points,
-                   " ", outcome, " ", absl::StrFormat("%.3fs", absl::ToDoubleSeconds(elapsed))));
+  log_.Write(routine ? CallLog::kInfo : CallLog::kWarning,
+             absl::StrCat("process peer=", peer, " client=", record.client,
+                          " job=", Quoted(record.job_id), " points=", record.points, " ", outcome,
+                          " ", absl::StrFormat("%.3fs", absl::ToDoubleSeconds(elapsed))));
 }
 
 bool ScanPrepService::Send(Stream* stream, IdleWatch::Call& watch,
@@ -231,9 +232,9 @@ grpc::Status ScanPrepService::Upload(grpc::ServerContext* context, Stream* strea
     if (!added.ok()) return Refuse(added);
     watch.Pause();            // waiting for a slot or memory is the server's time, not the client's
     if (!slot.has_value()) {  // the assembler accepts only a header first
-      auto admitted =
-          admission_.Admit(EstimateJobBytes(assembler.total_points(), assembler.options().params),
-                           ReserveAhead(assembler), CallDeadline(*context), cancelled);
+      auto admitted = admission_.Admit(
+          record.client, EstimateJobBytes(assembler.total_points(), assembler.options().params),
+          ReserveAhead(assembler), CallDeadline(*context), cancelled);
       if (!admitted.ok()) {
         // Cancelled while waiting: by the client, or by gRPC because the deadline passed.
         return admitted.status().code() == absl::StatusCode::kCancelled

@@ -11,6 +11,7 @@
 #include "scanprep/v1/scanprep.grpc.pb.h"
 #include "server/admission.h"
 #include "server/call_log.h"
+#include "server/cidr.h"
 #include "server/idle_watch.h"
 #include "server/job_assembler.h"
 #include "server/job_runner.h"
@@ -40,10 +41,14 @@ struct StreamTimeouts {
 
 class ScanPrepService final : public v1::ScanPrep::Service {
  public:
-  ScanPrepService(JobLimits limits, StreamTimeouts timeouts, AdmissionQueue& admission,
-                  JobRunner& runner, ServiceMetrics& metrics, PeerLimiter& peers, CallLog& log)
+  // Calls from an address in `trusted_proxies` count as from the client they forwarded
+  // (client_identity.h).
+  ScanPrepService(JobLimits limits, StreamTimeouts timeouts, std::vector<Cidr> trusted_proxies,
+                  AdmissionQueue& admission, JobRunner& runner, ServiceMetrics& metrics,
+                  PeerLimiter& peers, CallLog& log)
       : limits_(std::move(limits)),
         timeouts_(timeouts),
+        trusted_proxies_(std::move(trusted_proxies)),
         admission_(admission),
         runner_(runner),
         metrics_(metrics),
@@ -60,7 +65,8 @@ class ScanPrepService final : public v1::ScanPrep::Service {
   using Stream = grpc::ServerReaderWriter<v1::ProcessResponse, v1::ProcessRequest>;
   // What the log line of a Process call says besides its status.
   struct CallRecord {
-    absl::Time start;  // when the call arrived
+    absl::Time start;    // when the call arrived
+    std::string client;  // the client host (client_identity.h)
     std::string job_id;
     uint64_t points = 0;
   };
@@ -106,6 +112,7 @@ class ScanPrepService final : public v1::ScanPrep::Service {
 
   JobLimits limits_;
   StreamTimeouts timeouts_;
+  const std::vector<Cidr> trusted_proxies_;
   IdleWatch idle_;
   AdmissionQueue& admission_;
   JobRunner& runner_;

@@ -7,12 +7,10 @@ start_local_server() {
   local log=$1
   shift
   : >"$log"  # a previous server's "listening on port" must not be read as this one's
-  # The load generators all call from this host, standing for many clients: allow them every
-  # place but one of the default 4 slots + 8 queue places (the default per-host limit is 2).
   # Metrics on a free loopback port, so that another server on this host (its default 9464)
   # cannot make this one fail to start; FLAGS may override it.
   ${PIN:+taskset -c "$PIN"} "$bin/server/scanprep-server" --plaintext --listen=127.0.0.1:0 --metrics_listen=127.0.0.1:0 \
-    --max_calls_per_peer=11 "$@" \
+    "$@" \
     >"$log" 2>&1 &
   server_pid=$!
   port=

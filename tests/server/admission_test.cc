@@ -10,6 +10,7 @@
 #include <grpcpp/generic/generic_stub.h>
 #include <gtest/gtest.h>
 
+#include "absl/cleanup/cleanup.h"
 #include "server/admission.h"
 #include "tests/server/metrics_scrape.h"
 #include "tests/server/service_fixtures.h"
@@ -51,24 +52,26 @@ class QueueUnderTest {
     std::lock_guard lock(mu_);
     now_ += d;
   }
-  // Claims `bytes` and reserves all of them at once.
-  absl::StatusOr<AdmissionQueue::Slot> AdmitNow(uint64_t bytes = 0) {
-    return queue_.Admit(bytes, bytes, absl::InfiniteFuture(), [] { return false; });
+  // Claims `bytes` and reserves all of them at once; every call comes from one client host
+  // unless a test names another.
+  absl::StatusOr<AdmissionQueue::Slot> AdmitNow(uint64_t bytes = 0,
+                                                const std::string& host = "host") {
+    return queue_.Admit(host, bytes, bytes, absl::InfiniteFuture(), [] { return false; });
   }
   // Admit on another thread; the future resolves when the call got a slot or failed.
   std::future<absl::StatusOr<AdmissionQueue::Slot>> AdmitAsync(
       absl::Time deadline = absl::InfiniteFuture(), std::atomic<bool>* cancelled = nullptr,
-      uint64_t bytes = 0) {
-    return std::async(std::launch::async, [this, deadline, cancelled, bytes] {
-      return queue_.Admit(bytes, bytes, deadline,
+      uint64_t bytes = 0, std::string host = "host") {
+    return std::async(std::launch::async, [this, deadline, cancelled, bytes, host] {
+      return queue_.Admit(host, bytes, bytes, deadline,
                           [cancelled] { return cancelled != nullptr && cancelled->load(); });
     });
   }
   // Admit `bytes` on another thread and wait until the call is queued (or already decided).
   std::future<absl::StatusOr<AdmissionQueue::Slot>> AdmitQueued(
-      uint64_t bytes, std::atomic<bool>* cancelled = nullptr) {
+      uint64_t bytes, std::atomic<bool>* cancelled = nullptr, const std::string& host = "host") {
     const int before = queue_.queued();
-    auto f = AdmitAsync(absl::InfiniteFuture(), cancelled, bytes);
+    auto f = AdmitAsync(absl::InfiniteFuture(), cancelled, bytes, host);
     EXPECT_TRUE(Eventually([&] {
       return queue_.queued() > before ||
              f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
@@ -145,6 +148,75 @@ TEST(AdmissionQueue, WaitingCallsAreServedInArrivalOrder) {
   EXPECT_TRUE(second.get().ok());
 }
 
+// Host A queues three calls behind its running one, then host B one: B has not been served, A
+// has, so B's call takes the next slot (second, not fourth as in arrival order), and then A's in
+// their order.
+TEST(AdmissionQueue, HostsThatContendTakeTurnsLeastRecentlyServedFirst) {
+  QueueUnderTest q(/*max_concurrent=*/1, /*max_queued=*/8);
+  auto running = q.AdmitNow(0, "A");
+  ASSERT_TRUE(running.ok());
+  std::atomic<bool> give_up{false};  // so that a failed test ends instead of waiting forever
+  std::vector<std::future<absl::StatusOr<AdmissionQueue::Slot>>> a;
+  for (int i = 0; i < 3; ++i) a.push_back(q.AdmitQueued(0, &give_up, "A"));
+  auto b = q.AdmitQueued(0, &give_up, "B");
+  absl::Cleanup end_waits = [&] { give_up = true; };  // before the futures wait for their calls
+  ASSERT_EQ(q.queue().queued(), 4);
+
+  { auto release = std::move(*running); }
+  ASSERT_EQ(b.wait_for(std::chrono::seconds(10)), std::future_status::ready);
+  auto b_slot = b.get();
+  ASSERT_TRUE(b_slot.ok()) << b_slot.status();
+  EXPECT_EQ(q.queue().queued(), 3);
+  for (auto& f : a) EXPECT_FALSE(Ready(f));
+  { auto release = std::move(*b_slot); }
+  for (size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(a[i].wait_for(std::chrono::seconds(10)), std::future_status::ready);
+    auto slot = a[i].get();
+    ASSERT_TRUE(slot.ok()) << slot.status();
+    for (size_t j = i + 1; j < a.size(); ++j) EXPECT_FALSE(Ready(a[j]));
+  }
+}
+
+// Alone, a host may fill every slot and every queue place; the next call is refused only because
+// the queue is full.
+TEST(AdmissionQueue, OneHostAloneMayTakeEverySlotAndQueuePlace) {
+  QueueUnderTest q(/*max_concurrent=*/2, /*max_queued=*/2);
+  auto first = q.AdmitNow(0, "A");
+  auto second = q.AdmitNow(0, "A");
+  ASSERT_TRUE(first.ok() && second.ok());
+  auto third = q.AdmitQueued(0, nullptr, "A");
+  auto fourth = q.AdmitQueued(0, nullptr, "A");
+  EXPECT_EQ(q.queue().queued(), 2);
+  const auto refused = q.AdmitNow(0, "B");
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(refused.status().message(), HasSubstr("(max_queued_jobs) is full"));
+  { auto release = std::move(*first); }
+  EXPECT_TRUE(third.get().ok());
+  { auto release = std::move(*second); }
+  EXPECT_TRUE(fourth.get().ok());
+}
+
+// A call whose turn came while a slot was free but not its memory keeps its turn: a host that
+// arrives later (never served, so otherwise first) does not take the memory it waits for.
+TEST(AdmissionQueue, ACallWaitingForMemoryKeepsItsTurnAgainstHostsThatArriveLater) {
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
+  auto a1 = q.AdmitNow(300, "A");
+  auto a2 = q.AdmitNow(300, "A");
+  auto c = q.AdmitNow(100, "C");
+  ASSERT_TRUE(a1.ok() && a2.ok() && c.ok());
+  auto large = q.AdmitQueued(800, nullptr, "A");
+  { auto release = std::move(*a1); }  // 400 reserved: its turn, a free slot, not its memory
+  auto small = q.AdmitQueued(100, nullptr, "B");
+  { auto release = std::move(*c); }  // 300 reserved: the small one would fit, the large not
+  EXPECT_FALSE(Ready(small));
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 300u);
+  { auto release = std::move(*a2); }
+  auto large_slot = large.get();
+  auto small_slot = small.get();
+  ASSERT_TRUE(large_slot.ok() && small_slot.ok());
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 900u);
+}
+
 TEST(AdmissionQueue, ExpectedWaitIsTheRunningMeanHoldTimePerSlotTimesThePosition) {
   QueueUnderTest q(/*max_concurrent=*/2, /*max_queued=*/4);
   EXPECT_EQ(q.queue().ExpectedWaitSeconds(), 0);  // nothing measured yet
@@ -177,7 +249,7 @@ TEST(AdmissionQueue, FailsFastWhenTheExpectedWaitExceedsTheDeadline) {
   auto running = q.AdmitNow();
   ASSERT_TRUE(running.ok());
 
-  auto refused = q.queue().Admit(0, 0, q.now() + absl::Seconds(5), [] { return false; });
+  auto refused = q.queue().Admit("host", 0, 0, q.now() + absl::Seconds(5), [] { return false; });
   EXPECT_EQ(refused.status().code(), absl::StatusCode::kDeadlineExceeded);
   EXPECT_THAT(refused.status().message(), HasSubstr("expected wait 10 s exceeds the deadline 5 s"));
   EXPECT_EQ(q.Metric("scanprep_jobs_rejected_total{reason=\"deadline\"}"), 1);
@@ -352,7 +424,7 @@ TEST(AdmissionQueue, WhenTheHeadOfTheQueueLeavesTheCallsBehindItThatFitAreAdmitt
 TEST(AdmissionQueue, AClaimIsReservedAsItsDataArrivesSoTheRestServesOtherCalls) {
   QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
   // A call that claims 900 bytes but has reserved 100 of them (its data so far).
-  auto large = q.queue().Admit(900, 100, absl::InfiniteFuture(), [] { return false; });
+  auto large = q.queue().Admit("host", 900, 100, absl::InfiniteFuture(), [] { return false; });
   ASSERT_TRUE(large.ok()) << large.status();
   EXPECT_EQ(q.queue().memory_reserved_bytes(), 100u);
   // A 200-byte job runs at once (with 900 reserved at the header it would have queued).
@@ -380,8 +452,8 @@ TEST(AdmissionQueue, AClaimIsReservedAsItsDataArrivesSoTheRestServesOtherCalls) 
 
 TEST(AdmissionQueue, AReservationThatCouldLeaveNoClaimAbleToFinishWaits) {
   QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
-  auto a = q.queue().Admit(600, 300, absl::InfiniteFuture(), [] { return false; });
-  auto c = q.queue().Admit(600, 300, absl::InfiniteFuture(), [] { return false; });
+  auto a = q.queue().Admit("host", 600, 300, absl::InfiniteFuture(), [] { return false; });
+  auto c = q.queue().Admit("host", 600, 300, absl::InfiniteFuture(), [] { return false; });
   ASSERT_TRUE(a.ok() && c.ok());
   ASSERT_TRUE(a->Reserve(500, [] { return false; }).ok());  // a needs 100 more, 200 are free
   // 200 more for c fit in the budget, but then a and c would each wait for the other's bytes
@@ -396,7 +468,7 @@ TEST(AdmissionQueue, AReservationThatCouldLeaveNoClaimAbleToFinishWaits) {
   EXPECT_TRUE(c_grows.get().ok());
   EXPECT_EQ(q.queue().memory_reserved_bytes(), 500u);
   // A waiting reservation gives up when its call is cancelled.
-  auto d = q.queue().Admit(600, 0, absl::InfiniteFuture(), [] { return false; });
+  auto d = q.queue().Admit("host", 600, 0, absl::InfiniteFuture(), [] { return false; });
   ASSERT_TRUE(d.ok());
   EXPECT_EQ(d->Reserve(600, [] { return true; }).code(), absl::StatusCode::kCancelled);
   EXPECT_EQ(q.queue().memory_reserved_bytes(), 500u);

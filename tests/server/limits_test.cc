@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "core/pipeline/job_context.h"
-#include "server/peer_limiter.h"
+#include "server/cidr.h"
 #include "tests/server/service_fixtures.h"
 
 namespace scanprep::testing {
@@ -42,130 +42,101 @@ TEST(Limits, BytesPerCallEndTheCallAtTheCrossingMessage) {
   EXPECT_EQ(responses.size(), acknowledged);
 }
 
+// A Process call that sent its header and a chunk and saw it acknowledged, so it holds a slot,
+// left open; `forwarded_for` is sent as x-forwarded-for when set.
+struct OpenCall {
+  grpc::ClientContext context;
+  std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> stream;
+  grpc::Status refused;  // when the server ended the call instead
+
+  OpenCall(v1::ScanPrep::Stub& stub, const std::string& forwarded_for = "") {
+    // A queued call would wait for an acknowledgement that never comes.
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+    if (!forwarded_for.empty()) context.AddMetadata("x-forwarded-for", forwarded_for);
+    stream = stub.Process(&context);
+    stream->Write(HeaderRequest(SimpleHeader(), 200));
+    stream->Write(ChunkRequest(LineChunk(100)));
+    v1::ProcessResponse ack;
+    if (!stream->Read(&ack)) refused = stream->Finish();
+  }
+  bool open() const { return refused.ok(); }
+  ~OpenCall() {
+    if (!open()) return;
+    context.TryCancel();
+    (void)stream->Finish();
+  }
+};
+
 TEST(Limits, CallsPerPeerCountEveryCallInProgressFromOneHost) {
   server::ServerOptions options;
   options.max_calls_per_peer = 2;
   InProcessServer server(options);
   auto stub = server.Stub();
   // Two calls in progress: each has sent a chunk and seen it acknowledged.
-  struct OpenCall {
-    grpc::ClientContext context;
-    std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> stream;
-  };
-  OpenCall calls[2];
-  for (OpenCall& call : calls) {
-    call.stream = stub->Process(&call.context);
-    ASSERT_TRUE(call.stream->Write(HeaderRequest(SimpleHeader(), 100)));
-    ASSERT_TRUE(call.stream->Write(ChunkRequest(LineChunk(100))));
-    v1::ProcessResponse response;
-    ASSERT_TRUE(call.stream->Read(&response));
-  }
+  auto first = std::make_unique<OpenCall>(*stub);
+  OpenCall second(*stub);
+  ASSERT_TRUE(first->open() && second.open());
   const grpc::Status third =
       RawCall(*stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))});
   EXPECT_EQ(third.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(third.error_message(),
-              HasSubstr("ipv4:127.0.0.1 already has 2 calls in progress, the server's limit of "
+              HasSubstr("127.0.0.1 already has 2 calls in progress, the server's limit of "
                         "concurrent calls per client host (max_calls_per_peer)"));
 
   // One call ends: its place is free again.
-  ASSERT_TRUE(calls[0].stream->Write(EndRequest({ChunkRequest(LineChunk(100))})));
-  calls[0].stream->WritesDone();
-  v1::ProcessResponse response;
-  while (calls[0].stream->Read(&response)) {
-  }
-  ASSERT_TRUE(calls[0].stream->Finish().ok());
+  first.reset();
   const grpc::Status next =
       RawCall(*stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))});
   EXPECT_TRUE(next.ok()) << next.error_message();
-  calls[1].context.TryCancel();
-  (void)calls[1].stream->Finish();
 }
 
-TEST(Limits, PeerHostDropsOnlyThePort) {
-  EXPECT_EQ(server::PeerHost("ipv4:10.0.0.7:51234"), "ipv4:10.0.0.7");
-  EXPECT_EQ(server::PeerHost("ipv6:[::1]:51234"), "ipv6:[::1]");
-  EXPECT_EQ(server::PeerHost("ipv6:%5B::1%5D:51234"), "ipv6:%5B::1%5D");
-  EXPECT_EQ(server::PeerHost("unix:/run/scanprep.sock"), "unix:/run/scanprep.sock");
-}
-
-TEST(Limits, TheDefaultPerHostLimitIsHalfTheSlotsAndNoLimitMayCoverEveryPlace) {
-  using server::CallsPerPeer;
-  using server::CheckCallsPerPeer;
-  using server::ServerOptions;
-  EXPECT_EQ(CallsPerPeer(ServerOptions{}), 2);  // 4 slots
-  EXPECT_EQ(CallsPerPeer(ServerOptions{.max_concurrent_jobs = 1}), 1);
-  EXPECT_EQ(CallsPerPeer(ServerOptions{.max_concurrent_jobs = 7}), 3);
-  EXPECT_EQ(CallsPerPeer(ServerOptions{.max_calls_per_peer = 5}), 5);
-  EXPECT_TRUE(CheckCallsPerPeer(ServerOptions{}).ok());
-  EXPECT_TRUE(CheckCallsPerPeer(ServerOptions{.max_calls_per_peer = 11}).ok());  // 4 + 8 places
-  const absl::Status every = CheckCallsPerPeer(ServerOptions{.max_calls_per_peer = 12});
-  EXPECT_EQ(every.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(every.message(),
-            "--max_calls_per_peer=12 would let one client host take every slot and queue place "
-            "(max_concurrent_jobs + max_queued_jobs = 12); it must be below 12");
-  // One slot and no queue: 1 is the only limit there is.
-  EXPECT_TRUE(
-      CheckCallsPerPeer(ServerOptions{.max_concurrent_jobs = 1, .max_queued_jobs = 0}).ok());
-}
-
-// Two client hosts on one machine: the server listens on IPv6's wildcard, so a client connecting
-// to 127.0.0.1 arrives as ipv6:[::ffff:127.0.0.1] and one connecting to [::1] as ipv6:[::1].
-TEST(Limits, OneHostCannotTakeEverySlotWhileAnotherHostsJobCompletes) {
-  server::ServerOptions options;  // 4 slots, 8 queue places, the default per-host limit
-  options.listen = "[::]:0";
+// The default server (no per-host cap) on 2 slots: one host's second concurrent job holds the
+// second slot rather than being refused, and its third queues.
+TEST(Limits, OneHostAloneMayUseEverySlot) {
+  server::ServerOptions options{.max_concurrent_jobs = 2};
+  options.listen = "127.0.0.1:0";
   options.threads = 2;
   auto server = server::ScanPrepServer::Start(options);
   ASSERT_TRUE(server.ok()) << server.status();
-  const int port = (*server)->port();
-  auto greedy = v1::ScanPrep::NewStub(
-      grpc::CreateChannel(absl::StrCat("127.0.0.1:", port), grpc::InsecureChannelCredentials()));
+  auto stub = v1::ScanPrep::NewStub(grpc::CreateChannel(
+      absl::StrCat("127.0.0.1:", (*server)->port()), grpc::InsecureChannelCredentials()));
+  // Each acknowledged chunk came after the call's admission: both hold a slot.
+  OpenCall first(*stub), second(*stub);
+  EXPECT_TRUE(first.open()) << first.refused.error_message();
+  EXPECT_TRUE(second.open()) << second.refused.error_message();
+  auto info = client::ScanPrepClient::Connect(absl::StrCat("127.0.0.1:", (*server)->port()))
+                  .GetInfo(absl::Seconds(10));
+  ASSERT_TRUE(info.ok()) << info.status();
+  EXPECT_EQ(info->limits().max_calls_per_peer(), 0u);  // no cap
+}
 
-  // The greedy host opens calls until refused; each opened call holds a slot.
-  struct OpenCall {
-    grpc::ClientContext context;
-    std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> stream;
-  };
-  std::vector<std::unique_ptr<OpenCall>> held;
-  grpc::Status refused;
-  for (int i = 0; i < 12 && refused.ok(); ++i) {
-    auto call = std::make_unique<OpenCall>();
-    // A queued call would wait for an acknowledgement that never comes.
-    call->context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
-    call->stream = greedy->Process(&call->context);
-    call->stream->Write(HeaderRequest(SimpleHeader(), 100));
-    call->stream->Write(ChunkRequest(LineChunk(100)));
-    v1::ProcessResponse ack;
-    if (call->stream->Read(&ack)) {
-      held.push_back(std::move(call));
+// With a cap of one call per host, which host a call counts as shows in whether a second call is
+// refused. Through a trusted proxy (the loopback address here) the forwarded addresses are two
+// hosts; from an untrusted peer (the control) the same header is ignored and both calls are the
+// peer's.
+TEST(Limits, AForwardedAddressNamesTheHostOnlyFromATrustedProxy) {
+  for (const bool trusted : {true, false}) {
+    SCOPED_TRACE(trusted ? "trusted proxy" : "untrusted peer");
+    server::ServerOptions options{.max_calls_per_peer = 1};
+    auto proxies = server::ParseCidrList(trusted ? "127.0.0.0/8, ::1" : "10.0.0.0/8, ::1");
+    ASSERT_TRUE(proxies.ok()) << proxies.status();
+    options.trusted_proxies = *proxies;
+    InProcessServer server(options);
+    auto stub = server.Stub();
+    OpenCall a(*stub, "203.0.113.7");
+    ASSERT_TRUE(a.open()) << a.refused.error_message();
+    OpenCall b(*stub, "198.51.100.1, 203.0.113.8");  // the left-most is b's own claim
+    if (trusted) {
+      EXPECT_TRUE(b.open()) << b.refused.error_message();
+      OpenCall again(*stub, "203.0.113.7");
+      EXPECT_THAT(again.refused.error_message(),
+                  HasSubstr("203.0.113.7 already has 1 calls in progress"));
     } else {
-      refused = call->stream->Finish();
+      EXPECT_EQ(b.refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+      EXPECT_THAT(b.refused.error_message(),
+                  HasSubstr("127.0.0.1 already has 1 calls in progress"));
     }
   }
-  EXPECT_EQ(held.size(), 2u);  // half of the 4 slots
-  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
-  EXPECT_THAT(refused.error_message(), HasSubstr("(max_calls_per_peer)"));
-
-  // Another host's job runs to its report while the greedy host's calls are still open.
-  auto other = client::ScanPrepClient::Connect(absl::StrCat("[::1]:", port));
-  v1::JobHeader header = SimpleHeader();
-  header.mutable_options()->add_stages("outliers");
-  PointCloud cloud;
-  for (int i = 0; i < 200; ++i) {
-    cloud.x.push_back(0.5f * (i % 20));
-    cloud.y.push_back(0.5f * (i / 20));
-    cloud.z.push_back(0.f);
-  }
-  cloud.scans.push_back(ScanMeta{.id = "plane"});
-  cloud.FinishLoading();
-  auto result = other.Process(header, cloud);
-  ASSERT_TRUE(result.ok()) << result.status();
-  EXPECT_EQ(result->report.points_received(), 200u);
-  auto info = other.GetInfo(absl::Seconds(10));
-  ASSERT_TRUE(info.ok()) << info.status();
-  EXPECT_EQ(info->limits().max_calls_per_peer(), 2u);
-
-  for (auto& call : held) call->context.TryCancel();
-  for (auto& call : held) call->stream->Finish();
 }
 
 TEST(Limits, AStreamThatNeverSendsItsHeaderIsEndedByTheHeaderTimeout) {

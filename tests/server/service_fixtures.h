@@ -28,11 +28,6 @@ class InProcessServer {
   explicit InProcessServer(server::ServerOptions options = {}) {
     options.listen = "127.0.0.1:0";
     if (options.threads == 0) options.threads = 2;
-    // Every test client calls from 127.0.0.1, standing for many hosts: the per-host limit is off
-    // unless a test sets it.
-    if (options.max_calls_per_peer == 0) {
-      options.max_calls_per_peer = std::numeric_limits<int>::max();
-    }
     auto started = server::ScanPrepServer::Start(options);
     EXPECT_TRUE(started.ok()) << started.status();
     server_ = std::move(*started);

@@ -64,7 +64,7 @@ TEST(ServerBinary, ServesTheClientLibrary) {
     EXPECT_EQ(info->limits().max_chunk_points(), 65'536u);
     EXPECT_EQ(info->limits().max_bytes_per_call(), 1u << 30);
     EXPECT_EQ(info->limits().max_scans_per_job(), 1'000u);
-    EXPECT_EQ(info->limits().max_calls_per_peer(), 2u);  // half the slots
+    EXPECT_EQ(info->limits().max_calls_per_peer(), 0u);  // no per-host cap
 
     v1::JobHeader header = SimpleHeader(0.5);
     header.mutable_options()->add_stages("outliers");
@@ -105,11 +105,11 @@ TEST(ServerBinary, BadBudgetFlagsExitOneWithTheReason) {
       RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --stage_budgets=sharpen=1");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.output, HasSubstr("--stage_budgets entry 'sharpen=1': unknown stage 'sharpen'"));
-  const CommandResult every_place =
-      RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --plaintext --max_calls_per_peer=12");
-  EXPECT_EQ(every_place.exit_code, 1);
-  EXPECT_THAT(every_place.output,
-              HasSubstr("--max_calls_per_peer=12 would let one client host take every slot"));
+  const CommandResult proxies = RunCommand(std::string(SCANPREP_SERVER_BINARY) +
+                                           " --plaintext --trusted_proxies=10.0.0.0/8,10.0.0.1/8");
+  EXPECT_EQ(proxies.exit_code, 1);
+  EXPECT_THAT(proxies.output, HasSubstr("--trusted_proxies: '10.0.0.1/8' has address bits set "
+                                        "beyond its /8 prefix"));
   const CommandResult listen =
       RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --plaintext --metrics_listen=nowhere");
   EXPECT_EQ(listen.exit_code, 1);
