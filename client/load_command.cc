@@ -62,6 +62,7 @@ absl::StatusOr<LoadOptions> ParseLoadOptions(const ParsedArgs& args) {
         "limit is in `scanprep info`)");
   }
   options.chunk_points = static_cast<size_t>(*chunk);
+  options.retry = args.Get("retry", "true") == "true";
   return options;
 }
 
@@ -153,6 +154,11 @@ Command LoadCommand() {
        "seconds: sent as the job's budget; the run fails when latency p99 exceeds it (default: "
        "the budget the server reports for the job)"},
       {"json", FlagSpec::kValue, "also write the results as JSON to this file"},
+      {"retry", FlagSpec::kBool,
+       "send a call the server refused with RetryInfo (RESOURCE_EXHAUSTED, UNAVAILABLE) again "
+       "after its delay (at most 10 s, plus jitter) within the call's --timeout, counted as "
+       "retried, not as an error (default true; --retry=false counts every refusal as an "
+       "error)"},
   };
   AddTlsFlags(flags);
   for (FlagSpec& flag : JobFlags()) flags.push_back(std::move(flag));

@@ -90,6 +90,10 @@ void PrintLoadReport(std::ostream& out, const LoadReport& r) {
                            res.late_starts, o.concurrency);
   }
   out << absl::StrFormat("retries: %d (attempts that ended UNAVAILABLE, sent again)\n", res.retries)
+      << absl::StrFormat(
+             "retried refusals: %d (refused with RetryInfo, sent again after its "
+             "delay%s)\n",
+             res.retried_refusals, o.retry ? "" : "; off: --retry=false")
       << absl::StrFormat("errors: %d (%d RESOURCE_EXHAUSTED)\n", res.error_count(),
                          ResourceExhausted(res));
   for (const auto& [code, tally] : res.errors) {
@@ -125,6 +129,7 @@ std::string LoadReportJson(const LoadReport& r) {
       absl::StrFormat("  \"budget_misses\": %d,\n  \"late_starts\": %d,\n", res.budget_misses,
                       res.late_starts),
       absl::StrFormat("  \"aborted_uploads\": %d,\n  \"retries\": %d,\n", res.aborted, res.retries),
+      absl::StrFormat("  \"retried_refusals\": %d,\n", res.retried_refusals),
       absl::StrFormat("  \"passed\": %s\n}\n", r.failures.empty() ? "true" : "false"));
 }
 

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "client/load_runner.h"
 
+#include <algorithm>
 #include <cmath>
 #include <mutex>
 #include <random>
@@ -53,6 +54,16 @@ bool AbortsUpload(uint64_t index, double share) {
 
 }  // namespace
 
+std::optional<absl::Duration> RetryWait(const absl::Status& status, double jitter) {
+  if (status.code() != absl::StatusCode::kResourceExhausted &&
+      status.code() != absl::StatusCode::kUnavailable) {
+    return std::nullopt;
+  }
+  const std::optional<absl::Duration> delay = DetailsOf(status).retry_delay;
+  if (!delay) return std::nullopt;
+  return std::max(kPauseAfterError, std::min(*delay, kMaxRetryWait) * (1 + jitter / 4));
+}
+
 uint64_t LoadResult::error_count() const {
   uint64_t n = 0;
   for (const auto& [code, tally] : errors) n += tally.count;
@@ -67,7 +78,9 @@ LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job
   Schedule schedule(options, start);
   uint64_t next_id = 0;
 
-  auto worker = [&] {
+  auto worker = [&](uint64_t index) {
+    std::mt19937_64 rng(options.seed + index);
+    std::uniform_real_distribution<double> jitter(0, 1);
     ScanPrepClient client(channel);
     CallOptions call{.timeout = options.call_timeout, .chunk_points = options.chunk_points};
     v1::JobHeader header = job.header;
@@ -95,6 +108,22 @@ LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job
         };
       }
       absl::StatusOr<ProcessResult> r = client.Process(header, job.points, call);
+      // The retries share the call's deadline, and their waits count in its latency: both are
+      // what a caller lives through.
+      const absl::Time deadline =
+          options.call_timeout ? begin + *options.call_timeout : absl::InfiniteFuture();
+      while (!r.ok() && options.retry) {
+        const std::optional<absl::Duration> wait = RetryWait(r.status(), jitter(rng));
+        if (!wait || absl::Now() + *wait >= deadline) break;
+        absl::SleepFor(*wait);
+        {
+          std::lock_guard lock(mu);
+          ++result.retried_refusals;
+        }
+        CallOptions again = call;
+        if (options.call_timeout) again.timeout = deadline - absl::Now();
+        r = client.Process(header, job.points, again);
+      }
       call.canceller = nullptr;
       call.progress = nullptr;
       const double seconds = absl::ToDoubleSeconds(absl::Now() - begin);
@@ -119,7 +148,7 @@ LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job
     }
   };
   std::vector<std::thread> workers;
-  for (int i = 0; i < options.concurrency; ++i) workers.emplace_back(worker);
+  for (int i = 0; i < options.concurrency; ++i) workers.emplace_back(worker, i);
   for (std::thread& t : workers) t.join();
   result.elapsed_seconds = absl::ToDoubleSeconds(absl::Now() - start);
   return result;

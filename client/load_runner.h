@@ -33,6 +33,11 @@ struct LoadOptions {
   // first chunk: proves the server frees what an aborted upload held.
   double abort_uploads = 0;
   size_t chunk_points = kDefaultChunkPoints;  // points per upload message
+  // A call refused with RESOURCE_EXHAUSTED or UNAVAILABLE and a RetryInfo is sent again after
+  // the delay the server asked for (RetryWait), as a well-behaved client would, rather than
+  // counted as an error, within the call's `call_timeout` from its first attempt (past
+  // `duration`, which only stops new calls).
+  bool retry = true;
 };
 
 struct ErrorTally {
@@ -50,6 +55,7 @@ struct LoadResult {
   uint64_t late_starts = 0;                  // open loop: started > kLateStart after schedule
   uint64_t aborted = 0;                      // --abort_uploads calls that ended CANCELLED, as meant
   uint64_t retries = 0;  // attempts that ended UNAVAILABLE and were sent again (CallOptions)
+  uint64_t retried_refusals = 0;  // refusals with RetryInfo waited out and sent again (retry)
 
   uint64_t error_count() const;
 };
@@ -61,6 +67,16 @@ inline constexpr absl::Duration kLateStart = absl::Milliseconds(10);
 // A closed-loop worker waits this long after a failed call: a server that refuses at once would
 // otherwise be flooded with thousands of calls a second, which measures nothing.
 inline constexpr absl::Duration kPauseAfterError = absl::Milliseconds(100);
+
+// The longest a worker waits on one RetryInfo: a server's delay is its guess at when a place
+// frees up, and a load test that slept minutes on one would measure nothing.
+inline constexpr absl::Duration kMaxRetryWait = absl::Seconds(10);
+
+// How long to wait before sending a refused call again, or nothing when it is not to be sent
+// again: RESOURCE_EXHAUSTED or UNAVAILABLE with a RetryInfo, its delay capped at kMaxRetryWait,
+// at least kPauseAfterError, and stretched by `jitter` (from [0, 1): up to a quarter longer), so
+// that workers refused together do not all come back together.
+std::optional<absl::Duration> RetryWait(const absl::Status& status, double jitter);
 
 LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job,
                    const LoadOptions& options);

@@ -13,8 +13,11 @@
 #include <random>
 #include <sstream>
 
+#include "client/call_error.h"
 #include "client/latency_stats.h"
+#include "client/load_runner.h"
 #include "core/io/ply.h"
+#include "server/error_details.h"
 #include "tests/server/server_process.h"
 #include "tests/server/service_fixtures.h"
 #include "tests/support/run_command.h"
@@ -137,9 +140,10 @@ TEST_F(LoadCommand, AbortedUploadsLeaveNoSlotBehind) {
   EXPECT_THAT(run.command.output, HasSubstr("aborted uploads: 20"));
 }
 
+// With --retry=false every refusal is an error, RetryInfo or not.
 TEST_F(LoadCommand, RejectedCallsAreCountedByCodeAndFailTheRun) {
   InProcessServer server(server::ServerOptions{.max_concurrent_jobs = 1, .max_queued_jobs = 0});
-  const LoadRun run = Load(server.target(), "--concurrency 4 --duration 2s");
+  const LoadRun run = Load(server.target(), "--concurrency 4 --duration 2s --retry=false");
   EXPECT_EQ(run.command.exit_code, 1) << run.command.output;
   const double rejected = run.Number("resource_exhausted");
   EXPECT_GT(rejected, 0) << run.command.output;
@@ -154,6 +158,65 @@ TEST_F(LoadCommand, RejectedCallsAreCountedByCodeAndFailTheRun) {
   EXPECT_GT(run.Number("jobs"), 0);  // the one admitted call at a time still succeeds
   EXPECT_FALSE(run.json.fields().at("passed").bool_value());
   EXPECT_THAT(run.command.output, HasSubstr("max_concurrent_jobs"));
+  EXPECT_EQ(run.Number("retried_refusals"), 0);
+}
+
+// By default a QUEUE_FULL refusal (one slot, no queue, three workers) is waited out for its
+// RetryInfo delay (at least 1 s) and sent again: every job runs, none is an error.
+TEST_F(LoadCommand, RefusalsWithRetryInfoAreSentAgainAfterTheirDelay) {
+  InProcessServer server(server::ServerOptions{.max_concurrent_jobs = 1, .max_queued_jobs = 0});
+  const LoadRun run = Load(server.target(), "--concurrency 3 --max_jobs 6 --duration 60s");
+  ASSERT_EQ(run.command.exit_code, 0) << run.command.output;
+  EXPECT_EQ(run.Number("jobs"), 6);
+  EXPECT_EQ(run.Number("errors"), 0);
+  EXPECT_GT(run.Number("retried_refusals"), 0) << run.command.output;
+  EXPECT_THAT(run.command.output, HasSubstr("retried refusals: "));
+  // A retried call waited at least the 1 s the server asked for, inside its latency.
+  EXPECT_GE(run.Latency("max"), 1.0);
+}
+
+// The acceptance run, shortened: the real server with its default flags on the shipped
+// pod's 2 slots, four workers on one host. Each worker's call holds a slot or waits in the queue;
+// before, the host's second call was refused (PEER_LIMIT) and the run failed with hundreds of
+// errors.
+TEST_F(LoadCommand, OneHostsFourWorkersOnATwoSlotServerRunWithoutErrors) {
+  ServerProcess server({"--max_concurrent_jobs=2"});
+  ASSERT_GT(server.port(), 0);
+  const LoadRun run = Load(server.target(), "--concurrency 4 --duration 3s");
+  ASSERT_EQ(run.command.exit_code, 0) << run.command.output;
+  EXPECT_GT(run.Number("jobs"), 0);
+  EXPECT_EQ(run.Number("errors"), 0) << run.command.output;
+  EXPECT_EQ(run.Number("retried_refusals"), 0) << run.command.output;  // nothing was refused
+}
+
+// What RetryInfo makes a worker wait: the server's own refusals, encoded as they travel.
+TEST(RetryWait, TheServersDelayCappedAndJitteredOnRetryableCodesOnly) {
+  const auto sent = [](absl::Status status, std::string_view reason,
+                       std::optional<absl::Duration> retry) {
+    return client::FromGrpc(server::ToGrpc(server::WithReason(std::move(status), reason, retry)));
+  };
+  const absl::Status queue_full =
+      sent(absl::ResourceExhaustedError("full"), "QUEUE_FULL", absl::Seconds(2));
+  EXPECT_EQ(client::RetryWait(queue_full, 0), absl::Seconds(2));
+  EXPECT_EQ(client::RetryWait(queue_full, 0.5), absl::Seconds(2.25));  // up to a quarter more
+  EXPECT_EQ(client::RetryWait(
+                sent(absl::UnavailableError("draining"), "SHUTTING_DOWN", absl::Seconds(1)), 0),
+            absl::Seconds(1));
+  EXPECT_EQ(client::RetryWait(
+                sent(absl::ResourceExhaustedError("full"), "QUEUE_FULL", absl::Minutes(5)), 0),
+            client::kMaxRetryWait);
+  EXPECT_EQ(client::RetryWait(
+                sent(absl::ResourceExhaustedError("full"), "QUEUE_FULL", absl::ZeroDuration()), 0),
+            client::kPauseAfterError);
+  // Never again: too large (no RetryInfo), a corrupted transfer (DATA_LOSS, the client library's
+  // business), an UNAVAILABLE without RetryInfo (a lost connection the client library retried).
+  EXPECT_EQ(client::RetryWait(
+                sent(absl::ResourceExhaustedError("big"), "JOB_TOO_LARGE", std::nullopt), 0),
+            std::nullopt);
+  EXPECT_EQ(client::RetryWait(
+                sent(absl::DataLossError("crc"), "CHECKSUM_MISMATCH", absl::ZeroDuration()), 0),
+            std::nullopt);
+  EXPECT_EQ(client::RetryWait(absl::UnavailableError("connection reset"), 0), std::nullopt);
 }
 
 TEST_F(LoadCommand, OpenLoopStopsAfterMaxJobs) {
@@ -197,8 +260,7 @@ TEST_F(LoadCommand, ReplaysAGeneratedScan) {
 // Two replicas behind one address list; one is killed (SIGKILL) while calls run on it. Its calls
 // end UNAVAILABLE and are sent again to the live one: no job is lost, and the retries are counted.
 TEST_F(LoadCommand, AKilledReplicaLosesNoJob) {
-  // Every worker fits the survivor alone (the per-host limit is not what this test is about).
-  ServerProcess doomed({"--max_calls_per_peer=8"}), survivor({"--max_calls_per_peer=8"});
+  ServerProcess doomed, survivor;
   ASSERT_GT(doomed.port(), 0);
   ASSERT_GT(survivor.port(), 0);
   auto run = std::async(std::launch::async, [&] {
