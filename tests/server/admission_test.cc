@@ -12,6 +12,7 @@
 
 #include "absl/cleanup/cleanup.h"
 #include "server/admission.h"
+#include "server/cidr.h"
 #include "tests/server/metrics_scrape.h"
 #include "tests/server/service_fixtures.h"
 
@@ -283,10 +284,12 @@ TEST(AdmissionQueue, DrainingReleasesWaitingCallsAndRefusesNewOnesButKeepsRunnin
 
 // --- Through the service -------------------------------------------------------------------
 
-// A Process call that sent its header and one chunk and then waits; Finish() completes it.
+// A Process call that sent its header and one chunk and then waits; Finish() completes it,
+// Cancel() ends it. `forwarded_for`, when set, is sent as x-forwarded-for.
 class HeldCall {
  public:
-  explicit HeldCall(v1::ScanPrep::Stub& stub) : stream_(stub.Process(&context_)) {
+  explicit HeldCall(v1::ScanPrep::Stub& stub, const std::string& forwarded_for = "")
+      : stream_(Start(stub, context_, forwarded_for)) {
     stream_->Write(HeaderRequest(SimpleHeader(), 100));
     stream_->Write(ChunkRequest(LineChunk(100)));
   }
@@ -302,9 +305,19 @@ class HeldCall {
     while (stream_->Read(&response)) has_report_ |= response.has_report();
     return stream_->Finish();
   }
+  void Cancel() {
+    context_.TryCancel();
+    (void)stream_->Finish();
+  }
   bool has_report() const { return has_report_; }
 
  private:
+  static std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> Start(
+      v1::ScanPrep::Stub& stub, grpc::ClientContext& context, const std::string& forwarded_for) {
+    if (!forwarded_for.empty()) context.AddMetadata("x-forwarded-for", forwarded_for);
+    return stub.Process(&context);
+  }
+
   grpc::ClientContext context_;
   std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> stream_;
   bool has_report_ = false;
@@ -496,6 +509,37 @@ TEST(Admission, AQueuedCallWaitsBeforeItsUploadAndRunsWhenTheSlotFrees) {
   EXPECT_EQ(Sample(metrics, "scanprep_jobs_in_flight"), 0);
   EXPECT_EQ(Sample(metrics, "scanprep_jobs_rejected_total{reason=\"queue_full\"}"), 1);
   EXPECT_EQ(Sample(metrics, GrpcHandled("Process", "ResourceExhausted")), 1);
+}
+
+// Through the service, two MES hosts behind a trusted proxy (the loopback address), told apart
+// by x-forwarded-for: with one slot, host A running and queueing two more calls, host B's call
+// queued last is the next to run. The control: from an untrusted peer the header is ignored, all
+// four calls are one host's, and A's second call runs next.
+TEST(Admission, HostsForwardedByATrustedProxyTakeTurnsForTheSlot) {
+  for (const bool trusted : {true, false}) {
+    SCOPED_TRACE(trusted ? "trusted proxy" : "untrusted peer");
+    server::ServerOptions options = Options(1, 8);
+    options.trusted_proxies = *server::ParseCidrList(trusted ? "127.0.0.0/8" : "10.0.0.0/8");
+    InProcessServer server(options);
+    const int metrics = server.server().metrics_port();
+    auto stub = server.Stub();
+    HeldCall running(*stub, "203.0.113.1");
+    ASSERT_TRUE(running.WaitUntilRunning());
+    HeldCall a2(*stub, "203.0.113.1");
+    ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 1));
+    HeldCall a3(*stub, "203.0.113.1");
+    ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 2));
+    HeldCall b(*stub, "203.0.113.2");
+    ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 3));
+
+    HeldCall& next = trusted ? b : a2;
+    auto next_runs = std::async(std::launch::async, [&] { return next.WaitUntilRunning(); });
+    EXPECT_TRUE(running.Finish().ok());
+    EXPECT_EQ(next_runs.wait_for(std::chrono::seconds(10)), std::future_status::ready);
+    EXPECT_EQ(Sample(metrics, "scanprep_jobs_queued"), 2);  // the other two still wait
+    for (HeldCall* call : {&b, &a2, &a3}) call->Cancel();
+    EXPECT_TRUE(next_runs.get());
+  }
 }
 
 TEST(Admission, ACallWhoseDeadlineIsShorterThanTheExpectedWaitFailsAtOnce) {
