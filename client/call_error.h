@@ -17,7 +17,7 @@ class Status;
 
 namespace scanprep::client {
 
-// `scanprep` exit codes (documented in docs/operations.md, CLI).
+// `scanprep` exit codes (documented in docs/cli.md, "Exit codes").
 enum ExitCode : int {
   kExitOk = 0,
   kExitFailure = 1,  // anything not below

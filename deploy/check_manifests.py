@@ -21,7 +21,7 @@ is an error, not a silently ignored field), then what must hold between them and
   - the HPA's Pods metrics are metrics the server exports and the prometheus-adapter rule of the
     monitoring overlay serves;
   - the PrometheusRule and the rules ConfigMap hold exactly deploy/prometheus/alerts.yml, whose
-    alerts have severity critical or warning and a runbook_url into docs/operations.md.
+    alerts have severity critical or warning and a runbook_url into docs/deployment.md ("Alert runbooks").
 
 Exit 0 when all hold, else 1 with one line per finding. --self-test breaks each rule in a copy
 of the manifests and requires a finding for every break (the check can fail)."""
@@ -38,7 +38,7 @@ from check_docs import anchors
 
 DEPLOY = pathlib.Path(__file__).resolve().parent
 KUBERNETES = DEPLOY / "kubernetes"
-OPERATIONS = DEPLOY.parent / "docs" / "operations.md"
+RUNBOOKS = DEPLOY.parent / "docs" / "deployment.md"
 MIB = 1024 * 1024
 # The Kubernetes recommended labels, each object carries all of them. Selectors may only use the
 # stable ones (a Deployment's selector is immutable; the version changes every release).
@@ -48,7 +48,7 @@ RECOMMENDED_LABELS = ("app.kubernetes.io/name", "app.kubernetes.io/instance",
 SELECTOR_LABELS = {"app.kubernetes.io/name", "app.kubernetes.io/instance",
                    "app.kubernetes.io/component"}
 SEVERITIES = {"critical", "warning"}
-RUNBOOK = re.compile(r"https://[^/]+/docs/operations\.md#([\w-]+)")
+RUNBOOK = re.compile(r"https://[^/]+/docs/deployment\.md#([\w-]+)")
 
 
 def budget_constant(name):
@@ -569,7 +569,7 @@ def check_hpa_metrics(by_kind, findings):
 
 def alert_findings(groups, runbook_anchors):
     """Each alert: severity critical or warning, a runbook_url into an existing heading of
-    docs/operations.md."""
+    docs/deployment.md."""
     findings = []
     for group in groups:
         for rule in group["rules"]:
@@ -584,10 +584,10 @@ def alert_findings(groups, runbook_anchors):
             m = RUNBOOK.fullmatch(url)
             if not m:
                 findings.append(f"{where}: runbook_url {url!r} is not "
-                                f"https://HOST/docs/operations.md#ANCHOR")
+                                f"https://HOST/docs/deployment.md#ANCHOR")
             elif m.group(1) not in runbook_anchors:
                 findings.append(f"{where}: runbook_url anchor #{m.group(1)} is no heading of "
-                                f"docs/operations.md")
+                                f"docs/deployment.md")
     return findings
 
 
@@ -636,7 +636,7 @@ def alert_groups():
 
 
 def check_all():
-    findings = alert_findings(alert_groups(), anchors(OPERATIONS))
+    findings = alert_findings(alert_groups(), anchors(RUNBOOKS))
     for directory in targets():
         build_findings = []
         objects = build(directory, build_findings)
@@ -707,7 +707,7 @@ def set_alert(groups, **changes):
 ALERT_BREAKS = {
     "severity page": lambda g: set_alert(g, labels={"severity": "page"}),
     "runbook to a missing heading": lambda g: set_alert(g, annotations={
-        "runbook_url": "https://docs.example.com/docs/operations.md#no-such-heading"}),
+        "runbook_url": "https://docs.example.com/docs/deployment.md#no-such-heading"}),
     "no runbook_url": lambda g: g[0]["rules"][0]["annotations"].pop("runbook_url"),
 }
 
@@ -743,7 +743,7 @@ def self_test():
     for name, fn in ALERT_BREAKS.items():
         groups = alert_groups()
         fn(groups)
-        results.append((name, alert_findings(groups, anchors(OPERATIONS))))
+        results.append((name, alert_findings(groups, anchors(RUNBOOKS))))
     results.append(("overlay inside its base", layout_findings()))
     if shutil.which("kubectl"):  # this check's build drifting from kustomize's
         objects = build(BASE, [])

@@ -70,16 +70,15 @@ ABSL_FLAG(int, max_queued_jobs, 8,
           "calls that may wait for a slot; beyond that a call ends at once with "
           "RESOURCE_EXHAUSTED");
 ABSL_FLAG(uint64_t, memory_budget, 0,
-          "bytes the running jobs' estimated memory may take together (docs/operations.md, "
+          "bytes the running jobs' estimated memory may take together (docs/server.md, "
           "\"Admission control\"); a call waits until its job fits, a job that never can is "
           "refused. 0 = the container's memory limit (cgroup) minus 128 MiB for the server, else "
           "half the RAM");
-ABSL_FLAG(
-    bool, memory_guard, true,
-    "end a job in processing with RESOURCE_EXHAUSTED (MEMORY_RESERVATION_EXCEEDED) once the "
-    "server's resident memory above its idle baseline exceeds the running jobs' "
-    "reservations by a quarter of a 64 MiB margin (docs/operations.md, \"Admission control\"); "
-    "off in sanitizer builds, whose own memory is resident");
+ABSL_FLAG(bool, memory_guard, true,
+          "end a job in processing with RESOURCE_EXHAUSTED (MEMORY_RESERVATION_EXCEEDED) once the "
+          "server's resident memory above its idle baseline exceeds the running jobs' "
+          "reservations by a quarter of a 64 MiB margin (docs/server.md, \"Memory guard\"); "
+          "off in sanitizer builds, whose own memory is resident");
 ABSL_FLAG(uint64_t, test_bytes_per_point, 0,
           "TEST HOOK, not for production: the per-point memory estimate in bytes in place of the "
           "measured 416, so a test can send an ordinary job that takes more than its reservation "
