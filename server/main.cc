@@ -164,7 +164,7 @@ int main(int argc, char** argv) {
   // raises its mmap threshold to the size of each such block freed, so later ones come from the
   // heap and the holes they leave stay resident: a 1 M job's peak RSS was 178-187 MiB against a
   // live heap of about 150. A fixed threshold maps every block over 128 KiB on its own and hands
-  // it back when freed: 159-160 MiB, end to end 1-1.5 % slower (docs/benchmarks.md).
+  // it back when freed: 159-160 MiB, end to end 1-1.5 % slower (5faaf5c's docs/benchmarks.md).
   mallopt(M_MMAP_THRESHOLD, 128 * 1024);
 
   // Block the stop signals in every thread (gRPC's and TBB's threads inherit this mask) and take

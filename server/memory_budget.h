@@ -7,7 +7,7 @@
 // the idle server's VmRSS of 19.6 MiB, upload and download included;
 // `PARAMS=... THREADS=2 deploy/run-e2e-benchmark.sh N`), in bytes per point, after correction's
 // ball cache was dropped, the grid and graph came to hold the point order once and the server's
-// freed arrays went back to the system (docs/benchmarks.md "Memory below 150 B/point"; before,
+// freed arrays went back to the system (docs/benchmarks.md "Server memory per point"; before,
 // after the compact k-NN graph: 191 / 304 / 280 / 396 at 1 M, 236 / 280 at 4 M, 297 at 20 M):
 //   points      default   k = 64   correction.radius_scale = 100   both
 //   1,000,000   139-147     244                140                   245
