@@ -25,7 +25,7 @@
 #include "client/scanprep_client.h"
 #include "core/io/scan_file.h"
 #include "core/status_macros.h"
-#include "server/convert.h"
+#include "proto/convert/convert.h"
 
 namespace scanprep::client {
 namespace {
@@ -122,19 +122,17 @@ std::string UnitName(v1::LengthUnit unit) {
 // result is in job units), and so is the first scan's sensor, which sets the view.
 absl::Status WritePreview(const std::string& path, const PointCloud& sent,
                           const v1::JobHeader& header, const PointCloud& result) {
-  SCANPREP_ASSIGN_OR_RETURN(const double mm_per_unit, server::MillimetresPerUnit(header.unit()));
-  SCANPREP_ASSIGN_OR_RETURN(const Eigen::Vector3d origin_mm,
-                            server::OriginFromProto(header, mm_per_unit));
+  SCANPREP_ASSIGN_OR_RETURN(const double mm_per_unit, MillimetresPerUnit(header.unit()));
+  SCANPREP_ASSIGN_OR_RETURN(const Eigen::Vector3d origin_mm, OriginFromProto(header, mm_per_unit));
   PointCloud input = sent;
-  std::vector<server::ScanFrame> frames;
+  std::vector<ScanFrame> frames;
   ScanMeta scanner;
   for (int s = 0; s < header.scans_size(); ++s) {
     const std::string field = absl::StrCat("header.scans[", s, "]");
-    SCANPREP_ASSIGN_OR_RETURN(
-        server::ScanFrame frame,
-        server::FrameFromProto(header.scans(s), mm_per_unit, origin_mm, field));
+    SCANPREP_ASSIGN_OR_RETURN(ScanFrame frame,
+                              FrameFromProto(header.scans(s), mm_per_unit, origin_mm, field));
     if (s == 0) {
-      SCANPREP_ASSIGN_OR_RETURN(scanner, server::ScanMetaFromProto(header.scans(0), frame, field));
+      SCANPREP_ASSIGN_OR_RETURN(scanner, ScanMetaFromProto(header.scans(0), frame, field));
       if (scanner.camera_position) *scanner.camera_position /= mm_per_unit;
     }
     frames.push_back(frame);

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "server/admission.h"
 
-#include "server/error_details.h"
+#include "proto/convert/error_details.h"
 #include "server/memory_budget.h"
 
 #include <algorithm>

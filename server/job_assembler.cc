@@ -7,7 +7,7 @@
 #include "absl/strings/str_format.h"
 #include "core/status_macros.h"
 #include "proto/chunk_arrays.h"
-#include "server/error_details.h"
+#include "proto/convert/error_details.h"
 
 namespace scanprep::server {
 namespace {

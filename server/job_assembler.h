@@ -15,9 +15,9 @@
 #include "core/pipeline/pipeline.h"
 #include "core/pipeline/presets.h"
 #include "core/point_cloud.h"
+#include "proto/convert/convert.h"
 #include "proto/stream_checksum.h"
 #include "scanprep/v1/scanprep.pb.h"
-#include "server/convert.h"
 
 namespace scanprep::server {
 

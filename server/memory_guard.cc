@@ -10,7 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "absl/time/time.h"
-#include "server/error_details.h"
+#include "proto/convert/error_details.h"
 #include "server/memory_budget.h"
 
 // GCC says __SANITIZE_ADDRESS__ / __SANITIZE_THREAD__, clang __has_feature(...).

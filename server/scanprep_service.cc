@@ -13,10 +13,10 @@
 #include "absl/strings/str_format.h"
 #include "core/pipeline/job_context.h"
 #include "proto/chunk_arrays.h"
+#include "proto/convert/convert.h"
+#include "proto/convert/error_details.h"
 #include "proto/stream_checksum.h"
 #include "server/client_identity.h"
-#include "server/convert.h"
-#include "server/error_details.h"
 #include "server/memory_budget.h"
 
 namespace scanprep::server {

@@ -120,8 +120,9 @@ TEST(CallError, AJobFailedOnAWarningMeansFixTheInput) {
   EXPECT_THAT(client::Describe(status), HasSubstr("(reason POINTS_INVALID)"));
 }
 
-// The reasons the server can send: every UPPER_SNAKE_CASE string literal in server/ that is not
-// a gRPC code's name (they are tagged where they arise, with WithReason or WithFieldViolation).
+// The reasons the server can send: every UPPER_SNAKE_CASE string literal in server/ and in the
+// conversion it links (proto/convert/) that is not a gRPC code's name (they are tagged where they
+// arise, with WithReason or WithFieldViolation).
 std::set<std::string> ReasonsInServerSources() {
   std::set<std::string> codes;
   for (int c = 0; c <= 16; ++c) {
@@ -129,12 +130,14 @@ std::set<std::string> ReasonsInServerSources() {
   }
   const std::regex literal("\"([A-Z][A-Z0-9]*(_[A-Z0-9]+)+)\"");
   std::set<std::string> reasons;
-  for (const auto& entry : std::filesystem::recursive_directory_iterator(SCANPREP_SERVER_SOURCES)) {
-    if (!entry.is_regular_file()) continue;
-    std::ifstream in(entry.path());
-    const std::string text((std::istreambuf_iterator<char>(in)), {});
-    for (std::sregex_iterator m(text.begin(), text.end(), literal), end; m != end; ++m) {
-      if (!codes.contains((*m)[1])) reasons.insert((*m)[1]);
+  for (const char* dir : {SCANPREP_SERVER_SOURCES, SCANPREP_CONVERT_SOURCES}) {
+    for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) {
+      if (!entry.is_regular_file()) continue;
+      std::ifstream in(entry.path());
+      const std::string text((std::istreambuf_iterator<char>(in)), {});
+      for (std::sregex_iterator m(text.begin(), text.end(), literal), end; m != end; ++m) {
+        if (!codes.contains((*m)[1])) reasons.insert((*m)[1]);
+      }
     }
   }
   return reasons;

@@ -17,7 +17,7 @@
 #include "client/latency_stats.h"
 #include "client/load_runner.h"
 #include "core/io/ply.h"
-#include "server/error_details.h"
+#include "proto/convert/error_details.h"
 #include "tests/server/server_process.h"
 #include "tests/server/service_fixtures.h"
 #include "tests/support/run_command.h"
@@ -193,7 +193,7 @@ TEST_F(LoadCommand, OneHostsFourWorkersOnATwoSlotServerRunWithoutErrors) {
 TEST(RetryWait, TheServersDelayCappedAndJitteredOnRetryableCodesOnly) {
   const auto sent = [](absl::Status status, std::string_view reason,
                        std::optional<absl::Duration> retry) {
-    return client::FromGrpc(server::ToGrpc(server::WithReason(std::move(status), reason, retry)));
+    return client::FromGrpc(ToGrpc(WithReason(std::move(status), reason, retry)));
   };
   const absl::Status queue_full =
       sent(absl::ResourceExhaustedError("full"), "QUEUE_FULL", absl::Seconds(2));

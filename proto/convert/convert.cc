@@ -1,14 +1,15 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/convert.h"
+#include "proto/convert/convert.h"
 
 #include <cmath>
 #include <limits>
 
 #include "absl/strings/str_cat.h"
 #include "core/pipeline/field_error.h"
-#include "server/error_details.h"
+#include "core/status_macros.h"
+#include "proto/convert/error_details.h"
 
-namespace scanprep::server {
+namespace scanprep {
 namespace {
 
 Eigen::Vector3d FromProto(const v1::Vec3& v) { return {v.x(), v.y(), v.z()}; }
@@ -142,24 +143,20 @@ absl::StatusOr<ScanMeta> ScanMetaFromProto(const v1::ScanHeader& scan, const Sca
   ScanMeta meta;
   meta.id = scan.scan_id();
   if (scan.has_camera_position()) {
-    auto p = Position(scan.camera_position(), frame, field, "camera_position");
-    if (!p.ok()) return p.status();
-    meta.camera_position = *p;
+    SCANPREP_ASSIGN_OR_RETURN(meta.camera_position,
+                              Position(scan.camera_position(), frame, field, "camera_position"));
   }
   if (scan.has_projector_position()) {
-    auto p = Position(scan.projector_position(), frame, field, "projector_position");
-    if (!p.ok()) return p.status();
-    meta.projector_position = *p;
+    SCANPREP_ASSIGN_OR_RETURN(meta.projector_position, Position(scan.projector_position(), frame,
+                                                                field, "projector_position"));
   }
   if (scan.has_view_direction()) {
-    auto d = Direction(scan.view_direction(), frame, field, "view_direction");
-    if (!d.ok()) return d.status();
-    meta.view_direction = *d;
+    SCANPREP_ASSIGN_OR_RETURN(meta.view_direction,
+                              Direction(scan.view_direction(), frame, field, "view_direction"));
   }
   if (scan.has_projector_direction()) {
-    auto d = Direction(scan.projector_direction(), frame, field, "projector_direction");
-    if (!d.ok()) return d.status();
-    meta.projector_direction = *d;
+    SCANPREP_ASSIGN_OR_RETURN(meta.projector_direction, Direction(scan.projector_direction(), frame,
+                                                                  field, "projector_direction"));
   }
   auto spacing = Length(scan.scanline_spacing(), frame.mm_per_unit, field, "scanline_spacing");
   auto uncertainty = Length(scan.uncertainty(), frame.mm_per_unit, field, "uncertainty");
@@ -305,7 +302,7 @@ void ResultChunk(const PointCloud& cloud, const std::vector<uint32_t>& indices, 
   }
 }
 
-}  // namespace scanprep::server
+}  // namespace scanprep
 
 // The wire flag bits are core's bits; ResultChunk copies them unchanged.
 static_assert(int{scanprep::kRemovedOutlier} == scanprep::v1::FLAG_REMOVED_OUTLIER &&

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Translation between the wire messages (job units, per-scan frames) and core's types
-// (millimetres, one common frame).
+// (millimetres, one common frame). Shared by the server and the client (its preview moves the
+// sent scans exactly as the server does).
 #pragma once
 
 #include <cstdint>
@@ -20,7 +21,7 @@
 #include "proto/warning_codes.h"
 #include "scanprep/v1/scanprep.pb.h"
 
-namespace scanprep::server {
+namespace scanprep {
 
 // Largest coordinate magnitude accepted after conversion to millimetres (1,000 km). Beyond it a
 // float keeps less than 0.1 mm of resolution, and a little further it overflows.
@@ -32,8 +33,6 @@ inline constexpr double kMaxCoordinateMm = 1e9;
 // the derived spacings to 0, which a later stage reported as a fault of the data.
 inline constexpr double kMinScannerLengthMm = 1e-6;
 inline constexpr double kMaxScannerLengthMm = 1e4;
-
-namespace v1 = ::scanprep::v1;
 
 // Millimetres per job unit; INVALID_ARGUMENT for LENGTH_UNIT_UNSPECIFIED or an unknown value.
 absl::StatusOr<double> MillimetresPerUnit(v1::LengthUnit unit);
@@ -112,4 +111,4 @@ void PresetToProto(const Preset& preset, v1::PresetInfo* out);
 void ResultChunk(const PointCloud& cloud, const std::vector<uint32_t>& indices, size_t begin,
                  size_t end, double mm_per_unit, v1::PointChunk* out);
 
-}  // namespace scanprep::server
+}  // namespace scanprep

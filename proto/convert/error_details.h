@@ -22,7 +22,7 @@ namespace grpc {
 class Status;  // declared only, so the gRPC-free JobAssembler can tag its refusals
 }  // namespace grpc
 
-namespace scanprep::server {
+namespace scanprep {
 
 inline constexpr std::string_view kErrorDomain = "scanprep.v1";
 
@@ -53,4 +53,4 @@ absl::Status FailedOnWarningError(absl::Status status);
 // The gRPC status, with ErrorInfo, RetryInfo and BadRequest details when `status` was tagged.
 grpc::Status ToGrpc(const absl::Status& status);
 
-}  // namespace scanprep::server
+}  // namespace scanprep

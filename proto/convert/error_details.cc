@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/error_details.h"
+#include "proto/convert/error_details.h"
 
 #include <string>
 
@@ -12,7 +12,7 @@
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
 
-namespace scanprep::server {
+namespace scanprep {
 namespace {
 
 // Payload keys: private to this file, never sent as they are.
@@ -99,4 +99,4 @@ grpc::Status ToGrpc(const absl::Status& status) {
   return grpc::Status(code, message, details.SerializeAsString());
 }
 
-}  // namespace scanprep::server
+}  // namespace scanprep
