@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
 # Multi-stage build on Debian 12: the build stage has the -dev packages, the runtime stage only
-# the shared libraries the binaries load (deploy/check-runtime-libs.sh keeps the list honest).
+# the shared libraries the binaries load (tools/check-runtime-libs.sh keeps the list honest).
 FROM debian:bookworm AS build
 RUN apt-get update \
  && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \
@@ -19,7 +19,7 @@ RUN cmake -S . -B /build -G Ninja -DCMAKE_BUILD_TYPE=Release \
  && ninja -C /build scanprep-server scanprep
 
 FROM debian:bookworm AS runtime
-# RUNTIME_PACKAGES (read by deploy/check-runtime-libs.sh)
+# RUNTIME_PACKAGES (read by tools/check-runtime-libs.sh)
 RUN apt-get update \
  && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \
       libgrpc++1.51 libgrpc29 libprotobuf32 libabsl20220623 libtbb12 libcpp-httplib0.11 liblzf1 libexpat1 libpng16-16 \

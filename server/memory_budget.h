@@ -5,7 +5,7 @@
 // Measured (2026-11-25, Release, 2 arena threads, `scanprep simulate --scans 2` clouds: a box
 // with a bore seen by two overlapping line scanners; one job per fresh server; peak VmHWM minus
 // the idle server's VmRSS of 19.6 MiB, upload and download included;
-// `PARAMS=... THREADS=2 deploy/run-e2e-benchmark.sh N`), in bytes per point, after correction's
+// `PARAMS=... THREADS=2 tools/run-e2e-benchmark.sh N`), in bytes per point, after correction's
 // ball cache was dropped, the grid and graph came to hold the point order once and the server's
 // freed arrays went back to the system (docs/benchmarks.md "Server memory per point"; before,
 // after the compact k-NN graph: 191 / 304 / 280 / 396 at 1 M, 236 / 280 at 4 M, 297 at 20 M):

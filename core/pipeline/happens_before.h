@@ -4,7 +4,7 @@
 // blocks; every block happens before the loop returns) is invisible to it and every parallel
 // loop would be reported as racing with its caller. Releases and acquires on a tag's address
 // restate exactly those edges, nothing more. No-ops outside TSan builds
-// (deploy/run-sanitizers.sh tsan).
+// (tools/run-sanitizers.sh tsan).
 #pragma once
 
 #if defined(__SANITIZE_THREAD__)

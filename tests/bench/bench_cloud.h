@@ -27,7 +27,7 @@ const PointCloud& UnorganizedCloud(size_t points);
 // Peak resident set size of this process so far, in bytes.
 double PeakRssBytes();
 
-// The counters deploy/run-benchmarks.sh turns into the table: points, threads (the case's second
+// The counters tools/run-benchmarks.sh turns into the table: points, threads (the case's second
 // argument), points_per_second, peak_rss_bytes.
 void SetCounters(benchmark::State& state, size_t points);
 

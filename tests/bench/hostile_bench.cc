@@ -3,9 +3,9 @@
 // reference cloud with one thing wrong (tests/bench/hostile_cloud.h), and on the reference cloud
 // with each numeric parameter of the registry set to each of -1, 0, 1e-30, 1e30, 2^32 and NaN.
 // Cases BM_Hostile/<case>/<points>/<threads>; a refused parameter is the case's error, with the
-// status message. Run through deploy/run-benchmarks.sh 'Hostile' with CASE_TIMEOUT set, since a
+// status message. Run through tools/run-benchmarks.sh 'Hostile' with CASE_TIMEOUT set, since a
 // case of the unbounded code may not end; the same cases through the service are
-// deploy/run-hostile-benchmark.sh.
+// tools/run-hostile-benchmark.sh.
 #include <string>
 #include <utility>
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The hostile-input workloads (issue 11, docs/hostile-inputs.md): the benchmark's reference cloud
 // with one thing wrong, each of about `points` points and cached per size like ReferenceCloud.
-// The same cases as deploy/lib/hostile_cases.py makes for the service.
+// The same cases as tools/lib/hostile_cases.py makes for the service.
 #pragma once
 
 #include <cstddef>

@@ -4,7 +4,7 @@
 // pipeline_bench, as a whole (BM_PclChain) and step by step. Arguments: {points, threads}; the
 // thread count reaches the steps PCL parallelises (normals, MLS); SOR and VoxelGrid have no thread
 // setting and run serially in both rows. Built only when libpcl-dev is installed; run through
-// deploy/run-benchmarks.sh, which adds these rows to the table of docs/benchmarks.md.
+// tools/run-benchmarks.sh, which adds these rows to the table of docs/benchmarks.md.
 #include <chrono>
 #include <cmath>
 #include <map>

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Google Benchmark cases for issue 6: each stage, the neighbour graph, the whole default pipeline,
 // and the baseline every target is a ratio to: a bare nanoflann build + k=20 kNN loop (TBB) over
-// the same points. Arguments: {points, threads}. Run through deploy/run-benchmarks.sh, which
+// the same points. Arguments: {points, threads}. Run through tools/run-benchmarks.sh, which
 // prints the docs/benchmarks.md table.
 #include <string>
 #include <vector>

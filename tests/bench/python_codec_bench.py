@@ -2,7 +2,7 @@
 """Python client codec: 1 M points encoded into request messages and decoded from result messages,
 with the packed arrays (what client/python sends and asks for) and with the repeated fields, in the
 same run. Run with the client installed (client/python/install-venv.sh VENV, then VENV/bin/python;
-deploy/run-benchmarks.sh does)."""
+tools/run-benchmarks.sh does)."""
 
 import sys
 import time

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Several jobs at once through one server: concurrent jobs on the shared worker arena,
 // cancellations among them, and a shutdown while jobs run. CI also runs these under
-// ThreadSanitizer (deploy/run-sanitizers.sh tsan).
+// ThreadSanitizer (tools/run-sanitizers.sh tsan).
 #include <atomic>
 #include <condition_variable>
 #include <future>

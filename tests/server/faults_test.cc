@@ -23,7 +23,7 @@ namespace {
 
 using ::testing::HasSubstr;
 
-// Under ASan, TSan or UBSan builds (deploy/run-sanitizers.sh) the sanitizer's allocator replaces
+// Under ASan, TSan or UBSan builds (tools/run-sanitizers.sh) the sanitizer's allocator replaces
 // glibc's, so glibc's heap statistics say nothing about what is live: the memory checks are skipped
 // there and LeakSanitizer checks for leaks instead. Everything else still runs.
 #ifdef SCANPREP_SANITIZED

@@ -4,7 +4,7 @@
 // in a random direction, at 1e3-1e6 mm, holding 0.5-30 % of the points; clusters of
 // near-identical points (spread 1e-7-1e-2 mm, log-uniform: some inside the cubes the duplicates
 // pass joins, the rest just beyond them); lines at 1e-4 mm spacing. The same classes as
-// deploy/lib/hostile_cases.py draws for the service benchmark, which sends far parts out to
+// tools/lib/hostile_cases.py draws for the service benchmark, which sends far parts out to
 // 1e9 mm: beyond about 2e5 mm float cannot hold a point to a scanner's uncertainty, and the
 // service refuses such a job before any index sees it (docs/api.md), so the index is held to
 // its bound where float still resolves the part (at 1e6 mm, 0.06 mm).

@@ -3,11 +3,11 @@
 # The hostile-input benchmark through the service (docs/hostile-inputs.md): ordinary-but-unseen
 # input must cost no more than the ordinary cloud of the same size. The ordinary cloud is a
 # generated two-scan line-scanner cloud (`scanprep simulate --scans 2`); every case is that cloud
-# with one thing wrong (deploy/lib/hostile_cases.py): far points at 1e6 and 1e8 mm, 10 % and 50 %
+# with one thing wrong (tools/lib/hostile_cases.py): far points at 1e6 and 1e8 mm, 10 % and 50 %
 # coincident points, all points on one line, one plane, metre data sent as mm and mm data sent as
 # metres, a no-pose unorganized scene (a floor and separated spheres, no camera, no scanlines),
 # 1,000 scans of one point (alone, and the ordinary cloud in 1,000 scans); DRAWN cases (default
-# 200) drawn from SEED (default random, printed) by deploy/lib/hostile_cases.py: far parts in a
+# 200) drawn from SEED (default random, printed) by tools/lib/hostile_cases.py: far parts in a
 # random direction at 1e3-1e9 mm holding 0.5-30 % of the points, clusters of 1-50 k
 # near-identical points within 0-1e-3 mm, lines at 1e-4 mm, offsets of the whole job up to
 # 5e8 mm, and their mixes; then every numeric
@@ -21,7 +21,7 @@
 # MEMORY_CAP_MIB is FAIL-memory-cap (both end the server and go on with a fresh one).
 # Prints a markdown table (case, points, seconds, peak server memory, time and memory ratio,
 # verdict) and the status messages; exits 1 when any case fails.
-# Usage: deploy/run-hostile-benchmark.sh [POINTS]   (default 100000 points per cloud)
+# Usage: tools/run-hostile-benchmark.sh [POINTS]   (default 100000 points per cloud)
 # Environment: BUILD_DIR (default build), SKIP_BUILD=1 when the caller has just built, THREADS
 # (server worker threads, default 2), CASE_TIMEOUT (seconds, default 10x the ordinary cloud's
 # time, at least 10), MEMORY_CAP_MIB (default 2048), CASES (regex on case names, default all),
@@ -31,7 +31,7 @@ cd "$(dirname "$0")/.."
 points=${1:-100000}
 threads=${THREADS:-2}
 memory_cap_kb=$((${MEMORY_CAP_MIB:-2048} * 1024))
-source deploy/lib/bench-setup.sh  # cli, bin, work, server_pid, cleanup on exit
+source tools/lib/bench-setup.sh  # cli, bin, work, server_pid, cleanup on exit
 
 # kB value of a /proc/PID/status field, empty when the process is gone; builtins only, since it
 # is polled.
@@ -53,7 +53,7 @@ mkdir -p "$work"/{ordinary,plane,scene,cases}
 "$cli" simulate --points 1000 --part sphere -o "$work/scene/sphere.ply" >/dev/null
 seed=${SEED:-$RANDOM$RANDOM}
 echo "drawn cases: ${DRAWN:-200} from seed $seed (SEED=$seed repeats them)" >&2
-python3 deploy/lib/hostile_cases.py "$work"/{ordinary,plane,scene,cases} "${DRAWN:-200}" "$seed" \
+python3 tools/lib/hostile_cases.py "$work"/{ordinary,plane,scene,cases} "${DRAWN:-200}" "$seed" \
   >"$work/manifest"
 
 # The numeric parameters of the registry: `info` lists each as "  NAME  real in [...]..." or

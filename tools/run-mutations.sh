@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
 # The mutation check, run by CI (.ci/run): breaks each equation and guard of the stages listed in
-# deploy/mutations.txt one at a time, rebuilds the core test executables and requires the core
+# tools/mutations.txt one at a time, rebuilds the core test executables and requires the core
 # test suite to FAIL on every mutation. A mutation the suite survives means a test is missing.
 #
 # Each mutation replaces one exact snippet of one file. The snippet must occur exactly once: a
@@ -10,13 +10,13 @@
 # Every mutated file is restored on exit, however the run ends (trap), and the run fails if the
 # tree then differs from what it was at the start.
 #
-# Usage: deploy/run-mutations.sh [NAME_REGEX]   (default: every mutation)
+# Usage: tools/run-mutations.sh [NAME_REGEX]   (default: every mutation)
 # Environment: BUILD_DIR (default build; reused, configured Release if new), MUTATION_TIMEOUT
 # (seconds for one mutation's test run, default 300; a hang counts as a kill).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=${BUILD_DIR:-build}
-list=deploy/mutations.txt
+list=tools/mutations.txt
 filter=${1:-.}
 timeout_s=${MUTATION_TIMEOUT:-300}
 work=$(mktemp -d)
@@ -65,7 +65,7 @@ text = open(path).read()
 count = text.count(old)
 if count != 1:
     sys.exit(f"mutation {sys.argv[2]}: the snippet occurs {count} times in {path}, not once "
-             f"(was the code changed? update deploy/mutations.txt):\n  {old}")
+             f"(was the code changed? update tools/mutations.txt):\n  {old}")
 os.makedirs(sys.argv[3], exist_ok=True)
 saved = os.path.join(sys.argv[3], path.replace("/", "+"))
 shutil.copy2(path, saved)

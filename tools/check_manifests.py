@@ -36,9 +36,10 @@ import yaml
 
 from check_docs import anchors
 
-DEPLOY = pathlib.Path(__file__).resolve().parent
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+DEPLOY = ROOT / "deploy"
 KUBERNETES = DEPLOY / "kubernetes"
-RUNBOOKS = DEPLOY.parent / "docs" / "deployment.md"
+RUNBOOKS = ROOT / "docs" / "deployment.md"
 MIB = 1024 * 1024
 # The Kubernetes recommended labels, each object carries all of them. Selectors may only use the
 # stable ones (a Deployment's selector is immutable; the version changes every release).
@@ -53,7 +54,7 @@ RUNBOOK = re.compile(r"https://[^/]+/docs/deployment\.md#([\w-]+)")
 
 def budget_constant(name):
     """A constant of the server's admission arithmetic, as server/memory_budget.h defines it."""
-    header = (DEPLOY.parent / "server" / "memory_budget.h").read_text()
+    header = (ROOT / "server" / "memory_budget.h").read_text()
     m = re.search(rf"constexpr uint64_t {name} = (?:uint64_t\{{(\d+)\}} << (\d+)|(\d+));", header)
     if not m:
         sys.exit(f"check_manifests: {name} not found in server/memory_budget.h")
@@ -222,7 +223,7 @@ def load_documents(path):
 
 def rel(path):
     path = pathlib.Path(path).resolve()
-    return str(path.relative_to(DEPLOY.parent) if inside(path, DEPLOY.parent) else path)
+    return str(path.relative_to(ROOT) if inside(path, ROOT) else path)
 
 
 def inside(path, directory):
@@ -484,11 +485,11 @@ def check_references(by_kind, findings):
     for rule in by_kind.get("PrometheusRule", []):
         if rule.body["spec"]["groups"] != yaml.safe_load(alerts_text)["groups"]:
             findings.append(f"{rule.where}: groups differ from deploy/prometheus/alerts.yml "
-                            f"(run python3 deploy/gen_prometheusrule.py)")
+                            f"(run python3 tools/gen_prometheusrule.py)")
     for config_map in by_kind.get("ConfigMap", []):
         if config_map.body["data"].get("alerts.yml", alerts_text) != alerts_text:
             findings.append(f"{config_map.where}: alerts.yml differs from deploy/prometheus/"
-                            f"alerts.yml (run python3 deploy/gen_prometheusrule.py)")
+                            f"alerts.yml (run python3 tools/gen_prometheusrule.py)")
 
 
 def label_findings(bodies):
@@ -545,7 +546,7 @@ def check_network_policy(by_kind, findings):
 def served_metrics():
     """Metric names the server registers (server/*.cc), and those prometheus-adapter serves."""
     exported = set()
-    for source in (DEPLOY.parent / "server").glob("*.cc"):
+    for source in (ROOT / "server").glob("*.cc"):
         exported |= set(re.findall(r'Add(?:Gauge|Counter|Histogram)\(\s*"(\w+)"',
                                    source.read_text()))
     adapter = yaml.safe_load((KUBERNETES / "overlays" / "monitoring" /
@@ -763,7 +764,7 @@ def main(argv):
         print(line)
     if not findings:
         print("self-test: every break caught" if testing else
-              "manifests ok: " + ", ".join(str(t.relative_to(DEPLOY.parent)) for t in targets()))
+              "manifests ok: " + ", ".join(str(t.relative_to(ROOT)) for t in targets()))
     return 1 if findings else 0
 
 

@@ -5,12 +5,12 @@
 # two again with one of them killed (SIGKILL) halfway through the run. Prints jobs/s, the
 # speed-up, and the errors and retries of the run with the kill (a call that ends UNAVAILABLE is
 # sent again: no job should be lost).
-# Usage: deploy/run-scale-out.sh [POINTS_PER_JOB] [SECONDS]   (default 200000 20)
+# Usage: tools/run-scale-out.sh [POINTS_PER_JOB] [SECONDS]   (default 200000 20)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 points=${1:-200000}
 seconds=${2:-20}
-source deploy/lib/bench-setup.sh  # cli, bin, work, server_pid, cleanup on exit
+source tools/lib/bench-setup.sh  # cli, bin, work, server_pid, cleanup on exit
 (($(nproc) >= 2)) || { echo "needs 2 cores" >&2; exit 1; }
 pids=()
 trap 'kill -KILL "${pids[@]}" 2>/dev/null || true; cleanup' EXIT

@@ -5,20 +5,20 @@
 # 1M density), then, when it was built (only where libpcl-dev is installed), the PCL baseline
 # tests/bench/pcl_chain_bench (PCL's chain and each of its steps, rows pcl_*), and prints the docs/benchmarks.md
 # table (points, threads, case, seconds, points/s, peak resident memory). Then the end-to-end service
-# benchmark (deploy/run-e2e-benchmark.sh) adds its rows to the same table: at the point counts the
+# benchmark (tools/run-e2e-benchmark.sh) adds its rows to the same table: at the point counts the
 # filter names (numbers of 1000 or more; all of 1 M and 4 M when it names none), with the thread
 # count the filter ends with (/N/T), else with 1 and 2 threads. The hostile-input family
 # (BM_Hostile/*, docs/hostile-inputs.md) runs only when the filter names it ('Hostile'), without
-# these service rows: its service side is deploy/run-hostile-benchmark.sh.
+# these service rows: its service side is tools/run-hostile-benchmark.sh.
 # A case that fails (a refused parameter) shows its message instead of its numbers.
-# Usage: deploy/run-benchmarks.sh [BENCHMARK_FILTER]   e.g. '/1000000/2' for 1 M points, 2 threads
+# Usage: tools/run-benchmarks.sh [BENCHMARK_FILTER]   e.g. '/1000000/2' for 1 M points, 2 threads
 # Environment: CASE_TIMEOUT (seconds; a case still running then is stopped and shown as
 # FAIL-timeout; default none).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash deploy/install-deps.sh
+bash tools/install-deps.sh
 command -v python3 >/dev/null || { apt-get update -qq && apt-get install -y -qq python3-minimal; }
-bash deploy/build.sh >/dev/null
+bash tools/build.sh >/dev/null
 out=$(mktemp)
 # Each case in its own process, so peak resident memory belongs to that case alone.
 run_cases() {  # BENCHMARK_BINARY; appends one JSON line per case matching the filter to $out
@@ -79,9 +79,9 @@ if [[ $filter == . || $filter == *ython* ]]; then
   bash client/python/install-venv.sh build/python-client-venv
   build/python-client-venv/bin/python tests/bench/python_codec_bench.py
 fi
-# The hostile family's service side is deploy/run-hostile-benchmark.sh, not these e2e rows.
+# The hostile family's service side is tools/run-hostile-benchmark.sh, not these e2e rows.
 [[ ${1:-} != *Hostile* ]] || exit 0
 mapfile -t e2e_points < <(grep -oE '[0-9]{4,}' <<<"${1:-}" || true)
 e2e_threads=$(sed -nE 's|.*/[0-9]+/([0-9]+)\$?$|\1|p' <<<"${1:-}")
 BUILD_DIR=build SKIP_BUILD=1 THREADS=${e2e_threads:-1 2} \
-  bash deploy/run-e2e-benchmark.sh --no-header "${e2e_points[@]}"
+  bash tools/run-e2e-benchmark.sh --no-header "${e2e_points[@]}"

@@ -2,17 +2,17 @@
 # SPDX-License-Identifier: Apache-2.0
 # The sanitizer jobs of CI (.ci/run), each in its own clang build directory:
 #   asan  ASan + UBSan (+ libFuzzer coverage) on every target in ./build-asan; runs the whole
-#         ctest suite, then every fuzzer for FUZZ_SECONDS (default 60) via deploy/run-fuzzers.sh.
+#         ctest suite, then every fuzzer for FUZZ_SECONDS (default 60) via tools/run-fuzzers.sh.
 #   tsan  ThreadSanitizer in ./build-tsan; runs the server concurrency tests: concurrent jobs,
 #         cancellations, deadlines, draining and shutdown (concurrency_test, faults_test,
 #         admission_test, process_test).
-# Usage: deploy/run-sanitizers.sh [asan] [tsan]   (default: both). Any report fails the run.
+# Usage: tools/run-sanitizers.sh [asan] [tsan]   (default: both). Any report fails the run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=("$@")
 ((${#jobs[@]})) || jobs=(asan tsan)
 
-bash deploy/install-deps.sh --sanitizers  # the build's packages, clang and its runtimes
+bash tools/install-deps.sh --sanitizers  # the build's packages, clang and its runtimes
 
 configure() {  # DIR, extra cmake flags...
   local dir=$1
@@ -29,7 +29,7 @@ for job in "${jobs[@]}"; do
       ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
       UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
         ctest --test-dir build-asan --output-on-failure -j "$(nproc)"
-      BUILD_DIR=build-asan bash deploy/run-fuzzers.sh "${FUZZ_SECONDS:-60}"
+      BUILD_DIR=build-asan bash tools/run-fuzzers.sh "${FUZZ_SECONDS:-60}"
       ;;
     tsan)
       tests=(concurrency_test faults_test admission_test process_test)

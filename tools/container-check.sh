@@ -7,7 +7,7 @@
 #   2. podman build --isolation=chroot --pull=never of the Dockerfile (its runtime stage ends with
 #      `RUN scanprep-server --version`, proving every shared library is there);
 #   3. a test stage that starts the server inside the image and checks its health service.
-# Slow (10-20 min); CI runs deploy/check-runtime-libs.sh instead. Run it after changing the
+# Slow (10-20 min); CI runs tools/check-runtime-libs.sh instead. Run it after changing the
 # Dockerfile, the runtime packages or the linked libraries.
 set -euo pipefail
 cd "$(dirname "$0")/.."

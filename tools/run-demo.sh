@@ -7,14 +7,14 @@
 # scan the project generates (`scanprep simulate`).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash deploy/install-deps.sh
-bash deploy/build.sh
+bash tools/install-deps.sh
+bash tools/build.sh
 bin=${BUILD_DIR:-build}
 out=$(mktemp -d)
 trap 'kill "$server_pid" 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$out"' EXIT
 
 # Plaintext on loopback for the demo; a deployment gives --tls_cert/--tls_key/--tls_client_ca.
-source deploy/lib/local-server.sh
+source tools/lib/local-server.sh
 start_local_server "$out/server.log"
 echo "scanprep-server listening on 127.0.0.1:$port"
 
@@ -22,7 +22,7 @@ data=../shared/data/stanford_bunny_range_scans
 if [[ -d "$data" ]]; then
   preview=${PREVIEW:-$bin/bunny-preview.png}
   "$bin/client/scanprep" process "$data/bun000.ply" "$data/bun045.ply" --conf "$data/bun.conf" \
-    --job deploy/examples/bunny.job.json --server "127.0.0.1:$port" -o "$out/bunny.ply" \
+    --job client/examples/bunny.job.json --server "127.0.0.1:$port" -o "$out/bunny.ply" \
     --preview "$preview"
   echo "the input and the result side by side: $preview (docs/images/bunny-preview.png is one)"
 else

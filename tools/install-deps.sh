@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: Apache-2.0
 # Installs the Debian 12 packages scanprep builds and tests with. Safe to repeat: apt runs only
 # when something is missing. With --sanitizers also clang and its sanitizer and libFuzzer runtimes
-# (deploy/run-sanitizers.sh, deploy/run-fuzzers.sh).
+# (tools/run-sanitizers.sh, tools/run-fuzzers.sh).
 set -euo pipefail
 
 packages=(
@@ -17,10 +17,10 @@ packages=(
   zlib1g-dev  # CRC-32 of the StreamEnd (proto/stream_checksum.cc)
   prometheus  # prometheus and promtool: alert-rule and integration tests
   openssl     # tls_test makes its certificates at test time
-  clang-format  # the clang_format test (deploy/check-format.sh)
+  clang-format  # the clang_format test (tools/check-format.sh)
   python3-grpcio python3-protobuf python3-numpy  # client/python and its tests (python_client*)
   python3-venv python3-pip python3-setuptools python3-wheel  # its wheel, built and installed offline
-  python3-yaml  # deploy/check_manifests.py (kubernetes_manifests test)
+  python3-yaml  # tools/check_manifests.py (kubernetes_manifests test)
 )
 if [[ ${1:-} == --sanitizers ]]; then
   packages+=(clang libclang-rt-14-dev)

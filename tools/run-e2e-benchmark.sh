@@ -8,7 +8,7 @@
 # server) for "service: upload / processing / download / end to end", then per run the server's
 # peak resident memory above its idle baseline (/proc VmHWM after the job minus VmRSS after
 # startup) per point, the transport's share of the processing time, and the 2-thread speed-up.
-# Usage: deploy/run-e2e-benchmark.sh [--no-header] [POINTS...]   (default 1000000 4000000)
+# Usage: tools/run-e2e-benchmark.sh [--no-header] [POINTS...]   (default 1000000 4000000)
 # Environment: BUILD_DIR (default build), THREADS (default "1 2"), SKIP_BUILD=1 when the caller
 # has just built, PARAMS (space-separated name=value overrides for every job, e.g.
 # "correction.radius_scale=100", the worst case of server/memory_budget.h).
@@ -21,7 +21,7 @@ sizes=("$@")
 read -ra threads <<<"${THREADS:-1 2}"
 params=()
 for p in ${PARAMS:-}; do params+=(--param "$p"); done
-source deploy/lib/bench-setup.sh  # cli, bin, work, server_pid, cleanup on exit
+source tools/lib/bench-setup.sh  # cli, bin, work, server_pid, cleanup on exit
 
 # kB value of a /proc/PID/status field.
 status_kb() { awk -v f="$2:" '$1 == f {print $2}' "/proc/$1/status"; }

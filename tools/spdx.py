@@ -2,8 +2,8 @@
 # SPDX-License-Identifier: Apache-2.0
 """SPDX license headers of the project's own sources (LICENSE: Apache-2.0).
 
-  deploy/spdx.py --check   lists every source file without the header; exit 1 if any (ctest)
-  deploy/spdx.py --add     adds it where missing (after a shebang line)
+  tools/spdx.py --check   lists every source file without the header; exit 1 if any (ctest)
+  tools/spdx.py --add     adds it where missing (after a shebang line)
 
 Sources: C++ (.cc, .h), .proto, shell, Python, CMakeLists.txt, the Dockerfile and .ci/run; not
 the verbatim copies of Google's protos (proto/google/), which carry Google's own notice."""
@@ -48,7 +48,7 @@ def main() -> int:
         missing.append(path.relative_to(ROOT))
     if mode == "--check" and missing:
         print(f"{len(missing)} source files lack '{TAG}' in their first lines "
-              "(deploy/spdx.py --add):")
+              "(tools/spdx.py --add):")
         print("\n".join(f"  {m}" for m in missing))
         return 1
     print(f"{len(missing)} headers added" if mode == "--add" else "every source file has it")

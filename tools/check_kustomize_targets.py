@@ -5,7 +5,7 @@ would run it: each `kubectl apply -k DIR` / `kubectl kustomize DIR` in README.md
 the comments of deploy/**/kustomization.yaml, plus every kustomization under deploy/ (an
 undocumented one must build too). A target fails when kubectl fails (e.g. "cycle detected" for an
 overlay inside its base) or when an object it renders lacks the recommended labels
-(deploy/check_manifests.py: label_findings). Exit 0 all built, 1 with one line per failure, 77
+(tools/check_manifests.py: label_findings). Exit 0 all built, 1 with one line per failure, 77
 (ctest SKIP_RETURN_CODE) when kubectl is not installed."""
 import pathlib
 import re

@@ -10,8 +10,8 @@ seconds=${1:-60}
 build_dir=${BUILD_DIR:-build-asan}
 targets=(ply_fuzzer xyz_fuzzer pcd_fuzzer e57_fuzzer las_fuzzer conf_fuzzer job_file_fuzzer assembler_fuzzer service_fuzzer)
 
-bash deploy/install-deps.sh --sanitizers
-# The same configuration as deploy/run-sanitizers.sh, so both can share one build directory.
+bash tools/install-deps.sh --sanitizers
+# The same configuration as tools/run-sanitizers.sh, so both can share one build directory.
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
   -DSCANPREP_FUZZ=ON -DSCANPREP_BUILD_BENCHMARKS=OFF >/dev/null
 ninja -C "$build_dir" "${targets[@]}"

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
-# Fast proxy for the container build (deploy/container-check.sh), run in CI: every shared library
+# Fast proxy for the container build (tools/container-check.sh), run in CI: every shared library
 # that ldd reports for the built binaries must come from a package the Dockerfile's runtime stage
 # installs, or from one of their dependencies, or from an essential package of the base image.
-# Usage: deploy/check-runtime-libs.sh BINARY...
+# Usage: tools/check-runtime-libs.sh BINARY...
 set -euo pipefail
 cd "$(dirname "$0")/.."
 (($#)) || { echo "usage: $0 BINARY..." >&2; exit 2; }

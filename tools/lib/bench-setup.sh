@@ -3,10 +3,10 @@
 # unless SKIP_BUILD=1, sets cli and bin for $BUILD_DIR (default build), loads local-server.sh,
 # and makes a work directory that is removed, with any server still running, on exit.
 build_dir=${BUILD_DIR:-build}
-[[ ${SKIP_BUILD:-} == 1 ]] || bash deploy/build.sh >/dev/null
+[[ ${SKIP_BUILD:-} == 1 ]] || bash tools/build.sh >/dev/null
 cli=$build_dir/client/scanprep
-bin=$build_dir  # for deploy/lib/local-server.sh
-source deploy/lib/local-server.sh
+bin=$build_dir  # for tools/lib/local-server.sh
+source tools/lib/local-server.sh
 
 work=$(mktemp -d)
 server_pid=

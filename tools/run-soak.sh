@@ -9,18 +9,18 @@
 # third, not counting the first minute (which warms pools and heaps up). Peaks over windows of
 # minutes, because resident memory cycles by about 25 % over about two minutes as the allocator
 # returns freed pages; a leak shows as peaks that keep rising.
-# Usage: deploy/run-soak.sh [DURATION_SECONDS]
+# Usage: tools/run-soak.sh [DURATION_SECONDS]
 # The job is bun000 + bun045 of ../shared/data registered with bun.conf, else a generated
 # 100,000-point scan.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 duration=${1:-600}
-bash deploy/install-deps.sh
-bash deploy/build.sh >/dev/null
+bash tools/install-deps.sh
+bash tools/build.sh >/dev/null
 bin=${BUILD_DIR:-build}
 out=$(mktemp -d)
 trap 'kill "$server_pid" 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$out"' EXIT
-source deploy/lib/local-server.sh
+source tools/lib/local-server.sh
 start_local_server "$out/server.log"
 
 data=../shared/data/stanford_bunny_range_scans

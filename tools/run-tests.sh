@@ -3,6 +3,6 @@
 # The test command: installs what is missing, builds, runs the whole suite with ctest.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash deploy/install-deps.sh
-bash deploy/build.sh
+bash tools/install-deps.sh
+bash tools/build.sh
 ctest --test-dir "${BUILD_DIR:-build}" --output-on-failure -j "$(nproc)"

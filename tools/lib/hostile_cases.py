@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: Apache-2.0
-# The hostile-input cases of deploy/run-hostile-benchmark.sh, made from clouds `scanprep simulate`
+# The hostile-input cases of tools/run-hostile-benchmark.sh, made from clouds `scanprep simulate`
 # generated (so every case is the ordinary workload with one thing wrong, not a new generator).
 # Usage: hostile_cases.py ORDINARY_DIR PLANE_DIR SCENE_DIR OUT_DIR [DRAWN SEED]
 #   ORDINARY_DIR: `simulate --scans 2 -o sim.ply` (sim_frontal.ply, sim_oblique.ply, sim.job.json)

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-# Sourced by the deploy scripts that need a local server: start_local_server LOG [FLAGS...] runs
+# Sourced by the tools scripts that need a local server: start_local_server LOG [FLAGS...] runs
 # $bin/server/scanprep-server in plaintext on a free loopback port and sets server_pid and port;
 # stop_local_server sends SIGTERM and returns the server's exit status. With PIN=CPUS set the
 # server runs on those CPUs only (taskset).
