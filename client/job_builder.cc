@@ -88,13 +88,12 @@ FileScans SplitByScanColumn(const PointCloud& cloud) {
 // `scan_files[s]`: the file scan s came from; every scan of a file gets the file's pose.
 absl::Status ApplyConf(const std::string& conf_path, const std::vector<std::string>& scan_files,
                        v1::JobHeader& header) {
-  auto entries = io::ReadConf(conf_path);
-  if (!entries.ok()) return entries.status();
+  SCANPREP_ASSIGN_OR_RETURN(auto entries, io::ReadConf(conf_path));
   for (size_t s = 0; s < scan_files.size(); ++s) {
     const std::string name = fs::path(scan_files[s]).filename().string();
-    auto entry = std::find_if(entries->begin(), entries->end(),
+    auto entry = std::find_if(entries.begin(), entries.end(),
                               [&](const io::ConfEntry& e) { return e.file == name; });
-    if (entry == entries->end()) {
+    if (entry == entries.end()) {
       return absl::NotFoundError(absl::StrCat(conf_path, " has no pose for ", name));
     }
     v1::RigidTransform* t = header.mutable_scans(s)->mutable_to_common();
@@ -112,9 +111,8 @@ absl::Status ApplyConf(const std::string& conf_path, const std::vector<std::stri
 
 absl::Status ApplyOptionFlags(const ParsedArgs& args, v1::JobHeader& header) {
   if (args.Has("unit")) {
-    auto unit = ParseUnit(args.Get("unit"));
-    if (!unit.ok()) return unit.status();
-    header.set_unit(*unit);
+    SCANPREP_ASSIGN_OR_RETURN(auto unit, ParseUnit(args.Get("unit")));
+    header.set_unit(unit);
   } else if (header.unit() == v1::LENGTH_UNIT_UNSPECIFIED) {
     header.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
   }
@@ -137,13 +135,12 @@ absl::Status ApplyOptionFlags(const ParsedArgs& args, v1::JobHeader& header) {
   SCANPREP_RETURN_IF_ERROR(SetFailOn(args, *options));
   for (const char* flag : {"scanline_spacing", "uncertainty"}) {
     if (!args.Has(flag)) continue;
-    auto value = ParseLength(args, flag);
-    if (!value.ok()) return value.status();
+    SCANPREP_ASSIGN_OR_RETURN(auto value, ParseLength(args, flag));
     for (v1::ScanHeader& scan : *header.mutable_scans()) {
       if (std::string(flag) == "uncertainty") {
-        scan.set_uncertainty(*value);
+        scan.set_uncertainty(value);
       } else {
-        scan.set_scanline_spacing(*value);
+        scan.set_scanline_spacing(value);
       }
     }
   }
@@ -226,13 +223,12 @@ std::string WithPrefixedEnumValues(const std::string& json) {
 }
 
 absl::StatusOr<v1::JobHeader> ReadJobFile(const std::string& path) {
-  auto text = io::ReadFileToString(path);
-  if (!text.ok()) return text.status();
-  *text = WithPrefixedEnumValues(*text);
+  SCANPREP_ASSIGN_OR_RETURN(auto text, io::ReadFileToString(path));
+  text = WithPrefixedEnumValues(text);
   v1::JobHeader header;
   google::protobuf::util::JsonParseOptions options;
   options.ignore_unknown_fields = false;
-  auto status = google::protobuf::util::JsonStringToMessage(*text, &header, options);
+  auto status = google::protobuf::util::JsonStringToMessage(text, &header, options);
   if (!status.ok()) {
     return absl::InvalidArgumentError(
         absl::StrCat(path, ": not a JobHeader in JSON: ", std::string(status.message())));
@@ -291,9 +287,8 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   const std::vector<std::string>& files = args.positional;
   Job job;
   if (args.Has("job")) {
-    auto header = ReadJobFile(args.Get("job"));
-    if (!header.ok()) return header.status();
-    job.header = std::move(*header);
+    SCANPREP_ASSIGN_OR_RETURN(auto header, ReadJobFile(args.Get("job")));
+    job.header = std::move(header);
   }
 
   // One scan per file, in command-line order, or one per value of its scan column (named
@@ -306,20 +301,18 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   std::vector<std::string> scan_files;  // per scan: the file it came from
   io::ReadOptions read_options;
   if (args.Has("profile_gap")) {
-    auto gap = ParseLength(args, "profile_gap");
-    if (!gap.ok()) return gap.status();
-    read_options.profile_gap = *gap;
+    SCANPREP_ASSIGN_OR_RETURN(read_options.profile_gap, ParseLength(args, "profile_gap"));
   }
   for (size_t f = 0; f < files.size(); ++f) {
     const std::string& file = files[f];
-    auto cloud = ReadScanArgument(file, formats[f], job.notes, read_options);
-    if (!cloud.ok()) return cloud.status();
-    if (cloud->has_normals()) {
+    SCANPREP_ASSIGN_OR_RETURN(auto cloud,
+                              ReadScanArgument(file, formats[f], job.notes, read_options));
+    if (cloud.has_normals()) {
       job.notes.push_back(
           absl::StrCat(file, ": its normals are not sent (the service estimates its own)"));
     }
     const std::string stem = file == "-" ? "stdin" : fs::path(file).stem().string();
-    split.push_back(SplitByScanColumn(*cloud));
+    split.push_back(SplitByScanColumn(cloud));
     first_scan.push_back(static_cast<uint32_t>(job.header.scans_size()));
     std::vector<std::string> ids = {stem};
     if (!split.back().values.empty()) {
@@ -342,29 +335,28 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
       // units, as the header's camera_position is; the job file's value, when it has one, wins.
       // A file that describes its scans (E57) has one origin per scan.
       const size_t value = split.back().values.empty() ? 0 : split.back().values[k];
-      const ScanMeta& meta =
-          value < cloud->scans.size() ? cloud->scans[value] : cloud->scans.front();
+      const ScanMeta& meta = value < cloud.scans.size() ? cloud.scans[value] : cloud.scans.front();
       // A reader's positions, like its points, are relative to the cloud's origin.
       const std::optional<Eigen::Vector3d>& origin = meta.camera_position;
       if (origin && !scan->has_camera_position()) {
-        SetVec3(*origin + cloud->origin, scan->mutable_camera_position());
+        SetVec3(*origin + cloud.origin, scan->mutable_camera_position());
       }
       // The points are sent relative to the origin the reader chose (double files far from zero).
-      if (!cloud->origin.isZero(0)) SetVec3(cloud->origin, scan->mutable_points_offset());
+      if (!cloud.origin.isZero(0)) SetVec3(cloud.origin, scan->mutable_points_offset());
       scan_files.push_back(file);
     }
     // A LAS output keeps the grid of the first LAS read (the result comes back in the files'
     // unit, so the grid still fits it); another file's points are written on that grid too.
-    if (cloud->grid && !job.points.grid) {
-      job.points.grid = cloud->grid;
-    } else if (cloud->grid && (cloud->grid->scale != job.points.grid->scale ||
-                               cloud->grid->offset != job.points.grid->offset)) {
+    if (cloud.grid && !job.points.grid) {
+      job.points.grid = cloud.grid;
+    } else if (cloud.grid && (cloud.grid->scale != job.points.grid->scale ||
+                              cloud.grid->offset != job.points.grid->offset)) {
       job.notes.push_back(absl::StrCat(
           file,
           ": its LAS scale and offset differ from the first LAS file's; a LAS output is "
           "written on the first's"));
     }
-    clouds.push_back(std::move(*cloud));
+    clouds.push_back(std::move(cloud));
   }
   if (!from_job.empty()) {
     return absl::InvalidArgumentError(absl::StrCat("the job file describes scan '",

@@ -21,18 +21,13 @@ namespace {
 
 absl::StatusOr<LoadOptions> ParseLoadOptions(const ParsedArgs& args) {
   LoadOptions options;
-  auto concurrency = GetNumber(args, "concurrency", 1, 1);
-  if (!concurrency.ok()) return concurrency.status();
-  if (*concurrency > 1024 || *concurrency != std::floor(*concurrency)) {
+  SCANPREP_ASSIGN_OR_RETURN(auto concurrency, GetNumber(args, "concurrency", 1, 1));
+  if (concurrency > 1024 || concurrency != std::floor(concurrency)) {
     return absl::InvalidArgumentError("--concurrency: a whole number from 1 to 1024");
   }
-  options.concurrency = static_cast<int>(*concurrency);
-  auto duration = GetDuration(args, "duration", absl::Seconds(60));
-  if (!duration.ok()) return duration.status();
-  options.duration = *duration;
-  auto timeout = GetDuration(args, "timeout", absl::Seconds(120));
-  if (!timeout.ok()) return timeout.status();
-  options.call_timeout = *timeout;
+  options.concurrency = static_cast<int>(concurrency);
+  SCANPREP_ASSIGN_OR_RETURN(options.duration, GetDuration(args, "duration", absl::Seconds(60)));
+  SCANPREP_ASSIGN_OR_RETURN(options.call_timeout, GetDuration(args, "timeout", absl::Seconds(120)));
   if (args.Has("max_jobs")) {
     uint64_t max_jobs = 0;
     if (!absl::SimpleAtoi(args.Get("max_jobs"), &max_jobs) || max_jobs == 0) {
@@ -41,27 +36,23 @@ absl::StatusOr<LoadOptions> ParseLoadOptions(const ParsedArgs& args) {
     }
     options.max_jobs = max_jobs;
   }
-  auto rate = GetNumber(args, "rate", 0, 0);
-  if (!rate.ok()) return rate.status();
-  options.rate = *rate;
+  SCANPREP_ASSIGN_OR_RETURN(options.rate, GetNumber(args, "rate", 0, 0));
   const std::string arrivals = args.Get("arrivals", "poisson");
   if (arrivals != "poisson" && arrivals != "fixed") {
     return absl::InvalidArgumentError(
         absl::StrCat("--arrivals: '", arrivals, "' is neither poisson nor fixed"));
   }
   options.arrivals = arrivals == "fixed" ? Arrivals::kFixed : Arrivals::kPoisson;
-  auto abort = GetNumber(args, "abort_uploads", 0, 0);
-  if (!abort.ok()) return abort.status();
-  if (*abort >= 1) return absl::InvalidArgumentError("--abort_uploads: a share in [0, 1)");
-  options.abort_uploads = *abort;
-  auto chunk = GetNumber(args, "chunk_points", kDefaultChunkPoints, 1);
-  if (!chunk.ok()) return chunk.status();
-  if (*chunk != std::floor(*chunk) || *chunk > 1e9) {
+  SCANPREP_ASSIGN_OR_RETURN(auto abort, GetNumber(args, "abort_uploads", 0, 0));
+  if (abort >= 1) return absl::InvalidArgumentError("--abort_uploads: a share in [0, 1)");
+  options.abort_uploads = abort;
+  SCANPREP_ASSIGN_OR_RETURN(auto chunk, GetNumber(args, "chunk_points", kDefaultChunkPoints, 1));
+  if (chunk != std::floor(chunk) || chunk > 1e9) {
     return absl::InvalidArgumentError(
         "--chunk_points: a whole number from 1 (the server's "
         "limit is in `scanprep info`)");
   }
-  options.chunk_points = static_cast<size_t>(*chunk);
+  options.chunk_points = static_cast<size_t>(chunk);
   options.retry = args.Get("retry", "true") == "true";
   return options;
 }
@@ -85,9 +76,8 @@ absl::StatusOr<std::optional<GenerateOptions>> Generation(const ParsedArgs& args
 absl::StatusOr<Job> LoadJob(const ParsedArgs& args,
                             const std::optional<GenerateOptions>& generation) {
   if (!generation) return BuildJob(args);
-  auto cloud = GenerateScan(*generation);
-  if (!cloud.ok()) return cloud.status();
-  return BuildJobFromCloud(args, std::move(*cloud));
+  SCANPREP_ASSIGN_OR_RETURN(auto cloud, GenerateScan(*generation));
+  return BuildJobFromCloud(args, std::move(cloud));
 }
 
 int RunLoadCommand(const ParsedArgs& args) {

@@ -15,6 +15,7 @@
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "core/status_macros.h"
 
 namespace scanprep::client {
 namespace {
@@ -338,7 +339,7 @@ absl::Status CheckPreviewPath(const std::filesystem::path& path) {
 }
 
 absl::Status WritePng(const std::filesystem::path& path, const Image& image) {
-  if (absl::Status s = CheckPreviewPath(path); !s.ok()) return s;
+  SCANPREP_RETURN_IF_ERROR(CheckPreviewPath(path));
   std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path.c_str(), "wb"), &std::fclose);
   if (file == nullptr) return absl::UnavailableError(absl::StrCat("cannot create ", path.string()));
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);

@@ -3,6 +3,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "core/status_macros.h"
 #include "proto/chunk_arrays.h"
 
 namespace scanprep::client {
@@ -89,7 +90,7 @@ absl::Status ResultReceiver::AddMessage(v1::ProcessResponse& response) {
 }
 
 absl::StatusOr<ProcessResult> ResultReceiver::Finish() && {
-  if (!error_.ok()) return error_;
+  SCANPREP_RETURN_IF_ERROR(error_);
   if (!has_report_) return absl::DataLossError("the server ended the call without a report");
   if (!has_end_) {
     return absl::DataLossError(absl::StrCat("the result ended without its end message after ",

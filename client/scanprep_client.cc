@@ -9,6 +9,7 @@
 #include "absl/strings/str_split.h"
 #include "client/call_error.h"
 #include "core/io/read_file.h"
+#include "core/status_macros.h"
 
 namespace scanprep::client {
 namespace {
@@ -61,9 +62,8 @@ absl::StatusOr<std::shared_ptr<grpc::ChannelCredentials>> ChannelCredentialsFor(
       {&files.key, &options.pem_private_key}};
   for (const auto& [path, into] : pem) {
     if (path->empty()) continue;
-    auto text = io::ReadFileToString(*path);
-    if (!text.ok()) return text.status();
-    *into = std::move(*text);
+    SCANPREP_ASSIGN_OR_RETURN(auto text, io::ReadFileToString(*path));
+    *into = std::move(text);
   }
   return grpc::SslCredentials(options);
 }

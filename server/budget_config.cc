@@ -29,10 +29,9 @@ absl::StatusOr<double> ParseSeconds(const std::string& text, const std::string& 
 // One "stage seconds" entry; "total" sets the whole-pipeline budget when `allow_total`.
 absl::Status AddEntry(const std::string& name, const std::string& value, const std::string& where,
                       bool allow_total, BudgetDefaults& defaults) {
-  auto seconds = ParseSeconds(value, where);
-  if (!seconds.ok()) return seconds.status();
+  SCANPREP_ASSIGN_OR_RETURN(auto seconds, ParseSeconds(value, where));
   if (allow_total && name == "total") {
-    defaults.total_seconds = *seconds;
+    defaults.total_seconds = seconds;
     return absl::OkStatus();
   }
   if (FindStage(name) == nullptr) {
@@ -41,7 +40,7 @@ absl::Status AddEntry(const std::string& name, const std::string& value, const s
                                                    DidYouMean(name, known),
                                                    " (known: ", absl::StrJoin(known, ", "), ")"));
   }
-  defaults.stage_seconds[name] = *seconds;
+  defaults.stage_seconds[name] = seconds;
   return absl::OkStatus();
 }
 
@@ -55,12 +54,9 @@ absl::Status ParseStageBudgets(std::string_view spec, BudgetDefaults& defaults) 
     if (kv.size() != 2) {
       return absl::InvalidArgumentError(absl::StrCat(where, ": expected stage=seconds"));
     }
-    if (absl::Status s =
-            AddEntry(std::string(absl::StripAsciiWhitespace(kv[0])),
-                     std::string(absl::StripAsciiWhitespace(kv[1])), where, false, defaults);
-        !s.ok()) {
-      return s;
-    }
+    SCANPREP_RETURN_IF_ERROR(AddEntry(std::string(absl::StripAsciiWhitespace(kv[0])),
+                                      std::string(absl::StripAsciiWhitespace(kv[1])), where, false,
+                                      defaults));
   }
   return absl::OkStatus();
 }
@@ -85,9 +81,8 @@ absl::Status ParseBudgetConfig(std::string_view text, std::string_view source,
 }
 
 absl::Status ReadBudgetConfig(const std::string& path, BudgetDefaults& defaults) {
-  auto text = io::ReadFileToString(path);
-  if (!text.ok()) return text.status();
-  return ParseBudgetConfig(*text, path, defaults);
+  SCANPREP_ASSIGN_OR_RETURN(auto text, io::ReadFileToString(path));
+  return ParseBudgetConfig(text, path, defaults);
 }
 
 }  // namespace scanprep::server

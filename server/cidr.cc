@@ -9,6 +9,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "core/status_macros.h"
 
 namespace scanprep::server {
 namespace {
@@ -88,9 +89,8 @@ absl::StatusOr<std::vector<Cidr>> ParseCidrList(absl::string_view text) {
   std::vector<Cidr> ranges;
   if (absl::StripAsciiWhitespace(text).empty()) return ranges;
   for (absl::string_view entry : absl::StrSplit(text, ',')) {
-    absl::StatusOr<Cidr> cidr = ParseCidr(absl::StripAsciiWhitespace(entry));
-    if (!cidr.ok()) return cidr.status();
-    ranges.push_back(*cidr);
+    SCANPREP_ASSIGN_OR_RETURN(Cidr cidr, ParseCidr(absl::StripAsciiWhitespace(entry)));
+    ranges.push_back(cidr);
   }
   return ranges;
 }

@@ -98,13 +98,12 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
   }
   has_header_ = true;
   SCANPREP_RETURN_IF_ERROR(CheckHeaderSize(header));
-  auto mm = MillimetresPerUnit(header.unit());
-  if (!mm.ok()) return mm.status();
+  SCANPREP_ASSIGN_OR_RETURN(const double mm, MillimetresPerUnit(header.unit()));
   if (header.scans().empty()) {
     return BadHeader("header.scans", "header.scans: a job needs at least one scan");
   }
   job_.job_id = header.job_id();
-  job_.mm_per_unit = *mm;
+  job_.mm_per_unit = mm;
   job_.include_removed = header.options().include_removed();
   job_.labels.insert(header.labels().begin(), header.labels().end());
   job_.packed_results = header.result_arrays() == v1::ARRAY_ENCODING_PACKED;
@@ -121,16 +120,15 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
   job_.options.fail_on = *std::move(fail_on);
   if (absl::Status s = ValidateOptions(job_.options); !s.ok()) return OptionsError(s);
 
-  SCANPREP_ASSIGN_OR_RETURN(const Eigen::Vector3d origin_mm, OriginFromProto(header, *mm));
+  SCANPREP_ASSIGN_OR_RETURN(const Eigen::Vector3d origin_mm, OriginFromProto(header, mm));
   for (int s = 0; s < header.scans_size(); ++s) {
     const std::string field = absl::StrCat("header.scans[", s, "]");
-    auto frame = FrameFromProto(header.scans(s), *mm, origin_mm, field);
-    if (!frame.ok()) return frame.status();
-    auto meta = ScanMetaFromProto(header.scans(s), *frame, field);
-    if (!meta.ok()) return meta.status();
-    if (meta->id.empty()) meta->id = absl::StrCat("scan", s);
-    frames_.push_back(*frame);
-    job_.cloud.scans.push_back(std::move(*meta));
+    SCANPREP_ASSIGN_OR_RETURN(const ScanFrame frame,
+                              FrameFromProto(header.scans(s), mm, origin_mm, field));
+    SCANPREP_ASSIGN_OR_RETURN(ScanMeta meta, ScanMetaFromProto(header.scans(s), frame, field));
+    if (meta.id.empty()) meta.id = absl::StrCat("scan", s);
+    frames_.push_back(frame);
+    job_.cloud.scans.push_back(std::move(meta));
   }
   job_.cloud.kind = KindFromHeader(header);
 
@@ -173,34 +171,26 @@ absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
   SCANPREP_RETURN_IF_ERROR(
       CheckString("header.options.preset", "the preset name", header.options().preset()));
   for (int i = 0; i < header.scans_size(); ++i) {
-    if (auto s = CheckString(absl::StrCat("header.scans[", i, "].scan_id"), "the scan id",
-                             header.scans(i).scan_id());
-        !s.ok())
-      return s;
+    SCANPREP_RETURN_IF_ERROR(CheckString(absl::StrCat("header.scans[", i, "].scan_id"),
+                                         "the scan id", header.scans(i).scan_id()));
   }
   for (int i = 0; i < header.options().stages_size(); ++i) {
-    if (auto s = CheckString(absl::StrCat("header.options.stages[", i, "]"), "the stage name",
-                             header.options().stages(i));
-        !s.ok())
-      return s;
+    SCANPREP_RETURN_IF_ERROR(CheckString(absl::StrCat("header.options.stages[", i, "]"),
+                                         "the stage name", header.options().stages(i)));
   }
   // A long name is refused without naming its entry, which would echo it.
   for (const auto& [name, value] : header.options().params()) {
     SCANPREP_RETURN_IF_ERROR(CheckString("header.options.params", "a parameter name", name));
-    if (auto s =
-            CheckString(absl::StrCat("header.options.params['", name, "']"), "the value", value);
-        !s.ok())
-      return s;
+    SCANPREP_RETURN_IF_ERROR(
+        CheckString(absl::StrCat("header.options.params['", name, "']"), "the value", value));
   }
   for (const auto& [name, seconds] : header.budget().stage_seconds()) {
-    if (auto s = CheckString("header.budget.stage_seconds", "a stage name", name); !s.ok())
-      return s;
+    SCANPREP_RETURN_IF_ERROR(CheckString("header.budget.stage_seconds", "a stage name", name));
   }
   for (const auto& [key, value] : header.labels()) {
     SCANPREP_RETURN_IF_ERROR(CheckString("header.labels", "a label key", key));
-    if (auto s = CheckString(absl::StrCat("header.labels['", key, "']"), "the value", value);
-        !s.ok())
-      return s;
+    SCANPREP_RETURN_IF_ERROR(
+        CheckString(absl::StrCat("header.labels['", key, "']"), "the value", value));
   }
   return absl::OkStatus();
 }
@@ -235,13 +225,11 @@ absl::Status JobAssembler::CheckChunk(const v1::PointChunk& chunk, size_t n) con
     }
   }
   if (n > 0 && layout_known_) {
-    if (auto s = CheckPresence(id, "scanline", has_scanline_, chunk.scanline_size() > 0); !s.ok())
-      return s;
-    if (auto s = CheckPresence(id, "quality", has_quality_, chunk.quality_size() > 0); !s.ok())
-      return s;
-    if (auto s = CheckPresence(id, "intensity", has_intensity_, chunk.intensity_size() > 0);
-        !s.ok())
-      return s;
+    SCANPREP_RETURN_IF_ERROR(
+        CheckPresence(id, "scanline", has_scanline_, chunk.scanline_size() > 0));
+    SCANPREP_RETURN_IF_ERROR(CheckPresence(id, "quality", has_quality_, chunk.quality_size() > 0));
+    SCANPREP_RETURN_IF_ERROR(
+        CheckPresence(id, "intensity", has_intensity_, chunk.intensity_size() > 0));
   }
   return absl::OkStatus();
 }

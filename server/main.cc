@@ -130,11 +130,8 @@ absl::StatusOr<scanprep::server::BudgetDefaults> BudgetsFromFlags() {
   if (const std::string path = absl::GetFlag(FLAGS_budget_config); !path.empty()) {
     SCANPREP_RETURN_IF_ERROR(scanprep::server::ReadBudgetConfig(path, budgets));
   }
-  if (absl::Status s =
-          scanprep::server::ParseStageBudgets(absl::GetFlag(FLAGS_stage_budgets), budgets);
-      !s.ok()) {
-    return s;
-  }
+  SCANPREP_RETURN_IF_ERROR(
+      scanprep::server::ParseStageBudgets(absl::GetFlag(FLAGS_stage_budgets), budgets));
   const double total = absl::GetFlag(FLAGS_default_budget_seconds);
   if (!(total >= 0)) return absl::InvalidArgumentError("--default_budget_seconds must be >= 0");
   if (total > 0) budgets.total_seconds = total;

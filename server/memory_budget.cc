@@ -10,6 +10,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "core/status_macros.h"
 
 namespace scanprep::server {
 namespace {
@@ -112,19 +113,20 @@ uint64_t LargestJobPoints(uint64_t budget_bytes) {
 }
 
 absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t budget_flag, uint64_t max_points_flag) {
-  absl::StatusOr<MemoryBudget> budget =
-      budget_flag > 0 ? MemoryBudget{.bytes = budget_flag, .source = "--memory_budget"}
-                      : DetectMemoryBudget();
-  if (!budget.ok()) return budget.status();
-  const uint64_t largest = LargestJobPoints(budget->bytes);
+  SCANPREP_ASSIGN_OR_RETURN(const MemoryBudget budget,
+                            budget_flag > 0
+                                ? absl::StatusOr<MemoryBudget>(MemoryBudget{
+                                      .bytes = budget_flag, .source = "--memory_budget"})
+                                : DetectMemoryBudget());
+  const uint64_t largest = LargestJobPoints(budget.bytes);
   if (largest == 0) {
     return absl::InvalidArgumentError(
-        absl::StrCat("the memory budget of ", budget->bytes, " bytes (", budget->source,
+        absl::StrCat("the memory budget of ", budget.bytes, " bytes (", budget.source,
                      ") leaves no room for a job's fixed ", FormatMiB(kJobOverheadBytes),
                      "; raise --memory_budget"));
   }
   if (max_points_flag == 0) {
-    return MemoryLimits{.budget = *budget,
+    return MemoryLimits{.budget = budget,
                         .max_points_per_job = std::min(kDefaultMaxPointsPerJob, largest)};
   }
   if (max_points_flag > largest) {
@@ -132,11 +134,11 @@ absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t budget_flag, uint64_t 
         "--max_points_per_job=", max_points_flag, " needs an estimated ",
         FormatMiB(kJobOverheadBytes + static_cast<double>(max_points_flag) * BaseBytesPerPoint()),
         " (", FormatMiB(kJobOverheadBytes), " + ", BaseBytesPerPoint(),
-        " B/point), more than the memory budget of ", FormatMiB(budget->bytes), " (",
-        budget->source, "): such a job could never run; lower --max_points_per_job to at most ",
-        largest, " or raise --memory_budget"));
+        " B/point), more than the memory budget of ", FormatMiB(budget.bytes), " (", budget.source,
+        "): such a job could never run; lower --max_points_per_job to at most ", largest,
+        " or raise --memory_budget"));
   }
-  return MemoryLimits{.budget = *budget, .max_points_per_job = max_points_flag};
+  return MemoryLimits{.budget = budget, .max_points_per_job = max_points_flag};
 }
 
 }  // namespace scanprep::server

@@ -111,9 +111,8 @@ absl::StatusOr<std::vector<Preset>> ParsePresets(std::string_view text, std::str
 
 absl::StatusOr<std::vector<Preset>> LoadPresets(const std::string& path) {
   if (path.empty()) return BuiltinPresets();
-  auto text = io::ReadFileToString(path);
-  if (!text.ok()) return text.status();
-  return ParsePresets(*text, path);
+  SCANPREP_ASSIGN_OR_RETURN(auto text, io::ReadFileToString(path));
+  return ParsePresets(text, path);
 }
 
 }  // namespace scanprep::server

@@ -11,6 +11,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/synchronization/notification.h"
+#include "core/status_macros.h"
 #include "server/memory_budget.h"
 
 namespace scanprep::server {
@@ -113,19 +114,18 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
   }
   ServerOptions resolved = options;
   if (resolved.memory_budget_bytes == 0) {
-    auto budget = DetectMemoryBudget();
-    if (!budget.ok()) return budget.status();
-    resolved.memory_budget_bytes = budget->bytes;
+    SCANPREP_ASSIGN_OR_RETURN(auto budget, DetectMemoryBudget());
+    resolved.memory_budget_bytes = budget.bytes;
   }
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   std::unique_ptr<ScanPrepServer> server(new ScanPrepServer(resolved));
   if (!options.metrics_listen.empty()) {
-    auto address = ParseHostPort(options.metrics_listen, "metrics_listen");
-    if (!address.ok()) return address.status();
-    auto exporter = metrics::HttpExporter::Start(address->host, address->port, server->registry_);
-    if (!exporter.ok()) return exporter.status();
-    server->exporter_ = std::move(*exporter);
+    SCANPREP_ASSIGN_OR_RETURN(auto address,
+                              ParseHostPort(options.metrics_listen, "metrics_listen"));
+    SCANPREP_ASSIGN_OR_RETURN(
+        server->exporter_,
+        metrics::HttpExporter::Start(address.host, address.port, server->registry_));
   }
   grpc::ServerBuilder builder;
   builder.AddListeningPort(

@@ -11,7 +11,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "core/pipeline/job_context.h"
+#include "core/pipeline/stage.h"
 #include "proto/chunk_arrays.h"
 #include "proto/convert/convert.h"
 #include "proto/convert/error_details.h"
@@ -200,6 +200,7 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
   const ReturnFreedMemoryOnExit return_freed_memory;
   absl::StatusOr<AssembledJob> job = absl::UnknownError("not uploaded");
   IdleWatch::Call watch = idle_.Watch(context);
+  // By hand: the status macros take absl::Status, and these are the call's grpc::Status.
   if (grpc::Status s = Upload(context, stream, watch, record, slot, job); !s.ok()) return s;
   // The whole claim (Upload reserved it), for the memory guard's message.
   const uint64_t reservation = slot->reserved_bytes();

@@ -3,6 +3,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/io/read_file.h"
+#include "core/status_macros.h"
 
 namespace scanprep::server {
 namespace {
@@ -38,12 +39,8 @@ absl::StatusOr<Transport> TransportFromFlags(const TransportFlags& flags) {
         "TLS needs both --tls_cert and --tls_key (--tls_client_ca alone is not enough)");
   }
   grpc::SslServerCredentialsOptions::PemKeyCertPair pair;
-  auto cert = ReadPemFile(flags.tls_cert, "tls_cert");
-  if (!cert.ok()) return cert.status();
-  auto key = ReadPemFile(flags.tls_key, "tls_key");
-  if (!key.ok()) return key.status();
-  pair.cert_chain = std::move(*cert);
-  pair.private_key = std::move(*key);
+  SCANPREP_ASSIGN_OR_RETURN(pair.cert_chain, ReadPemFile(flags.tls_cert, "tls_cert"));
+  SCANPREP_ASSIGN_OR_RETURN(pair.private_key, ReadPemFile(flags.tls_key, "tls_key"));
 
   grpc::SslServerCredentialsOptions options;
   options.pem_key_cert_pairs.push_back(std::move(pair));
@@ -51,9 +48,8 @@ absl::StatusOr<Transport> TransportFromFlags(const TransportFlags& flags) {
     options.client_certificate_request = GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE;
     return Transport{grpc::SslServerCredentials(options), "TLS"};
   }
-  auto ca = ReadPemFile(flags.tls_client_ca, "tls_client_ca");
-  if (!ca.ok()) return ca.status();
-  options.pem_root_certs = std::move(*ca);
+  SCANPREP_ASSIGN_OR_RETURN(options.pem_root_certs,
+                            ReadPemFile(flags.tls_client_ca, "tls_client_ca"));
   options.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
   return Transport{grpc::SslServerCredentials(options),
                    "mutual TLS (client certificates required and verified)"};

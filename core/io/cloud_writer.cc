@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {
@@ -32,7 +33,7 @@ absl::Status CheckWritable(const PointCloud& cloud, const char* format) {
         CheckSize(cloud.scanline, "scanline", n, true, format),
         CheckSize(cloud.quality, "quality", n, true, format),
         CheckSize(cloud.intensity, "intensity", n, true, format)}) {
-    if (!s.ok()) return s;
+    SCANPREP_RETURN_IF_ERROR(s);
   }
   return absl::OkStatus();
 }

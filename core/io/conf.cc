@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
+#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {
@@ -54,16 +55,14 @@ absl::StatusOr<std::vector<ConfEntry>> ParseConf(std::string_view text, const st
 }  // namespace
 
 absl::StatusOr<std::vector<ConfEntry>> ReadConf(const std::filesystem::path& path) {
-  absl::StatusOr<std::string> text = ReadFileToString(path);
-  if (!text.ok()) return text.status();
-  return ParseConf(*text, path.string());
+  SCANPREP_ASSIGN_OR_RETURN(std::string text, ReadFileToString(path));
+  return ParseConf(text, path.string());
 }
 
 absl::StatusOr<std::vector<ConfEntry>> ReadConf(std::istream& in,
                                                 const std::string& name_for_errors) {
-  absl::StatusOr<std::string> text = ReadStreamToString(in, name_for_errors);
-  if (!text.ok()) return text.status();
-  return ParseConf(*text, name_for_errors);
+  SCANPREP_ASSIGN_OR_RETURN(std::string text, ReadStreamToString(in, name_for_errors));
+  return ParseConf(text, name_for_errors);
 }
 
 }  // namespace scanprep::io

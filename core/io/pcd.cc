@@ -349,42 +349,38 @@ void AddMetadataWarnings(const Header& header, const Layout& layout, const std::
 
 absl::StatusOr<PointCloud> ParsePcd(std::string_view data, const std::string& name,
                                     std::vector<std::string>& warnings) {
-  absl::StatusOr<Header> header = pcd::ParseHeader(data, name);
-  if (!header.ok()) return header.status();
-  absl::StatusOr<Layout> layout = MapFields(*header, name);
-  if (!layout.ok()) return layout.status();
-  const std::string_view body = data.substr(header->body_offset);
+  SCANPREP_ASSIGN_OR_RETURN(Header header, pcd::ParseHeader(data, name));
+  SCANPREP_ASSIGN_OR_RETURN(Layout layout, MapFields(header, name));
+  const std::string_view body = data.substr(header.body_offset);
   PointCloud cloud;
   // ParseHeader bounded POINTS by the body (binary_compressed: Decompress does, below).
-  if (header->data != Data::kBinaryCompressed) Reserve(*header, *layout, cloud);
+  if (header.data != Data::kBinaryCompressed) Reserve(header, layout, cloud);
   UnmeasuredPoints invalid("point");
   // F8 coordinates can hold a position far from zero to a precision float cannot.
-  const bool double_coordinates =
-      std::any_of(layout->field.begin(), layout->field.begin() + 3, [&](const auto& f) {
-        return header->fields[*f].type == 'F' && header->fields[*f].size == 8;
-      });
+  const bool double_coordinates = std::any_of(
+      layout.field.begin(), layout.field.begin() + 3,
+      [&](const auto& f) { return header.fields[*f].type == 'F' && header.fields[*f].size == 8; });
   WideCoordinates wide_coordinates;
   WideCoordinates* wide = double_coordinates ? &wide_coordinates : nullptr;
   absl::Status status;
-  if (header->data == Data::kAscii) {
-    AsciiSource source(body, *header, name);
-    status = ReadPoints(*header, *layout, source, cloud, wide, invalid);
+  if (header.data == Data::kAscii) {
+    AsciiSource source(body, header, name);
+    status = ReadPoints(header, layout, source, cloud, wide, invalid);
     if (status.ok()) status = source.Finish();
-  } else if (header->data == Data::kBinary) {
-    BinarySource source(body, *header, /*soa=*/false);
-    status = ReadPoints(*header, *layout, source, cloud, wide, invalid);
+  } else if (header.data == Data::kBinary) {
+    BinarySource source(body, header, /*soa=*/false);
+    status = ReadPoints(header, layout, source, cloud, wide, invalid);
   } else {
-    absl::StatusOr<std::string> bytes = Decompress(body, *header, name);
-    if (!bytes.ok()) return bytes.status();
-    Reserve(*header, *layout, cloud);
-    BinarySource source(*bytes, *header, /*soa=*/true);
-    status = ReadPoints(*header, *layout, source, cloud, wide, invalid);
+    SCANPREP_ASSIGN_OR_RETURN(std::string bytes, Decompress(body, header, name));
+    Reserve(header, layout, cloud);
+    BinarySource source(bytes, header, /*soa=*/true);
+    status = ReadPoints(header, layout, source, cloud, wide, invalid);
   }
-  if (status.ok() && wide != nullptr) status = wide->Narrow(cloud, name);
-  if (!status.ok()) return status;
+  SCANPREP_RETURN_IF_ERROR(status);
+  if (wide != nullptr) SCANPREP_RETURN_IF_ERROR(wide->Narrow(cloud, name));
   SCANPREP_RETURN_IF_ERROR(invalid.Finish(name, cloud.size(), warnings));
   cloud.scans.push_back(ScanMeta{.id = std::filesystem::path(name).stem().string()});
-  AddMetadataWarnings(*header, *layout, name, cloud, warnings);
+  AddMetadataWarnings(header, layout, name, cloud, warnings);
   cloud.FinishLoading(std::exchange(cloud.flags, {}));
   return cloud;
 }
@@ -393,16 +389,14 @@ absl::StatusOr<PointCloud> ParsePcd(std::string_view data, const std::string& na
 
 absl::StatusOr<PointCloud> ReadPcd(const std::filesystem::path& path,
                                    std::vector<std::string>& warnings) {
-  absl::StatusOr<std::string> data = ReadFileToString(path);
-  if (!data.ok()) return data.status();
-  return ParsePcd(*data, path.string(), warnings);
+  SCANPREP_ASSIGN_OR_RETURN(std::string data, ReadFileToString(path));
+  return ParsePcd(data, path.string(), warnings);
 }
 
 absl::StatusOr<PointCloud> ReadPcd(std::istream& in, const std::string& name_for_errors,
                                    std::vector<std::string>& warnings) {
-  absl::StatusOr<std::string> data = ReadStreamToString(in, name_for_errors);
-  if (!data.ok()) return data.status();
-  return ParsePcd(*data, name_for_errors, warnings);
+  SCANPREP_ASSIGN_OR_RETURN(std::string data, ReadStreamToString(in, name_for_errors));
+  return ParsePcd(data, name_for_errors, warnings);
 }
 
 }  // namespace scanprep::io

@@ -34,8 +34,7 @@ class HeaderParser {
       if (!seen_.insert(keyword == "COLUMNS" ? "FIELDS" : keyword).second) {
         return Error(absl::StrCat("keyword ", keyword, " appears twice"));
       }
-      absl::Status status = Keyword(keyword, values);
-      if (!status.ok()) return status;
+      SCANPREP_RETURN_IF_ERROR(Keyword(keyword, values));
       if (keyword == "DATA") return Finish();
     }
     return absl::InvalidArgumentError(

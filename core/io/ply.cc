@@ -485,38 +485,33 @@ absl::Status ReadElements(const Header& header, Source& source, VertexBuilder& v
 
 absl::StatusOr<PointCloud> ParsePly(std::string_view data, const std::string& name,
                                     std::vector<std::string>& warnings) {
-  absl::StatusOr<Header> header = ply::ParseHeader(data, name);
-  if (!header.ok()) return header.status();
-  absl::StatusOr<VertexBuilder> vertices = VertexBuilder::Create(*header, name);
-  if (!vertices.ok()) return vertices.status();
-  const std::string_view body = data.substr(header->body_offset);
+  SCANPREP_ASSIGN_OR_RETURN(Header header, ply::ParseHeader(data, name));
+  SCANPREP_ASSIGN_OR_RETURN(VertexBuilder vertices, VertexBuilder::Create(header, name));
+  const std::string_view body = data.substr(header.body_offset);
   absl::Status status;
-  if (header->format == Format::kAscii) {
-    AsciiSource source(body, header->body_first_line, name);
-    status = ReadElements(*header, source, *vertices);
+  if (header.format == Format::kAscii) {
+    AsciiSource source(body, header.body_first_line, name);
+    status = ReadElements(header, source, vertices);
   } else {
-    BinarySource source(body, header->body_offset, header->format == Format::kBinaryBigEndian,
-                        name);
-    status = ReadElements(*header, source, *vertices);
+    BinarySource source(body, header.body_offset, header.format == Format::kBinaryBigEndian, name);
+    status = ReadElements(header, source, vertices);
   }
-  if (!status.ok()) return status;
-  return std::move(*vertices).Finish(name, warnings);
+  SCANPREP_RETURN_IF_ERROR(status);
+  return std::move(vertices).Finish(name, warnings);
 }
 
 }  // namespace
 
 absl::StatusOr<PointCloud> ReadPly(const std::filesystem::path& path,
                                    std::vector<std::string>& warnings) {
-  absl::StatusOr<std::string> data = ReadFileToString(path);
-  if (!data.ok()) return data.status();
-  return ParsePly(*data, path.string(), warnings);
+  SCANPREP_ASSIGN_OR_RETURN(std::string data, ReadFileToString(path));
+  return ParsePly(data, path.string(), warnings);
 }
 
 absl::StatusOr<PointCloud> ReadPly(std::istream& in, const std::string& name_for_errors,
                                    std::vector<std::string>& warnings) {
-  absl::StatusOr<std::string> data = ReadStreamToString(in, name_for_errors);
-  if (!data.ok()) return data.status();
-  return ParsePly(*data, name_for_errors, warnings);
+  SCANPREP_ASSIGN_OR_RETURN(std::string data, ReadStreamToString(in, name_for_errors));
+  return ParsePly(data, name_for_errors, warnings);
 }
 
 }  // namespace scanprep::io

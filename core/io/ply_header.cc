@@ -6,6 +6,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/io/text_fields.h"
+#include "core/status_macros.h"
 
 namespace scanprep::io::ply {
 namespace {
@@ -84,7 +85,7 @@ class HeaderParser {
       } else if (keyword != "comment") {
         status = Error(absl::StrCat("unknown header keyword '", std::string(keyword), "'"));
       }
-      if (!status.ok()) return status;
+      SCANPREP_RETURN_IF_ERROR(status);
     }
     return absl::InvalidArgumentError(absl::StrCat(name_, ": header has no end_header line"));
   }

@@ -97,9 +97,8 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
   UnmeasuredPoints unmeasured("line");
   while (cursor.Next(line)) {
     if (first_data_line) {
-      auto named = ParseColumns(line, name, cursor.line_number());
-      if (!named.ok()) return named.status();
-      if (*named) columns = **named;
+      SCANPREP_ASSIGN_OR_RETURN(auto named, ParseColumns(line, name, cursor.line_number()));
+      if (named) columns = *named;
     }
     SplitFields(StripComment(line), /*commas=*/true, fields);
     if (fields.empty()) continue;
@@ -189,16 +188,14 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
 
 absl::StatusOr<PointCloud> ReadXyz(const std::filesystem::path& path,
                                    std::vector<std::string>& warnings, double profile_gap) {
-  absl::StatusOr<std::string> text = ReadFileToString(path);
-  if (!text.ok()) return text.status();
-  return ParseXyz(*text, path.string(), warnings, profile_gap);
+  SCANPREP_ASSIGN_OR_RETURN(std::string text, ReadFileToString(path));
+  return ParseXyz(text, path.string(), warnings, profile_gap);
 }
 
 absl::StatusOr<PointCloud> ReadXyz(std::istream& in, const std::string& name_for_errors,
                                    std::vector<std::string>& warnings, double profile_gap) {
-  absl::StatusOr<std::string> text = ReadStreamToString(in, name_for_errors);
-  if (!text.ok()) return text.status();
-  return ParseXyz(*text, name_for_errors, warnings, profile_gap);
+  SCANPREP_ASSIGN_OR_RETURN(std::string text, ReadStreamToString(in, name_for_errors));
+  return ParseXyz(text, name_for_errors, warnings, profile_gap);
 }
 
 }  // namespace scanprep::io
