@@ -10,7 +10,7 @@
 #include "absl/strings/strip.h"
 #include "core/io/read_file.h"
 #include "core/pipeline/did_you_mean.h"
-#include "core/pipeline/job_context.h"
+#include "core/pipeline/stage.h"
 #include "core/status_macros.h"
 
 namespace scanprep::server {

@@ -9,7 +9,8 @@
 #include "absl/strings/str_join.h"
 #include "core/pipeline/did_you_mean.h"
 #include "core/pipeline/field_error.h"
-#include "core/pipeline/job_context.h"
+#include "core/pipeline/plan.h"
+#include "core/pipeline/runner.h"
 #include "core/spatial/duplicates.h"
 #include "core/status_macros.h"
 
@@ -47,18 +48,12 @@ absl::Status ValidateOptions(const PipelineOptions& options) {
 
 namespace {
 
-absl::StatusOr<PipelineReport> RunStages(PointCloud& cloud, const PipelineOptions& options,
-                                         const CancelToken& cancel, ProgressFn progress,
-                                         const DuplicateGroups& duplicates) {
-  JobContext ctx(cloud, options.params, cancel, std::move(progress));
-  ctx.SetDuplicates(&duplicates);
-  ctx.FailOn(options.fail_on);
-  const std::vector<std::string> stages = options.stages.empty() ? DefaultStages() : options.stages;
-  for (const StageInfo* stage : ctx.Plan(stages)) {
-    if (ctx.HasRun(stage->name)) continue;  // pulled in early by a stage's Require()
-    SCANPREP_RETURN_IF_ERROR(ctx.RunStage(*stage));
-  }
-  return std::move(ctx.report());
+absl::StatusOr<PipelineReport> RunStages(const Plan& plan, PointCloud& cloud,
+                                         const PipelineOptions& options, const CancelToken& cancel,
+                                         ProgressFn progress, const DuplicateGroups& duplicates) {
+  Runner runner(plan, cloud, cancel, std::move(progress), options.fail_on, &duplicates);
+  SCANPREP_RETURN_IF_ERROR(runner.Run());
+  return std::move(runner.report());
 }
 
 }  // namespace
@@ -66,6 +61,9 @@ absl::StatusOr<PipelineReport> RunStages(PointCloud& cloud, const PipelineOption
 absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOptions& options,
                                            const CancelToken& cancel, ProgressFn progress) {
   SCANPREP_RETURN_IF_ERROR(ValidateOptions(options));
+  SCANPREP_ASSIGN_OR_RETURN(
+      const Plan plan,
+      Plan::Resolve(options.stages.empty() ? DefaultStages() : options.stages, options.params));
   if (cloud.flags.size() != cloud.size()) cloud.FinishLoading();
   const auto start = std::chrono::steady_clock::now();
   absl::StatusOr<DuplicateGroups> duplicates = FindDuplicates(cloud, cancel);
@@ -86,10 +84,10 @@ absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOpti
   absl::StatusOr<PipelineReport> result;
   if (duplicates->collapsed() == 0) {
     *duplicates = {};  // the identity: 8 bytes a point the stages never read
-    result = RunStages(cloud, options, cancel, std::move(progress), *duplicates);
+    result = RunStages(plan, cloud, options, cancel, std::move(progress), *duplicates);
   } else {
     PointCloud compact = CompactDuplicates(cloud, *duplicates);
-    result = RunStages(compact, options, cancel, std::move(progress), *duplicates);
+    result = RunStages(plan, compact, options, cancel, std::move(progress), *duplicates);
     if (result.ok()) ExpandDuplicates(compact, *duplicates, cloud);
   }
   if (!result.ok()) return result.status();

@@ -29,7 +29,7 @@ struct PipelineOptions {
 };
 
 // The paper's case-study order: outliers → correction → smoothing → simplification; the plan
-// (JobContext::Plan) runs each stage's prerequisites (neighbourhoods, normals, measures) first.
+// (Plan::Resolve) runs each stage's prerequisites (neighbourhoods, normals, measures) first.
 std::vector<std::string> DefaultStages();
 
 // Checks stage names (known, not repeated), parameter overrides and budgets before any work.

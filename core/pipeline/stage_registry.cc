@@ -2,7 +2,8 @@
 // The list of stages the service offers, in the paper's execution order (docs/algorithms.md).
 #include <algorithm>
 
-#include "core/pipeline/job_context.h"
+#include "absl/strings/numbers.h"
+#include "core/pipeline/stage.h"
 #include "core/stages/correction.h"
 #include "core/stages/measures.h"
 #include "core/stages/neighbourhoods_stage.h"
@@ -22,11 +23,27 @@ const std::vector<StageInfo>& StageRegistry() {
   return registry;
 }
 
-const StageInfo* FindStage(std::string_view name) {
-  const auto& registry = StageRegistry();
-  auto it = std::find_if(registry.begin(), registry.end(),
-                         [&](const StageInfo& s) { return s.name == name; });
-  return it == registry.end() ? nullptr : &*it;
+namespace {
+
+// The steps offered stages expand to; a job cannot list them.
+const std::vector<StageInfo>& ExpansionSteps() {
+  static const std::vector<StageInfo> steps = {SurfaceSpikesStepInfo()};
+  return steps;
+}
+
+const StageInfo* FindIn(const std::vector<StageInfo>& list, std::string_view name) {
+  auto it =
+      std::find_if(list.begin(), list.end(), [&](const StageInfo& s) { return s.name == name; });
+  return it == list.end() ? nullptr : &*it;
+}
+
+}  // namespace
+
+const StageInfo* FindStage(std::string_view name) { return FindIn(StageRegistry(), name); }
+
+const StageInfo* FindStep(std::string_view name) {
+  const StageInfo* stage = FindStage(name);
+  return stage != nullptr ? stage : FindIn(ExpansionSteps(), name);
 }
 
 std::vector<std::string> StageNames() {
@@ -50,6 +67,18 @@ const ParamSpec* FindParam(std::string_view name) {
     }
   }
   return nullptr;
+}
+
+double PlannedNumber(const ParamOverrides& overrides, std::string_view name) {
+  auto it = overrides.find(name);
+  double value = 0;
+  if (it != overrides.end() && absl::SimpleAtod(it->second, &value)) return value;
+  return FindParam(name)->default_value.value_or(0);
+}
+
+std::string PlannedChoice(const ParamOverrides& overrides, std::string_view name) {
+  auto it = overrides.find(name);
+  return it != overrides.end() ? it->second : FindParam(name)->choices.front();
 }
 
 }  // namespace scanprep

@@ -17,9 +17,9 @@
 #include <span>
 
 #include "absl/strings/str_cat.h"
-#include "core/pipeline/job_context.h"
 #include "core/pipeline/parallel.h"
 #include "core/stages/measures.h"
+#include "core/stages/stage_context.h"
 #include "core/status_macros.h"
 
 namespace scanprep {
@@ -65,7 +65,7 @@ bool ShouldGo(const PointCloud& cloud, const std::vector<float>& quality, const 
 
 class CorrectionStage : public Stage {
  public:
-  absl::Status Run(JobContext& ctx) override {
+  absl::Status Run(StageContext& ctx) override {
     PointCloud& cloud = ctx.cloud();
     ctx.Record("correction.single_scan", cloud.scans.size() < 2 ? 1 : 0);
     if (cloud.scans.size() < 2) {  // nothing can overlap
@@ -112,7 +112,7 @@ class CorrectionStage : public Stage {
 
  private:
   // r_c per scan, scaled; recorded per scan when there are several.
-  static absl::StatusOr<std::vector<float>> Radii(JobContext& ctx, const Neighbourhoods& nb) {
+  static absl::StatusOr<std::vector<float>> Radii(StageContext& ctx, const Neighbourhoods& nb) {
     const PointCloud& cloud = ctx.cloud();
     const double scale = ctx.Number("correction.radius_scale");
     const std::optional<double> forced = ctx.Overridden("correction.radius_mm");
@@ -134,7 +134,7 @@ class CorrectionStage : public Stage {
   // Rounds of the gather rule, each from the previous round's labels, until nothing changes.
   // One round thins every layer of a multi-scan overlap by about half; later rounds see the
   // raised mean of what is left and strip the worse layers completely, as the scatter form does.
-  static absl::StatusOr<size_t> Gather(JobContext& ctx, const Neighbourhoods& nb,
+  static absl::StatusOr<size_t> Gather(StageContext& ctx, const Neighbourhoods& nb,
                                        const std::vector<float>& quality,
                                        const std::vector<float>& radius, int max_rounds) {
     PointCloud& cloud = ctx.cloud();
@@ -211,7 +211,7 @@ class CorrectionStage : public Stage {
     return absl::OkStatus();
   }
 
-  static absl::StatusOr<size_t> Scatter(JobContext& ctx, const Neighbourhoods& nb,
+  static absl::StatusOr<size_t> Scatter(StageContext& ctx, const Neighbourhoods& nb,
                                         const std::vector<float>& quality,
                                         const std::vector<float>& radius) {
     PointCloud& cloud = ctx.cloud();
@@ -267,7 +267,7 @@ StageInfo CorrectionStageInfo() {
                                "radius_scale·√(Δs² + u² + Δp²) per scan", LeftOpen(0, 1e4)),
           },
       .make = [] { return std::make_unique<CorrectionStage>(); },
-      .prerequisites = [](const JobContext&) { return std::vector<std::string>{"measures"}; },
+      .prerequisites = [](const ParamOverrides&) { return std::vector<std::string>{"measures"}; },
       .work_per_point = 1,
       .cost_weight = 0.72,
   };

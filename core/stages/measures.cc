@@ -11,9 +11,9 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
-#include "core/pipeline/job_context.h"
 #include "core/pipeline/parallel.h"
 #include "core/stages/scanline_curvature.h"
+#include "core/stages/stage_context.h"
 #include "core/status_macros.h"
 
 namespace scanprep {
@@ -73,13 +73,13 @@ void AssignScanMedians(const PointCloud& cloud, Unknown unknown, std::vector<flo
 
 class MeasuresStage : public Stage {
  public:
-  absl::Status Run(JobContext& ctx) override {
+  absl::Status Run(StageContext& ctx) override {
     SCANPREP_RETURN_IF_ERROR(Quality(ctx));
     return Curvature(ctx);
   }
 
  private:
-  static absl::Status Quality(JobContext& ctx) {
+  static absl::Status Quality(StageContext& ctx) {
     const PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
     std::vector<float>& quality = ctx.measures().quality;
@@ -129,7 +129,7 @@ class MeasuresStage : public Stage {
     return absl::OkStatus();
   }
 
-  static absl::Status Curvature(JobContext& ctx) {
+  static absl::Status Curvature(StageContext& ctx) {
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
     const double scale = ctx.Number("measures.curvature_scale_per_mm");
@@ -217,7 +217,7 @@ class MeasuresStage : public Stage {
 
 }  // namespace
 
-std::vector<double> ScanPointSpacing(JobContext& ctx) {
+std::vector<double> ScanPointSpacing(StageContext& ctx) {
   const PointCloud& cloud = ctx.cloud();
   std::vector<double> spacing = MedianScanlineSpacing(cloud);
   std::vector<std::vector<float>> nearest(cloud.scans.size());
@@ -260,7 +260,7 @@ StageInfo MeasuresStageInfo() {
                                "max(3Δp, 2u, (1215·u²·Δp/s²)^(1/5)) per scan", LeftOpen(0, 1e4)),
           },
       .make = [] { return std::make_unique<MeasuresStage>(); },
-      .prerequisites = [](const JobContext&) { return std::vector<std::string>{"normals"}; },
+      .prerequisites = [](const ParamOverrides&) { return std::vector<std::string>{"normals"}; },
       .work_per_point = 2,
       .cost_weight = 0.65,
   };

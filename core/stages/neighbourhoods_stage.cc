@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The "neighbourhoods" stage: builds the shared grid and k-NN graph and reports the derived
-// global radius, density and minimum radius. Other stages pull it in through
-// JobContext::neighbourhoods(); listing it explicitly only makes its timing visible.
+// global radius, density and minimum radius. Every stage that uses them has it as a prerequisite,
+// so the plan runs it first; listing it explicitly changes nothing.
 #include "core/stages/neighbourhoods_stage.h"
 
 #include <algorithm>
@@ -10,7 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
-#include "core/pipeline/job_context.h"
+#include "core/stages/stage_context.h"
 
 namespace scanprep {
 namespace {
@@ -38,7 +38,7 @@ std::string ScanList(const PointCloud& cloud, const std::vector<size_t>& scans) 
 // A line scanner without Δs loses Eq. 2's √3·Δs term (r_min = ε_u only, so the balls at the
 // scanline gaps may hold one line); a scan without u runs on the 0.1 mm default for ε_u, the
 // curvature window and the smoothing limit δ. Both are counted and warned about, not assumed.
-void WarnAboutMissingMetadata(JobContext& ctx, bool radius_forced) {
+void WarnAboutMissingMetadata(StageContext& ctx, bool radius_forced) {
   const PointCloud& cloud = ctx.cloud();
   std::vector<size_t> no_spacing, no_uncertainty;
   for (size_t s = 0; s < cloud.scans.size(); ++s) {
@@ -66,7 +66,7 @@ void WarnAboutMissingMetadata(JobContext& ctx, bool radius_forced) {
 
 class NeighbourhoodsStage : public Stage {
  public:
-  absl::Status Run(JobContext& ctx) override {
+  absl::Status Run(StageContext& ctx) override {
     const PointCloud& cloud = ctx.cloud();
     NeighbourhoodOptions options;
     options.k = static_cast<uint32_t>(ctx.Integer("neighbourhoods.k"));

@@ -10,11 +10,11 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
-#include "core/pipeline/job_context.h"
 #include "core/pipeline/parallel.h"
 #include "core/spatial/local_moments.h"
 #include "core/stages/mitra_radius.h"
 #include "core/stages/normal_orientation.h"
+#include "core/stages/stage_context.h"
 #include "core/stages/unit_plausibility.h"
 #include "core/status_macros.h"
 
@@ -31,7 +31,7 @@ struct Scratch {
 
 class NormalsStage : public Stage {
  public:
-  absl::Status Run(JobContext& ctx) override {
+  absl::Status Run(StageContext& ctx) override {
     SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
     const Neighbourhoods& nb = *shared;
     PointCloud& cloud = ctx.cloud();
@@ -213,7 +213,8 @@ StageInfo NormalsStageInfo() {
                                "5·r_g", LeftOpen(0, 1e4)),
           },
       .make = [] { return std::make_unique<NormalsStage>(); },
-      .prerequisites = [](const JobContext&) { return std::vector<std::string>{"neighbourhoods"}; },
+      .prerequisites =
+          [](const ParamOverrides&) { return std::vector<std::string>{"neighbourhoods"}; },
       .work_per_point = 2,
       .cost_weight = 1.78,
   };

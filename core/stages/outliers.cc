@@ -18,10 +18,10 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
-#include "core/pipeline/job_context.h"
 #include "core/pipeline/parallel.h"
 #include "core/stages/outliers_loop.h"
 #include "core/stages/scan_noise.h"
+#include "core/stages/stage_context.h"
 #include "core/stages/surface_spikes.h"
 #include "core/status_macros.h"
 
@@ -34,158 +34,175 @@ struct ScanStats {
   std::vector<float> values;  // for the median floor
 };
 
+// The paper's rule: d (d_1, or a k_o-mean) above max(μ + m·σ, floor·median) of its scan.
+absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
+                                  std::vector<uint8_t>& far) {
+  PointCloud& cloud = ctx.cloud();
+  const size_t n = cloud.size();
+
+  // At most neighbourhoods.k (ValidateOverrides); only a cloud of n ≤ k points has fewer.
+  const int64_t k_asked = ctx.Integer("outliers.k");
+  const uint32_t k_o = static_cast<uint32_t>(std::min<int64_t>(k_asked, nb.k()));
+  if (k_o < k_asked) {
+    ctx.Warn(WarningCode::kOutliersKReduced,
+             absl::StrCat("outliers: outliers.k = ", k_asked, " but the cloud has ", n,
+                          " points; d is averaged over ", k_o, " neighbours"));
+  }
+  const double multiplier = ctx.Number("outliers.multiplier");
+  const double floor_factor = ctx.Number("outliers.median_floor");
+
+  // d_1 (or the mean over k_o neighbours, PCL-style SOR, when k_o > 1), own scan only. The
+  // k-NN list holds every scan; when fewer than k_o of its points are of i's scan, the rest are
+  // farther than its last entry, so that distance stands in for them: a lower bound, which can
+  // only keep a point (one surrounded by another scan's denser surface).
+  std::vector<float> d(n);
+  std::atomic<size_t> beyond_list{0};
+  const absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+    size_t beyond = 0;
+    for (size_t i = begin; i < end; ++i) {
+      const KnnList list = nb.knn(i);
+      float sum = 0;
+      uint32_t found = 0;
+      for (uint32_t m = 0; m < list.size() && found < k_o; ++m) {
+        if (cloud.scan[list[m]] != cloud.scan[i]) continue;
+        sum += list.dist(cloud, m);
+        ++found;
+      }
+      if (found < k_o) {
+        sum += (k_o - found) * list.dist(cloud, nb.k() - 1);
+        ++beyond;
+      }
+      d[i] = sum / static_cast<float>(k_o);
+    }
+    beyond_list += beyond;
+  });
+  if (!status.ok()) return status;
+  ctx.Record("outliers.own_scan_beyond_knn", static_cast<double>(beyond_list.load()));
+  const std::optional<double> forced = ctx.Overridden("outliers.threshold_mm");
+
+  std::vector<ScanStats> stats(std::max<size_t>(cloud.scans.size(), 1));
+  for (size_t i = 0; i < n; ++i) {
+    // Exact duplicates (d = 0) would drag μ and σ down and flag ordinary points.
+    if (cloud.removed(i) || d[i] <= 0) continue;
+    ScanStats& s = stats[cloud.scan[i]];
+    s.sum += d[i];
+    s.sum_sq += double(d[i]) * d[i];
+    ++s.count;
+    s.values.push_back(d[i]);
+  }
+  std::vector<double> threshold(stats.size(), 0.0);
+  for (size_t s = 0; s < stats.size(); ++s) {
+    ScanStats& st = stats[s];
+    if (st.count == 0) {
+      threshold[s] = std::numeric_limits<double>::infinity();
+      continue;
+    }
+    const double mean = st.sum / st.count;
+    const double sigma = std::sqrt(std::max(0.0, st.sum_sq / st.count - mean * mean));
+    auto mid = st.values.begin() + st.values.size() / 2;
+    std::nth_element(st.values.begin(), mid, st.values.end());
+    // A regular scan grid has σ ≈ 0; the median floor keeps its slightly wider gaps.
+    threshold[s] = std::max(mean + multiplier * sigma, floor_factor * *mid);
+    ctx.RecordForScan("outliers.mean_d_mm", s, mean);
+    ctx.RecordForScan("outliers.sigma_d_mm", s, sigma);
+    threshold[s] = forced.value_or(threshold[s]);
+    ctx.RecordForScan("outliers.threshold_mm", s, threshold[s]);
+  }
+
+  for (size_t i = 0; i < n; ++i) {
+    far[i] = !cloud.removed(i) && d[i] > threshold[cloud.scan[i]];
+  }
+  return absl::OkStatus();
+}
+
+// Removes the points `far` names (beyond the d threshold) unless they lie on a plane their
+// neighbours support (a sparse sample of a real surface, not an
+// outlier), and every point farther than
+// outliers.surface_sigmas local σ off such planes. The normals are fitted first, with the far
+// candidates still in: a point far off the surface lies in no other point's ball.
+absl::Status RemoveOutliers(StageContext& ctx, const Neighbourhoods& nb,
+                            const std::vector<uint8_t>& far) {
+  PointCloud& cloud = ctx.cloud();
+  const size_t n = cloud.size();
+  const double sigmas = ctx.Number("outliers.surface_sigmas");
+  std::vector<uint8_t> verdict(n, kNotJudged);
+  if (sigmas > 0) {
+    // The plan ran "normals" before: before the outlier stage for nn (its prerequisite),
+    // after LoOP's removals for loop (the surface step's prerequisite).
+    const size_t scans = std::max<size_t>(cloud.scans.size(), 1);
+    const std::vector<std::optional<double>> noise =
+        MeasuredScanNoise(cloud, ctx.measures(), scans);
+    for (size_t s = 0; s < scans; ++s) {
+      if (noise[s]) {
+        ctx.RecordForScan("outliers.surface_noise_mm", s, *noise[s]);
+      } else {
+        ctx.Warn(WarningCode::kSurfaceSpikesSkipped,
+                 absl::StrCat("outliers: scan ", s, " has fewer than ", kMinNoiseSamples,
+                              " normal fits; it is not searched for surface spikes"));
+      }
+    }
+    SurfaceSpikeCounts counts;
+    absl::Status status =
+        JudgeBySurface(cloud, nb, ctx.measures(), noise, sigmas, ctx.cancel(), verdict, counts);
+    if (!status.ok()) return status;
+    ctx.Record("outliers.surface_not_judged", static_cast<double>(counts.not_judged));
+  }
+  // Without the surface test nothing is judged and the paper's threshold decides alone.
+  size_t removed_far = 0, kept_on_surface = 0, spikes = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (cloud.removed(i)) continue;
+    const bool on_a_plane = verdict[i] == kOnSurface || verdict[i] == kNearSurface;
+    if (far[i] && on_a_plane) {
+      ++kept_on_surface;
+    } else if (far[i] || verdict[i] == kOffSurface) {
+      cloud.flags[i] |= kRemovedOutlier;
+      ++(far[i] ? removed_far : spikes);
+    }
+  }
+  if (ctx.Choice("outliers.method") != "loop") {  // LoOP recorded its own removals
+    ctx.Record("outliers.removed", static_cast<double>(removed_far + spikes));
+    ctx.Record("outliers.far_removed", static_cast<double>(removed_far));
+    ctx.Record("outliers.far_on_surface_kept", static_cast<double>(kept_on_surface));
+  }
+  ctx.Record("outliers.surface_spikes", static_cast<double>(spikes));
+  return absl::OkStatus();
+}
+
 class OutliersStage : public Stage {
  public:
-  absl::Status Run(JobContext& ctx) override {
+  absl::Status Run(StageContext& ctx) override {
     SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
     const Neighbourhoods& nb = *shared;
     if (nb.k() == 0) return absl::OkStatus();
     std::vector<uint8_t> far(ctx.cloud().size(), 0);
     if (ctx.Choice("outliers.method") == "loop") {
-      // LoOP removes its outliers itself; the surface test looks for spikes among the rest.
+      // LoOP removes its outliers itself; the surface test looks for spikes among the rest, with
+      // normals fitted without them: the plan's next steps (SurfaceTestFollowsLoop).
       SCANPREP_RETURN_IF_ERROR(RemoveLoopOutliers(ctx, nb));
+      if (ctx.Number("outliers.surface_sigmas") > 0) return absl::OkStatus();
     } else if (absl::Status s = FindDistanceOutliers(ctx, nb, far); !s.ok()) {
       return s;
     }
     return RemoveOutliers(ctx, nb, far);
   }
+};
 
- private:
-  // The paper's rule: d (d_1, or a k_o-mean) above max(μ + m·σ, floor·median) of its scan.
-  static absl::Status FindDistanceOutliers(JobContext& ctx, const Neighbourhoods& nb,
-                                           std::vector<uint8_t>& far) {
-    PointCloud& cloud = ctx.cloud();
-    const size_t n = cloud.size();
-
-    // At most neighbourhoods.k (ValidateOverrides); only a cloud of n ≤ k points has fewer.
-    const int64_t k_asked = ctx.Integer("outliers.k");
-    const uint32_t k_o = static_cast<uint32_t>(std::min<int64_t>(k_asked, nb.k()));
-    if (k_o < k_asked) {
-      ctx.Warn(WarningCode::kOutliersKReduced,
-               absl::StrCat("outliers: outliers.k = ", k_asked, " but the cloud has ", n,
-                            " points; d is averaged over ", k_o, " neighbours"));
-    }
-    const double multiplier = ctx.Number("outliers.multiplier");
-    const double floor_factor = ctx.Number("outliers.median_floor");
-
-    // d_1 (or the mean over k_o neighbours, PCL-style SOR, when k_o > 1), own scan only. The
-    // k-NN list holds every scan; when fewer than k_o of its points are of i's scan, the rest are
-    // farther than its last entry, so that distance stands in for them: a lower bound, which can
-    // only keep a point (one surrounded by another scan's denser surface).
-    std::vector<float> d(n);
-    std::atomic<size_t> beyond_list{0};
-    const absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
-      size_t beyond = 0;
-      for (size_t i = begin; i < end; ++i) {
-        const KnnList list = nb.knn(i);
-        float sum = 0;
-        uint32_t found = 0;
-        for (uint32_t m = 0; m < list.size() && found < k_o; ++m) {
-          if (cloud.scan[list[m]] != cloud.scan[i]) continue;
-          sum += list.dist(cloud, m);
-          ++found;
-        }
-        if (found < k_o) {
-          sum += (k_o - found) * list.dist(cloud, nb.k() - 1);
-          ++beyond;
-        }
-        d[i] = sum / static_cast<float>(k_o);
-      }
-      beyond_list += beyond;
-    });
-    if (!status.ok()) return status;
-    ctx.Record("outliers.own_scan_beyond_knn", static_cast<double>(beyond_list.load()));
-    const std::optional<double> forced = ctx.Overridden("outliers.threshold_mm");
-
-    std::vector<ScanStats> stats(std::max<size_t>(cloud.scans.size(), 1));
-    for (size_t i = 0; i < n; ++i) {
-      // Exact duplicates (d = 0) would drag μ and σ down and flag ordinary points.
-      if (cloud.removed(i) || d[i] <= 0) continue;
-      ScanStats& s = stats[cloud.scan[i]];
-      s.sum += d[i];
-      s.sum_sq += double(d[i]) * d[i];
-      ++s.count;
-      s.values.push_back(d[i]);
-    }
-    std::vector<double> threshold(stats.size(), 0.0);
-    for (size_t s = 0; s < stats.size(); ++s) {
-      ScanStats& st = stats[s];
-      if (st.count == 0) {
-        threshold[s] = std::numeric_limits<double>::infinity();
-        continue;
-      }
-      const double mean = st.sum / st.count;
-      const double sigma = std::sqrt(std::max(0.0, st.sum_sq / st.count - mean * mean));
-      auto mid = st.values.begin() + st.values.size() / 2;
-      std::nth_element(st.values.begin(), mid, st.values.end());
-      // A regular scan grid has σ ≈ 0; the median floor keeps its slightly wider gaps.
-      threshold[s] = std::max(mean + multiplier * sigma, floor_factor * *mid);
-      ctx.RecordForScan("outliers.mean_d_mm", s, mean);
-      ctx.RecordForScan("outliers.sigma_d_mm", s, sigma);
-      threshold[s] = forced.value_or(threshold[s]);
-      ctx.RecordForScan("outliers.threshold_mm", s, threshold[s]);
-    }
-
-    for (size_t i = 0; i < n; ++i) {
-      far[i] = !cloud.removed(i) && d[i] > threshold[cloud.scan[i]];
-    }
-    return absl::OkStatus();
-  }
-
-  // Removes the points `far` names (beyond the d threshold) unless they lie on a plane their
-  // neighbours support (a sparse sample of a real surface, not an
-  // outlier), and every point farther than
-  // outliers.surface_sigmas local σ off such planes. The normals are fitted first, with the far
-  // candidates still in: a point far off the surface lies in no other point's ball.
-  static absl::Status RemoveOutliers(JobContext& ctx, const Neighbourhoods& nb,
-                                     const std::vector<uint8_t>& far) {
-    PointCloud& cloud = ctx.cloud();
-    const size_t n = cloud.size();
-    const double sigmas = ctx.Number("outliers.surface_sigmas");
-    std::vector<uint8_t> verdict(n, kNotJudged);
-    if (sigmas > 0) {
-      // Planned before this stage for nn (StageInfo::prerequisites); LoOP removed its outliers
-      // first and fits the normals now, without them.
-      SCANPREP_RETURN_IF_ERROR(ctx.Require("normals"));
-      const size_t scans = std::max<size_t>(cloud.scans.size(), 1);
-      const std::vector<std::optional<double>> noise =
-          MeasuredScanNoise(cloud, ctx.measures(), scans);
-      for (size_t s = 0; s < scans; ++s) {
-        if (noise[s]) {
-          ctx.RecordForScan("outliers.surface_noise_mm", s, *noise[s]);
-        } else {
-          ctx.Warn(WarningCode::kSurfaceSpikesSkipped,
-                   absl::StrCat("outliers: scan ", s, " has fewer than ", kMinNoiseSamples,
-                                " normal fits; it is not searched for surface spikes"));
-        }
-      }
-      SurfaceSpikeCounts counts;
-      absl::Status status =
-          JudgeBySurface(cloud, nb, ctx.measures(), noise, sigmas, ctx.cancel(), verdict, counts);
-      if (!status.ok()) return status;
-      ctx.Record("outliers.surface_not_judged", static_cast<double>(counts.not_judged));
-    }
-    // Without the surface test nothing is judged and the paper's threshold decides alone.
-    size_t removed_far = 0, kept_on_surface = 0, spikes = 0;
-    for (size_t i = 0; i < n; ++i) {
-      if (cloud.removed(i)) continue;
-      const bool on_a_plane = verdict[i] == kOnSurface || verdict[i] == kNearSurface;
-      if (far[i] && on_a_plane) {
-        ++kept_on_surface;
-      } else if (far[i] || verdict[i] == kOffSurface) {
-        cloud.flags[i] |= kRemovedOutlier;
-        ++(far[i] ? removed_far : spikes);
-      }
-    }
-    if (ctx.Choice("outliers.method") != "loop") {  // LoOP recorded its own removals
-      ctx.Record("outliers.removed", static_cast<double>(removed_far + spikes));
-      ctx.Record("outliers.far_removed", static_cast<double>(removed_far));
-      ctx.Record("outliers.far_on_surface_kept", static_cast<double>(kept_on_surface));
-    }
-    ctx.Record("outliers.surface_spikes", static_cast<double>(spikes));
-    return absl::OkStatus();
+// The surface test after LoOP's removals (a step of the outlier stage, planned after "normals").
+class SurfaceSpikesStep : public Stage {
+ public:
+  absl::Status Run(StageContext& ctx) override {
+    SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
+    if (shared->k() == 0) return absl::OkStatus();
+    // LoOP removed its own far points: only the surface decides here.
+    return RemoveOutliers(ctx, *shared, std::vector<uint8_t>(ctx.cloud().size(), 0));
   }
 };
+
+// Whether the outlier stage's surface test runs as its own step after LoOP's removals.
+bool SurfaceTestFollowsLoop(const ParamOverrides& params) {
+  return PlannedNumber(params, "outliers.surface_sigmas") > 0 &&
+         PlannedChoice(params, "outliers.method") == "loop";
+}
 
 }  // namespace
 
@@ -231,18 +248,41 @@ StageInfo OutliersStageInfo() {
           },
       .make = [] { return std::make_unique<OutliersStage>(); },
       .prerequisites =
-          [](const JobContext& ctx) {
+          [](const ParamOverrides& params) {
             // The surface test needs the normals, fitted before anything is removed; LoOP removes
-            // its outliers first, so it asks for them itself (Require) after that.
+            // its outliers first, so its surface test is a step of its own after the normals.
             std::vector<std::string> need = {"neighbourhoods"};
-            if (ctx.PlannedNumber("outliers.surface_sigmas") > 0 &&
-                ctx.PlannedChoice("outliers.method") == "nn") {
+            if (PlannedNumber(params, "outliers.surface_sigmas") > 0 &&
+                PlannedChoice(params, "outliers.method") == "nn") {
               need.push_back("normals");
             }
             return need;
           },
+      .followers =
+          [](const ParamOverrides& params) {
+            return SurfaceTestFollowsLoop(params) ? std::vector<std::string>{"surface_spikes"}
+                                                  : std::vector<std::string>{};
+          },
       .work_per_point = 2,
       .cost_weight = 2.71,
+  };
+}
+
+StageInfo SurfaceSpikesStepInfo() {
+  return {
+      .name = "surface_spikes",
+      .summary =
+          "the outlier stage's surface test after LoOP's removals, on normals fitted "
+          "without them",
+      .make = [] { return std::make_unique<SurfaceSpikesStep>(); },
+      .prerequisites =
+          [](const ParamOverrides&) {
+            return std::vector<std::string>{"outliers", "normals"};
+          },
+      // One metered pass (JudgeBySurface). Not in the default plan, where the weights were
+      // measured: weighted as the lightest stage.
+      .work_per_point = 1,
+      .cost_weight = 1,
   };
 }
 

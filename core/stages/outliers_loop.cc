@@ -9,12 +9,12 @@
 #include <atomic>
 #include <cmath>
 
-#include "core/pipeline/job_context.h"
 #include "core/pipeline/parallel.h"
+#include "core/stages/stage_context.h"
 
 namespace scanprep {
 
-absl::Status RemoveLoopOutliers(JobContext& ctx, const Neighbourhoods& nb) {
+absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb) {
   PointCloud& cloud = ctx.cloud();
   const size_t n = cloud.size();
   // At most neighbourhoods.k (ValidateOverrides); for_neighbours() takes what the graph holds.

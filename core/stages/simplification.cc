@@ -20,9 +20,9 @@
 #include "absl/strings/str_cat.h"
 #include "core/free_memory.h"
 #include "core/pipeline/field_error.h"
-#include "core/pipeline/job_context.h"
 #include "core/pipeline/parallel.h"
 #include "core/stages/measures.h"
+#include "core/stages/stage_context.h"
 #include "core/status_macros.h"
 
 namespace scanprep {
@@ -144,7 +144,8 @@ absl::StatusOr<std::vector<uint32_t>> VisitOrder(const PointCloud& cloud, const 
 // near-identical points: thousands in every one of its centres' balls), is not kept but queried
 // again when its turn comes, so the batch holds at most four times its share wherever the points
 // are and a full ball is always a fresh one.
-absl::Status RunSequential(JobContext& ctx, Thinner& thinner, const std::vector<uint32_t>& order) {
+absl::Status RunSequential(StageContext& ctx, Thinner& thinner,
+                           const std::vector<uint32_t>& order) {
   constexpr double kGatheredPoints = 1 << 18;
   const size_t batch = std::min(
       order.size(),
@@ -187,7 +188,7 @@ absl::Status RunSequential(JobContext& ctx, Thinner& thinner, const std::vector<
 
 // The 8-colour tiling: (phase, colour, cell) groups run phase by phase, colour by colour, the
 // cells of one colour in parallel, each cell's centres in the sequential order.
-absl::Status RunTiled(JobContext& ctx, Thinner& thinner, std::vector<uint32_t> order,
+absl::Status RunTiled(StageContext& ctx, Thinner& thinner, std::vector<uint32_t> order,
                       float cell_edge) {
   const PointCloud& cloud = ctx.cloud();
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
@@ -260,7 +261,7 @@ std::optional<double> SpacingFromPitch(const PointCloud& cloud,
 }
 
 // The default r_s: from the pitch, else (recorded and warned) 2/√ρ_g of the global density.
-double DefaultSpacing(JobContext& ctx, const Neighbourhoods& nb) {
+double DefaultSpacing(StageContext& ctx, const Neighbourhoods& nb) {
   const std::optional<double> pitch = SpacingFromPitch(ctx.cloud(), ScanPointSpacing(ctx));
   ctx.Record("simplification.spacing_from_density", pitch ? 0 : 1);
   if (pitch) return *pitch;
@@ -274,7 +275,7 @@ double DefaultSpacing(JobContext& ctx, const Neighbourhoods& nb) {
 
 class SimplificationStage : public Stage {
  public:
-  absl::Status Run(JobContext& ctx) override {
+  absl::Status Run(StageContext& ctx) override {
     PointCloud& cloud = ctx.cloud();
     const PointMeasures& m = ctx.measures();
     if (m.quality.size() != cloud.size() || m.curvature.size() != cloud.size()) {
@@ -347,7 +348,7 @@ StageInfo SimplificationStageInfo() {
                           {"sequential", "tiled"}),
           },
       .make = [] { return std::make_unique<SimplificationStage>(); },
-      .prerequisites = [](const JobContext&) { return std::vector<std::string>{"measures"}; },
+      .prerequisites = [](const ParamOverrides&) { return std::vector<std::string>{"measures"}; },
       .work_per_point = 1,
       .cost_weight = 0.4,
   };

@@ -14,11 +14,11 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/free_memory.h"
-#include "core/pipeline/job_context.h"
 #include "core/pipeline/parallel.h"
 #include "core/stages/measures.h"
 #include "core/stages/scan_noise.h"
 #include "core/stages/smoothing_kernels.h"
+#include "core/stages/stage_context.h"
 #include "core/status_macros.h"
 
 namespace scanprep {
@@ -30,7 +30,7 @@ constexpr double kLoopItemsPerIteration = 4;
 
 class SmoothingStage : public Stage {
  public:
-  absl::Status Run(JobContext& ctx) override {
+  absl::Status Run(StageContext& ctx) override {
     PointCloud& cloud = ctx.cloud();
     const PointMeasures& m = ctx.measures();
     const size_t n = cloud.size();
@@ -97,7 +97,7 @@ class SmoothingStage : public Stage {
   }
 
  private:
-  static SmoothingSettings ReadSettings(JobContext& ctx) {
+  static SmoothingSettings ReadSettings(StageContext& ctx) {
     SmoothingSettings s;
     s.own_side = ctx.Choice("smoothing.method") == "own_side";
     s.lambda = static_cast<float>(ctx.Number("smoothing.lambda"));
@@ -199,7 +199,7 @@ StageInfo SmoothingStageInfo() {
                            Closed(0, 7)),
           },
       .make = [] { return std::make_unique<SmoothingStage>(); },
-      .prerequisites = [](const JobContext&) { return std::vector<std::string>{"measures"}; },
+      .prerequisites = [](const ParamOverrides&) { return std::vector<std::string>{"measures"}; },
       .work_per_point = kLoopItemsPerIteration,  // one iteration, the default
       .cost_weight = 3.17,
   };

@@ -49,7 +49,7 @@ int Disagreement(double measured, double stated) {
 
 }  // namespace
 
-void WarnIfUnitSuspect(JobContext& ctx) {
+void WarnIfUnitSuspect(StageContext& ctx) {
   auto nb = ctx.neighbourhoods();
   if (!nb.ok() || (*nb)->k() == 0) return;
   const PointCloud& cloud = ctx.cloud();

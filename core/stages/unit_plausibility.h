@@ -4,7 +4,7 @@
 // sent as millimetres has both about 1000x smaller than stated (inches as mm: 25.4x larger).
 #pragma once
 
-#include "core/pipeline/job_context.h"
+#include "core/stages/stage_context.h"
 
 namespace scanprep {
 
@@ -17,6 +17,6 @@ inline constexpr double kUnitSuspectFactor = 20;
 // scanline or point spacing; a stated u when σ̂ is measured) disagrees with the data by more than
 // kUnitSuspectFactor in the same direction. A scan that states nothing is not judged. Needs the
 // shared neighbourhoods and the normal fits (run at the end of the normals stage).
-void WarnIfUnitSuspect(JobContext& ctx);
+void WarnIfUnitSuspect(StageContext& ctx);
 
 }  // namespace scanprep

@@ -12,7 +12,7 @@
 #include <benchmark/benchmark.h>
 
 #include "absl/strings/str_cat.h"
-#include "core/pipeline/job_context.h"
+#include "core/pipeline/pipeline.h"
 #include "tests/bench/bench_cloud.h"
 #include "tests/bench/hostile_cloud.h"
 #include "tests/bench/pipeline_case.h"

@@ -14,8 +14,8 @@
 namespace scanprep::bench {
 
 // The pipeline over a fresh copy of the cloud each iteration, timed by its own report:
-// `stage` empty = the whole default pipeline, else that stage alone (the stages it pulls in
-// through Require() are timed by their own cases). `workload` makes the cloud of a point count;
+// `stage` empty = the whole default pipeline, else that stage alone (the prerequisites its plan
+// runs first are timed by their own cases). `workload` makes the cloud of a point count;
 // `params` overrides stage parameters. Arguments: {points, threads}. A refused or failed run is
 // the case's error (its status message).
 void RunPipelineCase(benchmark::State& state, const std::string& stage,

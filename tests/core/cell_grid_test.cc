@@ -10,10 +10,10 @@
 
 #include <gtest/gtest.h>
 
-#include "core/pipeline/job_context.h"
 #include "core/sim/scan_simulator.h"
 #include "core/spatial/neighbourhoods.h"
 #include "tests/support/kdtree.h"
+#include "tests/support/planned_stages.h"
 #include "tests/support/random_clouds.h"
 
 namespace scanprep {
@@ -263,15 +263,13 @@ TEST(Neighbourhoods, MinimumRadiusIsPerScan) {
     }
   }
   cloud.FinishLoading();
-  CancelToken cancel;
-  ParamOverrides none;
-  JobContext ctx(cloud, none, cancel, {});
-  ASSERT_TRUE(ctx.Require("neighbourhoods").ok());
-  const auto& p = ctx.report().stages.back().parameters;
+  testing::PlannedStages job(cloud, {"neighbourhoods"});
+  ASSERT_TRUE(job.Run().ok());
+  const auto& p = job.report().stages.back().parameters;
   EXPECT_NEAR(p.at("neighbourhoods.min_radius_mm.scan0"), std::sqrt(3.0) * 0.1 + 0.1, 1e-9);
   EXPECT_NEAR(p.at("neighbourhoods.min_radius_mm.scan1"), std::sqrt(3.0) * 1.0 + 0.6, 1e-9);
   EXPECT_NEAR(p.at("neighbourhoods.epsilon_u_mm.scan1"), 0.6, 1e-12);
-  const Neighbourhoods& nb = **ctx.neighbourhoods();
+  const Neighbourhoods& nb = job.neighbourhoods();
   // Mid-grid points: d_k (k = 20 on a square grid: √5·step) is below r_min for both.
   const size_t fine = 30 * 60 + 30, coarse = 3600 + 30 * 60 + 30;
   EXPECT_NEAR(nb.adaptive_radius(fine), std::sqrt(3.0) * 0.1 + 0.1, 1e-6);

@@ -9,10 +9,10 @@
 
 #include <gtest/gtest.h>
 
-#include "core/pipeline/job_context.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 #include "tests/support/kdtree.h"
+#include "tests/support/planned_stages.h"
 
 namespace scanprep {
 namespace {
@@ -231,25 +231,22 @@ TEST(Correction, GatherJudgesAgainOnlyWhereABallLostAPoint) {
       }
       cloud.FinishLoading();
     }
-    CancelToken cancel;
-    ParamOverrides none;
-    JobContext ctx(cloud, none, cancel, {});
-    ASSERT_TRUE(ctx.Require("measures").ok());
-    const std::vector<float> quality = ctx.measures().quality;
+    testing::PlannedStages job(cloud, {"correction"});
+    ASSERT_TRUE(job.RunThrough("measures").ok());
+    const std::vector<float> quality = job.measures().quality;
     const std::vector<uint8_t> flags = cloud.flags;
-    auto nb = ctx.neighbourhoods();
-    ASSERT_TRUE(nb.ok());
-    const size_t cap = (*nb)->max_ball_points();
-    const uint64_t capped_before = (*nb)->capped_balls();
-    ASSERT_TRUE(ctx.Require("correction").ok());
-    const StageReport& stage = ctx.report().stages.back();
+    const Neighbourhoods* nb = &job.neighbourhoods();
+    const size_t cap = nb->max_ball_points();
+    const uint64_t capped_before = nb->capped_balls();
+    ASSERT_TRUE(job.Run().ok());
+    const StageReport& stage = job.report().stages.back();
     ASSERT_EQ(stage.name, "correction");
     const std::vector<float> radius = {
         static_cast<float>(stage.parameters.at("correction.radius_mm.scan0")),
         static_cast<float>(stage.parameters.at("correction.radius_mm.scan1"))};
     EXPECT_GT(std::abs(radius[1] - radius[0]), 0.02f * radius[0]);
     EXPECT_GT(stage.parameters.at("correction.rounds_run"), 2);
-    EXPECT_EQ((*nb)->capped_balls() > capped_before, cluster);
+    EXPECT_EQ(nb->capped_balls() > capped_before, cluster);
 
     const std::vector<uint8_t> expected = ReferenceGather(cloud, flags, quality, radius, cap);
     size_t removed = 0, differ = 0;

@@ -5,11 +5,11 @@
 
 #include <gtest/gtest.h>
 
-#include "core/pipeline/job_context.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 #include "core/stages/scanline_curvature.h"
 #include "core/status_macros.h"
+#include "tests/support/planned_stages.h"
 #include "tests/support/sim_checks.h"
 
 namespace scanprep::testing {
@@ -17,14 +17,12 @@ using namespace scanprep::sim;
 namespace {
 
 absl::StatusOr<PipelineReport> RunMeasures(PointCloud& cloud, PointMeasures* out) {
-  CancelToken cancel;
-  // The measures live in the job context; the pipeline copies nothing out, so re-derive them by
-  // running the stage through a context the test owns.
-  ParamOverrides none;
-  JobContext ctx(cloud, none, cancel, {});
-  SCANPREP_RETURN_IF_ERROR(ctx.Require("measures"));
-  *out = ctx.measures();
-  return std::move(ctx.report());
+  // The measures live in the runner's shared state; the pipeline copies nothing out, so re-derive
+  // them by running the stage's plan with a runner the test owns.
+  PlannedStages job(cloud, {"measures"});
+  SCANPREP_RETURN_IF_ERROR(job.Run());
+  *out = job.measures();
+  return std::move(job.report());
 }
 
 double Angle(const Eigen::Vector3d& n, const Eigen::Vector3d& toward) {
@@ -91,17 +89,15 @@ TEST(Measures, PointsWithoutANormalGetTheirScansMedianNotTheBestWeight) {
   SimulatedCloud sim = Simulate(Part::kPlane, sensors, 23);
   PointCloud& cloud = sim.cloud;
   cloud.scanline.clear();
-  CancelToken cancel;
-  ParamOverrides none;
-  JobContext ctx(cloud, none, cancel, {});
-  ASSERT_TRUE(ctx.Require("normals").ok());
+  PlannedStages job(cloud, {"measures"});
+  ASSERT_TRUE(job.RunThrough("normals").ok());
   std::vector<size_t> lost;
   for (size_t i = 0; i < cloud.size(); i += 97) {
     cloud.flags[i] |= kNormalInvalid;
     lost.push_back(i);
   }
-  ASSERT_TRUE(ctx.Require("measures").ok());
-  const PointMeasures& m = ctx.measures();
+  ASSERT_TRUE(job.Run().ok());
+  const PointMeasures& m = job.measures();
   std::vector<double> quality, curvature;
   for (size_t i = 0; i < cloud.size(); ++i) {
     if (cloud.flags[i] & kNormalInvalid) continue;

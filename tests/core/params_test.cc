@@ -13,9 +13,9 @@
 #include <gtest/gtest.h>
 
 #include "core/pipeline/field_error.h"
-#include "core/pipeline/job_context.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "tests/support/planned_stages.h"
 
 namespace scanprep {
 namespace {
@@ -228,10 +228,9 @@ PointCloud Square(int side) {
 // surface test, smoothing): the points such a ball holds, on average over the square's middle.
 double MeanAdaptiveBallPoints(const ParamOverrides& overrides, PipelineReport& report) {
   PointCloud cloud = Square(100);
-  CancelToken cancel;
-  JobContext ctx(cloud, overrides, cancel, {});
-  EXPECT_TRUE(ctx.Require("neighbourhoods").ok());
-  const Neighbourhoods& nb = **ctx.neighbourhoods();
+  testing::PlannedStages job(cloud, {"neighbourhoods"}, overrides);
+  EXPECT_TRUE(job.Run().ok());
+  const Neighbourhoods& nb = job.neighbourhoods();
   RadiusMatches ball;
   double points = 0, balls = 0;
   for (size_t i = 0; i < cloud.size(); ++i) {
@@ -240,7 +239,7 @@ double MeanAdaptiveBallPoints(const ParamOverrides& overrides, PipelineReport& r
     points += double(ball.size());
     ++balls;
   }
-  report = ctx.report();
+  report = job.report();
   return points / balls;
 }
 

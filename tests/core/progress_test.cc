@@ -8,8 +8,8 @@
 
 #include <gtest/gtest.h>
 
-#include "core/pipeline/job_context.h"
 #include "core/pipeline/pipeline.h"
+#include "core/pipeline/plan.h"
 #include "core/sim/scan_simulator.h"
 
 namespace scanprep {
@@ -84,19 +84,18 @@ TEST(Progress, ThePlanFollowsTheParameters) {
 // Every stage's plan: it comes last, each prerequisite before the stage that needs it, every stage
 // once, neighbourhoods first. (A cycle would never return.)
 TEST(Progress, EveryStagesPlanPutsPrerequisitesFirst) {
-  PointCloud cloud;
   const ParamOverrides none;
-  CancelToken cancel;
   for (const StageInfo& info : StageRegistry()) {
-    JobContext ctx(cloud, none, cancel, {});
-    const std::vector<const StageInfo*> plan = ctx.Plan({info.name});
+    const absl::StatusOr<Plan> planned = Plan::Resolve({info.name}, none);
+    ASSERT_TRUE(planned.ok()) << planned.status();
+    const std::vector<const StageInfo*>& plan = planned->steps();
     ASSERT_FALSE(plan.empty());
     EXPECT_EQ(plan.back(), &info);
     EXPECT_EQ(plan.front()->name, "neighbourhoods") << info.name;
     for (size_t i = 0; i < plan.size(); ++i) {
       for (size_t j = i + 1; j < plan.size(); ++j) EXPECT_NE(plan[i], plan[j]) << info.name;
       if (!plan[i]->prerequisites) continue;
-      for (const std::string& need : plan[i]->prerequisites(ctx)) {
+      for (const std::string& need : plan[i]->prerequisites(none)) {
         const auto at = std::find_if(plan.begin(), plan.begin() + i,
                                      [&](const StageInfo* s) { return s->name == need; });
         EXPECT_NE(at, plan.begin() + i) << need << " after " << plan[i]->name;

@@ -8,10 +8,10 @@
 
 #include <gtest/gtest.h>
 
-#include "core/pipeline/job_context.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 #include "tests/support/kdtree.h"
+#include "tests/support/planned_stages.h"
 
 namespace scanprep {
 namespace {
@@ -171,18 +171,17 @@ std::vector<bool> RemovedOneCentreAtATime(const PointCloud& cloud, const PointMe
   return removed;
 }
 
-// At 0.5 mm a ball holds a few points and a batch 4,096 centres; at 3 mm a ball holds hundreds and
-// the batch shrinks to keep the gathered points bounded. Both must match removal for removal.
+// At 0.5 mm a ball holds a few points and a batch 4,096 centres; at 3 mm a ball holds hundreds
+// and the batch shrinks to keep the gathered points bounded. Both must match removal for removal.
 TEST(Simplification, BatchedVisitsRemoveExactlyWhatOneAtATimeRemoves) {
   for (const float spacing : {0.5f, 3.0f}) {
     auto sim = sim::Simulate(Part::kBoxWithBore, sim::FrontalSensor(Part::kBoxWithBore), 35);
     PointCloud& cloud = sim.cloud;
     const ParamOverrides params = {{"simplification.spacing_mm", std::to_string(spacing)}};
-    CancelToken cancel;
-    JobContext ctx(cloud, params, cancel, {});
-    ASSERT_TRUE(ctx.Require("measures").ok());
-    const std::vector<bool> expected = RemovedOneCentreAtATime(cloud, ctx.measures(), spacing);
-    ASSERT_TRUE(ctx.Require("simplification").ok());
+    testing::PlannedStages job(cloud, {"simplification"}, params);
+    ASSERT_TRUE(job.RunThrough("measures").ok());
+    const std::vector<bool> expected = RemovedOneCentreAtATime(cloud, job.measures(), spacing);
+    ASSERT_TRUE(job.Run().ok());
     size_t removed = 0, differ = 0;
     for (size_t i = 0; i < cloud.size(); ++i) {
       removed += cloud.removed(i);

@@ -10,7 +10,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/pipeline/job_context.h"
+#include "core/pipeline/pipeline.h"
 #include "server/cidr.h"
 #include "tests/server/service_fixtures.h"
 

@@ -1,0 +1,76 @@
+// SPDX-License-Identifier: Apache-2.0
+// Runs a plan's steps in order, and nothing else: it owns their shared state (neighbourhoods,
+// measures), progress (loops metered into 2 % steps and a job fraction weighted by the steps'
+// typical cost), timing and the report, one entry per step in plan order.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <mutex>
+#include <set>
+#include <string_view>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "core/pipeline/cancel.h"
+#include "core/pipeline/plan.h"
+#include "core/pipeline/progress.h"
+#include "core/pipeline/report.h"
+#include "core/pipeline/warning.h"
+#include "core/point_cloud.h"
+#include "core/stages/stage_context.h"
+
+namespace scanprep {
+
+class Runner : private WorkMeter, private StageMeter {
+ public:
+  // `plan`, `cloud`, `cancel` and `duplicates` (the job's collapsed duplicates, or null) must
+  // outlive the runner. A step that warns one of `fail_on` fails the job at its end.
+  Runner(const Plan& plan, PointCloud& cloud, const CancelToken& cancel, ProgressFn progress,
+         std::set<WarningCode> fail_on = {}, const DuplicateGroups* duplicates = nullptr);
+
+  // Runs the plan's steps not yet run, in order; stops at the first that fails.
+  absl::Status Run();
+  // Runs the plan's next steps, in order, up to and including `step`, and pauses there (for tests
+  // that look at a step's inputs); INVALID_ARGUMENT if `step` is not among them.
+  absl::Status RunThrough(std::string_view step);
+
+  PipelineReport& report() { return report_; }
+  // What the steps built (for tests that check a step's inputs).
+  const SharedState& shared() const { return shared_; }
+
+ private:
+  absl::Status RunStep(size_t index);
+  void Worked(size_t items) override;
+  void Progress(double fraction) override;
+  void ExpectWork(double items) override;
+  // Sends a progress event when the running step's fraction passed the next 2 % step.
+  void Emit(double stage_fraction);
+  // Records and warns about the balls the step capped (Neighbourhoods::Within).
+  void RecordCappedBalls(StageReport& stage);
+  // Unremoved input points, each duplicate group counted with its multiplicity.
+  uint64_t KeptInputPoints() const;
+
+  const Plan& plan_;
+  PointCloud& cloud_;
+  CancelToken cancel_;  // the caller's, metered by this runner
+  ProgressFn progress_;
+  std::set<WarningCode> fail_on_;
+  SharedState shared_;
+  PipelineReport report_;
+  // Progress of the running step: loop items done and expected, the last 2 % step sent.
+  struct Meter {
+    std::atomic<uint64_t> done{0};
+    double expected = 1;
+    std::atomic<int> step{-1};
+  };
+  Meter meter_;
+  std::mutex progress_mu_;
+  size_t next_ = 0;                           // the first step not yet run
+  size_t index_ = 0;                          // of the running step in the plan
+  double plan_weight_ = 0, done_weight_ = 0;  // of the plan's steps: all, and those finished
+  double job_fraction_ = 0;
+  uint64_t capped_reported_ = 0, cut_reported_ = 0;  // Neighbourhoods' cap counters, reported
+};
+
+}  // namespace scanprep

@@ -1,0 +1,125 @@
+// SPDX-License-Identifier: Apache-2.0
+// What a stage works with, and nothing more: the job's cloud, the shared neighbourhoods and
+// measures, the cancel token, its parameters (each use recorded in its report entry), warnings and
+// progress. It cannot run another stage: the plan orders them and the runner runs them.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "core/pipeline/cancel.h"
+#include "core/pipeline/params.h"
+#include "core/pipeline/report.h"
+#include "core/pipeline/warning.h"
+#include "core/point_cloud.h"
+#include "core/point_measures.h"
+#include "core/spatial/duplicates.h"
+#include "core/spatial/neighbourhoods.h"
+
+namespace scanprep {
+
+// What the plan's steps build for the ones after them; the runner owns it for the job.
+struct SharedState {
+  PointMeasures measures;
+  // Built by the "neighbourhoods" step, which the plan puts before every step that needs them.
+  std::unique_ptr<Neighbourhoods> neighbourhoods;
+  // The job's exact duplicates, collapsed before the first stage: the stages see one point per
+  // group, and the report counts every input point of a group. Null: none.
+  const DuplicateGroups* duplicates = nullptr;
+};
+
+// The running stage's progress, kept by the runner.
+class StageMeter {
+ public:
+  virtual ~StageMeter() = default;
+  virtual void Progress(double fraction) = 0;
+  virtual void ExpectWork(double items) = 0;
+};
+
+class StageContext {
+ public:
+  StageContext(PointCloud& cloud, SharedState& shared, const ParamOverrides& overrides,
+               const CancelToken& cancel, StageMeter& meter, StageReport& report,
+               std::vector<Warning>& warnings)
+      : cloud_(cloud),
+        shared_(shared),
+        overrides_(overrides),
+        cancel_(cancel),
+        meter_(meter),
+        report_(report),
+        warnings_(warnings) {}
+
+  PointCloud& cloud() { return cloud_; }
+  // The job's token, which also meters the stages' loops for progress.
+  const CancelToken& cancel() const { return cancel_; }
+  PointMeasures& measures() { return shared_.measures; }
+
+  // The value to use for a numeric parameter: the request's override if there is one, else the
+  // default its spec declares. Either way it is recorded in the stage's report.
+  // Overrides were range-checked before the job started (ValidateOverrides).
+  double Number(std::string_view name);
+  // Like Number() for a parameter whose default is derived from the data: `derived`.
+  double Number(std::string_view name, double derived);
+  // Like Number() for an integer parameter.
+  int64_t Integer(std::string_view name);
+  int64_t Integer(std::string_view name, int64_t derived);
+  // The request's override of a numeric parameter, if any, without recording it; for parameters
+  // that are derived per scan and recorded under per-scan names.
+  std::optional<double> Overridden(std::string_view name) const;
+  // The chosen value of a choice parameter (override, else the spec's default); recorded in the
+  // stage's report as a text parameter.
+  std::string Choice(std::string_view name);
+  // Records a derived value that cannot be overridden (e.g. a count or a measured statistic).
+  void Record(std::string_view name, double value);
+  // Records a value derived for scan `scan` as `name.scanN`, or as `name` when the job has one
+  // scan.
+  void RecordForScan(std::string_view name, size_t scan, double value);
+  // A warning with its code and the numbers behind it (docs/api.md lists the codes).
+  void Warn(WarningCode code, std::string message, std::map<std::string, std::string> params = {});
+  // A radius from scanner metadata or an override (`what` names it), held to at most `limit`, a
+  // multiple of the data's own scale r_g: a radius far beyond it makes every ball hold a large
+  // part of the cloud. A cap is counted in the stage's report as <stage>.radii_capped; the
+  // stage's first is warned about, naming the likely causes.
+  double CapRadius(std::string_view what, double radius, double limit);
+  // The stage has done at least `fraction` of its work (loops are metered anyway; this is for
+  // stages whose work the meter cannot see, e.g. sequential passes).
+  void Progress(double fraction) { meter_.Progress(fraction); }
+  // The stage will work through `items` loop items instead of work_per_point × n (for work that
+  // depends on parameters, e.g. iterations).
+  void ExpectWork(double items) { meter_.ExpectWork(items); }
+
+  // The shared neighbourhoods. The plan puts the "neighbourhoods" step before every step that
+  // asks (Plan refuses one that does not), so the error is a programming error's backstop.
+  absl::StatusOr<const Neighbourhoods*> neighbourhoods() const;
+  // A stage that moved points by at most `max_shift` each calls this so the shared
+  // neighbourhoods follow them (Neighbourhoods::PointsMoved) instead of being rebuilt.
+  absl::Status PointsMoved(float max_shift);
+  // Used by the "neighbourhoods" step only.
+  void SetNeighbourhoods(std::unique_ptr<Neighbourhoods> nb) {
+    shared_.neighbourhoods = std::move(nb);
+  }
+  size_t duplicates_collapsed() const {
+    return shared_.duplicates ? shared_.duplicates->collapsed() : 0;
+  }
+
+ private:
+  // Record()s a parameter's value and returns it.
+  double Recorded(std::string_view name, double value);
+
+  PointCloud& cloud_;
+  SharedState& shared_;
+  const ParamOverrides& overrides_;
+  const CancelToken& cancel_;
+  StageMeter& meter_;
+  StageReport& report_;
+  std::vector<Warning>& warnings_;
+};
+
+}  // namespace scanprep

@@ -1,0 +1,44 @@
+// SPDX-License-Identifier: Apache-2.0
+// Stages run outside RunPipeline, as a job plans them (prerequisites first, each once), for tests
+// that look at what the steps built (measures, neighbourhoods) or at a step's inputs.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "core/pipeline/plan.h"
+#include "core/pipeline/runner.h"
+
+namespace scanprep::testing {
+
+class PlannedStages {
+ public:
+  // Plans `stages` with `params`; `cloud` must outlive this.
+  PlannedStages(PointCloud& cloud, const std::vector<std::string>& stages,
+                const ParamOverrides& params = {})
+      : plan_(Plan::Resolve(stages, params)) {
+    if (plan_.ok()) runner_ = std::make_unique<Runner>(*plan_, cloud, cancel_, ProgressFn{});
+  }
+
+  // Runs the rest of the plan (Runner::Run).
+  absl::Status Run() { return plan_.ok() ? runner_->Run() : plan_.status(); }
+  // Runs the plan up to and including `step` (Runner::RunThrough).
+  absl::Status RunThrough(std::string_view step) {
+    return plan_.ok() ? runner_->RunThrough(step) : plan_.status();
+  }
+
+  // Only after a run that built them.
+  const PointMeasures& measures() const { return runner_->shared().measures; }
+  const Neighbourhoods& neighbourhoods() const { return *runner_->shared().neighbourhoods; }
+  PipelineReport& report() { return runner_->report(); }
+
+ private:
+  CancelToken cancel_;
+  absl::StatusOr<Plan> plan_;
+  std::unique_ptr<Runner> runner_;
+};
+
+}  // namespace scanprep::testing
