@@ -16,11 +16,11 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "core/base/status_macros.h"
 #include "core/io/conf.h"
 #include "core/io/read_file.h"
 #include "core/io/scan_file.h"
-#include "core/pipeline/warning.h"
-#include "core/status_macros.h"
+#include "core/stages/warning.h"
 #include "proto/warning_codes.h"
 
 namespace scanprep::client {

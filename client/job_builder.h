@@ -9,8 +9,8 @@
 
 #include "absl/status/statusor.h"
 #include "client/cli_args.h"
+#include "core/base/point_cloud.h"
 #include "core/io/scan_file.h"
-#include "core/point_cloud.h"
 #include "scanprep/v1/scanprep.pb.h"
 
 namespace scanprep::client {

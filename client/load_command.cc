@@ -14,7 +14,7 @@
 #include "client/load_runner.h"
 #include "client/scan_generator.h"
 #include "client/scanprep_client.h"
-#include "core/status_macros.h"
+#include "core/base/status_macros.h"
 
 namespace scanprep::client {
 namespace {

@@ -23,8 +23,8 @@
 #include "client/preview.h"
 #include "client/progress_view.h"
 #include "client/scanprep_client.h"
+#include "core/base/status_macros.h"
 #include "core/io/scan_file.h"
-#include "core/status_macros.h"
 #include "proto/convert/convert.h"
 
 namespace scanprep::client {

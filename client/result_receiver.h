@@ -6,7 +6,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 #include "proto/stream_checksum.h"
 #include "scanprep/v1/scanprep.pb.h"
 

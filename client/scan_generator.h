@@ -10,7 +10,7 @@
 
 #include "absl/status/statusor.h"
 #include "client/cli_args.h"
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep::client {
 

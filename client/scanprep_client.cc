@@ -8,8 +8,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "client/call_error.h"
+#include "core/base/status_macros.h"
 #include "core/io/read_file.h"
-#include "core/status_macros.h"
 
 namespace scanprep::client {
 namespace {

@@ -16,7 +16,7 @@
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
 #include "client/result_receiver.h"
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 #include "scanprep/v1/scanprep.grpc.pb.h"
 
 namespace scanprep::client {

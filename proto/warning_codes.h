@@ -9,7 +9,7 @@
 #include <string>
 #include <string_view>
 
-#include "core/pipeline/warning.h"
+#include "core/stages/warning.h"
 #include "scanprep/v1/scanprep.pb.h"
 
 namespace scanprep {

@@ -8,10 +8,10 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "core/base/did_you_mean.h"
+#include "core/base/status_macros.h"
 #include "core/io/read_file.h"
-#include "core/pipeline/did_you_mean.h"
-#include "core/pipeline/stage.h"
-#include "core/status_macros.h"
+#include "core/stages/stage.h"
 
 namespace scanprep::server {
 namespace {

@@ -12,9 +12,9 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "core/base/point_cloud.h"
 #include "core/pipeline/pipeline.h"
 #include "core/pipeline/presets.h"
-#include "core/point_cloud.h"
 #include "proto/convert/convert.h"
 #include "proto/stream_checksum.h"
 #include "scanprep/v1/scanprep.pb.h"

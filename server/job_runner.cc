@@ -6,7 +6,7 @@
 #include <thread>
 
 #include "absl/strings/str_cat.h"
-#include "core/pipeline/happens_before.h"
+#include "core/base/happens_before.h"
 
 namespace scanprep::server {
 

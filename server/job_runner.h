@@ -17,10 +17,10 @@
 #include <tbb/task_arena.h>
 
 #include "absl/status/statusor.h"
-#include "core/pipeline/cancel.h"
+#include "core/base/cancel.h"
+#include "core/base/point_cloud.h"
 #include "core/pipeline/pipeline.h"
-#include "core/pipeline/report.h"
-#include "core/point_cloud.h"
+#include "core/stages/report.h"
 
 namespace scanprep::server {
 

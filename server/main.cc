@@ -27,7 +27,7 @@
 #include "absl/strings/match.h"
 #include "absl/synchronization/notification.h"
 #include "absl/time/time.h"
-#include "core/status_macros.h"
+#include "core/base/status_macros.h"
 #include "server/budget_config.h"
 #include "server/memory_budget.h"
 #include "server/presets_file.h"

@@ -29,7 +29,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
-#include "core/pipeline/params.h"
+#include "core/stages/params.h"
 
 namespace scanprep::server {
 

@@ -9,9 +9,9 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "core/base/field_error.h"
+#include "core/base/status_macros.h"
 #include "core/io/read_file.h"
-#include "core/pipeline/field_error.h"
-#include "core/status_macros.h"
 
 namespace scanprep::server {
 namespace {

@@ -11,7 +11,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/synchronization/notification.h"
-#include "core/status_macros.h"
+#include "core/base/status_macros.h"
 #include "server/memory_budget.h"
 
 namespace scanprep::server {

@@ -11,7 +11,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "core/pipeline/stage.h"
+#include "core/stages/stage.h"
 #include "proto/chunk_arrays.h"
 #include "proto/convert/convert.h"
 #include "proto/convert/error_details.h"

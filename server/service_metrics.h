@@ -12,7 +12,7 @@
 
 #include <grpcpp/support/status.h>
 
-#include "core/pipeline/report.h"
+#include "core/stages/report.h"
 #include "server/metrics/registry.h"
 
 namespace scanprep::server {

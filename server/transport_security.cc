@@ -2,8 +2,8 @@
 #include "server/transport_security.h"
 
 #include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
 #include "core/io/read_file.h"
-#include "core/status_macros.h"
 
 namespace scanprep::server {
 namespace {

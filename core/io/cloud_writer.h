@@ -9,7 +9,7 @@
 #include <ostream>
 
 #include "absl/status/status.h"
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep::io {
 

@@ -5,9 +5,9 @@
 #include <string_view>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
-#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {

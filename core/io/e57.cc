@@ -19,13 +19,13 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
-#include "core/free_memory.h"
+#include "core/base/free_memory.h"
+#include "core/base/status_macros.h"
 #include "core/io/byte_order.h"
 #include "core/io/e57_xml.h"
 #include "core/io/local_frame.h"
 #include "core/io/read_file.h"
 #include "core/io/unmeasured_points.h"
-#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep::io {
 

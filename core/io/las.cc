@@ -11,12 +11,12 @@
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "core/base/status_macros.h"
 #include "core/io/byte_order.h"
 #include "core/io/float_narrowing.h"
 #include "core/io/local_frame.h"
 #include "core/io/read_file.h"
 #include "core/io/unmeasured_points.h"
-#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {

@@ -11,10 +11,10 @@
 #include <string>
 
 #include "absl/strings/str_format.h"
+#include "core/base/status_macros.h"
 #include "core/io/byte_order.h"
 #include "core/io/cloud_writer.h"
 #include "core/io/las.h"
-#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {

@@ -5,7 +5,7 @@
 #include <limits>
 
 #include "absl/strings/str_cat.h"
-#include "core/free_memory.h"
+#include "core/base/free_memory.h"
 #include "core/io/float_narrowing.h"
 
 namespace scanprep::io {

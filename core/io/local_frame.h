@@ -11,7 +11,7 @@
 #include <Eigen/Core>
 
 #include "absl/status/status.h"
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep::io {
 

@@ -8,8 +8,8 @@
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "core/base/status_macros.h"
 #include "core/io/text_fields.h"
-#include "core/status_macros.h"
 
 namespace scanprep::io::pcd {
 namespace {

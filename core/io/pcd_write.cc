@@ -6,10 +6,10 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "core/base/status_macros.h"
 #include "core/io/byte_order.h"
 #include "core/io/cloud_writer.h"
 #include "core/io/pcd.h"
-#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {

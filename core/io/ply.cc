@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
 #include "core/io/byte_order.h"
 #include "core/io/float_narrowing.h"
 #include "core/io/local_frame.h"
@@ -18,7 +19,6 @@
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
 #include "core/io/unmeasured_points.h"
-#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {

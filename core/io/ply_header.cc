@@ -5,8 +5,8 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
 #include "core/io/text_fields.h"
-#include "core/status_macros.h"
 
 namespace scanprep::io::ply {
 namespace {

@@ -7,10 +7,10 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
 #include "core/io/byte_order.h"
 #include "core/io/cloud_writer.h"
 #include "core/io/ply.h"
-#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {

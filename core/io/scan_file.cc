@@ -5,12 +5,12 @@
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
 #include "core/io/e57.h"
 #include "core/io/las.h"
 #include "core/io/pcd.h"
 #include "core/io/ply.h"
 #include "core/io/xyz.h"
-#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {

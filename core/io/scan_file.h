@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "core/base/point_cloud.h"
 #include "core/io/cloud_writer.h"
-#include "core/point_cloud.h"
 
 namespace scanprep::io {
 

@@ -8,12 +8,12 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
 #include "core/io/float_narrowing.h"
 #include "core/io/local_frame.h"
 #include "core/io/read_file.h"
 #include "core/io/text_fields.h"
 #include "core/io/unmeasured_points.h"
-#include "core/status_macros.h"
 
 namespace scanprep::io {
 namespace {

@@ -6,9 +6,9 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "core/base/status_macros.h"
 #include "core/io/cloud_writer.h"
 #include "core/io/xyz.h"
-#include "core/status_macros.h"
 
 namespace scanprep::io {
 

@@ -7,12 +7,12 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
-#include "core/pipeline/did_you_mean.h"
-#include "core/pipeline/field_error.h"
+#include "core/base/did_you_mean.h"
+#include "core/base/field_error.h"
+#include "core/base/status_macros.h"
 #include "core/pipeline/plan.h"
 #include "core/pipeline/runner.h"
 #include "core/spatial/duplicates.h"
-#include "core/status_macros.h"
 
 namespace scanprep {
 

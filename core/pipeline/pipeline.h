@@ -8,13 +8,13 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "core/pipeline/cancel.h"
-#include "core/pipeline/params.h"
+#include "core/base/cancel.h"
+#include "core/base/point_cloud.h"
 #include "core/pipeline/progress.h"
-#include "core/pipeline/report.h"
-#include "core/pipeline/stage.h"
-#include "core/pipeline/warning.h"
-#include "core/point_cloud.h"
+#include "core/stages/params.h"
+#include "core/stages/report.h"
+#include "core/stages/stage.h"
+#include "core/stages/warning.h"
 
 namespace scanprep {
 

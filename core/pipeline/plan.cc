@@ -26,7 +26,8 @@ absl::StatusOr<Plan> Plan::Resolve(const std::vector<std::string>& requested,
   std::function<void(std::string_view)> add = [&](std::string_view name) {
     const StageInfo* info = FindStep(name);
     if (info == nullptr) {
-      unknown = absl::InvalidArgumentError(absl::StrCat("no stage or step named '", std::string(name), "'"));
+      unknown = absl::InvalidArgumentError(
+          absl::StrCat("no stage or step named '", std::string(name), "'"));
       return;
     }
     if (std::find(steps.begin(), steps.end(), info) != steps.end()) return;

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "core/pipeline/params.h"
-#include "core/pipeline/stage.h"
+#include "core/stages/params.h"
+#include "core/stages/stage.h"
 
 namespace scanprep {
 

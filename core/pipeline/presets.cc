@@ -5,9 +5,9 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
-#include "core/pipeline/did_you_mean.h"
-#include "core/pipeline/field_error.h"
-#include "core/pipeline/stage.h"
+#include "core/base/did_you_mean.h"
+#include "core/base/field_error.h"
+#include "core/stages/stage.h"
 
 namespace scanprep {
 

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "core/pipeline/params.h"
+#include "core/stages/params.h"
 
 namespace scanprep {
 

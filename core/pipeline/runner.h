@@ -12,13 +12,13 @@
 #include <vector>
 
 #include "absl/status/status.h"
-#include "core/pipeline/cancel.h"
+#include "core/base/cancel.h"
+#include "core/base/point_cloud.h"
 #include "core/pipeline/plan.h"
 #include "core/pipeline/progress.h"
-#include "core/pipeline/report.h"
-#include "core/pipeline/warning.h"
-#include "core/point_cloud.h"
+#include "core/stages/report.h"
 #include "core/stages/stage_context.h"
+#include "core/stages/warning.h"
 
 namespace scanprep {
 

@@ -28,7 +28,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep::sim {
 

@@ -10,7 +10,7 @@
 
 #include <Eigen/Core>
 
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 #include "core/spatial/cell_grid.h"
 
 namespace scanprep {

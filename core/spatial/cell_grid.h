@@ -34,8 +34,8 @@
 #include <vector>
 
 #include "absl/status/status.h"
-#include "core/pipeline/cancel.h"
-#include "core/point_cloud.h"
+#include "core/base/cancel.h"
+#include "core/base/point_cloud.h"
 #include "core/spatial/entry_tree.h"
 
 namespace scanprep {

@@ -7,8 +7,8 @@
 #include <random>
 #include <utility>
 
-#include "core/pipeline/parallel.h"
-#include "core/status_macros.h"
+#include "core/base/parallel.h"
+#include "core/base/status_macros.h"
 
 namespace scanprep {
 namespace {

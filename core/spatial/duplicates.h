@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "core/pipeline/cancel.h"
-#include "core/point_cloud.h"
+#include "core/base/cancel.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep {
 

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "core/pipeline/cancel.h"
+#include "core/base/cancel.h"
 
 namespace scanprep {
 

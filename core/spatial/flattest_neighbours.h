@@ -9,8 +9,8 @@
 #include <utility>
 #include <vector>
 
-#include "core/point_cloud.h"
-#include "core/point_measures.h"
+#include "core/base/point_cloud.h"
+#include "core/base/point_measures.h"
 #include "core/spatial/neighbourhoods.h"
 
 namespace scanprep {

@@ -17,10 +17,10 @@
 #include <span>
 
 #include "absl/strings/str_cat.h"
-#include "core/pipeline/parallel.h"
+#include "core/base/parallel.h"
+#include "core/base/status_macros.h"
 #include "core/stages/measures.h"
 #include "core/stages/stage_context.h"
-#include "core/status_macros.h"
 
 namespace scanprep {
 namespace {

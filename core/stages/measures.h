@@ -8,8 +8,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/pipeline/stage.h"
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
+#include "core/stages/stage.h"
 
 namespace scanprep {
 // Viewing quality q̂ (§8) and normalised curvature κ̂ (§9, Eq. 7) per point, into

@@ -4,7 +4,7 @@
 
 #include <cstddef>
 
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 #include "core/spatial/neighbourhoods.h"
 
 namespace scanprep {

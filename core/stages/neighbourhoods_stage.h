@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-#include "core/pipeline/stage.h"
+#include "core/stages/stage.h"
 namespace scanprep {
 StageInfo NeighbourhoodsStageInfo();
 }

@@ -11,9 +11,9 @@
 
 #include <nanoflann.hpp>
 
-#include "core/free_memory.h"
-#include "core/pipeline/parallel.h"
-#include "core/status_macros.h"
+#include "core/base/free_memory.h"
+#include "core/base/parallel.h"
+#include "core/base/status_macros.h"
 
 namespace scanprep {
 namespace {

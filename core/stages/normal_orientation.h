@@ -10,8 +10,8 @@
 #include <Eigen/Core>
 
 #include "absl/status/status.h"
-#include "core/pipeline/cancel.h"
-#include "core/point_cloud.h"
+#include "core/base/cancel.h"
+#include "core/base/point_cloud.h"
 #include "core/spatial/neighbourhoods.h"
 
 namespace scanprep {

@@ -10,13 +10,13 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
-#include "core/pipeline/parallel.h"
+#include "core/base/parallel.h"
+#include "core/base/status_macros.h"
 #include "core/spatial/local_moments.h"
 #include "core/stages/mitra_radius.h"
 #include "core/stages/normal_orientation.h"
 #include "core/stages/stage_context.h"
 #include "core/stages/unit_plausibility.h"
-#include "core/status_macros.h"
 
 namespace scanprep {
 namespace {

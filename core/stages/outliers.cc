@@ -18,12 +18,12 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
-#include "core/pipeline/parallel.h"
+#include "core/base/parallel.h"
+#include "core/base/status_macros.h"
 #include "core/stages/outliers_loop.h"
 #include "core/stages/scan_noise.h"
 #include "core/stages/stage_context.h"
 #include "core/stages/surface_spikes.h"
-#include "core/status_macros.h"
 
 namespace scanprep {
 namespace {

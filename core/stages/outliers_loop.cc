@@ -9,7 +9,7 @@
 #include <atomic>
 #include <cmath>
 
-#include "core/pipeline/parallel.h"
+#include "core/base/parallel.h"
 #include "core/stages/stage_context.h"
 
 namespace scanprep {

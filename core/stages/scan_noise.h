@@ -8,8 +8,8 @@
 #include <optional>
 #include <vector>
 
-#include "core/point_cloud.h"
-#include "core/point_measures.h"
+#include "core/base/point_cloud.h"
+#include "core/base/point_measures.h"
 
 namespace scanprep {
 

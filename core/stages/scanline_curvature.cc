@@ -8,7 +8,7 @@
 
 #include <Eigen/Cholesky>
 
-#include "core/pipeline/parallel.h"
+#include "core/base/parallel.h"
 #include "core/spatial/local_moments.h"
 
 namespace scanprep {

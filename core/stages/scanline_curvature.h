@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "absl/status/status.h"
-#include "core/pipeline/cancel.h"
-#include "core/point_cloud.h"
+#include "core/base/cancel.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep {
 

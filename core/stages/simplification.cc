@@ -18,12 +18,12 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
-#include "core/free_memory.h"
-#include "core/pipeline/field_error.h"
-#include "core/pipeline/parallel.h"
+#include "core/base/field_error.h"
+#include "core/base/free_memory.h"
+#include "core/base/parallel.h"
+#include "core/base/status_macros.h"
 #include "core/stages/measures.h"
 #include "core/stages/stage_context.h"
-#include "core/status_macros.h"
 
 namespace scanprep {
 namespace {

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-#include "core/pipeline/stage.h"
+#include "core/stages/stage.h"
 namespace scanprep {
 // Edge- and quality-preserving smoothing (paper §3.1, Eqs. 6-10; docs/algorithms.md §11).
 StageInfo SmoothingStageInfo();

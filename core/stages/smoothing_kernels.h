@@ -10,8 +10,8 @@
 
 #include <Eigen/Core>
 
-#include "core/point_cloud.h"
-#include "core/point_measures.h"
+#include "core/base/point_cloud.h"
+#include "core/base/point_measures.h"
 #include "core/spatial/ball_points.h"
 #include "core/spatial/neighbourhoods.h"
 

@@ -7,7 +7,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "core/pipeline/stage.h"
+#include "core/stages/stage.h"
 
 namespace scanprep {
 namespace {

@@ -14,14 +14,14 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "core/pipeline/cancel.h"
-#include "core/pipeline/params.h"
-#include "core/pipeline/report.h"
-#include "core/pipeline/warning.h"
-#include "core/point_cloud.h"
-#include "core/point_measures.h"
+#include "core/base/cancel.h"
+#include "core/base/point_cloud.h"
+#include "core/base/point_measures.h"
 #include "core/spatial/duplicates.h"
 #include "core/spatial/neighbourhoods.h"
+#include "core/stages/params.h"
+#include "core/stages/report.h"
+#include "core/stages/warning.h"
 
 namespace scanprep {
 

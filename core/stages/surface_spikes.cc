@@ -5,7 +5,7 @@
 #include <atomic>
 #include <cmath>
 
-#include "core/pipeline/parallel.h"
+#include "core/base/parallel.h"
 #include "core/spatial/ball_points.h"
 #include "core/spatial/flattest_neighbours.h"
 #include "core/spatial/local_moments.h"

@@ -12,9 +12,9 @@
 #include <vector>
 
 #include "absl/status/status.h"
-#include "core/pipeline/cancel.h"
-#include "core/point_cloud.h"
-#include "core/point_measures.h"
+#include "core/base/cancel.h"
+#include "core/base/point_cloud.h"
+#include "core/base/point_measures.h"
 #include "core/spatial/neighbourhoods.h"
 
 namespace scanprep {

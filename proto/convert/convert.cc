@@ -5,8 +5,8 @@
 #include <limits>
 
 #include "absl/strings/str_cat.h"
-#include "core/pipeline/field_error.h"
-#include "core/status_macros.h"
+#include "core/base/field_error.h"
+#include "core/base/status_macros.h"
 #include "proto/convert/error_details.h"
 
 namespace scanprep {

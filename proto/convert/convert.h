@@ -13,11 +13,11 @@
 #include <Eigen/Geometry>
 
 #include "absl/status/statusor.h"
+#include "core/base/point_cloud.h"
 #include "core/pipeline/pipeline.h"
 #include "core/pipeline/presets.h"
-#include "core/pipeline/report.h"
-#include "core/pipeline/warning.h"
-#include "core/point_cloud.h"
+#include "core/stages/report.h"
+#include "core/stages/warning.h"
 #include "proto/warning_codes.h"
 #include "scanprep/v1/scanprep.pb.h"
 

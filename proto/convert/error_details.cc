@@ -7,8 +7,8 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
-#include "core/pipeline/field_error.h"
-#include "core/pipeline/warning.h"
+#include "core/base/field_error.h"
+#include "core/stages/warning.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
 

@@ -8,7 +8,7 @@
 
 #include <benchmark/benchmark.h>
 
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep::bench {
 

@@ -6,7 +6,7 @@
 
 #include <cstddef>
 
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep::bench {
 

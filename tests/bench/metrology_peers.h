@@ -5,7 +5,7 @@
 // dependency of the build or CI.
 #pragma once
 
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep::bench {
 

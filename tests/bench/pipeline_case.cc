@@ -5,7 +5,7 @@
 
 #include <tbb/task_arena.h>
 
-#include "core/pipeline/cancel.h"
+#include "core/base/cancel.h"
 #include "core/pipeline/pipeline.h"
 
 namespace scanprep::bench {

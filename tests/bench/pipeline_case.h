@@ -7,8 +7,8 @@
 
 #include <benchmark/benchmark.h>
 
-#include "core/pipeline/params.h"
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
+#include "core/stages/params.h"
 #include "tests/bench/bench_cloud.h"
 
 namespace scanprep::bench {

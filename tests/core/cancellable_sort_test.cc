@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/pipeline/parallel.h"
+#include "core/base/parallel.h"
 
 namespace scanprep {
 namespace {

@@ -1,12 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 // A misspelt parameter or stage name is refused with the name it was probably meant to be, and
 // only with a near one: the distances below are counted by hand.
-#include "core/pipeline/did_you_mean.h"
+#include "core/base/did_you_mean.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/pipeline/field_error.h"
+#include "core/base/field_error.h"
 #include "core/pipeline/pipeline.h"
 
 namespace scanprep {

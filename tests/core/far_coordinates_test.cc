@@ -7,8 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include "core/base/cancel.h"
 #include "core/io/scan_file.h"
-#include "core/pipeline/cancel.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 #include "tests/support/lattice_scan.h"

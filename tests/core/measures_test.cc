@@ -5,10 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include "core/base/status_macros.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 #include "core/stages/scanline_curvature.h"
-#include "core/status_macros.h"
 #include "tests/support/planned_stages.h"
 #include "tests/support/sim_checks.h"
 

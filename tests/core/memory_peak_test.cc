@@ -14,7 +14,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/pipeline/parallel.h"
+#include "core/base/parallel.h"
 #include "core/pipeline/pipeline.h"
 #include "core/spatial/cell_grid.h"
 #include "tests/support/hostile_mix.h"

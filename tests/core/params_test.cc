@@ -12,7 +12,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/pipeline/field_error.h"
+#include "core/base/field_error.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 #include "tests/support/planned_stages.h"

@@ -5,7 +5,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/pipeline/field_error.h"
+#include "core/base/field_error.h"
 #include "core/pipeline/presets.h"
 
 namespace scanprep {

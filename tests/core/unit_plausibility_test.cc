@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "core/pipeline/pipeline.h"
-#include "core/pipeline/warning.h"
+#include "core/stages/warning.h"
 #include "tests/support/metrology_job.h"
 #include "tests/support/test_data.h"
 

@@ -13,7 +13,7 @@
 
 #include <google/protobuf/stubs/logging.h>
 
-#include "core/pipeline/cancel.h"
+#include "core/base/cancel.h"
 #include "core/pipeline/pipeline.h"
 #include "server/job_assembler.h"
 #include "tests/fuzz/fuzz_checks.h"

@@ -7,7 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep::fuzz {
 

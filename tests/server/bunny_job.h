@@ -9,9 +9,9 @@
 
 #include <gtest/gtest.h>
 
+#include "core/base/point_cloud.h"
 #include "core/io/conf.h"
 #include "core/io/scan_file.h"
-#include "core/point_cloud.h"
 #include "scanprep/v1/scanprep.pb.h"
 
 namespace scanprep::testing {

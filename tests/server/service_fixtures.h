@@ -15,7 +15,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/scanprep_client.h"
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 #include "proto/stream_checksum.h"
 #include "server/scanprep_server.h"
 

@@ -12,7 +12,7 @@
 
 #include "client/call_error.h"
 #include "core/io/ply.h"
-#include "core/pipeline/warning.h"
+#include "core/stages/warning.h"
 #include "proto/warning_codes.h"
 #include "tests/server/server_process.h"
 #include "tests/server/service_fixtures.h"

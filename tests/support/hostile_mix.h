@@ -18,7 +18,7 @@
 #include <Eigen/Core>
 
 #include "absl/strings/str_format.h"
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep::testing {
 

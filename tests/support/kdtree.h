@@ -8,7 +8,7 @@
 
 #include <nanoflann.hpp>
 
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 #include "core/spatial/cell_grid.h"  // RadiusMatches
 
 namespace scanprep {

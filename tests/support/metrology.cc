@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <atomic>
 
-#include "core/pipeline/parallel.h"
+#include "core/base/parallel.h"
 #include "tests/support/kdtree.h"
 
 namespace scanprep::testing {

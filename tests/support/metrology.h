@@ -16,7 +16,7 @@
 #include <cmath>
 #include <cstddef>
 
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 #include "core/sim/scan_simulator.h"
 
 namespace scanprep::testing {

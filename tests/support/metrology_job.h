@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "core/base/point_cloud.h"
 #include "core/pipeline/pipeline.h"
-#include "core/point_cloud.h"
 #include "core/sim/scan_simulator.h"
 
 namespace scanprep::testing {

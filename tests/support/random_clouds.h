@@ -9,7 +9,7 @@
 
 #include <Eigen/Core>
 
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep::testing {
 

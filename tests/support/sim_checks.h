@@ -6,7 +6,7 @@
 #include <cmath>
 #include <vector>
 
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep::testing {
 using namespace scanprep::sim;

@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep::testing {
 

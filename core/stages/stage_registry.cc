@@ -3,7 +3,6 @@
 #include <algorithm>
 
 #include "absl/strings/numbers.h"
-#include "core/pipeline/stage.h"
 #include "core/stages/correction.h"
 #include "core/stages/measures.h"
 #include "core/stages/neighbourhoods_stage.h"
@@ -11,6 +10,7 @@
 #include "core/stages/outliers.h"
 #include "core/stages/simplification.h"
 #include "core/stages/smoothing.h"
+#include "core/stages/stage.h"
 
 namespace scanprep {
 

@@ -13,8 +13,8 @@
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
 
-#include "core/pipeline/cancel.h"
-#include "core/pipeline/happens_before.h"
+#include "core/base/cancel.h"
+#include "core/base/happens_before.h"
 
 namespace scanprep {
 

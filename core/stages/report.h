@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "core/pipeline/warning.h"
+#include "core/stages/warning.h"
 
 namespace scanprep {
 

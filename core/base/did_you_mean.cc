@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "core/pipeline/did_you_mean.h"
+#include "core/base/did_you_mean.h"
 
 #include <algorithm>
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "core/point_cloud.h"
+#include "core/base/point_cloud.h"
 
 #include <utility>
 

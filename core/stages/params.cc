@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "core/pipeline/params.h"
+#include "core/stages/params.h"
 
 #include <algorithm>
 #include <charconv>
@@ -8,9 +8,9 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
-#include "core/pipeline/did_you_mean.h"
-#include "core/pipeline/field_error.h"
-#include "core/status_macros.h"
+#include "core/base/did_you_mean.h"
+#include "core/base/field_error.h"
+#include "core/base/status_macros.h"
 
 namespace scanprep {
 namespace {

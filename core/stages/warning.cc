@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "core/pipeline/warning.h"
+#include "core/stages/warning.h"
 
 #include <array>
 

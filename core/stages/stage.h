@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
-#include "core/pipeline/params.h"
+#include "core/stages/params.h"
 
 namespace scanprep {
 

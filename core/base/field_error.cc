@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "core/pipeline/field_error.h"
+#include "core/base/field_error.h"
 
 #include "absl/strings/str_cat.h"
 
