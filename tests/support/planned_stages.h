@@ -22,6 +22,9 @@ class PlannedStages {
       : plan_(Plan::Resolve(stages, params)) {
     if (plan_.ok()) runner_ = std::make_unique<Runner>(*plan_, cloud, cancel_, ProgressFn{});
   }
+  // The runner refers to the plan and the token held here: not to be copied or moved.
+  PlannedStages(const PlannedStages&) = delete;
+  PlannedStages& operator=(const PlannedStages&) = delete;
 
   // Runs the rest of the plan (Runner::Run).
   absl::Status Run() { return plan_.ok() ? runner_->Run() : plan_.status(); }
