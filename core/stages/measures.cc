@@ -13,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/parallel.h"
 #include "core/base/status_macros.h"
+#include "core/spatial/median_nearest.h"
 #include "core/stages/scanline_curvature.h"
 #include "core/stages/stage_context.h"
 
@@ -132,19 +133,19 @@ class MeasuresStage : public Stage {
   static absl::Status Curvature(StageContext& ctx) {
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
-    const double scale = ctx.Number("measures.curvature_scale_per_mm");
-    const double variation_scale = ctx.Number("measures.variation_scale");
-    const double threshold = ctx.Number("measures.edge_threshold");
+    const double scale = ctx.Number(kMeasuresCurvatureScale);
+    const double variation_scale = ctx.Number(kMeasuresVariationScale);
+    const double threshold = ctx.Number(kMeasuresEdgeThreshold);
 
     const std::vector<double> spacing = ScanPointSpacing(ctx);
     std::vector<double> window(cloud.scans.size(), 0.0);
-    const std::optional<double> forced = ctx.Overridden("measures.window_mm");
+    const std::optional<double> forced = ctx.Overridden(kMeasuresWindow);
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
       const double u = cloud.scans[s].uncertainty;
       window[s] =
           forced.value_or(std::max({3 * spacing[s], 2 * u, NoiseWindow(u, spacing[s], scale)}));
       ctx.RecordForScan("measures.point_spacing_mm", s, spacing[s]);
-      ctx.RecordForScan("measures.window_mm", s, window[s]);
+      ctx.RecordForScan(kMeasuresWindow, s, window[s]);
     }
 
     std::vector<float> kappa;
@@ -220,22 +221,16 @@ class MeasuresStage : public Stage {
 std::vector<double> ScanPointSpacing(StageContext& ctx) {
   const PointCloud& cloud = ctx.cloud();
   std::vector<double> spacing = MedianScanlineSpacing(cloud);
-  std::vector<std::vector<float>> nearest(cloud.scans.size());
   auto nb = ctx.neighbourhoods();
+  std::vector<bool> unknown(spacing.size());
   for (size_t s = 0; s < spacing.size(); ++s) {
     if (spacing[s] == 0) spacing[s] = cloud.scans[s].point_spacing;
+    unknown[s] = spacing[s] == 0;
   }
   if (!nb.ok() || (*nb)->k() == 0) return spacing;
-  for (size_t i = 0; i < cloud.size(); ++i) {
-    if (!cloud.removed(i) && spacing[cloud.scan[i]] == 0) {
-      nearest[cloud.scan[i]].push_back((*nb)->knn_dist(cloud, i, 0));
-    }
-  }
+  const std::vector<double> measured = MedianNearestDistance(cloud, **nb, unknown);
   for (size_t s = 0; s < spacing.size(); ++s) {
-    std::vector<float>& d = nearest[s];
-    if (d.empty()) continue;
-    std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
-    spacing[s] = d[d.size() / 2];
+    if (unknown[s]) spacing[s] = measured[s];
   }
   return spacing;
 }
@@ -246,15 +241,15 @@ StageInfo MeasuresStageInfo() {
       .summary = "viewing quality q̂ and normalised curvature κ̂ per point (Eq. 7); edge flags",
       .params =
           {
-              RealParam("measures.curvature_scale_per_mm",
-                        "s: scanline curvature of a significant edge", 0.2, LeftOpen(0, 1000)),
-              RealParam("measures.variation_scale",
+              RealParam(kMeasuresCurvatureScale, "s: scanline curvature of a significant edge", 0.2,
+                        LeftOpen(0, 1000)),
+              RealParam(kMeasuresVariationScale,
                         "s_σ: surface variation of a significant "
                         "edge (fallback without scanlines)",
                         0.02, LeftOpen(0, 1)),
-              RealParam("measures.edge_threshold",
-                        "κ̂ at or above which a point is flagged as an edge", 0.5, Closed(0, 1)),
-              DerivedRealParam("measures.window_mm",
+              RealParam(kMeasuresEdgeThreshold, "κ̂ at or above which a point is flagged as an edge",
+                        0.5, Closed(0, 1)),
+              DerivedRealParam(kMeasuresWindow,
                                "half-width h of the scanline curvature "
                                "window",
                                "max(3Δp, 2u, (1215·u²·Δp/s²)^(1/5)) per scan", LeftOpen(0, 1e4)),

@@ -8,27 +8,11 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "core/spatial/median_nearest.h"
 #include "core/stages/scan_noise.h"
 
 namespace scanprep {
 namespace {
-
-// The median distance from each unremoved point of a scan to its nearest neighbour, per scan
-// (0 where a scan has no points): the data's own spacing, whatever the metadata says.
-std::vector<double> MeasuredSpacing(const PointCloud& cloud, const Neighbourhoods& nb) {
-  std::vector<std::vector<float>> nearest(cloud.scans.size());
-  for (size_t i = 0; i < cloud.size(); ++i) {
-    if (!cloud.removed(i)) nearest[cloud.scan[i]].push_back(nb.knn_dist(cloud, i, 0));
-  }
-  std::vector<double> spacing(cloud.scans.size(), 0.0);
-  for (size_t s = 0; s < spacing.size(); ++s) {
-    std::vector<float>& d = nearest[s];
-    if (d.empty()) continue;
-    std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
-    spacing[s] = d[d.size() / 2];
-  }
-  return spacing;
-}
 
 // The smallest spacing the scan states (nearest neighbours lie along the finer direction), or
 // nothing when it states none.
@@ -53,7 +37,7 @@ void WarnIfUnitSuspect(StageContext& ctx) {
   auto nb = ctx.neighbourhoods();
   if (!nb.ok() || (*nb)->k() == 0) return;
   const PointCloud& cloud = ctx.cloud();
-  const std::vector<double> spacing = MeasuredSpacing(cloud, **nb);
+  const std::vector<double> spacing = MedianNearestDistance(cloud, **nb);
   const std::vector<std::optional<double>> noise =
       MeasuredScanNoise(cloud, ctx.measures(), cloud.scans.size());
   for (size_t s = 0; s < cloud.scans.size(); ++s) {
