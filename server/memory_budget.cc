@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/base/status_macros.h"
+#include "core/stages/neighbourhoods_stage.h"
 
 namespace scanprep::server {
 namespace {
@@ -49,7 +50,7 @@ std::string FormatMiB(double bytes) { return absl::StrFormat("%.0f MiB", bytes /
 
 uint64_t BytesPerPoint(const ParamOverrides& params) {
   int k = kDefaultNeighbours;
-  if (const auto it = params.find("neighbourhoods.k"); it != params.end()) {
+  if (const auto it = params.find(kNeighbourhoodsK); it != params.end()) {
     double value = 0;
     if (absl::SimpleAtod(it->second, &value)) k = static_cast<int>(value);
   }

@@ -7,6 +7,8 @@
 #include "absl/strings/str_join.h"
 #include "core/base/did_you_mean.h"
 #include "core/base/field_error.h"
+#include "core/stages/outliers.h"
+#include "core/stages/smoothing.h"
 #include "core/stages/stage.h"
 
 namespace scanprep {
@@ -23,7 +25,9 @@ std::vector<Preset> BuiltinPresets() {
       {.name = "paper",
        .description = "the paper's configuration, the fast one: its outlier rule alone, "
                       "weighted-mean smoothing",
-       .params = {{"outliers.surface_sigmas", "0"}, {"smoothing.method", "mean"}},
+       .params = {{std::string(kOutliersSurfaceSigmas), "0"},
+                  {std::string(kSmoothingMethod.name),
+                   std::string(kSmoothingMethod.Text(SmoothingMethod::kMean))}},
        .built_in = true},
   };
 }

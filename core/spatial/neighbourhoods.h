@@ -21,8 +21,12 @@
 
 namespace scanprep {
 
+// The graph degree unless a job says otherwise (the neighbourhoods stage declares it as the
+// default of neighbourhoods.k).
+inline constexpr uint32_t kDefaultNeighbourK = 20;
+
 struct NeighbourhoodOptions {
-  uint32_t k = 20;  // graph degree, also k_g for the global radius
+  uint32_t k = kDefaultNeighbourK;  // graph degree, also k_g for the global radius
   // r_min of Eq. (2) per scan, indexed like cloud.scans (a mixed job's finer sensor gets its own
   // smaller one); missing entries and 0 = no lower bound.
   std::vector<double> min_radius;

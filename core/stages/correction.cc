@@ -97,12 +97,11 @@ class CorrectionStage : public Stage {
 
     absl::StatusOr<std::vector<float>> radius = Radii(ctx, nb);
     if (!radius.ok()) return radius.status();
-    const std::string mode = ctx.Choice("correction.mode");
     absl::StatusOr<size_t> removed;
-    if (mode == "scatter") {
+    if (ctx.Choice(kCorrectionMode) == CorrectionMode::kScatter) {
       removed = Scatter(ctx, nb, quality, *radius);
     } else {
-      const int rounds = static_cast<int>(ctx.Integer("correction.rounds"));
+      const int rounds = static_cast<int>(ctx.Integer(kCorrectionRounds));
       removed = Gather(ctx, nb, quality, *radius, rounds);
     }
     if (!removed.ok()) return removed.status();
@@ -114,8 +113,8 @@ class CorrectionStage : public Stage {
   // r_c per scan, scaled; recorded per scan when there are several.
   static absl::StatusOr<std::vector<float>> Radii(StageContext& ctx, const Neighbourhoods& nb) {
     const PointCloud& cloud = ctx.cloud();
-    const double scale = ctx.Number("correction.radius_scale");
-    const std::optional<double> forced = ctx.Overridden("correction.radius_mm");
+    const double scale = ctx.Number(kCorrectionRadiusScale);
+    const std::optional<double> forced = ctx.Overridden(kCorrectionRadius);
     const std::vector<double> spacing = ScanPointSpacing(ctx);
     std::vector<float> radius;
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
@@ -126,7 +125,7 @@ class CorrectionStage : public Stage {
       radius.push_back(static_cast<float>(ctx.CapRadius(
           absl::StrCat("the merge radius r_c (Eq. 11) of scan '", scan.id, "'"),
           forced.value_or(scale * r_c), kMaxMergeRadiusPerGlobalRadius * nb.global_radius())));
-      ctx.RecordForScan("correction.radius_mm", s, radius.back());
+      ctx.RecordForScan(kCorrectionRadius, s, radius.back());
     }
     return radius;
   }
@@ -251,19 +250,18 @@ StageInfo CorrectionStageInfo() {
           "other scans than the best point's whose quality is below the mean (Eq. 11)",
       .params =
           {
-              ChoiceParam("correction.mode",
+              ChoiceParam(kCorrectionMode,
                           "gather: each point decides from its own neighbourhood (parallel, "
                           "order-free); scatter: centres in descending quality remove "
-                          "neighbours at once (paper)",
-                          {"gather", "scatter"}),
-              IntegerParam("correction.rounds",
+                          "neighbours at once (paper)"),
+              IntegerParam(kCorrectionRounds,
                            "most gather rounds, each from the previous round's labels (1 = a "
                            "single pass); stops early when a round removes nothing",
                            10, Closed(1, 1000)),
-              RealParam("correction.radius_scale",
+              RealParam(kCorrectionRadiusScale,
                         "factor on r_c, for registration residuals larger than r_c", 1,
                         LeftOpen(0, 100)),
-              DerivedRealParam("correction.radius_mm", "r_c of Eq. (11) for every scan",
+              DerivedRealParam(kCorrectionRadius, "r_c of Eq. (11) for every scan",
                                "radius_scale·√(Δs² + u² + Δp²) per scan", LeftOpen(0, 1e4)),
           },
       .make = [] { return std::make_unique<CorrectionStage>(); },

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <bit>
 #include <cstdint>
+#include <string_view>
 #include <vector>
 
 #include "core/base/point_cloud.h"
@@ -15,6 +16,12 @@ namespace scanprep {
 // Viewing quality q̂ (§8) and normalised curvature κ̂ (§9, Eq. 7) per point, into
 // StageContext::measures(); flags kEdge where κ̂ >= measures.edge_threshold. Requires "normals".
 StageInfo MeasuresStageInfo();
+
+// The stage's parameters, each name declared here once (its spec and its reader use these).
+inline constexpr std::string_view kMeasuresCurvatureScale = "measures.curvature_scale_per_mm";
+inline constexpr std::string_view kMeasuresVariationScale = "measures.variation_scale";
+inline constexpr std::string_view kMeasuresEdgeThreshold = "measures.edge_threshold";
+inline constexpr std::string_view kMeasuresWindow = "measures.window_mm";
 
 // Δp per scan, the spacing of points along a scanline: measured (median consecutive distance)
 // when the scan has scanlines, else the scanner's nominal point_spacing, else the median

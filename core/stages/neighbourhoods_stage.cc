@@ -69,10 +69,10 @@ class NeighbourhoodsStage : public Stage {
   absl::Status Run(StageContext& ctx) override {
     const PointCloud& cloud = ctx.cloud();
     NeighbourhoodOptions options;
-    options.k = static_cast<uint32_t>(ctx.Integer("neighbourhoods.k"));
+    options.k = static_cast<uint32_t>(ctx.Integer(kNeighbourhoodsK));
     // Per scan: a job mixing sensors would otherwise give the finer one the coarser one's r_min.
-    const std::optional<double> forced_epsilon = ctx.Overridden("neighbourhoods.epsilon_u_mm");
-    const std::optional<double> forced_radius = ctx.Overridden("neighbourhoods.min_radius_mm");
+    const std::optional<double> forced_epsilon = ctx.Overridden(kNeighbourhoodsEpsilonU);
+    const std::optional<double> forced_radius = ctx.Overridden(kNeighbourhoodsMinRadius);
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
       const ScanMeta& scan = cloud.scans[s];
       const double spacing = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
@@ -81,8 +81,8 @@ class NeighbourhoodsStage : public Stage {
       // the ball until it holds k points (docs/algorithms.md §4).
       options.min_radius.push_back(
           forced_radius.value_or(MinRadiusFromScanlineSpacing(spacing, epsilon_u)));
-      ctx.RecordForScan("neighbourhoods.epsilon_u_mm", s, epsilon_u);
-      ctx.RecordForScan("neighbourhoods.min_radius_mm", s, options.min_radius.back());
+      ctx.RecordForScan(kNeighbourhoodsEpsilonU, s, epsilon_u);
+      ctx.RecordForScan(kNeighbourhoodsMinRadius, s, options.min_radius.back());
     }
     WarnAboutMissingMetadata(ctx, forced_radius.has_value());
     const std::vector<double> requested = options.min_radius;
@@ -133,11 +133,11 @@ StageInfo NeighbourhoodsStageInfo() {
       .summary = "spatial grid and k-NN graph shared by all stages; global radius r_g and density",
       .params =
           {
-              IntegerParam("neighbourhoods.k", "neighbours per point in the shared graph (k_g)", 20,
-                           Closed(3, 64)),
-              DerivedRealParam("neighbourhoods.epsilon_u_mm", "ε_u of Eq. (2), uncertainty margin",
+              IntegerParam(kNeighbourhoodsK, "neighbours per point in the shared graph (k_g)",
+                           kDefaultNeighbourK, Closed(3, 64)),
+              DerivedRealParam(kNeighbourhoodsEpsilonU, "ε_u of Eq. (2), uncertainty margin",
                                "the scan's uncertainty u", Closed(0, 1e4)),
-              DerivedRealParam("neighbourhoods.min_radius_mm", "r_min of Eq. (2): √3·Δs + ε_u",
+              DerivedRealParam(kNeighbourhoodsMinRadius, "r_min of Eq. (2): √3·Δs + ε_u",
                                "per scan from its scanline spacing; ε_u for flexible scanners",
                                Closed(0, 1e4)),
           },

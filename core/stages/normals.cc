@@ -14,6 +14,7 @@
 #include "core/base/status_macros.h"
 #include "core/spatial/local_moments.h"
 #include "core/stages/mitra_radius.h"
+#include "core/stages/neighbourhoods_stage.h"
 #include "core/stages/normal_orientation.h"
 #include "core/stages/stage_context.h"
 #include "core/stages/unit_plausibility.h"
@@ -36,27 +37,25 @@ class NormalsStage : public Stage {
     const Neighbourhoods& nb = *shared;
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
-    const std::string mode = ctx.Choice("normals.radius_mode");
-    const double weight_scale = ctx.Number("normals.gaussian_h_factor");
+    const NormalsRadiusMode mode = ctx.Choice(kNormalsRadiusMode);
+    const double weight_scale = ctx.Number(kNormalsGaussianHFactor);
     // At most neighbourhoods.k (ValidateOverrides): orientation walks the shared graph.
     const int64_t orientation_k =
-        ctx.Integer("normals.orientation_k", std::min(kOrientationK, nb.k()));
+        ctx.Integer(kNormalsOrientationK, std::min(kOrientationK, nb.k()));
     const bool per_scan = cloud.scans.size() > 1;
     MitraOptions mitra;
-    if (mode == "mitra") {
-      mitra.c1 = ctx.Number("normals.mitra_c1");
-      mitra.c2 = ctx.Number("normals.mitra_c2");
-      mitra.epsilon = ctx.Number("normals.mitra_epsilon");
+    if (mode == NormalsRadiusMode::kMitra) {
+      mitra.c1 = ctx.Number(kNormalsMitraC1);
+      mitra.c2 = ctx.Number(kNormalsMitraC2);
+      mitra.epsilon = ctx.Number(kNormalsMitraEpsilon);
       const double r_max_limit = kMaxRadiusPerGlobalRadius * nb.global_radius();
-      mitra.r_max =
-          ctx.CapRadius("normals.mitra_max_radius_mm",
-                        ctx.Number("normals.mitra_max_radius_mm", r_max_limit), r_max_limit);
-      ctx.Record("normals.mitra_max_radius_mm", mitra.r_max);  // the value used
+      mitra.r_max = ctx.CapRadius(kNormalsMitraMaxRadius,
+                                  ctx.Number(kNormalsMitraMaxRadius, r_max_limit), r_max_limit);
+      ctx.Record(kNormalsMitraMaxRadius, mitra.r_max);  // the value used
     }
-    const std::optional<double> sigma_override = ctx.Overridden("normals.mitra_sigma_mm");
-    for (size_t s = 0; mode == "mitra" && s < cloud.scans.size(); ++s) {
-      ctx.RecordForScan("normals.mitra_sigma_mm", s,
-                        sigma_override.value_or(cloud.scans[s].uncertainty));
+    const std::optional<double> sigma_override = ctx.Overridden(kNormalsMitraSigma);
+    for (size_t s = 0; mode == NormalsRadiusMode::kMitra && s < cloud.scans.size(); ++s) {
+      ctx.RecordForScan(kNormalsMitraSigma, s, sigma_override.value_or(cloud.scans[s].uncertainty));
     }
 
     cloud.nx.assign(n, 0.f);
@@ -75,7 +74,7 @@ class NormalsStage : public Stage {
     const std::span<const uint32_t> order = nb.order();
     // A Mitra radius costs up to 5 balls of up to 5·r_g (25·k points) with a quadric fit each:
     // smaller blocks, so that a cancel does not wait for 1024 of them.
-    const size_t grain = mode == "mitra" ? 128 : 1024;
+    const size_t grain = mode == NormalsRadiusMode::kMitra ? 128 : 1024;
     absl::Status status = ParallelFor(
         n, ctx.cancel(),
         [&](size_t begin, size_t end) {
@@ -89,7 +88,7 @@ class NormalsStage : public Stage {
               continue;
             }
             float r = nb.adaptive_radius(i);
-            if (mode == "mitra") {
+            if (mode == NormalsRadiusMode::kMitra) {
               const double sigma = sigma_override.value_or(cloud.scans[cloud.scan[i]].uncertainty);
               r = MitraRadius(cloud, nb, i, sigma, mitra, scratch.mitra);
             }
@@ -191,26 +190,25 @@ StageInfo NormalsStageInfo() {
           "along a minimum spanning tree (Eq. 5)",
       .params =
           {
-              ChoiceParam("normals.radius_mode",
+              ChoiceParam(kNormalsRadiusMode,
                           "PCA ball radius: adaptive r_p = max(r_min, "
-                          "d_k), or the Mitra et al. radius of Eq. (1)",
-                          {"adaptive", "mitra"}),
-              RealParam("normals.gaussian_h_factor",
+                          "d_k), or the Mitra et al. radius of Eq. (1)"),
+              RealParam(kNormalsGaussianHFactor,
                         "Gaussian width h as a fraction of the ball radius", 0.5, LeftOpen(0, 10)),
               DerivedIntegerParam(
-                  "normals.orientation_k", "neighbours per point in the orientation graph (Eq. 5)",
+                  kNormalsOrientationK, "neighbours per point in the orientation graph (Eq. 5)",
                   absl::StrCat("min(", kOrientationK, ", neighbourhoods.k)"), Closed(1, 64))
-                  .AtMost("neighbourhoods.k"),
-              RealParam("normals.mitra_c1", "c1 of Eq. (1)", 1, Closed(0, 1000)),
-              RealParam("normals.mitra_c2", "c2 of Eq. (1)", 1, Closed(0, 1000)),
-              RealParam("normals.mitra_epsilon",
+                  .AtMost(kNeighbourhoodsK),
+              RealParam(kNormalsMitraC1, "c1 of Eq. (1)", MitraOptions{}.c1, Closed(0, 1000)),
+              RealParam(kNormalsMitraC2, "c2 of Eq. (1)", MitraOptions{}.c2, Closed(0, 1000)),
+              RealParam(kNormalsMitraEpsilon,
                         "ε of Eq. (1): the normal bound fails with this "
                         "probability",
-                        0.05, Open(0, 1)),
-              DerivedRealParam("normals.mitra_sigma_mm", "noise σ_n of Eq. (1)",
+                        MitraOptions{}.epsilon, Open(0, 1)),
+              DerivedRealParam(kNormalsMitraSigma, "noise σ_n of Eq. (1)",
                                "the scan's uncertainty u", Closed(0, 1e4)),
-              DerivedRealParam("normals.mitra_max_radius_mm", "upper clamp of the Mitra radius",
-                               "5·r_g", LeftOpen(0, 1e4)),
+              DerivedRealParam(kNormalsMitraMaxRadius, "upper clamp of the Mitra radius", "5·r_g",
+                               LeftOpen(0, 1e4)),
           },
       .make = [] { return std::make_unique<NormalsStage>(); },
       .prerequisites =

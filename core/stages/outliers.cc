@@ -20,6 +20,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/parallel.h"
 #include "core/base/status_macros.h"
+#include "core/stages/neighbourhoods_stage.h"
 #include "core/stages/outliers_loop.h"
 #include "core/stages/scan_noise.h"
 #include "core/stages/stage_context.h"
@@ -27,6 +28,17 @@
 
 namespace scanprep {
 namespace {
+
+// What both the stage and its surface step read, once each, at their start.
+struct OutliersSettings {
+  OutlierMethod method;
+  double surface_sigmas;  // 0: no surface test
+};
+
+OutliersSettings ReadSettings(StageContext& ctx) {
+  return {.method = ctx.Choice(kOutliersMethod),
+          .surface_sigmas = ctx.Number(kOutliersSurfaceSigmas)};
+}
 
 struct ScanStats {
   double sum = 0, sum_sq = 0;
@@ -41,15 +53,15 @@ absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
   const size_t n = cloud.size();
 
   // At most neighbourhoods.k (ValidateOverrides); only a cloud of n ≤ k points has fewer.
-  const int64_t k_asked = ctx.Integer("outliers.k");
+  const int64_t k_asked = ctx.Integer(kOutliersK);
   const uint32_t k_o = static_cast<uint32_t>(std::min<int64_t>(k_asked, nb.k()));
   if (k_o < k_asked) {
     ctx.Warn(WarningCode::kOutliersKReduced,
              absl::StrCat("outliers: outliers.k = ", k_asked, " but the cloud has ", n,
                           " points; d is averaged over ", k_o, " neighbours"));
   }
-  const double multiplier = ctx.Number("outliers.multiplier");
-  const double floor_factor = ctx.Number("outliers.median_floor");
+  const double multiplier = ctx.Number(kOutliersMultiplier);
+  const double floor_factor = ctx.Number(kOutliersMedianFloor);
 
   // d_1 (or the mean over k_o neighbours, PCL-style SOR, when k_o > 1), own scan only. The
   // k-NN list holds every scan; when fewer than k_o of its points are of i's scan, the rest are
@@ -78,7 +90,7 @@ absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
   });
   if (!status.ok()) return status;
   ctx.Record("outliers.own_scan_beyond_knn", static_cast<double>(beyond_list.load()));
-  const std::optional<double> forced = ctx.Overridden("outliers.threshold_mm");
+  const std::optional<double> forced = ctx.Overridden(kOutliersThreshold);
 
   std::vector<ScanStats> stats(std::max<size_t>(cloud.scans.size(), 1));
   for (size_t i = 0; i < n; ++i) {
@@ -106,7 +118,7 @@ absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
     ctx.RecordForScan("outliers.mean_d_mm", s, mean);
     ctx.RecordForScan("outliers.sigma_d_mm", s, sigma);
     threshold[s] = forced.value_or(threshold[s]);
-    ctx.RecordForScan("outliers.threshold_mm", s, threshold[s]);
+    ctx.RecordForScan(kOutliersThreshold, s, threshold[s]);
   }
 
   for (size_t i = 0; i < n; ++i) {
@@ -120,11 +132,11 @@ absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
 // outlier), and every point farther than
 // outliers.surface_sigmas local σ off such planes. The normals are fitted first, with the far
 // candidates still in: a point far off the surface lies in no other point's ball.
-absl::Status RemoveOutliers(StageContext& ctx, const Neighbourhoods& nb,
-                            const std::vector<uint8_t>& far) {
+absl::Status RemoveOutliers(StageContext& ctx, const OutliersSettings& settings,
+                            const Neighbourhoods& nb, const std::vector<uint8_t>& far) {
   PointCloud& cloud = ctx.cloud();
   const size_t n = cloud.size();
-  const double sigmas = ctx.Number("outliers.surface_sigmas");
+  const double sigmas = settings.surface_sigmas;
   std::vector<uint8_t> verdict(n, kNotJudged);
   if (sigmas > 0) {
     // The plan ran "normals" before: before the outlier stage for nn (its prerequisite),
@@ -159,7 +171,7 @@ absl::Status RemoveOutliers(StageContext& ctx, const Neighbourhoods& nb,
       ++(far[i] ? removed_far : spikes);
     }
   }
-  if (ctx.Choice("outliers.method") != "loop") {  // LoOP recorded its own removals
+  if (settings.method != OutlierMethod::kLoop) {  // LoOP recorded its own removals
     ctx.Record("outliers.removed", static_cast<double>(removed_far + spikes));
     ctx.Record("outliers.far_removed", static_cast<double>(removed_far));
     ctx.Record("outliers.far_on_surface_kept", static_cast<double>(kept_on_surface));
@@ -174,16 +186,17 @@ class OutliersStage : public Stage {
     SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
     const Neighbourhoods& nb = *shared;
     if (nb.k() == 0) return absl::OkStatus();
+    const OutliersSettings settings = ReadSettings(ctx);
     std::vector<uint8_t> far(ctx.cloud().size(), 0);
-    if (ctx.Choice("outliers.method") == "loop") {
+    if (settings.method == OutlierMethod::kLoop) {
       // LoOP removes its outliers itself; the surface test looks for spikes among the rest, with
       // normals fitted without them: the plan's next steps (SurfaceTestFollowsLoop).
       SCANPREP_RETURN_IF_ERROR(RemoveLoopOutliers(ctx, nb));
-      if (ctx.Number("outliers.surface_sigmas") > 0) return absl::OkStatus();
+      if (settings.surface_sigmas > 0) return absl::OkStatus();
     } else if (absl::Status s = FindDistanceOutliers(ctx, nb, far); !s.ok()) {
       return s;
     }
-    return RemoveOutliers(ctx, nb, far);
+    return RemoveOutliers(ctx, settings, nb, far);
   }
 };
 
@@ -194,14 +207,15 @@ class SurfaceSpikesStep : public Stage {
     SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
     if (shared->k() == 0) return absl::OkStatus();
     // LoOP removed its own far points: only the surface decides here.
-    return RemoveOutliers(ctx, *shared, std::vector<uint8_t>(ctx.cloud().size(), 0));
+    return RemoveOutliers(ctx, ReadSettings(ctx), *shared,
+                          std::vector<uint8_t>(ctx.cloud().size(), 0));
   }
 };
 
 // Whether the outlier stage's surface test runs as its own step after LoOP's removals.
 bool SurfaceTestFollowsLoop(const ParamOverrides& params) {
-  return PlannedNumber(params, "outliers.surface_sigmas") > 0 &&
-         PlannedChoice(params, "outliers.method") == "loop";
+  return PlannedNumber(params, kOutliersSurfaceSigmas) > 0 &&
+         PlannedChoice(params, kOutliersMethod) == OutlierMethod::kLoop;
 }
 
 }  // namespace
@@ -215,33 +229,32 @@ StageInfo OutliersStageInfo() {
           "every such plane",
       .params =
           {
-              ChoiceParam("outliers.method",
+              ChoiceParam(kOutliersMethod,
                           "nn: the paper's global d_1 rule; loop: Local "
-                          "Outlier Probabilities for strongly varying density",
-                          {"nn", "loop"}),
-              IntegerParam("outliers.k", "neighbours averaged into d (1 = the paper's d_1)", 1,
+                          "Outlier Probabilities for strongly varying density"),
+              IntegerParam(kOutliersK, "neighbours averaged into d (1 = the paper's d_1)", 1,
                            Closed(1, 64))
-                  .AtMost("neighbourhoods.k"),
-              RealParam("outliers.multiplier", "σ multiplier of the threshold μ + m·σ", 2,
+                  .AtMost(kNeighbourhoodsK),
+              RealParam(kOutliersMultiplier, "σ multiplier of the threshold μ + m·σ", 2,
                         Closed(0, 100)),
-              RealParam("outliers.surface_sigmas",
+              RealParam(kOutliersSurfaceSigmas,
                         "a point farther than this many local σ from every plane its scan's "
                         "neighbours support is a spike (0 = no surface test)",
                         4, Closed(0, 1000)),
-              RealParam("outliers.median_floor", "the threshold is at least this times median(d)",
-                        1.5, Closed(0, 100)),
-              DerivedRealParam("outliers.threshold_mm",
+              RealParam(kOutliersMedianFloor, "the threshold is at least this times median(d)", 1.5,
+                        Closed(0, 100)),
+              DerivedRealParam(kOutliersThreshold,
                                "distance above which a point is an "
                                "outlier",
                                "max(μ + m·σ, floor·median) per scan", LeftOpen(0, 1e4)),
-              DerivedIntegerParam("outliers.loop_k", "LoOP neighbourhood size", "neighbourhoods.k",
-                                  Closed(1, 64))
-                  .AtMost("neighbourhoods.k"),
-              RealParam("outliers.loop_lambda",
+              DerivedIntegerParam(kOutliersLoopK, "LoOP neighbourhood size",
+                                  std::string(kNeighbourhoodsK), Closed(1, 64))
+                  .AtMost(kNeighbourhoodsK),
+              RealParam(kOutliersLoopLambda,
                         "LoOP λ (standard deviations of the probabilistic "
                         "distance)",
                         3, LeftOpen(0, 100)),
-              RealParam("outliers.loop_threshold",
+              RealParam(kOutliersLoopThreshold,
                         "LoOP probability above which a point is an "
                         "outlier",
                         0.8, Closed(0, 1)),
@@ -252,8 +265,8 @@ StageInfo OutliersStageInfo() {
             // The surface test needs the normals, fitted before anything is removed; LoOP removes
             // its outliers first, so its surface test is a step of its own after the normals.
             std::vector<std::string> need = {"neighbourhoods"};
-            if (PlannedNumber(params, "outliers.surface_sigmas") > 0 &&
-                PlannedChoice(params, "outliers.method") == "nn") {
+            if (PlannedNumber(params, kOutliersSurfaceSigmas) > 0 &&
+                PlannedChoice(params, kOutliersMethod) == OutlierMethod::kNn) {
               need.push_back("normals");
             }
             return need;

@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "core/base/parallel.h"
+#include "core/stages/outliers.h"
 #include "core/stages/stage_context.h"
 
 namespace scanprep {
@@ -18,9 +19,9 @@ absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb) {
   PointCloud& cloud = ctx.cloud();
   const size_t n = cloud.size();
   // At most neighbourhoods.k (ValidateOverrides); for_neighbours() takes what the graph holds.
-  const uint32_t k = static_cast<uint32_t>(ctx.Integer("outliers.loop_k", nb.k()));
-  const double lambda = ctx.Number("outliers.loop_lambda");
-  const double threshold = ctx.Number("outliers.loop_threshold");
+  const uint32_t k = static_cast<uint32_t>(ctx.Integer(kOutliersLoopK, nb.k()));
+  const double lambda = ctx.Number(kOutliersLoopLambda);
+  const double threshold = ctx.Number(kOutliersLoopThreshold);
 
   // Visits the first k unremoved neighbours of i.
   auto for_neighbours = [&](size_t i, auto&& visit) {

@@ -73,37 +73,38 @@ ParamRange LeftOpen(double min, double max) { return {min, max, false, true}; }
 ParamRange RightOpen(double min, double max) { return {min, max, true, false}; }
 ParamRange Open(double min, double max) { return {min, max, false, false}; }
 
-ParamSpec ParamSpec::AtMost(std::string other) && {
-  at_most = std::move(other);
+ParamSpec ParamSpec::AtMost(std::string_view other) && {
+  at_most = std::string(other);
   return std::move(*this);
 }
 
-ParamSpec RealParam(std::string name, std::string description, double default_value,
+ParamSpec RealParam(std::string_view name, std::string description, double default_value,
                     ParamRange range) {
-  return Numeric(std::move(name), ParamKind::kReal, std::move(description), default_value,
+  return Numeric(std::string(name), ParamKind::kReal, std::move(description), default_value,
                  FormatNumber(default_value), range);
 }
 
-ParamSpec DerivedRealParam(std::string name, std::string description, std::string rule,
+ParamSpec DerivedRealParam(std::string_view name, std::string description, std::string rule,
                            ParamRange range) {
-  return Numeric(std::move(name), ParamKind::kReal, std::move(description), std::nullopt,
+  return Numeric(std::string(name), ParamKind::kReal, std::move(description), std::nullopt,
                  std::move(rule), range);
 }
 
-ParamSpec IntegerParam(std::string name, std::string description, int64_t default_value,
+ParamSpec IntegerParam(std::string_view name, std::string description, int64_t default_value,
                        ParamRange range) {
-  return Numeric(std::move(name), ParamKind::kInteger, std::move(description),
+  return Numeric(std::string(name), ParamKind::kInteger, std::move(description),
                  static_cast<double>(default_value), FormatNumber(default_value), range);
 }
 
-ParamSpec DerivedIntegerParam(std::string name, std::string description, std::string rule,
+ParamSpec DerivedIntegerParam(std::string_view name, std::string description, std::string rule,
                               ParamRange range) {
-  return Numeric(std::move(name), ParamKind::kInteger, std::move(description), std::nullopt,
+  return Numeric(std::string(name), ParamKind::kInteger, std::move(description), std::nullopt,
                  std::move(rule), range);
 }
 
-ParamSpec ChoiceParam(std::string name, std::string description, std::vector<std::string> choices) {
-  ParamSpec spec{.name = std::move(name),
+ParamSpec ChoiceParam(std::string_view name, std::string description,
+                      std::vector<std::string> choices) {
+  ParamSpec spec{.name = std::string(name),
                  .kind = ParamKind::kChoice,
                  .description = std::move(description),
                  .choices = std::move(choices)};

@@ -4,11 +4,14 @@
 // with the value actually used.
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -45,19 +48,42 @@ struct ParamSpec {
   // Another integer parameter this one may not exceed (a subset of the shared k-NN graph).
   std::string at_most;
 
-  ParamSpec AtMost(std::string other) &&;
+  ParamSpec AtMost(std::string_view other) &&;
 };
 
 // One line per parameter in a stage's declaration.
-ParamSpec RealParam(std::string name, std::string description, double default_value,
+ParamSpec RealParam(std::string_view name, std::string description, double default_value,
                     ParamRange range);
-ParamSpec DerivedRealParam(std::string name, std::string description, std::string rule,
+ParamSpec DerivedRealParam(std::string_view name, std::string description, std::string rule,
                            ParamRange range);
-ParamSpec IntegerParam(std::string name, std::string description, int64_t default_value,
+ParamSpec IntegerParam(std::string_view name, std::string description, int64_t default_value,
                        ParamRange range);
-ParamSpec DerivedIntegerParam(std::string name, std::string description, std::string rule,
+ParamSpec DerivedIntegerParam(std::string_view name, std::string description, std::string rule,
                               ParamRange range);
-ParamSpec ChoiceParam(std::string name, std::string description, std::vector<std::string> choices);
+ParamSpec ChoiceParam(std::string_view name, std::string description,
+                      std::vector<std::string> choices);
+
+// A choice parameter, declared once: its name and its values' names, indexed by the enum E that
+// stages hold and compare (never the text); the first is the default.
+template <typename E, size_t N>
+struct ChoiceDecl {
+  std::string_view name;
+  std::array<std::string_view, N> values;
+
+  std::string_view Text(E value) const { return values[static_cast<size_t>(value)]; }
+  // The value named `text`, which ValidateOverrides accepted, so it is one of `values`.
+  E Parse(std::string_view text) const {
+    size_t i = 0;
+    while (i + 1 < N && values[i] != text) ++i;
+    return static_cast<E>(i);
+  }
+};
+
+template <typename E, size_t N>
+ParamSpec ChoiceParam(const ChoiceDecl<E, N>& decl, std::string description) {
+  return ChoiceParam(decl.name, std::move(description),
+                     std::vector<std::string>(decl.values.begin(), decl.values.end()));
+}
 
 // The shortest text that reads back as `value` ("1e+30", "0.05", "4294967296").
 std::string FormatNumber(double value);

@@ -265,7 +265,7 @@ double DefaultSpacing(StageContext& ctx, const Neighbourhoods& nb) {
   const std::optional<double> pitch = SpacingFromPitch(ctx.cloud(), ScanPointSpacing(ctx));
   ctx.Record("simplification.spacing_from_density", pitch ? 0 : 1);
   if (pitch) return *pitch;
-  if (!ctx.Overridden("simplification.spacing_mm")) {
+  if (!ctx.Overridden(kSimplificationSpacing)) {
     ctx.Warn(WarningCode::kSpacingFromDensity,
              "simplification: no scan states a scanline spacing, so the thinning spacing is "
              "derived from the cloud's density (2/√ρ) rather than the scanner's pitch");
@@ -290,22 +290,22 @@ class SimplificationStage : public Stage {
     }
 
     Plan plan;
-    plan.adaptive = ctx.Choice("simplification.mode") == "adaptive";
+    plan.adaptive = ctx.Choice(kSimplificationMode) == SimplificationMode::kAdaptive;
     // r_s is held to kMaxSpacingPerGlobalRadius·r_g: a derived one beyond it comes from spacings
     // in the wrong unit, and where κ̂ keeps most points every centre's ball would be a large
     // part of the cloud. The report shows the spacing used.
-    const double spacing = ctx.Number("simplification.spacing_mm", DefaultSpacing(ctx, **nb));
+    const double spacing = ctx.Number(kSimplificationSpacing, DefaultSpacing(ctx, **nb));
     plan.spacing = static_cast<float>(ctx.CapRadius(
         "the thinning spacing r_s", spacing, kMaxSpacingPerGlobalRadius * (*nb)->global_radius()));
-    ctx.Record("simplification.spacing_mm", plan.spacing);
+    ctx.Record(kSimplificationSpacing, plan.spacing);
     if (!(plan.spacing > 0)) {
-      return FieldError("options.params['simplification.spacing_mm']",
+      return FieldError(absl::StrCat("options.params['", std::string(kSimplificationSpacing), "']"),
                         "must be > 0 (no spacing could be derived from the data)");
     }
-    plan.edge_threshold = static_cast<float>(ctx.Number("simplification.edge_threshold"));
-    plan.curvature_floor = static_cast<float>(ctx.Number("simplification.curvature_floor"));
+    plan.edge_threshold = static_cast<float>(ctx.Number(kSimplificationEdgeThreshold));
+    plan.curvature_floor = static_cast<float>(ctx.Number(kSimplificationCurvatureFloor));
     if (!plan.adaptive) plan.edge_threshold = std::numeric_limits<float>::infinity();
-    const bool tiled = ctx.Choice("simplification.order") == "tiled";
+    const bool tiled = ctx.Choice(kSimplificationOrder) == SimplificationOrder::kTiled;
 
     Thinner thinner(cloud, **nb, m, plan);
     absl::StatusOr<std::vector<uint32_t>> order = VisitOrder(cloud, m, thinner, ctx.cancel());
@@ -328,24 +328,22 @@ StageInfo SimplificationStageInfo() {
           "dense at edges, uniform on flat parts",
       .params =
           {
-              ChoiceParam("simplification.mode",
-                          "adaptive: Eq. (13) keeps points by curvature; uniform: κ̂ ignored",
-                          {"adaptive", "uniform"}),
-              DerivedRealParam(
-                  "simplification.spacing_mm", "target spacing r_s between kept points",
-                  "2·√(Δs·Δp), median over scans; 2/√density without scanlines", LeftOpen(0, 1e4)),
-              RealParam("simplification.edge_threshold",
+              ChoiceParam(kSimplificationMode,
+                          "adaptive: Eq. (13) keeps points by curvature; uniform: κ̂ ignored"),
+              DerivedRealParam(kSimplificationSpacing, "target spacing r_s between kept points",
+                               "2·√(Δs·Δp), median over scans; 2/√density without scanlines",
+                               LeftOpen(0, 1e4)),
+              RealParam(kSimplificationEdgeThreshold,
                         "τ_E: centres with κ̂ ≥ τ_E form the edge set, processed first", 0.5,
                         Closed(0, 1)),
-              RealParam("simplification.curvature_floor",
+              RealParam(kSimplificationCurvatureFloor,
                         "κ̂ at or below which Eq. (13) keeps no neighbours (rescaled above): "
                         "suppresses the clusters that curvature noise on flat parts would keep "
                         "(0 = the paper)",
                         0, RightOpen(0, 1)),
-              ChoiceParam("simplification.order",
+              ChoiceParam(kSimplificationOrder,
                           "sequential (the paper's order) or tiled: 8-colour cells of edge 2·r_s "
-                          "in parallel",
-                          {"sequential", "tiled"}),
+                          "in parallel"),
           },
       .make = [] { return std::make_unique<SimplificationStage>(); },
       .prerequisites = [](const ParamOverrides&) { return std::vector<std::string>{"measures"}; },

@@ -46,7 +46,7 @@ class SmoothingStage : public Stage {
                "smoothing: every point has the same viewing quality (no sensor poses), so the "
                "weights of Eq. (6) tell points apart by flatness alone");
     }
-    const int iterations = static_cast<int>(ctx.Integer("smoothing.iterations"));
+    const int iterations = settings.iterations;
     ctx.ExpectWork(kLoopItemsPerIteration * iterations * double(n));
 
     std::vector<uint8_t> outcome(n);
@@ -99,18 +99,15 @@ class SmoothingStage : public Stage {
  private:
   static SmoothingSettings ReadSettings(StageContext& ctx) {
     SmoothingSettings s;
-    s.own_side = ctx.Choice("smoothing.method") == "own_side";
-    s.lambda = static_cast<float>(ctx.Number("smoothing.lambda"));
-    const std::string influence = ctx.Choice("smoothing.influence");
-    s.influence = influence == "gauss"     ? Influence::kGauss
-                  : influence == "average" ? Influence::kAverage
-                                           : Influence::kCubic;
-    s.blend = ctx.Choice("smoothing.mode") == "blend";
-    s.clamp = ctx.Choice("smoothing.tolerance") == "clamp";
+    s.own_side = ctx.Choice(kSmoothingMethod) == SmoothingMethod::kOwnSide;
+    s.lambda = static_cast<float>(ctx.Number(kSmoothingLambda));
+    s.influence = ctx.Choice(kSmoothingInfluence);
+    s.blend = ctx.Choice(kSmoothingMode) == SmoothingMode::kBlend;
+    s.clamp = ctx.Choice(kSmoothingTolerance) == SmoothingTolerance::kClamp;
     const PointCloud& cloud = ctx.cloud();
     const size_t scans = std::max<size_t>(cloud.scans.size(), 1);
-    const std::optional<double> forced = ctx.Overridden("smoothing.tolerance_mm");
-    const std::optional<double> forced_noise = ctx.Overridden("smoothing.noise_mm");
+    const std::optional<double> forced = ctx.Overridden(kSmoothingToleranceMm);
+    const std::optional<double> forced_noise = ctx.Overridden(kSmoothingNoise);
     s.fixed_tolerance = forced.has_value() || !s.own_side;
     const std::vector<std::optional<double>> measured =
         MeasuredScanNoise(cloud, ctx.measures(), scans);
@@ -138,7 +135,7 @@ class SmoothingStage : public Stage {
       // δ = u (the paper), or kMoveSigmas·σ̂ at the scan's typical noise (own side).
       s.tolerance.push_back(
           static_cast<float>(forced.value_or(s.own_side ? kMoveSigmas * noise : u)));
-      if (s.own_side) ctx.RecordForScan("smoothing.noise_mm", scan, noise);
+      if (s.own_side) ctx.RecordForScan(kSmoothingNoise, scan, noise);
       const bool default_u = scan < cloud.scans.size() && !cloud.scans[scan].uncertainty_stated;
       if (!forced && s.fixed_tolerance && default_u) {
         ++tolerance_from_default;
@@ -148,9 +145,10 @@ class SmoothingStage : public Stage {
                               "u = ",
                               u, " mm (smoothing.method = own_side measures the noise)"));
       }
-      ctx.RecordForScan("smoothing.tolerance_mm", scan, s.tolerance.back());
+      ctx.RecordForScan(kSmoothingToleranceMm, scan, s.tolerance.back());
     }
     ctx.Record("smoothing.tolerance_from_default_u", static_cast<double>(tolerance_from_default));
+    s.iterations = static_cast<int>(ctx.Integer(kSmoothingIterations));
     return s;
   }
 };
@@ -166,35 +164,30 @@ StageInfo SmoothingStageInfo() {
           "weighted mean with moves longer than u rejected (Eqs. 6-10)",
       .params =
           {
-              ChoiceParam("smoothing.method",
+              ChoiceParam(kSmoothingMethod,
                           "own_side: projection onto the plane of the point's own side, δ = 3σ "
-                          "from the data; mean: the paper's Eq. (8) with δ = u",
-                          {"own_side", "mean"}),
-              RealParam("smoothing.lambda",
-                        "λ of Eq. (6): share of viewing quality vs. flatness in w_j", 0.5,
-                        Closed(0, 1)),
-              ChoiceParam("smoothing.influence", "distance fall-off Φ: 1-0.8x³, e^{-2x²} or none",
-                          {"cubic", "gauss", "average"}),
-              ChoiceParam("smoothing.mode",
+                          "from the data; mean: the paper's Eq. (8) with δ = u"),
+              RealParam(kSmoothingLambda,
+                        "λ of Eq. (6): share of viewing quality vs. flatness in w_j",
+                        kDefaultSmoothingLambda, Closed(0, 1)),
+              ChoiceParam(kSmoothingInfluence, "distance fall-off Φ: 1-0.8x³, e^{-2x²} or none"),
+              ChoiceParam(kSmoothingMode,
                           "mean method: p' of Eq. (8), or blend: p + w_p·(p' - p), each point's "
-                          "move scaled by its own weight",
-                          {"mean", "blend"}),
-              ChoiceParam("smoothing.tolerance",
-                          "a move longer than δ is rejected (Eq. 10) or clamped to δ",
-                          {"reject", "clamp"}),
-              DerivedRealParam("smoothing.noise_mm",
-                               "own_side: the noise σ the gates and δ are set in",
+                          "move scaled by its own weight"),
+              ChoiceParam(kSmoothingTolerance,
+                          "a move longer than δ is rejected (Eq. 10) or clamped to δ"),
+              DerivedRealParam(kSmoothingNoise, "own_side: the noise σ the gates and δ are set in",
                                "per scan, the median RMS residual of its normal fits (u when "
                                "fewer than 32 fits)",
                                LeftOpen(0, 1e4)),
-              DerivedRealParam("smoothing.tolerance_mm", "δ of Eq. (10)",
+              DerivedRealParam(kSmoothingToleranceMm, "δ of Eq. (10)",
                                "own_side: 3σ per point, σ its fit residual within [σ̂, 2σ̂] of "
                                "its scan; mean: the scan's uncertainty u",
                                Closed(0, 1e4)),
               // Each pass costs the first one's time again, 29 % of a default job (the cost
               // weights below, measured at 1 M points): 7 passes keep the job within 3× its
               // default's time (100 k points through the service: 100 passes were 20×).
-              IntegerParam("smoothing.iterations",
+              IntegerParam(kSmoothingIterations,
                            "Jacobi passes, each from the previous pass's positions", 1,
                            Closed(0, 7)),
           },

@@ -14,10 +14,10 @@
 #include "core/base/point_measures.h"
 #include "core/spatial/ball_points.h"
 #include "core/spatial/neighbourhoods.h"
+#include "core/stages/smoothing.h"
 
 namespace scanprep {
 
-enum class Influence { kCubic, kGauss, kAverage };
 // kUnfitted: own_side found no plane within the gate of the point (too few points, or none of
 // the candidate planes passes near it); the point keeps its position.
 enum SmoothingOutcome : uint8_t { kKept = 0, kMoved, kClamped, kRejected, kUnfitted };
@@ -27,7 +27,7 @@ float InfluenceAt(Influence kind, float x);
 
 struct SmoothingSettings {
   bool own_side = true;  // project onto the own side's plane; false = the paper's mean (Eq. 8)
-  float lambda = 0.5f;
+  float lambda = static_cast<float>(kDefaultSmoothingLambda);
   Influence influence = Influence::kCubic;
   bool blend = false;  // mean: scale each point's own displacement by its weight w_p
   bool clamp = false;  // shorten a long move to δ instead of rejecting it
@@ -38,6 +38,7 @@ struct SmoothingSettings {
   // unless the request fixed it (fixed_tolerance).
   std::vector<float> tolerance;
   bool fixed_tolerance = false;
+  int iterations = 0;  // Jacobi passes
 };
 
 // A point's own fit may be noisier than its scan's median (oblique view, curvature), but never

@@ -59,6 +59,10 @@ const ParamSpec* FindParam(std::string_view name);
 // The value a parameter will have in a job with these (validated) overrides, not recorded; for
 // planning before any stage runs.
 double PlannedNumber(const ParamOverrides& overrides, std::string_view name);
-std::string PlannedChoice(const ParamOverrides& overrides, std::string_view name);
+std::string PlannedChoiceText(const ParamOverrides& overrides, std::string_view name);
+template <typename E, size_t N>
+E PlannedChoice(const ParamOverrides& overrides, const ChoiceDecl<E, N>& decl) {
+  return decl.Parse(PlannedChoiceText(overrides, decl.name));
+}
 
 }  // namespace scanprep

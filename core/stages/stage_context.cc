@@ -57,7 +57,7 @@ int64_t StageContext::Integer(std::string_view name, int64_t derived) {
   return static_cast<int64_t>(Recorded(name, value));
 }
 
-std::string StageContext::Choice(std::string_view name) {
+std::string StageContext::ChoiceText(std::string_view name) {
   const ParamSpec& spec = DeclaredSpec(name, ParamKind::kChoice, /*derived=*/false);
   auto it = overrides_.find(name);
   std::string value = it != overrides_.end() ? it->second : spec.choices.front();

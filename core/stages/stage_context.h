@@ -75,7 +75,10 @@ class StageContext {
   std::optional<double> Overridden(std::string_view name) const;
   // The chosen value of a choice parameter (override, else the spec's default); recorded in the
   // stage's report as a text parameter.
-  std::string Choice(std::string_view name);
+  template <typename E, size_t N>
+  E Choice(const ChoiceDecl<E, N>& decl) {
+    return decl.Parse(ChoiceText(decl.name));
+  }
   // Records a derived value that cannot be overridden (e.g. a count or a measured statistic).
   void Record(std::string_view name, double value);
   // Records a value derived for scan `scan` as `name.scanN`, or as `name` when the job has one
@@ -110,6 +113,8 @@ class StageContext {
   }
 
  private:
+  // Choice()'s text, recorded.
+  std::string ChoiceText(std::string_view name);
   // Record()s a parameter's value and returns it.
   double Recorded(std::string_view name, double value);
 

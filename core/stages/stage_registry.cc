@@ -76,7 +76,7 @@ double PlannedNumber(const ParamOverrides& overrides, std::string_view name) {
   return FindParam(name)->default_value.value_or(0);
 }
 
-std::string PlannedChoice(const ParamOverrides& overrides, std::string_view name) {
+std::string PlannedChoiceText(const ParamOverrides& overrides, std::string_view name) {
   auto it = overrides.find(name);
   return it != overrides.end() ? it->second : FindParam(name)->choices.front();
 }
