@@ -63,6 +63,13 @@ bool ShouldGo(const PointCloud& cloud, const std::vector<float>& quality, const 
   return v.overlap && cloud.scan[j] != v.best_scan && quality[j] < v.mean_quality;
 }
 
+struct CorrectionSettings {
+  CorrectionMode mode;
+  int rounds = 0;  // gather: the most rounds
+  double radius_scale;
+  std::optional<double> radius;  // r_c for every scan, else derived per scan (Eq. 11)
+};
+
 class CorrectionStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
@@ -95,14 +102,14 @@ class CorrectionStage : public Stage {
     SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
     const Neighbourhoods& nb = *shared;
 
-    absl::StatusOr<std::vector<float>> radius = Radii(ctx, nb);
+    const CorrectionSettings settings = ReadSettings(ctx);
+    absl::StatusOr<std::vector<float>> radius = Radii(ctx, settings, nb);
     if (!radius.ok()) return radius.status();
     absl::StatusOr<size_t> removed;
-    if (ctx.Choice(kCorrectionMode) == CorrectionMode::kScatter) {
+    if (settings.mode == CorrectionMode::kScatter) {
       removed = Scatter(ctx, nb, quality, *radius);
     } else {
-      const int rounds = static_cast<int>(ctx.Integer(kCorrectionRounds));
-      removed = Gather(ctx, nb, quality, *radius, rounds);
+      removed = Gather(ctx, nb, quality, *radius, settings.rounds);
     }
     if (!removed.ok()) return removed.status();
     ctx.Record("correction.removed", static_cast<double>(*removed));
@@ -110,11 +117,25 @@ class CorrectionStage : public Stage {
   }
 
  private:
+  // The stage's parameters, read (and recorded) once, when there is an overlap to merge.
+  static CorrectionSettings ReadSettings(StageContext& ctx) {
+    CorrectionSettings s;
+    s.radius_scale = ctx.Number(kCorrectionRadiusScale);
+    s.radius = ctx.Overridden(kCorrectionRadius);
+    s.mode = ctx.Choice(kCorrectionMode);
+    if (s.mode == CorrectionMode::kGather) {
+      s.rounds = static_cast<int>(ctx.Integer(kCorrectionRounds));
+    }
+    return s;
+  }
+
   // r_c per scan, scaled; recorded per scan when there are several.
-  static absl::StatusOr<std::vector<float>> Radii(StageContext& ctx, const Neighbourhoods& nb) {
+  static absl::StatusOr<std::vector<float>> Radii(StageContext& ctx,
+                                                  const CorrectionSettings& settings,
+                                                  const Neighbourhoods& nb) {
     const PointCloud& cloud = ctx.cloud();
-    const double scale = ctx.Number(kCorrectionRadiusScale);
-    const std::optional<double> forced = ctx.Overridden(kCorrectionRadius);
+    const double scale = settings.radius_scale;
+    const std::optional<double> forced = settings.radius;
     const std::vector<double> spacing = ScanPointSpacing(ctx);
     std::vector<float> radius;
     for (size_t s = 0; s < cloud.scans.size(); ++s) {

@@ -25,6 +25,14 @@ namespace {
 // Neighbours per point in the orientation graph unless the request says otherwise.
 constexpr uint32_t kOrientationK = 10;
 
+struct NormalsSettings {
+  NormalsRadiusMode radius_mode;
+  double h_factor;  // Gaussian width h as a fraction of the ball radius
+  uint32_t orientation_k;
+  MitraOptions mitra;                 // kMitra
+  std::optional<double> mitra_sigma;  // σ_n for every scan, else each scan's u
+};
+
 struct Scratch {
   RadiusMatches matches;
   RadiusMatches mitra;
@@ -37,26 +45,8 @@ class NormalsStage : public Stage {
     const Neighbourhoods& nb = *shared;
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
-    const NormalsRadiusMode mode = ctx.Choice(kNormalsRadiusMode);
-    const double weight_scale = ctx.Number(kNormalsGaussianHFactor);
-    // At most neighbourhoods.k (ValidateOverrides): orientation walks the shared graph.
-    const int64_t orientation_k =
-        ctx.Integer(kNormalsOrientationK, std::min(kOrientationK, nb.k()));
+    const NormalsSettings settings = ReadSettings(ctx, nb);
     const bool per_scan = cloud.scans.size() > 1;
-    MitraOptions mitra;
-    if (mode == NormalsRadiusMode::kMitra) {
-      mitra.c1 = ctx.Number(kNormalsMitraC1);
-      mitra.c2 = ctx.Number(kNormalsMitraC2);
-      mitra.epsilon = ctx.Number(kNormalsMitraEpsilon);
-      const double r_max_limit = kMaxRadiusPerGlobalRadius * nb.global_radius();
-      mitra.r_max = ctx.CapRadius(kNormalsMitraMaxRadius,
-                                  ctx.Number(kNormalsMitraMaxRadius, r_max_limit), r_max_limit);
-      ctx.Record(kNormalsMitraMaxRadius, mitra.r_max);  // the value used
-    }
-    const std::optional<double> sigma_override = ctx.Overridden(kNormalsMitraSigma);
-    for (size_t s = 0; mode == NormalsRadiusMode::kMitra && s < cloud.scans.size(); ++s) {
-      ctx.RecordForScan(kNormalsMitraSigma, s, sigma_override.value_or(cloud.scans[s].uncertainty));
-    }
 
     cloud.nx.assign(n, 0.f);
     cloud.ny.assign(n, 0.f);
@@ -74,7 +64,7 @@ class NormalsStage : public Stage {
     const std::span<const uint32_t> order = nb.order();
     // A Mitra radius costs up to 5 balls of up to 5·r_g (25·k points) with a quadric fit each:
     // smaller blocks, so that a cancel does not wait for 1024 of them.
-    const size_t grain = mode == NormalsRadiusMode::kMitra ? 128 : 1024;
+    const size_t grain = settings.radius_mode == NormalsRadiusMode::kMitra ? 128 : 1024;
     absl::Status status = ParallelFor(
         n, ctx.cancel(),
         [&](size_t begin, size_t end) {
@@ -88,9 +78,10 @@ class NormalsStage : public Stage {
               continue;
             }
             float r = nb.adaptive_radius(i);
-            if (mode == NormalsRadiusMode::kMitra) {
-              const double sigma = sigma_override.value_or(cloud.scans[cloud.scan[i]].uncertainty);
-              r = MitraRadius(cloud, nb, i, sigma, mitra, scratch.mitra);
+            if (settings.radius_mode == NormalsRadiusMode::kMitra) {
+              const double sigma =
+                  settings.mitra_sigma.value_or(cloud.scans[cloud.scan[i]].uncertainty);
+              r = MitraRadius(cloud, nb, i, sigma, settings.mitra, scratch.mitra);
             }
             // In an overlap part of the k-NN ball belongs to other scans: widen it once
             // (OwnScanWidening). Only the widened ball is fitted. (One query reaching past r_p for
@@ -101,7 +92,7 @@ class NormalsStage : public Stage {
               r *= OwnScanWidening(own, nb.k());
               Gather(cloud, nb, i, r, per_scan, scratch.matches);
             }
-            const LocalFrame frame = Fit(cloud, i, r, weight_scale, scratch.matches);
+            const LocalFrame frame = Fit(cloud, i, r, settings.h_factor, scratch.matches);
             radius[i] = r;
             if (!frame.valid) {
               no_normal[i] = 1;
@@ -126,7 +117,7 @@ class NormalsStage : public Stage {
 
     ctx.Progress(0.5);  // the normals are fitted; orientation follows
     OrientationCounts counts;
-    status = OrientNormals(cloud, nb, static_cast<uint32_t>(orientation_k), ctx.cancel(), counts);
+    status = OrientNormals(cloud, nb, settings.orientation_k, ctx.cancel(), counts);
     if (!status.ok()) return status;
 
     std::vector<float> kept;
@@ -155,6 +146,34 @@ class NormalsStage : public Stage {
   }
 
  private:
+  // The stage's parameters, read (and recorded) once; the derived defaults from the shared
+  // neighbourhoods.
+  static NormalsSettings ReadSettings(StageContext& ctx, const Neighbourhoods& nb) {
+    NormalsSettings s;
+    s.radius_mode = ctx.Choice(kNormalsRadiusMode);
+    s.h_factor = ctx.Number(kNormalsGaussianHFactor);
+    // At most neighbourhoods.k (ValidateOverrides): orientation walks the shared graph.
+    s.orientation_k =
+        static_cast<uint32_t>(ctx.Integer(kNormalsOrientationK, std::min(kOrientationK, nb.k())));
+    if (s.radius_mode == NormalsRadiusMode::kMitra) {
+      s.mitra.c1 = ctx.Number(kNormalsMitraC1);
+      s.mitra.c2 = ctx.Number(kNormalsMitraC2);
+      s.mitra.epsilon = ctx.Number(kNormalsMitraEpsilon);
+      const double r_max_limit = kMaxRadiusPerGlobalRadius * nb.global_radius();
+      s.mitra.r_max = ctx.CapRadius(kNormalsMitraMaxRadius,
+                                    ctx.Number(kNormalsMitraMaxRadius, r_max_limit), r_max_limit);
+      ctx.Record(kNormalsMitraMaxRadius, s.mitra.r_max);  // the value used
+    }
+    s.mitra_sigma = ctx.Overridden(kNormalsMitraSigma);
+    const PointCloud& cloud = ctx.cloud();
+    for (size_t scan = 0; s.radius_mode == NormalsRadiusMode::kMitra && scan < cloud.scans.size();
+         ++scan) {
+      ctx.RecordForScan(kNormalsMitraSigma, scan,
+                        s.mitra_sigma.value_or(cloud.scans[scan].uncertainty));
+    }
+    return s;
+  }
+
   // The unremoved points within `radius` of i, of i's own scan when `per_scan`.
   static void Gather(const PointCloud& cloud, const Neighbourhoods& nb, size_t i, float radius,
                      bool per_scan, RadiusMatches& matches) {

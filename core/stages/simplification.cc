@@ -28,11 +28,13 @@
 namespace scanprep {
 namespace {
 
+// The stage's settings, read once from its parameters (ReadPlan).
 struct Plan {
-  float spacing = 0;          // r_s
-  float edge_threshold;       // τ_E; +inf in uniform mode (no edge set)
-  bool adaptive = true;       // false: m(p) = 0 everywhere
-  float curvature_floor = 0;  // κ̂ at or below this counts as flat in Eq. (13)
+  float spacing;          // r_s
+  float edge_threshold;   // τ_E; +inf in uniform mode (no edge set)
+  bool adaptive;          // false: m(p) = 0 everywhere
+  float curvature_floor;  // κ̂ at or below this counts as flat in Eq. (13)
+  bool tiled;             // 8-colour cells in parallel instead of the paper's sequential order
 };
 
 class Thinner {
@@ -273,6 +275,28 @@ double DefaultSpacing(StageContext& ctx, const Neighbourhoods& nb) {
   return nb.density() > 0 ? 2.0 / std::sqrt(nb.density()) : 0.0;
 }
 
+// The stage's parameters, read (and recorded) once; r_s derived from the data unless given.
+absl::StatusOr<Plan> ReadPlan(StageContext& ctx, const Neighbourhoods& nb) {
+  Plan plan;
+  plan.adaptive = ctx.Choice(kSimplificationMode) == SimplificationMode::kAdaptive;
+  // r_s is held to kMaxSpacingPerGlobalRadius·r_g: a derived one beyond it comes from spacings
+  // in the wrong unit, and where κ̂ keeps most points every centre's ball would be a large
+  // part of the cloud. The report shows the spacing used.
+  const double spacing = ctx.Number(kSimplificationSpacing, DefaultSpacing(ctx, nb));
+  plan.spacing = static_cast<float>(ctx.CapRadius("the thinning spacing r_s", spacing,
+                                                  kMaxSpacingPerGlobalRadius * nb.global_radius()));
+  ctx.Record(kSimplificationSpacing, plan.spacing);
+  if (!(plan.spacing > 0)) {
+    return FieldError(absl::StrCat("options.params['", std::string(kSimplificationSpacing), "']"),
+                      "must be > 0 (no spacing could be derived from the data)");
+  }
+  plan.edge_threshold = static_cast<float>(ctx.Number(kSimplificationEdgeThreshold));
+  plan.curvature_floor = static_cast<float>(ctx.Number(kSimplificationCurvatureFloor));
+  if (!plan.adaptive) plan.edge_threshold = std::numeric_limits<float>::infinity();
+  plan.tiled = ctx.Choice(kSimplificationOrder) == SimplificationOrder::kTiled;
+  return plan;
+}
+
 class SimplificationStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
@@ -289,29 +313,12 @@ class SimplificationStage : public Stage {
       return absl::OkStatus();
     }
 
-    Plan plan;
-    plan.adaptive = ctx.Choice(kSimplificationMode) == SimplificationMode::kAdaptive;
-    // r_s is held to kMaxSpacingPerGlobalRadius·r_g: a derived one beyond it comes from spacings
-    // in the wrong unit, and where κ̂ keeps most points every centre's ball would be a large
-    // part of the cloud. The report shows the spacing used.
-    const double spacing = ctx.Number(kSimplificationSpacing, DefaultSpacing(ctx, **nb));
-    plan.spacing = static_cast<float>(ctx.CapRadius(
-        "the thinning spacing r_s", spacing, kMaxSpacingPerGlobalRadius * (*nb)->global_radius()));
-    ctx.Record(kSimplificationSpacing, plan.spacing);
-    if (!(plan.spacing > 0)) {
-      return FieldError(absl::StrCat("options.params['", std::string(kSimplificationSpacing), "']"),
-                        "must be > 0 (no spacing could be derived from the data)");
-    }
-    plan.edge_threshold = static_cast<float>(ctx.Number(kSimplificationEdgeThreshold));
-    plan.curvature_floor = static_cast<float>(ctx.Number(kSimplificationCurvatureFloor));
-    if (!plan.adaptive) plan.edge_threshold = std::numeric_limits<float>::infinity();
-    const bool tiled = ctx.Choice(kSimplificationOrder) == SimplificationOrder::kTiled;
-
+    SCANPREP_ASSIGN_OR_RETURN(const Plan plan, ReadPlan(ctx, **nb));
     Thinner thinner(cloud, **nb, m, plan);
     absl::StatusOr<std::vector<uint32_t>> order = VisitOrder(cloud, m, thinner, ctx.cancel());
     if (!order.ok()) return order.status();
-    absl::Status status = tiled ? RunTiled(ctx, thinner, *std::move(order), 2 * plan.spacing)
-                                : RunSequential(ctx, thinner, *order);
+    absl::Status status = plan.tiled ? RunTiled(ctx, thinner, *std::move(order), 2 * plan.spacing)
+                                     : RunSequential(ctx, thinner, *order);
     if (!status.ok()) return status;
     ctx.Record("simplification.removed", static_cast<double>(before - cloud.CountKept()));
     return absl::OkStatus();
