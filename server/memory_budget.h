@@ -44,6 +44,7 @@ inline constexpr uint64_t kBytesPerPoint = 416;
 // Each neighbour above k = 20: measured 2.4 B, with a margin (k = 64 at the limit: 768 B
 // estimated, 245 measured). A smaller k is estimated as k = 20.
 inline constexpr uint64_t kBytesPerPointPerExtraNeighbour = 8;
+// The default neighbourhoods.k, at which kBytesPerPoint was measured.
 inline constexpr int kDefaultNeighbours = static_cast<int>(kDefaultNeighbourK);
 inline constexpr uint64_t kJobOverheadBytes = uint64_t{16} << 20;
 // The server's own memory outside any job: the idle process (19.6 MiB), gRPC's buffers of the
