@@ -46,22 +46,36 @@ struct ScanStats {
   std::vector<float> values;  // for the median floor
 };
 
+// The paper's rule's parameters, read once at its start.
+struct DistanceRule {
+  int64_t k;                        // neighbours averaged into d
+  double multiplier;                // m of μ + m·σ
+  double floor_factor;              // the threshold is at least this times median(d)
+  std::optional<double> threshold;  // for every scan, else derived per scan
+};
+
+DistanceRule ReadDistanceRule(StageContext& ctx) {
+  return {.k = ctx.Integer(kOutliersK),
+          .multiplier = ctx.Number(kOutliersMultiplier),
+          .floor_factor = ctx.Number(kOutliersMedianFloor),
+          .threshold = ctx.Overridden(kOutliersThreshold)};
+}
+
 // The paper's rule: d (d_1, or a k_o-mean) above max(μ + m·σ, floor·median) of its scan.
 absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
                                   std::vector<uint8_t>& far) {
   PointCloud& cloud = ctx.cloud();
   const size_t n = cloud.size();
+  const DistanceRule rule = ReadDistanceRule(ctx);
 
   // At most neighbourhoods.k (ValidateOverrides); only a cloud of n ≤ k points has fewer.
-  const int64_t k_asked = ctx.Integer(kOutliersK);
+  const int64_t k_asked = rule.k;
   const uint32_t k_o = static_cast<uint32_t>(std::min<int64_t>(k_asked, nb.k()));
   if (k_o < k_asked) {
     ctx.Warn(WarningCode::kOutliersKReduced,
              absl::StrCat("outliers: outliers.k = ", k_asked, " but the cloud has ", n,
                           " points; d is averaged over ", k_o, " neighbours"));
   }
-  const double multiplier = ctx.Number(kOutliersMultiplier);
-  const double floor_factor = ctx.Number(kOutliersMedianFloor);
 
   // d_1 (or the mean over k_o neighbours, PCL-style SOR, when k_o > 1), own scan only. The
   // k-NN list holds every scan; when fewer than k_o of its points are of i's scan, the rest are
@@ -90,7 +104,6 @@ absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
   });
   if (!status.ok()) return status;
   ctx.Record("outliers.own_scan_beyond_knn", static_cast<double>(beyond_list.load()));
-  const std::optional<double> forced = ctx.Overridden(kOutliersThreshold);
 
   std::vector<ScanStats> stats(std::max<size_t>(cloud.scans.size(), 1));
   for (size_t i = 0; i < n; ++i) {
@@ -114,10 +127,10 @@ absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
     auto mid = st.values.begin() + st.values.size() / 2;
     std::nth_element(st.values.begin(), mid, st.values.end());
     // A regular scan grid has σ ≈ 0; the median floor keeps its slightly wider gaps.
-    threshold[s] = std::max(mean + multiplier * sigma, floor_factor * *mid);
+    threshold[s] = std::max(mean + rule.multiplier * sigma, rule.floor_factor * *mid);
     ctx.RecordForScan("outliers.mean_d_mm", s, mean);
     ctx.RecordForScan("outliers.sigma_d_mm", s, sigma);
-    threshold[s] = forced.value_or(threshold[s]);
+    threshold[s] = rule.threshold.value_or(threshold[s]);
     ctx.RecordForScan(kOutliersThreshold, s, threshold[s]);
   }
 

@@ -15,13 +15,30 @@
 
 namespace scanprep {
 
+namespace {
+
+struct LoopSettings {
+  uint32_t k;        // neighbourhood size
+  double lambda;     // λ: standard deviations of the probabilistic distance
+  double threshold;  // LoOP probability above which a point is an outlier
+};
+
+// Read once, at the start; k defaults to the shared graph's.
+LoopSettings ReadLoopSettings(StageContext& ctx, const Neighbourhoods& nb) {
+  // At most neighbourhoods.k (ValidateOverrides); for_neighbours() takes what the graph holds.
+  return {.k = static_cast<uint32_t>(ctx.Integer(kOutliersLoopK, nb.k())),
+          .lambda = ctx.Number(kOutliersLoopLambda),
+          .threshold = ctx.Number(kOutliersLoopThreshold)};
+}
+
+}  // namespace
+
 absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb) {
   PointCloud& cloud = ctx.cloud();
   const size_t n = cloud.size();
-  // At most neighbourhoods.k (ValidateOverrides); for_neighbours() takes what the graph holds.
-  const uint32_t k = static_cast<uint32_t>(ctx.Integer(kOutliersLoopK, nb.k()));
-  const double lambda = ctx.Number(kOutliersLoopLambda);
-  const double threshold = ctx.Number(kOutliersLoopThreshold);
+  const LoopSettings settings = ReadLoopSettings(ctx, nb);
+  const uint32_t k = settings.k;
+  const double lambda = settings.lambda;
 
   // Visits the first k unremoved neighbours of i.
   auto for_neighbours = [&](size_t i, auto&& visit) {
@@ -76,7 +93,7 @@ absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb) {
   for (size_t i = 0; i < n; ++i) {
     if (cloud.removed(i)) continue;
     const double loop = std::max(0.0, std::erf(plof[i] / (nplof * std::sqrt(2.0))));
-    if (loop > threshold) {
+    if (loop > settings.threshold) {
       cloud.flags[i] |= kRemovedOutlier;
       ++removed;
     }
