@@ -72,6 +72,21 @@ void AssignScanMedians(const PointCloud& cloud, Unknown unknown, std::vector<flo
   }
 }
 
+// The curvature half's parameters, read once at its start.
+struct CurvatureSettings {
+  double scale;                  // s: scanline curvature of a significant edge
+  double variation_scale;        // s_σ: surface variation of one (fallback without scanlines)
+  double edge_threshold;         // κ̂ at or above which a point is an edge
+  std::optional<double> window;  // h for every scan, else derived per scan
+};
+
+CurvatureSettings ReadCurvatureSettings(StageContext& ctx) {
+  return {.scale = ctx.Number(kMeasuresCurvatureScale),
+          .variation_scale = ctx.Number(kMeasuresVariationScale),
+          .edge_threshold = ctx.Number(kMeasuresEdgeThreshold),
+          .window = ctx.Overridden(kMeasuresWindow)};
+}
+
 class MeasuresStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
@@ -133,17 +148,14 @@ class MeasuresStage : public Stage {
   static absl::Status Curvature(StageContext& ctx) {
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
-    const double scale = ctx.Number(kMeasuresCurvatureScale);
-    const double variation_scale = ctx.Number(kMeasuresVariationScale);
-    const double threshold = ctx.Number(kMeasuresEdgeThreshold);
+    const CurvatureSettings settings = ReadCurvatureSettings(ctx);
 
     const std::vector<double> spacing = ScanPointSpacing(ctx);
     std::vector<double> window(cloud.scans.size(), 0.0);
-    const std::optional<double> forced = ctx.Overridden(kMeasuresWindow);
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
       const double u = cloud.scans[s].uncertainty;
-      window[s] =
-          forced.value_or(std::max({3 * spacing[s], 2 * u, NoiseWindow(u, spacing[s], scale)}));
+      window[s] = settings.window.value_or(
+          std::max({3 * spacing[s], 2 * u, NoiseWindow(u, spacing[s], settings.scale)}));
       ctx.RecordForScan("measures.point_spacing_mm", s, spacing[s]);
       ctx.RecordForScan(kMeasuresWindow, s, window[s]);
     }
@@ -191,9 +203,9 @@ class MeasuresStage : public Stage {
         if (cloud.removed(i)) continue;
         double value;
         if (lines && std::isfinite(kappa[i])) {
-          value = kappa[i] / scale;
+          value = kappa[i] / settings.scale;
         } else {
-          value = variation[i] / variation_scale;  // Eq. (12) fallback
+          value = variation[i] / settings.variation_scale;  // Eq. (12) fallback
           ++local_fallback;
         }
         curvature[i] = static_cast<float>(std::min(value, 1.0));  // Eq. (7)
@@ -205,7 +217,7 @@ class MeasuresStage : public Stage {
     size_t edges = 0;
     for (size_t i = 0; i < n; ++i) {
       cloud.flags[i] &= static_cast<uint8_t>(~kEdge);
-      if (!cloud.removed(i) && curvature[i] >= threshold) {
+      if (!cloud.removed(i) && curvature[i] >= settings.edge_threshold) {
         cloud.flags[i] |= kEdge;
         ++edges;
       }
