@@ -66,9 +66,8 @@ absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOpti
       Plan::Resolve(options.stages.empty() ? DefaultStages() : options.stages, options.params));
   if (cloud.flags.size() != cloud.size()) cloud.FinishLoading();
   const auto start = std::chrono::steady_clock::now();
-  absl::StatusOr<DuplicateGroups> duplicates = FindDuplicates(cloud, cancel);
-  if (!duplicates.ok()) return duplicates.status();
-  const size_t coincident_across_scans = duplicates->coincident_across_scans;
+  SCANPREP_ASSIGN_OR_RETURN(DuplicateGroups duplicates, FindDuplicates(cloud, cancel));
+  const size_t coincident_across_scans = duplicates.coincident_across_scans;
   std::vector<Warning> before_stages;
   if (coincident_across_scans > 0) {
     before_stages.push_back(
@@ -81,17 +80,17 @@ absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOpti
   }
   // Known before any stage runs, so a job that fails on it does no work.
   SCANPREP_RETURN_IF_ERROR(FailOnWarnings(before_stages, options.fail_on));
-  absl::StatusOr<PipelineReport> result;
-  if (duplicates->collapsed() == 0) {
-    *duplicates = {};  // the identity: 8 bytes a point the stages never read
-    result = RunStages(plan, cloud, options, cancel, std::move(progress), *duplicates);
+  PipelineReport report;
+  if (duplicates.collapsed() == 0) {
+    duplicates = {};  // the identity: 8 bytes a point the stages never read
+    SCANPREP_ASSIGN_OR_RETURN(
+        report, RunStages(plan, cloud, options, cancel, std::move(progress), duplicates));
   } else {
-    PointCloud compact = CompactDuplicates(cloud, *duplicates);
-    result = RunStages(plan, compact, options, cancel, std::move(progress), *duplicates);
-    if (result.ok()) ExpandDuplicates(compact, *duplicates, cloud);
+    PointCloud compact = CompactDuplicates(cloud, duplicates);
+    SCANPREP_ASSIGN_OR_RETURN(
+        report, RunStages(plan, compact, options, cancel, std::move(progress), duplicates));
+    ExpandDuplicates(compact, duplicates, cloud);
   }
-  if (!result.ok()) return result.status();
-  PipelineReport report = *std::move(result);
   report.points_coincident_across_scans = coincident_across_scans;
   report.warnings.insert(report.warnings.end(), before_stages.begin(), before_stages.end());
   report.total_seconds =

@@ -5,6 +5,7 @@
 #include <functional>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
 
 namespace scanprep {
 namespace {
@@ -40,7 +41,7 @@ absl::StatusOr<Plan> Plan::Resolve(const std::vector<std::string>& requested,
     }
   };
   for (const std::string& name : requested) add(name);
-  if (!unknown.ok()) return unknown;
+  SCANPREP_RETURN_IF_ERROR(unknown);
   return FromSteps(std::move(steps), std::move(params));
 }
 

@@ -112,7 +112,7 @@ absl::Status CellGrid::Sort(const PointCloud& cloud, int z_bits, int key_bits,
                             const CancelToken& cancel) {
   const size_t n = cloud.size();
   std::vector<Keyed<Key>> keyed(n);
-  absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, cancel, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       const float p[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
       uint64_t c[3];
@@ -120,8 +120,7 @@ absl::Status CellGrid::Sort(const PointCloud& cloud, int z_bits, int key_bits,
       keyed[i] = {static_cast<Key>((c[0] * cells_[1] + c[1]) << z_bits | c[2]),
                   static_cast<uint32_t>(i)};
     }
-  });
-  if (!status.ok()) return status;
+  }));
   RadixSort(keyed, key_bits);
   SCANPREP_RETURN_IF_ERROR(cancel.Check());
 

@@ -105,14 +105,13 @@ absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const Ca
   const double edge = ResolutionCell(cloud);
   std::vector<std::pair<uint64_t, uint64_t>> keyed(n);
   const uint64_t key = HashKey();
-  absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, cancel, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       const Cell c = CellOf(cloud, static_cast<uint32_t>(i), edge);
       const uint64_t h = Mix(key ^ uint64_t(c.v[0]) ^ Mix(uint64_t(c.v[1]) ^ Mix(c.v[2])));
       keyed[i] = {h, (uint64_t(cloud.scan[i]) << 32) | i};
     }
-  });
-  if (!status.ok()) return status;
+  }));
   SCANPREP_RETURN_IF_ERROR(CancellableSort(keyed, cancel));
 
   // first[i]: the lowest index of i's group. Within a run of equal hashes each point is compared

@@ -74,7 +74,7 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
   // Lists that need 32-bit indices go to wide_, a block's at once; where they lie there depends
   // on the threads' timing, which list is found for a point does not (wide_of_ is sorted).
   std::mutex wide_mutex;
-  absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, cancel, [&](size_t begin, size_t end) {
     std::vector<uint32_t> idx(k);
     std::vector<float> d2(k);
     std::vector<uint64_t> scratch;
@@ -96,8 +96,7 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
       nb->wide_of_.emplace_back(wide_points[w], static_cast<uint32_t>(nb->wide_.size() / k + w));
     }
     nb->wide_.insert(nb->wide_.end(), wide_lists.begin(), wide_lists.end());
-  });
-  if (!status.ok()) return status;
+  }));
   std::sort(nb->wide_of_.begin(), nb->wide_of_.end());
 
   nb->ComputeGlobalRadius();
@@ -129,7 +128,7 @@ absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shif
   if (k_ > 0 && by_rank_.empty()) by_rank_.assign(grid_.order().begin(), grid_.order().end());
   SCANPREP_RETURN_IF_ERROR(grid_.Build(cloud, grid_.cell_edge(), cancel));
   if (k_ == 0) return absl::OkStatus();
-  absl::Status status = ParallelFor(cloud.size(), cancel, [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(cloud.size(), cancel, [&](size_t begin, size_t end) {
     std::vector<float> dist(k_);
     std::vector<uint32_t> idx(k_);
     for (size_t i = begin; i < end; ++i) {
@@ -150,8 +149,7 @@ absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shif
       if (!Encode(i, idx.data())) std::copy(idx.begin(), idx.end(), &wide_[WideStart(i)]);
       dk_[i] = dist[k_ - 1];
     }
-  });
-  if (!status.ok()) return status;
+  }));
   ComputeGlobalRadius();
   return absl::OkStatus();
 }

@@ -103,16 +103,12 @@ class CorrectionStage : public Stage {
     const Neighbourhoods& nb = *shared;
 
     const CorrectionSettings settings = ReadSettings(ctx);
-    absl::StatusOr<std::vector<float>> radius = Radii(ctx, settings, nb);
-    if (!radius.ok()) return radius.status();
-    absl::StatusOr<size_t> removed;
-    if (settings.mode == CorrectionMode::kScatter) {
-      removed = Scatter(ctx, nb, quality, *radius);
-    } else {
-      removed = Gather(ctx, nb, quality, *radius, settings.rounds);
-    }
-    if (!removed.ok()) return removed.status();
-    ctx.Record("correction.removed", static_cast<double>(*removed));
+    SCANPREP_ASSIGN_OR_RETURN(const std::vector<float> radius, Radii(ctx, settings, nb));
+    SCANPREP_ASSIGN_OR_RETURN(const size_t removed,
+                              settings.mode == CorrectionMode::kScatter
+                                  ? Scatter(ctx, nb, quality, radius)
+                                  : Gather(ctx, nb, quality, radius, settings.rounds));
+    ctx.Record("correction.removed", static_cast<double>(removed));
     return absl::OkStatus();
   }
 
@@ -174,7 +170,7 @@ class CorrectionStage : public Stage {
     // (judging, then finding the centres near its removals).
     ctx.ExpectWork(2.0 * max_rounds * double(n));
     while (round < max_rounds) {
-      absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+      SCANPREP_RETURN_IF_ERROR(ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
         RadiusMatches matches;
         for (size_t at = begin; at < end; ++at) {
           const uint32_t i = order[at];
@@ -185,8 +181,7 @@ class CorrectionStage : public Stage {
           settled[i] = !v.overlap;
           go[i] = ShouldGo(cloud, quality, v, i);
         }
-      });
-      if (!status.ok()) return status;
+      }));
       ++round;
       size_t now = 0;
       for (size_t i = 0; i < n; ++i) {

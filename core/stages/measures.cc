@@ -123,7 +123,7 @@ class MeasuresStage : public Stage {
       }
     }
     ctx.Record("measures.scans_without_pose", static_cast<double>(without_pose));
-    absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+    SCANPREP_RETURN_IF_ERROR(ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
       for (size_t i = begin; i < end; ++i) {
         if (!HasNormal(cloud, i)) continue;
         const ScanMeta& scan = cloud.scans[cloud.scan[i]];
@@ -137,8 +137,7 @@ class MeasuresStage : public Stage {
         const double q = std::max(alpha, beta);
         quality[i] = static_cast<float>(1.0 - q / (std::numbers::pi / 2));  // Eq. (7)
       }
-    });
-    if (!status.ok()) return status;
+    }));
     // Points without a valid normal have no viewing angle.
     const auto no_normal = [&](size_t i) { return !HasNormal(cloud, i); };
     AssignScanMedians(cloud, no_normal, quality);
@@ -175,8 +174,7 @@ class MeasuresStage : public Stage {
     }
     if (lines) {
       ScanlineCurvatureCounts counts;
-      absl::Status s = ScanlineCurvature(cloud, window, ctx.cancel(), kappa, counts);
-      if (!s.ok()) return s;
+      SCANPREP_RETURN_IF_ERROR(ScanlineCurvature(cloud, window, ctx.cancel(), kappa, counts));
       ctx.Record("measures.windows_capped", static_cast<double>(counts.windows_capped));
       if (counts.windows_capped > 0) {
         ctx.Warn(WarningCode::kWindowsCapped,
@@ -197,7 +195,7 @@ class MeasuresStage : public Stage {
     auto unknown = [&](size_t i) {
       return !(lines && std::isfinite(kappa[i])) && !HasNormal(cloud, i);
     };
-    absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+    SCANPREP_RETURN_IF_ERROR(ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
       size_t local_fallback = 0;
       for (size_t i = begin; i < end; ++i) {
         if (cloud.removed(i)) continue;
@@ -211,8 +209,7 @@ class MeasuresStage : public Stage {
         curvature[i] = static_cast<float>(std::min(value, 1.0));  // Eq. (7)
       }
       fallback += local_fallback;
-    });
-    if (!status.ok()) return status;
+    }));
     AssignScanMedians(cloud, unknown, curvature);
     size_t edges = 0;
     for (size_t i = 0; i < n; ++i) {

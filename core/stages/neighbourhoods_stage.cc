@@ -10,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "core/base/status_macros.h"
 #include "core/stages/stage_context.h"
 
 namespace scanprep {
@@ -86,24 +87,23 @@ class NeighbourhoodsStage : public Stage {
     }
     WarnAboutMissingMetadata(ctx, forced_radius.has_value());
     const std::vector<double> requested = options.min_radius;
-    auto nb = Neighbourhoods::Build(cloud, options, ctx.cancel());
-    if (!nb.ok()) return nb.status();
+    SCANPREP_ASSIGN_OR_RETURN(std::unique_ptr<Neighbourhoods> nb,
+                              Neighbourhoods::Build(cloud, options, ctx.cancel()));
     // r_g is known only once the graph is built, and the graph does not depend on r_min: a job
     // whose r_min exceeds the limit builds once more with it held there (the same r_g; one more
     // k-NN pass, about an eighth of a default job, instead of every ball many times too full).
-    const double limit = kMinRadiusPerGlobalRadius * (*nb)->global_radius();
+    const double limit = kMinRadiusPerGlobalRadius * nb->global_radius();
     if (std::any_of(requested.begin(), requested.end(), [&](double r) { return r > limit; })) {
       for (double& r : options.min_radius) r = std::min(r, limit);
-      nb->reset();  // before the second graph: never two at once
-      nb = Neighbourhoods::Build(cloud, options, ctx.cancel());
-      if (!nb.ok()) return nb.status();
+      nb.reset();  // before the second graph: never two at once
+      SCANPREP_ASSIGN_OR_RETURN(nb, Neighbourhoods::Build(cloud, options, ctx.cancel()));
     }
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
       ctx.CapRadius(absl::StrCat("the minimum radius r_min (Eq. 2, from scanline spacing and "
                                  "uncertainty) of scan '",
                                  cloud.scans[s].id, "'"),
-                    requested[s], (*nb)->scan_min_radius(s));
-      ctx.RecordForScan("neighbourhoods.min_radius_used_mm", s, (*nb)->scan_min_radius(s));
+                    requested[s], nb->scan_min_radius(s));
+      ctx.RecordForScan("neighbourhoods.min_radius_used_mm", s, nb->scan_min_radius(s));
     }
     if (const size_t collapsed = ctx.duplicates_collapsed(); collapsed > 0) {
       ctx.Warn(WarningCode::kDuplicatesCollapsed,
@@ -115,12 +115,12 @@ class NeighbourhoodsStage : public Stage {
     }
     ctx.Record("neighbourhoods.duplicates_collapsed",
                static_cast<double>(ctx.duplicates_collapsed()));
-    ctx.Record("neighbourhoods.global_radius_mm", (*nb)->global_radius());
-    ctx.Record("neighbourhoods.density_per_mm2", (*nb)->density());
+    ctx.Record("neighbourhoods.global_radius_mm", nb->global_radius());
+    ctx.Record("neighbourhoods.density_per_mm2", nb->density());
     // Lists kept as 32-bit indices because a neighbour lies too far away in the grid's order:
     // each costs 4·k bytes instead of 2·k.
-    ctx.Record("neighbourhoods.wide_lists", static_cast<double>((*nb)->wide_lists()));
-    ctx.SetNeighbourhoods(*std::move(nb));
+    ctx.Record("neighbourhoods.wide_lists", static_cast<double>(nb->wide_lists()));
+    ctx.SetNeighbourhoods(std::move(nb));
     return absl::OkStatus();
   }
 };

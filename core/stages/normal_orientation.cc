@@ -120,7 +120,7 @@ absl::Status NeighbourBridges(const PointCloud& cloud, const Neighbourhoods& nb,
                               DisjointSets& groups, std::vector<Edge>& bridges) {
   const size_t n = cloud.size();
   std::vector<Edge> candidates(n, Edge{std::numeric_limits<float>::infinity(), 0, 0});
-  absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, cancel, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       if (component[i] == kNone) continue;
       for (const uint32_t j : nb.knn(i)) {  // nearest first
@@ -130,8 +130,7 @@ absl::Status NeighbourBridges(const PointCloud& cloud, const Neighbourhoods& nb,
         break;
       }
     }
-  });
-  if (!status.ok()) return status;
+  }));
   std::erase_if(candidates, [](const Edge& e) { return !std::isfinite(e.cost); });
   SCANPREP_RETURN_IF_ERROR(CancellableSort(candidates, cancel));
   for (size_t e = 0; e < candidates.size(); ++e) {
@@ -196,15 +195,14 @@ absl::Status CandidatePairs(const PointCloud& cloud, const Neighbourhoods& nb,
   // at a straight border, near 0 inside). Gaps between parts of one surface run between rims,
   // so a big component's few samples must sit there, not spread over its inside.
   std::vector<uint8_t> rim(cloud.size(), 0);
-  absl::Status status = ParallelFor(cloud.size(), cancel, [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(cloud.size(), cancel, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       if (components.of[i] == kNone || nb.k() == 0) continue;
       Eigen::Vector3f offset = Eigen::Vector3f::Zero();
       for (const uint32_t j : nb.knn(i)) offset += cloud.point(j) - cloud.point(i);
       rim[i] = offset.norm() > 0.25f * nb.k() * nb.dk(i);
     }
-  });
-  if (!status.ok()) return status;
+  }));
   std::vector<uint32_t> sample, owner, rim_members;
   for (uint32_t c = 0; c < count; ++c) {
     const std::span<const uint32_t> members = components.members(c);
@@ -240,7 +238,7 @@ absl::Status CandidatePairs(const PointCloud& cloud, const Neighbourhoods& nb,
   constexpr size_t kAsk = 2 * kSamples + 1;
   std::vector<Near> near(sample.size() * kPartners, Near{kNone, 0, kNone});
   std::atomic<size_t> asked{0};
-  status = ParallelFor(
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(
       sample.size(), cancel,
       [&](size_t begin, size_t end) {
         std::vector<uint32_t> idx(kAsk);
@@ -262,8 +260,7 @@ absl::Status CandidatePairs(const PointCloud& cloud, const Neighbourhoods& nb,
         }
         asked += local_asked;
       },
-      256);
-  if (!status.ok()) return status;
+      256));
   work += asked;
   std::erase_if(near, [](const Near& e) { return e.component == kNone; });
   SCANPREP_RETURN_IF_ERROR(CancellableSort(near, cancel));
@@ -340,7 +337,7 @@ absl::Status PairBridges(const PointCloud& cloud, const Components& components,
   }
   std::vector<std::unique_ptr<SubsetAdaptor>> adaptors(with_tree.size());
   std::vector<std::unique_ptr<SubsetTree>> trees(with_tree.size());
-  absl::Status status = ParallelFor(
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(
       with_tree.size(), cancel,
       [&](size_t begin, size_t end) {
         for (size_t t = begin; t < end; ++t) {
@@ -353,12 +350,11 @@ absl::Status PairBridges(const PointCloud& cloud, const Components& components,
           trees[t]->buildIndex();
         }
       },
-      1);
-  if (!status.ok()) return status;
+      1));
   const size_t first = bridges.size();
   bridges.resize(first + pairs.size());
   std::atomic<size_t> queries{0};
-  status = ParallelFor(
+  const absl::Status status = ParallelFor(
       pairs.size(), cancel,
       [&](size_t begin, size_t end) {
         size_t local_queries = 0;
@@ -382,7 +378,7 @@ absl::Status PairBridges(const PointCloud& cloud, const Components& components,
         queries += local_queries;
       },
       16);
-  work += queries;
+  work += queries;  // counted whether or not the loop was cancelled
   return status;
 }
 
@@ -399,17 +395,15 @@ absl::Status Bridge(const PointCloud& cloud, const Neighbourhoods& nb,
   if (components.size() <= 1) return absl::OkStatus();
   DisjointSets groups(components.size());
   std::vector<Edge> bridges;
-  absl::Status status = NeighbourBridges(cloud, nb, components.of, cancel, groups, bridges);
-  if (!status.ok()) return status;
+  SCANPREP_RETURN_IF_ERROR(NeighbourBridges(cloud, nb, components.of, cancel, groups, bridges));
   if (bridges.size() + 1 < components.size()) {
     // The candidates' bridges, Kruskal by their costs, cheapest first.
     std::vector<std::pair<uint32_t, uint32_t>> pairs;
-    status = CandidatePairs(cloud, nb, components, groups, cancel, pairs, counts.bridge_work);
-    if (!status.ok()) return status;
+    SCANPREP_RETURN_IF_ERROR(
+        CandidatePairs(cloud, nb, components, groups, cancel, pairs, counts.bridge_work));
     std::vector<Edge> candidates;
-    status =
-        PairBridges(cloud, components, std::move(pairs), cancel, candidates, counts.bridge_work);
-    if (!status.ok()) return status;
+    SCANPREP_RETURN_IF_ERROR(
+        PairBridges(cloud, components, std::move(pairs), cancel, candidates, counts.bridge_work));
     SCANPREP_RETURN_IF_ERROR(CancellableSort(candidates, cancel));
     for (const Edge& e : candidates) {
       if (groups.Unite(components.of[e.a], components.of[e.b])) bridges.push_back(e);
@@ -429,7 +423,7 @@ absl::Status Propagate(PointCloud& cloud, const Neighbourhoods& nb, uint32_t k,
   const size_t n = cloud.size();
   k = std::min(k, nb.k());
   std::vector<Edge> edges(n * k, Edge{std::numeric_limits<float>::infinity(), 0, 0});
-  absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, cancel, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       if (!member[i]) continue;
       const auto idx = nb.knn(i);
@@ -440,8 +434,7 @@ absl::Status Propagate(PointCloud& cloud, const Neighbourhoods& nb, uint32_t k,
                             std::min<uint32_t>(i, j), std::max<uint32_t>(i, j)};
       }
     }
-  });
-  if (!status.ok()) return status;
+  }));
   std::erase_if(edges, [](const Edge& e) { return !std::isfinite(e.cost); });
   SCANPREP_RETURN_IF_ERROR(CancellableSort(edges, cancel));
 
@@ -504,7 +497,7 @@ absl::Status OrientNormals(PointCloud& cloud, const Neighbourhoods& nb, uint32_t
   const size_t n = cloud.size();
   std::vector<uint8_t> propagate(n, 0);
   std::atomic<size_t> toward{0}, left{0};
-  absl::Status status = ParallelFor(n, cancel, [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, cancel, [&](size_t begin, size_t end) {
     size_t local_toward = 0, local_left = 0;
     for (size_t i = begin; i < end; ++i) {
       if (!HasValidNormal(cloud, i)) continue;
@@ -520,8 +513,7 @@ absl::Status OrientNormals(PointCloud& cloud, const Neighbourhoods& nb, uint32_t
     }
     toward += local_toward;
     left += local_left;
-  });
-  if (!status.ok()) return status;
+  }));
   counts.toward_sensor = toward;
   if (left == 0) return absl::OkStatus();
   return Propagate(cloud, nb, k, propagate, cancel, counts);

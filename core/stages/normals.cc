@@ -65,7 +65,7 @@ class NormalsStage : public Stage {
     // A Mitra radius costs up to 5 balls of up to 5·r_g (25·k points) with a quadric fit each:
     // smaller blocks, so that a cancel does not wait for 1024 of them.
     const size_t grain = settings.radius_mode == NormalsRadiusMode::kMitra ? 128 : 1024;
-    absl::Status status = ParallelFor(
+    SCANPREP_RETURN_IF_ERROR(ParallelFor(
         n, ctx.cancel(),
         [&](size_t begin, size_t end) {
           Scratch scratch;
@@ -108,8 +108,7 @@ class NormalsStage : public Stage {
           }
           invalid += local_invalid;
         },
-        grain);
-    if (!status.ok()) return status;
+        grain));
     for (size_t i = 0; i < n; ++i) {
       cloud.flags[i] = no_normal[i] ? cloud.flags[i] | kNormalInvalid
                                     : cloud.flags[i] & static_cast<uint8_t>(~kNormalInvalid);
@@ -117,8 +116,8 @@ class NormalsStage : public Stage {
 
     ctx.Progress(0.5);  // the normals are fitted; orientation follows
     OrientationCounts counts;
-    status = OrientNormals(cloud, nb, settings.orientation_k, ctx.cancel(), counts);
-    if (!status.ok()) return status;
+    SCANPREP_RETURN_IF_ERROR(
+        OrientNormals(cloud, nb, settings.orientation_k, ctx.cancel(), counts));
 
     std::vector<float> kept;
     for (size_t i = 0; i < n; ++i) {

@@ -83,7 +83,7 @@ absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
   // only keep a point (one surrounded by another scan's denser surface).
   std::vector<float> d(n);
   std::atomic<size_t> beyond_list{0};
-  const absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
     size_t beyond = 0;
     for (size_t i = begin; i < end; ++i) {
       const KnnList list = nb.knn(i);
@@ -101,8 +101,7 @@ absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
       d[i] = sum / static_cast<float>(k_o);
     }
     beyond_list += beyond;
-  });
-  if (!status.ok()) return status;
+  }));
   ctx.Record("outliers.own_scan_beyond_knn", static_cast<double>(beyond_list.load()));
 
   std::vector<ScanStats> stats(std::max<size_t>(cloud.scans.size(), 1));
@@ -167,9 +166,8 @@ absl::Status RemoveOutliers(StageContext& ctx, const OutliersSettings& settings,
       }
     }
     SurfaceSpikeCounts counts;
-    absl::Status status =
-        JudgeBySurface(cloud, nb, ctx.measures(), noise, sigmas, ctx.cancel(), verdict, counts);
-    if (!status.ok()) return status;
+    SCANPREP_RETURN_IF_ERROR(
+        JudgeBySurface(cloud, nb, ctx.measures(), noise, sigmas, ctx.cancel(), verdict, counts));
     ctx.Record("outliers.surface_not_judged", static_cast<double>(counts.not_judged));
   }
   // Without the surface test nothing is judged and the paper's threshold decides alone.

@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "core/base/parallel.h"
+#include "core/base/status_macros.h"
 #include "core/stages/outliers.h"
 #include "core/stages/stage_context.h"
 
@@ -53,20 +54,19 @@ absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb) {
   };
 
   std::vector<double> pdist(n, 0.0);
-  absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       if (cloud.removed(i)) continue;
       double sum_sq = 0;
       const uint32_t used = for_neighbours(i, [&](uint32_t, float d) { sum_sq += double(d) * d; });
       pdist[i] = used ? lambda * std::sqrt(sum_sq / used) : 0.0;
     }
-  });
-  if (!status.ok()) return status;
+  }));
 
   std::vector<double> plof(n, 0.0);
   std::atomic<double> total_sq{0.0};
   std::atomic<size_t> count{0};
-  status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
     double local_sq = 0;
     size_t local_count = 0;
     for (size_t i = begin; i < end; ++i) {
@@ -80,8 +80,7 @@ absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb) {
     }
     total_sq.fetch_add(local_sq);
     count += local_count;
-  });
-  if (!status.ok()) return status;
+  }));
   const double nplof = count ? lambda * std::sqrt(total_sq / count) : 0.0;
   ctx.Record("outliers.loop_nplof", nplof);
   if (!(nplof > 0)) {

@@ -164,7 +164,7 @@ absl::Status RunSequential(StageContext& ctx, Thinner& thinner,
     for (; next < order.size() && centres.size() < batch; ++next) {
       if (!cloud.removed(order[next])) centres.push_back(order[next]);
     }
-    absl::Status status = ParallelFor(
+    SCANPREP_RETURN_IF_ERROR(ParallelFor(
         centres.size(), ctx.cancel(),
         [&](size_t begin, size_t end) {
           for (size_t b = begin; b < end; ++b) {
@@ -173,8 +173,7 @@ absl::Status RunSequential(StageContext& ctx, Thinner& thinner,
             if (again[b]) balls[b] = RadiusMatches();  // frees it
           }
         },
-        /*grain=*/16);
-    if (!status.ok()) return status;
+        /*grain=*/16));
     for (size_t b = 0; b < centres.size(); ++b) {
       if (again[b]) {
         thinner.Visit(centres[b], fresh, candidates);
@@ -224,7 +223,7 @@ absl::Status RunTiled(StageContext& ctx, Thinner& thinner, std::vector<uint32_t>
     const uint64_t group = key[order[cell_start[first]]] >> 60;  // phase and colour
     size_t last = first;
     while (last < cells && key[order[cell_start[last]]] >> 60 == group) ++last;
-    absl::Status status = ParallelFor(
+    SCANPREP_RETURN_IF_ERROR(ParallelFor(
         last - first, ctx.cancel(),
         [&](size_t begin, size_t end) {
           RadiusMatches matches;
@@ -235,8 +234,7 @@ absl::Status RunTiled(StageContext& ctx, Thinner& thinner, std::vector<uint32_t>
             }
           }
         },
-        /*grain=*/16);
-    if (!status.ok()) return status;
+        /*grain=*/16));
     ctx.Progress(double(last) / cells);
     first = last;
   }
@@ -305,21 +303,19 @@ class SimplificationStage : public Stage {
     if (m.quality.size() != cloud.size() || m.curvature.size() != cloud.size()) {
       return absl::InternalError("simplification: the measures stage left no quality/curvature");
     }
-    auto nb = ctx.neighbourhoods();
-    if (!nb.ok()) return nb.status();
+    SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* nb, ctx.neighbourhoods());
     const size_t before = cloud.CountKept();
     if (before < 2) {  // already as thin as it gets; one point gives no spacing to derive
       ctx.Record("simplification.removed", 0);
       return absl::OkStatus();
     }
 
-    SCANPREP_ASSIGN_OR_RETURN(const Plan plan, ReadPlan(ctx, **nb));
-    Thinner thinner(cloud, **nb, m, plan);
-    absl::StatusOr<std::vector<uint32_t>> order = VisitOrder(cloud, m, thinner, ctx.cancel());
-    if (!order.ok()) return order.status();
-    absl::Status status = plan.tiled ? RunTiled(ctx, thinner, *std::move(order), 2 * plan.spacing)
-                                     : RunSequential(ctx, thinner, *order);
-    if (!status.ok()) return status;
+    SCANPREP_ASSIGN_OR_RETURN(const Plan plan, ReadPlan(ctx, *nb));
+    Thinner thinner(cloud, *nb, m, plan);
+    SCANPREP_ASSIGN_OR_RETURN(std::vector<uint32_t> order,
+                              VisitOrder(cloud, m, thinner, ctx.cancel()));
+    SCANPREP_RETURN_IF_ERROR(plan.tiled ? RunTiled(ctx, thinner, std::move(order), 2 * plan.spacing)
+                                        : RunSequential(ctx, thinner, order));
     ctx.Record("simplification.removed", static_cast<double>(before - cloud.CountKept()));
     return absl::OkStatus();
   }

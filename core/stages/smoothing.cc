@@ -54,19 +54,17 @@ class SmoothingStage : public Stage {
     size_t counts[5] = {};
     double shift_sum = 0;
     for (int it = 0; it < iterations; ++it) {
-      auto nb = ctx.neighbourhoods();
-      if (!nb.ok()) return nb.status();
-      const SmoothingInputs in{cloud, **nb, m, settings};
-      const std::span<const uint32_t> order = (*nb)->order();
+      SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* nb, ctx.neighbourhoods());
+      const SmoothingInputs in{cloud, *nb, m, settings};
+      const std::span<const uint32_t> order = nb->order();
       std::vector<Eigen::Vector3f> next(n);
-      absl::Status status = ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+      SCANPREP_RETURN_IF_ERROR(ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
         SmoothingScratch scratch;
         for (size_t v = begin; v < end; ++v) {
           const size_t i = order[v];
           outcome[i] = SmoothPoint(in, i, scratch, next[i]);
         }
-      });
-      if (!status.ok()) return status;
+      }));
       float max_shift = 0;
       for (size_t i = 0; i < n; ++i) {
         ++counts[outcome[i]];
