@@ -31,8 +31,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/call_error.h"
-#include "core/pipeline/job_context.h"
 #include "core/stages/params.h"
+#include "core/stages/stage.h"
 #include "proto/chunk_arrays.h"
 #include "proto/stream_checksum.h"
 #include "scanprep/v1/scanprep.grpc.pb.h"
