@@ -29,6 +29,9 @@ enum class ScannerKind { kLine, kFlexible };
 // What the scanner knows about one scan, already in the common frame and in millimetres.
 struct ScanMeta {
   std::string id;
+  // The physical sensor that took the scan (ScanHeader.sensor_id); empty = not stated. Several
+  // scans of a job may share one. Health is reported and exported per sensor.
+  std::string sensor_id;
   std::optional<Eigen::Vector3d> camera_position;
   // Sweeping line scanners have no single camera centre: the unit direction from the surface
   // toward the camera, constant over the scan.

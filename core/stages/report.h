@@ -4,9 +4,11 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "core/stages/health_report.h"
 #include "core/stages/warning.h"
 
 namespace scanprep {
@@ -33,6 +35,8 @@ struct PipelineReport {
   // with a warning when there are any.
   uint64_t points_coincident_across_scans = 0;
   std::vector<Warning> warnings;
+  // Scanner health, when the plan ran the "health" stage.
+  std::optional<HealthReport> health;
 };
 
 }  // namespace scanprep
