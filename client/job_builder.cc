@@ -147,6 +147,50 @@ absl::Status ApplyOptionFlags(const ParsedArgs& args, v1::JobHeader& header) {
   return absl::OkStatus();
 }
 
+// One --sensor_id: "ID" names the sensor of every scan, "SCAN=ID" of the scan whose scan_id is
+// SCAN ('=' is not in a sensor id's alphabet, so the forms cannot be confused).
+struct SensorFlag {
+  std::string scan;  // empty: every scan
+  std::string sensor;
+};
+
+absl::StatusOr<std::vector<SensorFlag>> ParseSensorFlags(const ParsedArgs& args) {
+  std::vector<SensorFlag> flags;
+  for (const std::string& value : args.All("sensor_id")) {
+    const size_t eq = value.find('=');
+    SensorFlag flag = eq == std::string::npos
+                          ? SensorFlag{.scan = "", .sensor = value}
+                          : SensorFlag{.scan = value.substr(0, eq), .sensor = value.substr(eq + 1)};
+    if (flag.sensor.empty() || (eq != std::string::npos && flag.scan.empty())) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--sensor_id '", value, "': expected ID (every scan) or SCAN=ID"));
+    }
+    flags.push_back(std::move(flag));
+  }
+  return flags;
+}
+
+// In command-line order, so a later flag overrides an earlier one (and the job file's value).
+absl::Status ApplySensorFlags(const ParsedArgs& args, v1::JobHeader& header) {
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<SensorFlag> flags, ParseSensorFlags(args));
+  for (const SensorFlag& flag : flags) {
+    bool matched = false;
+    for (v1::ScanHeader& scan : *header.mutable_scans()) {
+      if (!flag.scan.empty() && scan.scan_id() != flag.scan) continue;
+      scan.set_sensor_id(flag.sensor);
+      matched = true;
+    }
+    if (!matched && !flag.scan.empty()) {
+      std::vector<std::string> ids;
+      for (const v1::ScanHeader& scan : header.scans()) ids.push_back(scan.scan_id());
+      return absl::InvalidArgumentError(
+          absl::StrCat("--sensor_id ", flag.scan, "=", flag.sensor, ": the job has no scan '",
+                       flag.scan, "' (its scans: ", absl::StrJoin(ids, ", "), ")"));
+    }
+  }
+  return absl::OkStatus();
+}
+
 void SetVec3(const Eigen::Vector3d& from, v1::Vec3* to) {
   to->set_x(from.x());
   to->set_y(from.y());
@@ -188,6 +232,9 @@ std::vector<FlagSpec> JobFlags() {
        "text scan files (.xyz, .asc, .txt, .pts) written profile by profile: a jump longer than "
        "this (file units) between consecutive points starts a new scanline"},
       {"uncertainty", FlagSpec::kValue, "measuring uncertainty of every scan, job unit"},
+      {"sensor_id", FlagSpec::kRepeated,
+       "the physical sensor that took the scans, for their health (over the job file's): ID for "
+       "every scan, or SCAN=ID for the scan named SCAN (its file's stem); repeatable"},
       {"include_removed", FlagSpec::kBool, "also return removed points, flagged"},
       {"strict", FlagSpec::kBool,
        "fail the job (FAILED_PRECONDITION) on a warning that the request is probably wrong: "
@@ -278,6 +325,7 @@ absl::StatusOr<std::vector<io::ScanFormat>> ScanArgumentFormats(const ParsedArgs
 absl::Status CheckJobFlags(const ParsedArgs& args) {
   v1::JobHeader scratch;  // the flags' values parsed as BuildJob will, into a header thrown away
   SCANPREP_RETURN_IF_ERROR(ApplyOptionFlags(args, scratch));
+  SCANPREP_RETURN_IF_ERROR(ParseSensorFlags(args).status());
   if (args.Has("profile_gap")) return ParseLength(args, "profile_gap").status();
   return absl::OkStatus();
 }
@@ -384,6 +432,7 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
                      pcd ? " (PCL writes PCD files in metres: pass --unit m if so)" : ""));
   }
   SCANPREP_RETURN_IF_ERROR(ApplyOptionFlags(args, job.header));
+  SCANPREP_RETURN_IF_ERROR(ApplySensorFlags(args, job.header));
   SetJobOrigin(job.header);
 
   // The service wants an optional array in every chunk or none, so keep one only when every
@@ -418,6 +467,7 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
 v1::ScanHeader ScanHeaderFromMeta(const ScanMeta& meta) {
   v1::ScanHeader scan;
   scan.set_scan_id(meta.id);
+  scan.set_sensor_id(meta.sensor_id);
   if (meta.camera_position) SetVec3(*meta.camera_position, scan.mutable_camera_position());
   if (meta.view_direction) SetVec3(*meta.view_direction, scan.mutable_view_direction());
   if (meta.projector_position) {
@@ -464,6 +514,7 @@ absl::StatusOr<Job> BuildJobFromCloud(const ParsedArgs& args, PointCloud cloud) 
   }
   SetJobOrigin(job.header);
   SCANPREP_RETURN_IF_ERROR(ApplyOptionFlags(args, job.header));
+  SCANPREP_RETURN_IF_ERROR(ApplySensorFlags(args, job.header));
   job.points = std::move(cloud);
   return job;
 }

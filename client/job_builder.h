@@ -31,14 +31,14 @@ absl::StatusOr<scanprep::v1::JobHeader> ReadJobFile(const std::string& path);
 std::vector<FlagSpec> JobFlags();
 
 // Flags used: --job, --conf, --unit, --stages, --param, --preset, --include_removed,
-// --scanline_spacing, --uncertainty; positional arguments are the scan files.
+// --scanline_spacing, --uncertainty, --sensor_id; positional arguments are the scan files.
 // The scan arguments' formats, before anything is read: a file's by its extension, "-"
 // (standard input, at most once) by --input_format. INVALID_ARGUMENT: a usage error.
 absl::StatusOr<std::vector<io::ScanFormat>> ScanArgumentFormats(const ParsedArgs& args);
 
 // The option flags' own values (--unit, --param NAME=VALUE, --scanline_spacing, --uncertainty,
-// --profile_gap) as BuildJob parses them, before any file is read: INVALID_ARGUMENT is a usage
-// error (exit 2), not a failure of the job.
+// --profile_gap, the form of --sensor_id) as BuildJob parses them, before any file is read:
+// INVALID_ARGUMENT is a usage error (exit 2), not a failure of the job.
 absl::Status CheckJobFlags(const ParsedArgs& args);
 
 absl::StatusOr<Job> BuildJob(const ParsedArgs& args);
