@@ -26,6 +26,7 @@ Command InfoCommand();
 Command LoadCommand();
 Command SimulateCommand();
 Command PreviewCommand();
+Command HealthCommand();
 
 // Prints "scanprep <command>: <message>" and returns exit code 1.
 int Fail(const std::string& command, const std::string& message);

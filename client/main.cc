@@ -32,7 +32,8 @@ int FailCall(const std::string& command, const std::string& server, const absl::
 namespace {
 
 std::vector<Command> Commands() {
-  return {ProcessCommand(), InfoCommand(), LoadCommand(), SimulateCommand(), PreviewCommand()};
+  return {ProcessCommand(), HealthCommand(),   InfoCommand(),
+          LoadCommand(),    SimulateCommand(), PreviewCommand()};
 }
 
 void PrintUsage(std::ostream& out) {

@@ -142,6 +142,10 @@ void PrintSummary(std::ostream& out, const v1::Report& report) {
   } else {
     out << absl::StrFormat("time: %.3f s (no budget)\n", report.processing_seconds());
   }
+  PrintWarnings(out, report);
+}
+
+void PrintWarnings(std::ostream& out, const v1::Report& report) {
   // With its code, for a reader who will gate on it (--fail_on); a server that predates the codes
   // sends the text alone.
   if (report.warning_details_size() == report.warnings_size()) {

@@ -72,4 +72,7 @@ std::string ParameterText(double value);
 // values are summarised by count); then point totals, invalid points, budget and warnings.
 void PrintSummary(std::ostream& out, const scanprep::v1::Report& report);
 
+// The report's warnings, one a line, each with its code (PrintSummary's last lines).
+void PrintWarnings(std::ostream& out, const scanprep::v1::Report& report);
+
 }  // namespace scanprep::client

@@ -1,0 +1,95 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "client/health_table.h"
+
+#include <algorithm>
+#include <string>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+
+namespace scanprep::client {
+namespace {
+
+namespace v1 = ::scanprep::v1;
+
+constexpr char kUnset[] = "-";
+
+// Headers and cells are ASCII ("um", "deg", "noise/u"): absl::StrFormat pads by bytes, so a µ or
+// σ̂ would shift every column after it.
+std::string Share(bool has, double share) {
+  return has ? absl::StrFormat("%.2f", 100 * share) : kUnset;
+}
+
+std::string ViewingAngles(const v1::ScanHealth& scan) {
+  if (scan.viewing_angle_percentiles_deg_size() != 3) return kUnset;
+  return absl::StrFormat("%.0f/%.0f/%.0f", scan.viewing_angle_percentiles_deg(0),
+                         scan.viewing_angle_percentiles_deg(1),
+                         scan.viewing_angle_percentiles_deg(2));
+}
+
+// x, y, z of a misalignment vector as "x/y/z" (`prefix` "t" or "r" names the components), each to
+// `decimals` after scaling by `scale`; a component the overlap cannot constrain is "-".
+std::string Components(const v1::PairHealth& pair, char prefix, const v1::Vec3& v, double scale,
+                       int decimals) {
+  const double values[] = {v.x(), v.y(), v.z()};
+  const char axes[] = {'x', 'y', 'z'};
+  std::vector<std::string> cells;
+  for (int a = 0; a < 3; ++a) {
+    const std::string name = {prefix, axes[a]};
+    const bool free = std::find(pair.unconstrained().begin(), pair.unconstrained().end(), name) !=
+                      pair.unconstrained().end();
+    cells.push_back(free ? kUnset : absl::StrFormat("%.*f", decimals, scale * values[a]));
+  }
+  return absl::StrJoin(cells, "/");
+}
+
+void PrintScans(std::ostream& out, const v1::HealthReport& health) {
+  out << absl::StrFormat("%-16s %-16s %9s %9s %8s %9s %8s %9s  %s\n", "scan", "sensor", "points",
+                         "noise_mm", "noise/u", "outlier%", "merged%", "invalid%",
+                         "view_deg p10/p50/p90");
+  for (const v1::ScanHealth& s : health.scans()) {
+    out << absl::StrFormat(
+        "%-16s %-16s %9d %9s %8s %9s %8s %9s  %s\n", s.scan_id(),
+        s.sensor_id().empty() ? kUnset : s.sensor_id(), s.points(),
+        s.has_noise_mm() ? absl::StrFormat("%.4f", s.noise_mm()) : kUnset,
+        s.has_noise_to_uncertainty() ? absl::StrFormat("%.2f", s.noise_to_uncertainty()) : kUnset,
+        Share(s.has_outlier_share(), s.outlier_share()),
+        Share(s.has_merged_share(), s.merged_share()), Share(true, s.invalid_share()),
+        ViewingAngles(s));
+  }
+}
+
+void PrintPairs(std::ostream& out, const v1::HealthReport& health) {
+  out << absl::StrFormat("%-16s %-16s %9s %10s %10s  %-26s %-26s %s\n", "fixed", "moving",
+                         "overlap", "median_um", "spread_um", "translation_um x/y/z",
+                         "rotation_deg x/y/z", "unconstrained");
+  for (const v1::PairHealth& p : health.pairs()) {
+    std::string free = absl::StrJoin(p.unconstrained(), ",");
+    if (!p.note().empty()) free = absl::StrCat(free.empty() ? "" : free + " ", "(", p.note(), ")");
+    out << absl::StrFormat(
+        "%-16s %-16s %9d %10.2f %10.2f  %-26s %-26s %s\n", p.fixed_scan_id(), p.moving_scan_id(),
+        p.overlap_points(), 1000 * p.residual_median_mm(), 1000 * p.residual_spread_mm(),
+        Components(p, 't', p.translation_mm(), 1000, 2), Components(p, 'r', p.rotation_deg(), 1, 4),
+        free.empty() ? kUnset : free);
+  }
+}
+
+}  // namespace
+
+void PrintHealth(std::ostream& out, const v1::Report& report) {
+  if (!report.has_health()) {
+    out << "health: not measured (the job did not run the \"health\" stage)\n";
+    return;
+  }
+  out << "health of the scans:\n";
+  PrintScans(out, report.health());
+  if (report.health().pairs().empty()) {
+    out << "health of overlapping pairs: none (no two scans overlap)\n";
+    return;
+  }
+  out << "health of overlapping pairs (moving relative to fixed's surface):\n";
+  PrintPairs(out, report.health());
+}
+
+}  // namespace scanprep::client

@@ -1,0 +1,153 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "client/job_call.h"
+
+#include <fstream>
+#include <iostream>
+#include <optional>
+
+#include <google/protobuf/struct.pb.h>
+#include <google/protobuf/util/json_util.h>
+#include <unistd.h>
+
+#include "absl/strings/str_cat.h"
+#include "client/call_error.h"
+#include "client/commands.h"
+#include "client/connection_flags.h"
+
+namespace scanprep::client {
+namespace {
+
+double SecondsSince(absl::Time start) { return absl::ToDoubleSeconds(absl::Now() - start); }
+
+}  // namespace
+
+std::vector<FlagSpec> JobCallFlags() {
+  std::vector<FlagSpec> flags = {
+      {"server", FlagSpec::kValue, absl::StrCat(kServerFlagHelp, " (default localhost:50051)")},
+  };
+  AddTlsFlags(flags);
+  for (FlagSpec& flag : JobFlags()) flags.push_back(std::move(flag));
+  flags.push_back({"timeout", FlagSpec::kValue, "deadline for the whole call, e.g. 120s"});
+  flags.push_back({"budget", FlagSpec::kValue,
+                   "time budget of the job in seconds (over the job file's and the server's "
+                   "default); the report says whether it was met"});
+  flags.push_back({"fail_on_budget_miss", FlagSpec::kBool,
+                   "exit 5 when the job ran over its time budget (--budget or the server's "
+                   "default); the output is written all the same"});
+  flags.push_back({"progress", FlagSpec::kValue,
+                   "progress on stderr: auto (default: live on a terminal, else plain), live (one "
+                   "line redrawn), plain (a line when a phase or stage starts, at each quarter "
+                   "of it and at least every 10 s) or off"});
+  flags.push_back({"report_json", FlagSpec::kValue,
+                   "also write the full report as JSON, with the phase timings under \"phases\""});
+  return flags;
+}
+
+std::variant<int, SentJob> SendJob(const std::string& command, const ParsedArgs& args,
+                                   const std::function<void(Job&)>& adjust) {
+  if (auto in = ScanArgumentFormats(args); !in.ok()) {
+    return FailUsage(command, std::string(in.status().message()));
+  }
+  if (absl::Status s = CheckJobFlags(args); !s.ok()) {
+    return FailUsage(command, std::string(s.message()));
+  }
+  std::optional<double> budget;
+  if (args.Has("budget")) {
+    auto seconds = GetNumber(args, "budget", 0, 0);
+    if (!seconds.ok()) return FailUsage(command, std::string(seconds.status().message()));
+    budget = *seconds;
+  }
+  CallOptions call;
+  if (args.Has("timeout")) {
+    auto timeout = GetDuration(args, "timeout", absl::ZeroDuration());
+    if (!timeout.ok()) return FailUsage(command, std::string(timeout.status().message()));
+    call.timeout = *timeout;
+  }
+  auto target = ChannelTarget(args.Get("server", "localhost:50051"));
+  if (!target.ok()) return FailUsage(command, std::string(target.status().message()));
+  auto credentials = CredentialsFromArgs(args);
+  if (!credentials.ok()) return FailFlagFiles(command, credentials.status());
+  auto mode = ParseProgressMode(args.Get("progress", "auto"), isatty(STDERR_FILENO) != 0);
+  if (!mode.ok()) return FailUsage(command, std::string(mode.status().message()));
+  SentJob sent{.start = absl::Now(), .server = *target};
+  auto job = BuildJob(args);
+  if (!job.ok()) return Fail(command, std::string(job.status().message()));
+  sent.job = std::move(*job);
+  if (budget) sent.job.header.mutable_budget()->set_total_seconds(*budget);
+  adjust(sent.job);
+  sent.phases.read = SecondsSince(sent.start);
+  for (const std::string& note : sent.job.notes) std::cerr << "note: " << note << "\n";
+
+  ProgressView view(std::cerr, *mode);
+  call.progress = [&view](const v1::Progress& p) { view.Update(p); };
+  auto result = ScanPrepClient::Connect(sent.server, *credentials)
+                    .Process(sent.job.header, sent.job.points, call);
+  view.Done();
+  if (!result.ok()) return FailCall(command, sent.server, result.status());
+  sent.result = std::move(*result);
+  sent.phases.upload = sent.result.transfer.upload;
+  sent.phases.processing = sent.result.report.processing_seconds();
+  sent.phases.download = sent.result.transfer.download;
+  return sent;
+}
+
+absl::StatusOr<std::string> ReportJson(const v1::Report& report, const PhaseSeconds& phases) {
+  namespace pb = google::protobuf;
+  std::string json;
+  pb::Struct root;
+  pb::util::JsonPrintOptions names;
+  names.preserve_proto_field_names = true;
+  if (auto s = pb::util::MessageToJsonString(report, &json, names); !s.ok()) {
+    return absl::InternalError(
+        absl::StrCat("the report cannot be written as JSON: ", s.ToString()));
+  }
+  if (auto s = pb::util::JsonStringToMessage(json, &root); !s.ok()) {
+    return absl::InternalError(
+        absl::StrCat("the report's JSON cannot be read back: ", s.ToString()));
+  }
+  pb::Struct& out = *(*root.mutable_fields())["phases"].mutable_struct_value();
+  const std::pair<const char*, double> values[] = {
+      {"read_seconds", phases.read},
+      {"upload_seconds", phases.upload},
+      {"processing_seconds", phases.processing},
+      {"download_seconds", phases.download},
+      {"write_seconds", phases.write},
+      {"total_seconds", phases.total},
+  };
+  for (const auto& [name, seconds] : values)
+    (*out.mutable_fields())[name].set_number_value(seconds);
+  pb::util::JsonPrintOptions options = names;
+  options.add_whitespace = true;
+  json.clear();
+  if (auto s = pb::util::MessageToJsonString(root, &json, options); !s.ok()) {
+    return absl::InternalError(
+        absl::StrCat("the report cannot be written as JSON: ", s.ToString()));
+  }
+  return json;
+}
+
+int WriteReportJson(const std::string& command, const ParsedArgs& args, const v1::Report& report,
+                    const PhaseSeconds& phases, const std::string& done) {
+  if (!args.Has("report_json")) return kExitOk;
+  auto json = ReportJson(report, phases);
+  if (!json.ok()) return Fail(command, std::string(json.status().message()));
+  std::ofstream file(args.Get("report_json"));
+  file << *json;
+  file.close();
+  if (!file) {
+    return Fail(command,
+                absl::StrCat(done, " but cannot write the report to ", args.Get("report_json")));
+  }
+  return kExitOk;
+}
+
+int BudgetExit(const std::string& command, const ParsedArgs& args, const v1::Report& report) {
+  if (args.Bool("fail_on_budget_miss") && report.budget_outcome() == v1::BUDGET_OUTCOME_MISSED) {
+    std::cerr << "scanprep " << command << ": the job missed its budget of "
+              << report.budget_seconds() << " s (--fail_on_budget_miss)\n";
+    return kExitBudgetMissed;
+  }
+  return kExitOk;
+}
+
+}  // namespace scanprep::client
