@@ -64,6 +64,17 @@ ABSL_FLAG(std::string, trusted_proxies, "",
           "itself a trusted proxy. Empty = the direct peer is the client host");
 ABSL_FLAG(std::string, metrics_listen, "0.0.0.0:9464",
           "HOST:PORT of the Prometheus /metrics endpoint (port 0 = any free port; empty = off)");
+ABSL_FLAG(int, max_sensors, 64,
+          "distinct ScanHeader.sensor_id values that get their own `sensor` label in the "
+          "scanprep_sensor_* metrics; later sensors share sensor=\"other\" (counted in "
+          "scanprep_sensor_labels_folded_total)");
+ABSL_FLAG(double, sensor_tolerance_mm, 0.05,
+          "a sensor pair's |residual median| or misalignment translation (mm) beyond which "
+          "ScanprepSensorPairMisaligned fires; exported as scanprep_sensor_tolerance_mm");
+ABSL_FLAG(double, sensor_rotation_tolerance_deg, 0.05,
+          "a sensor pair's misalignment rotation (degrees) beyond which "
+          "ScanprepSensorPairMisaligned fires; exported as "
+          "scanprep_sensor_rotation_tolerance_degrees");
 ABSL_FLAG(int, max_concurrent_jobs, 4,
           "jobs holding a slot (uploading, processing, downloading) at once; further calls queue");
 ABSL_FLAG(int, max_queued_jobs, 8,
@@ -224,6 +235,15 @@ int main(int argc, char** argv) {
                         .keepalive_time = absl::GetFlag(FLAGS_keepalive_time),
                         .keepalive_timeout = absl::GetFlag(FLAGS_keepalive_timeout)};
   if (absl::Status s = scanprep::server::CheckConnectionOptions(options.connection); !s.ok()) {
+    std::cerr << "scanprep-server: " << s.message() << "\n";
+    return 1;
+  }
+  options.sensor_metrics = {
+      .max_sensors = absl::GetFlag(FLAGS_max_sensors),
+      .tolerance_mm = absl::GetFlag(FLAGS_sensor_tolerance_mm),
+      .rotation_tolerance_deg = absl::GetFlag(FLAGS_sensor_rotation_tolerance_deg)};
+  if (absl::Status s = scanprep::server::CheckSensorMetricsOptions(options.sensor_metrics);
+      !s.ok()) {
     std::cerr << "scanprep-server: " << s.message() << "\n";
     return 1;
   }

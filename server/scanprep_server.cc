@@ -59,7 +59,7 @@ void AddConnectionArguments(const ConnectionOptions& c, grpc::ServerBuilder& bui
 }  // namespace
 
 ScanPrepServer::ScanPrepServer(const ServerOptions& options)
-    : metrics_(registry_),
+    : metrics_(registry_, options.sensor_metrics),
       log_(options.log, options.max_log_lines_per_second),
       peers_(options.max_calls_per_peer),
       admission_({.max_concurrent_jobs = options.max_concurrent_jobs,

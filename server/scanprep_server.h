@@ -65,7 +65,8 @@ struct ServerOptions {
   std::shared_ptr<grpc::ServerCredentials> credentials;
   std::ostream* log = nullptr;  // where CallLog writes; null = no log
   int max_log_lines_per_second = CallLog::kMaxLinesPerSecond;  // beyond: dropped and counted
-  ProgressHook on_progress;                                    // test hook, see ProgressHook
+  SensorMetricsOptions sensor_metrics;  // per-sensor health metrics (sensor_metrics.h)
+  ProgressHook on_progress;             // test hook, see ProgressHook
 };
 
 class ScanPrepServer {

@@ -3,6 +3,8 @@
 
 #include <string_view>
 
+#include "absl/time/clock.h"
+
 #include "scanprep/v1/scanprep.grpc.pb.h"
 
 namespace scanprep::server {
@@ -74,7 +76,7 @@ std::vector<double> BudgetBuckets() {
           7,     8,      9,     10,   12.5,  15,   20,  30,  45,  60,  120, 300};
 }
 
-ServiceMetrics::ServiceMetrics(metrics::Registry& r)
+ServiceMetrics::ServiceMetrics(metrics::Registry& r, const SensorMetricsOptions& sensors)
     : started_(
           r.AddCounter("grpc_server_started_total", "RPCs started on the server.", kRpcLabelNames)),
       handled_(r.AddCounter("grpc_server_handled_total",
@@ -144,7 +146,8 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r)
                                     BudgetBuckets(), {"phase"})),
       stage_seconds_(r.AddHistogram("scanprep_stage_duration_seconds",
                                     "Wall time of one stage of a processed job.", BudgetBuckets(),
-                                    {"stage"})) {
+                                    {"stage"})),
+      sensors_(r, sensors) {
   r.AddGauge("scanprep_build_info", "Always 1; the server's version as a label.", {"version"})
       .WithLabels({SCANPREP_VERSION})
       .Set(1);
@@ -219,6 +222,7 @@ void ServiceMetrics::ResponseSent(uint64_t bytes, uint64_t points) {
 
 void ServiceMetrics::JobProcessed(const PipelineReport& report) {
   PhaseEnded(Phase::kProcessing, report.total_seconds);
+  if (report.health) sensors_.Record(*report.health, absl::ToUnixMicros(absl::Now()) * 1e-6);
   for (const StageReport& stage : report.stages) {
     stage_seconds_.WithLabels({stage.name}).Observe(stage.seconds);
     if (!stage.budget_met) overruns_.WithLabels({stage.name}).Inc();

@@ -14,6 +14,7 @@
 
 #include "core/stages/report.h"
 #include "server/metrics/registry.h"
+#include "server/sensor_metrics.h"
 
 namespace scanprep::server {
 
@@ -37,9 +38,9 @@ std::vector<double> BudgetBuckets();
 
 class ServiceMetrics {
  public:
-  // Registers every family (and the process metrics) in `registry`, which must outlive this
-  // object.
-  explicit ServiceMetrics(metrics::Registry& registry);
+  // Registers every family (and the process metrics, and the per-sensor ones) in `registry`,
+  // which must outlive this object.
+  explicit ServiceMetrics(metrics::Registry& registry, const SensorMetricsOptions& sensors = {});
 
   // Configuration, exported so alerts can compare against it.
   void SetQueueCapacity(int max_queued_jobs);
@@ -64,7 +65,8 @@ class ServiceMetrics {
   void RequestReceived(uint64_t bytes, uint64_t points);
   void ResponseSent(uint64_t bytes, uint64_t points);
   // A pipeline that ran to its end (successfully): its time (phase "processing"), stage times,
-  // stage overruns, and the job's budget outcome with its used share of the budget.
+  // stage overruns, the job's budget outcome with its used share of the budget, and its health
+  // per sensor (SensorMetrics) when it ran the health stage.
   void JobProcessed(const PipelineReport& report);
 
  private:
@@ -90,6 +92,7 @@ class ServiceMetrics {
   metrics::Counter& memory_guard_trips_;
   metrics::Family<metrics::Histogram>& phase_seconds_;
   metrics::Family<metrics::Histogram>& stage_seconds_;
+  SensorMetrics sensors_;
 };
 
 }  // namespace scanprep::server

@@ -14,6 +14,14 @@ namespace {
 
 Eigen::Vector3d FromProto(const v1::Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
+v1::Vec3 ToProto(const Eigen::Vector3d& v) {
+  v1::Vec3 out;
+  out.set_x(v.x());
+  out.set_y(v.y());
+  out.set_z(v.z());
+  return out;
+}
+
 bool Finite(const Eigen::Vector3d& v) { return v.allFinite(); }
 
 v1::BudgetOutcome Outcome(double budget_seconds, bool met) {
@@ -65,6 +73,66 @@ absl::StatusOr<Eigen::Vector3d> Direction(const v1::Vec3& v, const ScanFrame& fr
     return BadField(field, name, "must be a finite non-zero vector");
   }
   return frame.Direction(d / norm);
+}
+
+// ScanHeader.sensor_id becomes a Prometheus label value and a key across jobs: a short name of
+// characters that need no escaping anywhere (no quotes, spaces or "|", which joins a pair's ids).
+absl::Status CheckSensorId(std::string_view id, std::string_view field) {
+  if (id.size() > kMaxSensorIdBytes) {
+    return BadField(field, "sensor_id",
+                    absl::StrCat("must be at most ", kMaxSensorIdBytes, " bytes, got ", id.size()));
+  }
+  for (const char c : id) {
+    if (!IsSensorIdChar(c)) {
+      return BadField(field, "sensor_id",
+                      absl::StrCat("may hold only A-Z a-z 0-9 . _ : -, got byte ",
+                                   static_cast<int>(static_cast<unsigned char>(c))));
+    }
+  }
+  return absl::OkStatus();
+}
+
+void HealthToProto(const HealthReport& health, v1::HealthReport* out) {
+  for (const ScanHealth& scan : health.scans) {
+    v1::ScanHealth* s = out->add_scans();
+    s->set_scan_id(scan.scan_id);
+    s->set_sensor_id(scan.sensor_id);
+    s->set_points(scan.points);
+    if (scan.noise_mm) s->set_noise_mm(*scan.noise_mm);
+    if (scan.noise_to_uncertainty) s->set_noise_to_uncertainty(*scan.noise_to_uncertainty);
+    if (scan.outlier_share) s->set_outlier_share(*scan.outlier_share);
+    if (scan.merged_share) s->set_merged_share(*scan.merged_share);
+    s->set_invalid_share(scan.invalid_share);
+    if (scan.viewing_angle_deg) {
+      for (const double p : *scan.viewing_angle_deg) s->add_viewing_angle_percentiles_deg(p);
+    }
+  }
+  // The pair names its scans by index; the wire by the ids the client sent (health.scans is one
+  // per scan of the cloud, in scan order).
+  const auto scan_of = [&](uint32_t index) -> const ScanHealth* {
+    return index < health.scans.size() ? &health.scans[index] : nullptr;
+  };
+  for (const PairHealth& pair : health.pairs) {
+    v1::PairHealth* p = out->add_pairs();
+    if (const ScanHealth* fixed = scan_of(pair.fixed)) {
+      p->set_fixed_scan_id(fixed->scan_id);
+      p->set_fixed_sensor_id(fixed->sensor_id);
+    }
+    if (const ScanHealth* moving = scan_of(pair.moving)) {
+      p->set_moving_scan_id(moving->scan_id);
+      p->set_moving_sensor_id(moving->sensor_id);
+    }
+    p->set_overlap_points(pair.overlap_points);
+    p->set_residual_median_mm(pair.residual_median_mm);
+    p->set_residual_spread_mm(pair.residual_spread_mm);
+    *p->mutable_translation_mm() = ToProto(pair.translation_mm);
+    *p->mutable_rotation_deg() = ToProto(pair.rotation_deg);
+    *p->mutable_centre() = ToProto(pair.centre);
+    for (size_t k = 0; k < kMisalignmentAxes.size(); ++k) {
+      if (!pair.constrained[k]) p->add_unconstrained(kMisalignmentAxes[k]);
+    }
+    p->set_note(pair.note);
+  }
 }
 
 }  // namespace
@@ -142,6 +210,8 @@ absl::StatusOr<ScanMeta> ScanMetaFromProto(const v1::ScanHeader& scan, const Sca
                                            std::string_view field) {
   ScanMeta meta;
   meta.id = scan.scan_id();
+  SCANPREP_RETURN_IF_ERROR(CheckSensorId(scan.sensor_id(), field));
+  meta.sensor_id = scan.sensor_id();
   if (scan.has_camera_position()) {
     SCANPREP_ASSIGN_OR_RETURN(meta.camera_position,
                               Position(scan.camera_position(), frame, field, "camera_position"));
@@ -220,6 +290,7 @@ void ReportToProto(const PipelineReport& report, v1::Report* out) {
   out->set_budget_outcome(Outcome(report.budget_seconds, report.budget_met));
   out->set_points_coincident_across_scans(report.points_coincident_across_scans);
   for (const Warning& w : report.warnings) AddWarning(w, out);
+  if (report.health) HealthToProto(*report.health, out->mutable_health());
 }
 
 absl::StatusOr<std::set<WarningCode>> FailOnFromProto(const v1::PipelineOptions& options) {

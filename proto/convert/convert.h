@@ -78,8 +78,16 @@ double FloatSpacingAt(double mm);
 // scan's uncertainty u: rounding then moves a point by at most u/8 (1.6 % of u² in the noise).
 inline constexpr double kMaxFloatSpacingPerUncertainty = 0.25;
 
+// ScanHeader.sensor_id: at most this many bytes, each one of [A-Za-z0-9._:-].
+inline constexpr size_t kMaxSensorIdBytes = 64;
+constexpr bool IsSensorIdChar(char c) {
+  return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '.' ||
+         c == '_' || c == ':' || c == '-';
+}
+
 // The scan's metadata in the common frame and in millimetres. A zero uncertainty becomes the
-// default 0.1 mm; directions are normalised.
+// default 0.1 mm; directions are normalised. INVALID_METADATA naming the field for a bad value,
+// sensor_id included (kMaxSensorIdBytes, IsSensorIdChar).
 absl::StatusOr<ScanMeta> ScanMetaFromProto(const v1::ScanHeader& scan, const ScanFrame& frame,
                                            std::string_view field);
 
@@ -98,6 +106,8 @@ absl::StatusOr<std::set<WarningCode>> FailOnFromProto(const v1::PipelineOptions&
 // One warning into both of the report's lists: `warnings` (text) and `warning_details`.
 void AddWarning(const Warning& warning, v1::Report* out);
 
+// The pipeline's report, health included (pairs named by their scans' ids; unconstrained
+// misalignment components by their kMisalignmentAxes names).
 void ReportToProto(const PipelineReport& report, v1::Report* out);
 
 // A parameter's declaration as GetInfo() lists it: kind, default and valid range.

@@ -166,6 +166,11 @@ TEST(ErrorDetails, InvalidInputNamesTheFieldAtFault) {
   }
   {
     v1::JobHeader header = SimpleHeader();
+    header.mutable_scans(0)->set_sensor_id("cell 3");  // a space: not a label value
+    cases.push_back({"INVALID_METADATA", "header.scans[0].sensor_id", {HeaderRequest(header, 10)}});
+  }
+  {
+    v1::JobHeader header = SimpleHeader();
     (*header.mutable_options()->mutable_params())["smoothing.lambda"] = "1.5";
     cases.push_back({"INVALID_PARAMETER",
                      "header.options.params['smoothing.lambda']",
