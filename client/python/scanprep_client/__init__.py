@@ -6,6 +6,8 @@ a venv made with --system-site-packages (the build generates the API modules fro
 
 from scanprep_client.client import Client, Flag, Result, Scan, local_origin
 from scanprep_client.errors import ScanprepError
+from scanprep_client.health import Health, PairHealth, ScanHealth
 from scanprep_client.retry import RetryPolicy
 
-__all__ = ["Client", "Flag", "Result", "RetryPolicy", "Scan", "ScanprepError", "local_origin"]
+__all__ = ["Client", "Flag", "Health", "PairHealth", "Result", "RetryPolicy", "Scan", "ScanHealth",
+           "ScanprepError", "local_origin"]

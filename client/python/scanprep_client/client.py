@@ -15,6 +15,7 @@ import numpy as np
 from scanprep.v1 import scanprep_pb2 as pb
 from scanprep.v1 import scanprep_pb2_grpc as pb_grpc
 from scanprep_client.errors import ScanprepError, error_from_rpc
+from scanprep_client.health import Health, health_from_report
 from scanprep_client.retry import RetryPolicy, call_with_retries
 
 _UNITS = {"mm": pb.LENGTH_UNIT_MILLIMETRE, "m": pb.LENGTH_UNIT_METRE, "um": pb.LENGTH_UNIT_MICROMETRE, "in": pb.LENGTH_UNIT_INCH}
@@ -44,6 +45,7 @@ class Scan:
     precision on the float wire. Points and positions are always absolute in the scan frame."""
     points: np.ndarray
     scan_id: str = ""
+    sensor_id: str = ""  # the physical sensor, for its health across jobs ("" = not stated)
     camera_position: Optional[Sequence[float]] = None
     view_direction: Optional[Sequence[float]] = None
     projector_position: Optional[Sequence[float]] = None
@@ -73,6 +75,11 @@ class Result:
     def kept(self) -> np.ndarray:
         """Mask of the points not removed (all of them unless include_removed was asked)."""
         return (self.flags & int(Flag.REMOVED)) == 0
+
+    @property
+    def health(self) -> Optional[Health]:
+        """The scans' and overlapping pairs' health; None when the "health" stage did not run."""
+        return health_from_report(self.report)
 
 
 def _vec(target, values) -> None:
@@ -147,7 +154,8 @@ def _header(scans: Sequence[Scan], offsets: Sequence[Optional[np.ndarray]], orig
                           result_arrays=pb.ARRAY_ENCODING_PACKED,
                           total_points=sum(len(s.points) for s in scans))
     for scan, offset in zip(scans, offsets):
-        s = header.scans.add(scan_id=scan.scan_id, scanline_spacing=scan.scanline_spacing,
+        s = header.scans.add(scan_id=scan.scan_id, sensor_id=scan.sensor_id,
+                             scanline_spacing=scan.scanline_spacing,
                              uncertainty=scan.uncertainty, point_spacing=scan.point_spacing)
         for name in ("camera_position", "view_direction", "projector_position",
                      "projector_direction"):
@@ -291,6 +299,17 @@ class Client:
                                            timeout=seconds)
             return _result(responses, origin, progress)
         return self._call(attempt, timeout)
+
+    def health(self, scans: Sequence[Scan], *, unit: str, **options) -> Health:
+        """The scans' health without cleaning them: the job runs the "health" stage and what it
+        needs (as `scanprep health`); options as process's, but stages."""
+        if "stages" in options:
+            raise ValueError("health runs the \"health\" stage and what it needs: no stages")
+        result = self.process(scans, unit=unit, stages=["health"], **options)
+        if result.health is None:
+            raise ScanprepError(grpc.StatusCode.INTERNAL,
+                                "the service ran the health stage but reported no health")
+        return result.health
 
 
 def _result(responses: Iterator[pb.ProcessResponse], origin: Optional[np.ndarray],
