@@ -44,13 +44,23 @@ std::string Components(const v1::PairHealth& pair, char prefix, const v1::Vec3& 
   return absl::StrJoin(cells, "/");
 }
 
+// Wide enough for the longest scan id (file stems such as "happyStandRight_264"), at least 16.
+int IdWidth(const v1::HealthReport& health) {
+  size_t width = 16;
+  for (const v1::ScanHealth& s : health.scans()) {
+    width = std::max({width, s.scan_id().size(), s.sensor_id().size()});
+  }
+  return static_cast<int>(width);
+}
+
 void PrintScans(std::ostream& out, const v1::HealthReport& health) {
-  out << absl::StrFormat("%-16s %-16s %9s %9s %8s %9s %8s %9s  %s\n", "scan", "sensor", "points",
-                         "noise_mm", "noise/u", "outlier%", "merged%", "invalid%",
+  const int w = IdWidth(health);
+  out << absl::StrFormat("%-*s %-*s %9s %9s %8s %9s %8s %9s  %s\n", w, "scan", w, "sensor",
+                         "points", "noise_mm", "noise/u", "outlier%", "merged%", "invalid%",
                          "view_deg p10/p50/p90");
   for (const v1::ScanHealth& s : health.scans()) {
     out << absl::StrFormat(
-        "%-16s %-16s %9d %9s %8s %9s %8s %9s  %s\n", s.scan_id(),
+        "%-*s %-*s %9d %9s %8s %9s %8s %9s  %s\n", w, s.scan_id(), w,
         s.sensor_id().empty() ? kUnset : s.sensor_id(), s.points(),
         s.has_noise_mm() ? absl::StrFormat("%.4f", s.noise_mm()) : kUnset,
         s.has_noise_to_uncertainty() ? absl::StrFormat("%.2f", s.noise_to_uncertainty()) : kUnset,
@@ -61,17 +71,18 @@ void PrintScans(std::ostream& out, const v1::HealthReport& health) {
 }
 
 void PrintPairs(std::ostream& out, const v1::HealthReport& health) {
-  out << absl::StrFormat("%-16s %-16s %9s %10s %10s  %-26s %-26s %s\n", "fixed", "moving",
+  const int w = IdWidth(health);
+  out << absl::StrFormat("%-*s %-*s %9s %10s %10s  %-26s %-26s %s\n", w, "fixed", w, "moving",
                          "overlap", "median_um", "spread_um", "translation_um x/y/z",
                          "rotation_deg x/y/z", "unconstrained");
   for (const v1::PairHealth& p : health.pairs()) {
     std::string free = absl::StrJoin(p.unconstrained(), ",");
     if (!p.note().empty()) free = absl::StrCat(free.empty() ? "" : free + " ", "(", p.note(), ")");
     out << absl::StrFormat(
-        "%-16s %-16s %9d %10.2f %10.2f  %-26s %-26s %s\n", p.fixed_scan_id(), p.moving_scan_id(),
-        p.overlap_points(), 1000 * p.residual_median_mm(), 1000 * p.residual_spread_mm(),
-        Components(p, 't', p.translation_mm(), 1000, 2), Components(p, 'r', p.rotation_deg(), 1, 4),
-        free.empty() ? kUnset : free);
+        "%-*s %-*s %9d %10.2f %10.2f  %-26s %-26s %s\n", w, p.fixed_scan_id(), w,
+        p.moving_scan_id(), p.overlap_points(), 1000 * p.residual_median_mm(),
+        1000 * p.residual_spread_mm(), Components(p, 't', p.translation_mm(), 1000, 2),
+        Components(p, 'r', p.rotation_deg(), 1, 4), free.empty() ? kUnset : free);
   }
 }
 

@@ -92,6 +92,24 @@ TEST(HealthTable, PairRowInMicrometresAndDegreesWithUnconstrainedAsDash) {
   EXPECT_THAT(text, HasSubstr("tz,ry (too flat to constrain tz, ry)"));
 }
 
+// The right edge of `cell` in `line` (a right-aligned column ends there).
+size_t EndOf(const std::string& line, const std::string& cell) {
+  return line.find(cell) + cell.size();
+}
+
+TEST(HealthTable, LongScanIdsKeepTheColumnsAligned) {
+  v1::Report report = TwoScansOnePair();
+  report.mutable_health()->mutable_scans(0)->set_scan_id("happyStandRight_264");  // 19 bytes
+  std::istringstream lines(Printed(report));
+  std::string title, header, row;
+  std::getline(lines, title);
+  std::getline(lines, header);
+  std::getline(lines, row);
+  ASSERT_EQ(row.rfind("happyStandRight_264 ", 0), 0u) << row;
+  EXPECT_EQ(EndOf(row, "40256"), EndOf(header, "points")) << header << "\n" << row;
+  EXPECT_EQ(EndOf(row, "0.0123"), EndOf(header, "noise_mm")) << header << "\n" << row;
+}
+
 TEST(HealthTable, NoPairsAndNoHealthAreSaid) {
   v1::Report one = TwoScansOnePair();
   one.mutable_health()->clear_pairs();
