@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """The Grafana dashboard (deploy/grafana/scanprep-dashboard.json) against real data: a real
 scanprep-server under `scanprep load` (jobs that meet and miss their budget, jobs refused by a
-limit), a real Prometheus scraping it every second, and every panel's query run through
+limit, jobs of two named sensors), a real Prometheus scraping it every second, and every panel's query run through
 Prometheus's HTTP API with Grafana's variables filled in. Each query must return at least one
 finite value; a misspelled metric in a control panel must be reported.
 
@@ -136,10 +136,16 @@ class DashboardTest(unittest.TestCase):
                     metrics_port = int(m.group(1))
             prometheus = Prometheus(prometheus_binary, metrics_port, directory)
             target = f"127.0.0.1:{grpc_port}"
-            for points, concurrency in ((20000, 3), (50000, 1)):
+            # The third load's two overlapping scans name their sensors, for the sensor health
+            # row (per sensor and per pair).
+            sensors = ["--scans", "2", "--sensor_id", "frontal=cam-front",
+                       "--sensor_id", "oblique=cam-oblique"]
+            for points, concurrency, extra in ((20000, 3, []), (50000, 1, []),
+                                               (10000, 1, sensors)):
                 loads.append(subprocess.Popen(
                     [cli, "load", "--server", target, "--simulate", str(points),
-                     "--concurrency", str(concurrency), "--duration", "40s", "--timeout", "30s"],
+                     "--concurrency", str(concurrency), "--duration", "40s", "--timeout", "30s",
+                     *extra],
                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
             targets = [(panel["title"], t["expr"]) for panel in panels_of(self.dashboard)
                        for t in panel.get("targets", [])]
