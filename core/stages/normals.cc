@@ -29,6 +29,7 @@ struct NormalsSettings {
   NormalsRadiusMode radius_mode;
   double h_factor;  // Gaussian width h as a fraction of the ball radius
   uint32_t orientation_k;
+  size_t min_own_points;              // in an overlap: fewer of the point's own scan widen its ball
   MitraOptions mitra;                 // kMitra
   std::optional<double> mitra_sigma;  // σ_n for every scan, else each scan's u
 };
@@ -77,7 +78,8 @@ class NormalsStage : public Stage {
               no_normal[i] = 1;
               continue;
             }
-            float r = nb.adaptive_radius(i);
+            float r =
+                settings.radius_mode == NormalsRadiusMode::kKnn ? nb.dk(i) : nb.adaptive_radius(i);
             if (settings.radius_mode == NormalsRadiusMode::kMitra) {
               const double sigma =
                   settings.mitra_sigma.value_or(cloud.scans[cloud.scan[i]].uncertainty);
@@ -85,10 +87,11 @@ class NormalsStage : public Stage {
             }
             // In an overlap part of the k-NN ball belongs to other scans: widen it once
             // (OwnScanWidening). Only the widened ball is fitted. (One query reaching past r_p for
-            // both balls costs more than two: a radius search grows faster than the ball.)
+            // both balls costs more than two: a radius search grows faster than the ball.) The
+            // knn mode fits the list's own-scan half as it is, and widens only below that.
             Gather(cloud, nb, i, r, per_scan, scratch.matches);
             const size_t own = scratch.matches.size();
-            if (per_scan && own < nb.k() + 1) {
+            if (per_scan && own < settings.min_own_points) {
               r *= OwnScanWidening(own, nb.k());
               Gather(cloud, nb, i, r, per_scan, scratch.matches);
             }
@@ -151,6 +154,7 @@ class NormalsStage : public Stage {
     NormalsSettings s;
     s.radius_mode = ctx.Choice(kNormalsRadiusMode);
     s.h_factor = ctx.Number(kNormalsGaussianHFactor);
+    s.min_own_points = s.radius_mode == NormalsRadiusMode::kKnn ? nb.k() / 2 : nb.k() + 1;
     // At most neighbourhoods.k (ValidateOverrides): orientation walks the shared graph.
     s.orientation_k =
         static_cast<uint32_t>(ctx.Integer(kNormalsOrientationK, std::min(kOrientationK, nb.k())));
@@ -209,8 +213,8 @@ StageInfo NormalsStageInfo() {
       .params =
           {
               ChoiceParam(kNormalsRadiusMode,
-                          "PCA ball radius: adaptive r_p = max(r_min, "
-                          "d_k), or the Mitra et al. radius of Eq. (1)"),
+                          "PCA ball radius: adaptive r_p = max(r_min, d_k), the Mitra et al. "
+                          "radius of Eq. (1), or knn: d_k (the k-NN list alone, cheapest)"),
               RealParam(kNormalsGaussianHFactor,
                         "Gaussian width h as a fraction of the ball radius", 0.5, LeftOpen(0, 10)),
               DerivedIntegerParam(

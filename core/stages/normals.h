@@ -10,9 +10,11 @@ namespace scanprep {
 StageInfo NormalsStageInfo();
 
 // The stage's parameters, each name declared here once (its spec and its reader use these).
-enum class NormalsRadiusMode { kAdaptive, kMitra };
-inline constexpr ChoiceDecl<NormalsRadiusMode, 2> kNormalsRadiusMode{"normals.radius_mode",
-                                                                     {"adaptive", "mitra"}};
+// adaptive: r_p = max(r_min, d_k), the paper's ball; knn: r = d_k, the k-NN list alone (no ball
+// query; the paper's "k nearest neighbors (typically 20)"), the preset `paper`'s; mitra: below.
+enum class NormalsRadiusMode { kAdaptive, kMitra, kKnn };
+inline constexpr ChoiceDecl<NormalsRadiusMode, 3> kNormalsRadiusMode{"normals.radius_mode",
+                                                                     {"adaptive", "mitra", "knn"}};
 inline constexpr std::string_view kNormalsGaussianHFactor = "normals.gaussian_h_factor";
 inline constexpr std::string_view kNormalsOrientationK = "normals.orientation_k";
 inline constexpr std::string_view kNormalsMitraC1 = "normals.mitra_c1";

@@ -98,6 +98,7 @@ class SmoothingStage : public Stage {
   static SmoothingSettings ReadSettings(StageContext& ctx) {
     SmoothingSettings s;
     s.own_side = ctx.Choice(kSmoothingMethod) == SmoothingMethod::kOwnSide;
+    s.knn = ctx.Choice(kSmoothingNeighbourhood) == SmoothingNeighbourhood::kKnn;
     s.lambda = static_cast<float>(ctx.Number(kSmoothingLambda));
     s.influence = ctx.Choice(kSmoothingInfluence);
     s.blend = ctx.Choice(kSmoothingMode) == SmoothingMode::kBlend;
@@ -165,6 +166,9 @@ StageInfo SmoothingStageInfo() {
               ChoiceParam(kSmoothingMethod,
                           "own_side: projection onto the plane of the point's own side, δ = 3σ "
                           "from the data; mean: the paper's Eq. (8) with δ = u"),
+              ChoiceParam(
+                  kSmoothingNeighbourhood,
+                  "ball: r_p = max(r_min, d_k), the paper's; knn: the k-NN list alone (cheaper)"),
               RealParam(kSmoothingLambda,
                         "λ of Eq. (6): share of viewing quality vs. flatness in w_j",
                         kDefaultSmoothingLambda, Closed(0, 1)),

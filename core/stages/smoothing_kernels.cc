@@ -152,7 +152,7 @@ SmoothingOutcome SmoothPoint(const SmoothingInputs& in, size_t i, SmoothingScrat
   const Eigen::Vector3f p = in.cloud.point(i);
   out = p;
   if (in.cloud.removed(i)) return kKept;
-  const float r_p = in.nb.adaptive_radius(i);
+  const float r_p = in.s.knn ? in.nb.dk(i) : in.nb.adaptive_radius(i);
   if (!(r_p > 0)) return kKept;
   // Includes i itself (x = 0, Φ = 1). The own-side fit also takes the points merging removed:
   // they are measurements of the same surface, only worse viewed (Eq. 6 weighs them so), and

@@ -27,6 +27,7 @@ float InfluenceAt(Influence kind, float x);
 
 struct SmoothingSettings {
   bool own_side = true;  // project onto the own side's plane; false = the paper's mean (Eq. 8)
+  bool knn = false;      // the k-NN list (radius d_k) in place of the r_p ball
   float lambda = static_cast<float>(kDefaultSmoothingLambda);
   Influence influence = Influence::kCubic;
   bool blend = false;  // mean: scale each point's own displacement by its weight w_p

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "absl/strings/str_format.h"
+#include "core/pipeline/presets.h"
 #include "tests/bench/metrology_peers.h"
 #include "tests/support/metrology.h"
 #include "tests/support/metrology_job.h"
@@ -85,15 +86,18 @@ int Run(size_t points, uint64_t seed) {
     const char* name;
     std::vector<std::string> stages;
     bool metadata;
+    ParamOverrides params;
   } runs[] = {
       {"outliers + smoothing", {"outliers", "smoothing"}, true},
-      {"default pipeline", {}, true},
+      {"default pipeline (preset metrology)", {}, true},
+      {"preset paper", {}, true, *ResolvePreset(BuiltinPresets(), "paper", {})},
       {"outliers + smoothing, no metadata", {"outliers", "smoothing"}, false},
       {"default pipeline, no metadata", {}, false},
   };
   for (const auto& r : runs) {
     auto run = testing::RunStages(
-        r.metadata ? testing::WithUserMetadata(sim) : testing::WithoutMetadata(sim), r.stages);
+        r.metadata ? testing::WithUserMetadata(sim) : testing::WithoutMetadata(sim), r.stages,
+        r.params);
     if (!run.ok()) {
       std::fprintf(stderr, "%s: %s\n", r.name, std::string(run.status().message()).c_str());
       return 1;

@@ -11,6 +11,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "core/pipeline/presets.h"
 #include "core/spatial/neighbourhoods.h"
 #include "tests/bench/bench_cloud.h"
 #include "tests/bench/pipeline_case.h"
@@ -59,6 +60,11 @@ void BM_NeighbourGraph(benchmark::State& state) {
 BENCHMARK(BM_BareNanoflannKnn)->Apply(Sizes)->UseRealTime();
 BENCHMARK(BM_NeighbourGraph)->Apply(Sizes)->UseRealTime();
 BENCHMARK_CAPTURE(RunPipelineCase, DefaultPipeline, std::string())->Apply(Sizes)->UseManualTime();
+// The preset `paper`; `metrology` is DefaultPipeline (its parameters are the defaults).
+BENCHMARK_CAPTURE(RunPipelineCase, PaperPreset, std::string(), ReferenceCloud,
+                  *ResolvePreset(BuiltinPresets(), "paper", {}))
+    ->Apply(Sizes)
+    ->UseManualTime();
 // 4 M points at the 1 M density: whether the pipeline scales with the point count alone.
 BENCHMARK_CAPTURE(RunPipelineCase, DefaultPipelinePartsInARow, std::string(), PartsInARowCloud)
     ->Args({4'000'000, 2})

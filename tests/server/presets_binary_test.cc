@@ -65,8 +65,9 @@ TEST_F(PresetsBinary, AGoodFileIsListedAndRunByTheCli) {
   const CommandResult info = RunCommand(cli + " info --server " + server.target());
   ASSERT_EQ(info.exit_code, 0) << info.output;
   EXPECT_THAT(info.output, HasSubstr("  metrology (built-in)  no overrides\n"));
-  EXPECT_THAT(info.output, HasSubstr("  paper (built-in)  outliers.surface_sigmas=0 "
-                                     "smoothing.method=mean\n"));
+  EXPECT_THAT(info.output, HasSubstr("  paper (built-in)  normals.radius_mode=knn "
+                                     "outliers.surface_sigmas=0 smoothing.method=mean "
+                                     "smoothing.neighbourhood=knn\n"));
   EXPECT_THAT(info.output, HasSubstr("  acme-ls200  outliers.multiplier=2.5 smoothing.lambda=0.4\n"
                                      "      Acme LS-200\n"));
 

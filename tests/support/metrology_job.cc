@@ -31,9 +31,11 @@ PointCloud WithoutMetadata(const sim::SimulatedCloud& sim) {
   return cloud;
 }
 
-absl::StatusOr<StagesRun> RunStages(PointCloud cloud, const std::vector<std::string>& stages) {
+absl::StatusOr<StagesRun> RunStages(PointCloud cloud, const std::vector<std::string>& stages,
+                                    const ParamOverrides& params) {
   PipelineOptions options;
   options.stages = stages;
+  options.params = params;
   const CancelToken never;
   const auto start = std::chrono::steady_clock::now();
   auto report = RunPipeline(cloud, options, never);

@@ -39,7 +39,8 @@ struct StagesRun {
   double seconds = 0;
 };
 
-// Runs `stages` (empty = the default pipeline) with default parameters.
-absl::StatusOr<StagesRun> RunStages(PointCloud cloud, const std::vector<std::string>& stages);
+// Runs `stages` (empty = the default pipeline) with default parameters, or `params` over them.
+absl::StatusOr<StagesRun> RunStages(PointCloud cloud, const std::vector<std::string>& stages,
+                                    const ParamOverrides& params = {});
 
 }  // namespace scanprep::testing

@@ -29,12 +29,16 @@ TEST(Presets, BuiltinsAreMetrologyAndPaperAndValidate) {
 
 // docs/benchmarks.md and docs/algorithms.md: the paper's configuration is its global outlier rule
 // without the surface test (outliers.surface_sigmas = 0) and the weighted-mean smoothing of
-// Eqs. 8-10 (smoothing.method = mean).
+// Eqs. 8-10 (smoothing.method = mean), normals and smoothing from the k-NN list (the fast one).
+const ParamOverrides kPaper = {{"normals.radius_mode", "knn"},
+                               {"outliers.surface_sigmas", "0"},
+                               {"smoothing.method", "mean"},
+                               {"smoothing.neighbourhood", "knn"}};
+
 TEST(Presets, PaperSetsThePapersConfiguration) {
   auto params = ResolvePreset(BuiltinPresets(), "paper", {});
   ASSERT_TRUE(params.ok()) << params.status();
-  EXPECT_EQ(*params,
-            (ParamOverrides{{"outliers.surface_sigmas", "0"}, {"smoothing.method", "mean"}}));
+  EXPECT_EQ(*params, kPaper);
 }
 
 TEST(Presets, DefaultThenPresetThenExplicitParameters) {
@@ -49,8 +53,9 @@ TEST(Presets, DefaultThenPresetThenExplicitParameters) {
   // The preset's value where the job states none; the job's own value beats the preset's.
   auto both = ResolvePreset(presets, "paper", {{"outliers.surface_sigmas", "2"}});
   ASSERT_TRUE(both.ok()) << both.status();
-  EXPECT_EQ(*both,
-            (ParamOverrides{{"outliers.surface_sigmas", "2"}, {"smoothing.method", "mean"}}));
+  ParamOverrides expected = kPaper;
+  expected["outliers.surface_sigmas"] = "2";
+  EXPECT_EQ(*both, expected);
 }
 
 TEST(Presets, AnUnknownPresetIsRefusedNamingTheFieldAndTheKnownNames) {
