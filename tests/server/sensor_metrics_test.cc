@@ -1,12 +1,17 @@
 // SPDX-License-Identifier: Apache-2.0
 // Per-sensor health metrics (server/sensor_metrics.h): a hand-made HealthReport recorded into a
-// registry, read back from its text exposition as Prometheus would scrape it.
+// registry, read back from its text exposition as Prometheus would scrape it; and a job of two
+// simulated sensors through the service, its /metrics scraped.
 #include <string>
 
 #include <gtest/gtest.h>
 
+#include "client/cli_args.h"
+#include "client/job_builder.h"
+#include "core/sim/scan_simulator.h"
 #include "server/sensor_metrics.h"
 #include "tests/server/metrics_scrape.h"
+#include "tests/server/service_fixtures.h"
 
 namespace scanprep::server {
 namespace {
@@ -116,6 +121,50 @@ TEST(SensorMetrics, LabelValuesAreSanitised) {
   EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_noise_mm{sensor=\"x___1_evil_metric_2\"}"), 0.01);
   EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_noise_mm{sensor=\"" + std::string(64, 'z') + "\"}"), 0.02);
   EXPECT_FALSE(s.contains("evil_metric"));
+}
+
+// The service's path: ServerOptions.sensor_metrics (the flags) reach the registry, and a job's
+// health reaches /metrics. Two overlapping sensors (the oblique one twice as noisy); with
+// --max_sensors 1 the second sensor and the pair fold into "other".
+std::map<std::string, double> ScrapeAfterTwoSensorJob(int max_sensors) {
+  server::ServerOptions options;
+  options.metrics_listen = "127.0.0.1:0";
+  options.sensor_metrics = {.max_sensors = max_sensors, .tolerance_mm = 0.03};
+  scanprep::testing::InProcessServer server(options);
+  sim::SimulatedCloud scan = sim::SimulateWithPointCount(
+      sim::Part::kPlane, sim::TwoOverlappingSensors(sim::Part::kPlane), 20'000, 0.01, 7);
+  scan.cloud.scans[0].sensor_id = "front";
+  scan.cloud.scans[1].sensor_id = "oblique";
+  auto args = client::ParseArgs({}, client::JobFlags());
+  EXPECT_TRUE(args.ok()) << args.status();
+  auto job = client::BuildJobFromCloud(*args, std::move(scan.cloud));
+  EXPECT_TRUE(job.ok()) << job.status();
+  auto result = server.Client().Process(job->header, job->points);
+  EXPECT_TRUE(result.ok()) << result.status();
+  return scanprep::testing::Scrape(server.server().metrics_port());
+}
+
+TEST(SensorMetrics, AJobThroughTheServiceIsExportedPerSensor) {
+  const auto s = ScrapeAfterTwoSensorJob(64);
+  EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_tolerance_mm"), 0.03);
+  EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_scans_total{sensor=\"front\"}"), 1);
+  EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_scans_total{sensor=\"oblique\"}"), 1);
+  // The simulator's truth: 0.01 mm of noise on the frontal sensor, and the oblique one displaced
+  // by 0.02 mm (TwoOverlappingSensors).
+  EXPECT_NEAR(s.at("scanprep_sensor_noise_mm{sensor=\"front\"}"), 0.01, 0.002);
+  EXPECT_NEAR(s.at("scanprep_sensor_pair_translation_mm{sensor_pair=\"front|oblique\"}"), 0.02,
+              0.005);
+  EXPECT_TRUE(s.contains("scanprep_sensor_pair_residual_median_mm{sensor_pair=\"front|oblique\"}"));
+  EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_labels_folded_total"), 0);
+}
+
+TEST(SensorMetrics, TheServersCapFoldsTheSecondSensor) {
+  const auto s = ScrapeAfterTwoSensorJob(1);
+  EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_scans_total{sensor=\"front\"}"), 1);
+  EXPECT_FALSE(s.contains("scanprep_sensor_scans_total{sensor=\"oblique\"}"));
+  EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_scans_total{sensor=\"other\"}"), 1);
+  EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_labels_folded_total"), 1);
+  EXPECT_TRUE(s.contains("scanprep_sensor_pair_residual_median_mm{sensor_pair=\"other\"}"));
 }
 
 TEST(SensorMetrics, OptionsAreChecked) {
