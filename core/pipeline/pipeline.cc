@@ -17,7 +17,7 @@
 namespace scanprep {
 
 std::vector<std::string> DefaultStages() {
-  return {"outliers", "correction", "smoothing", "simplification"};
+  return {"outliers", "correction", "health", "smoothing", "simplification"};
 }
 
 absl::Status ValidateOptions(const PipelineOptions& options) {

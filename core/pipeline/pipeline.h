@@ -28,8 +28,10 @@ struct PipelineOptions {
   std::set<WarningCode> fail_on;
 };
 
-// The paper's case-study order: outliers → correction → smoothing → simplification; the plan
-// (Plan::Resolve) runs each stage's prerequisites (neighbourhoods, normals, measures) first.
+// The paper's case-study order: outliers → correction → smoothing → simplification, with the
+// scanner-health report (docs/health.md) between correction and smoothing, while the positions
+// are still the measured ones; the plan (Plan::Resolve) runs each stage's prerequisites
+// (neighbourhoods, normals, measures) first.
 std::vector<std::string> DefaultStages();
 
 // Checks stage names (known, not repeated), parameter overrides and budgets before any work.

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <span>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
@@ -135,6 +136,8 @@ absl::Status Runner::RunStep(size_t index) {
   if (status.ok()) {
     Emit(1.0);
     done_weight_ += info.cost_weight;
+    shared_.steps_run.push_back(info.name);
+    if (shared_.health) report_.health = *std::exchange(shared_.health, std::nullopt);
   }
   return status;
 }

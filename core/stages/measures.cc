@@ -18,7 +18,6 @@
 #include "core/stages/stage_context.h"
 
 namespace scanprep {
-namespace {
 
 std::optional<Eigen::Vector3d> TowardCamera(const ScanMeta& scan, const Eigen::Vector3d& p) {
   if (scan.camera_position) return *scan.camera_position - p;
@@ -26,17 +25,18 @@ std::optional<Eigen::Vector3d> TowardCamera(const ScanMeta& scan, const Eigen::V
   return std::nullopt;
 }
 
-std::optional<Eigen::Vector3d> TowardProjector(const ScanMeta& scan, const Eigen::Vector3d& p) {
-  if (scan.projector_position) return *scan.projector_position - p;
-  if (scan.projector_direction) return *scan.projector_direction;
-  return std::nullopt;
-}
-
-// Angle in [0, π/2] between the unoriented normal and a direction.
 double ViewAngle(const Eigen::Vector3d& n, const Eigen::Vector3d& toward) {
   const double norm = toward.norm();
   if (!(norm > 0)) return 0;
   return std::acos(std::clamp(std::abs(n.dot(toward)) / norm, 0.0, 1.0));
+}
+
+namespace {
+
+std::optional<Eigen::Vector3d> TowardProjector(const ScanMeta& scan, const Eigen::Vector3d& p) {
+  if (scan.projector_position) return *scan.projector_position - p;
+  if (scan.projector_direction) return *scan.projector_direction;
+  return std::nullopt;
 }
 
 // The smallest window that keeps flat-surface noise below half the edge scale at 99 %: the

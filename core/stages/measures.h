@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <bit>
 #include <cstdint>
+#include <optional>
 #include <string_view>
 #include <vector>
 
@@ -22,6 +23,12 @@ inline constexpr std::string_view kMeasuresCurvatureScale = "measures.curvature_
 inline constexpr std::string_view kMeasuresVariationScale = "measures.variation_scale";
 inline constexpr std::string_view kMeasuresEdgeThreshold = "measures.edge_threshold";
 inline constexpr std::string_view kMeasuresWindow = "measures.window_mm";
+
+// The direction from surface point p toward scan's camera (camera_position − p, or the line
+// scanner's view_direction); none without either.
+std::optional<Eigen::Vector3d> TowardCamera(const ScanMeta& scan, const Eigen::Vector3d& p);
+// Angle in [0, π/2] between the unoriented normal n and a direction.
+double ViewAngle(const Eigen::Vector3d& n, const Eigen::Vector3d& toward);
 
 // Δp per scan, the spacing of points along a scanline: measured (median consecutive distance)
 // when the scan has scanlines, else the scanner's nominal point_spacing, else the median

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "core/stages/stage_context.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 
@@ -106,6 +107,11 @@ absl::StatusOr<const Neighbourhoods*> StageContext::neighbourhoods() const {
                      "' asked for the shared neighbourhoods, but its plan built none before it"));
   }
   return shared_.neighbourhoods.get();
+}
+
+bool StageContext::Ran(std::string_view name) const {
+  return std::find(shared_.steps_run.begin(), shared_.steps_run.end(), name) !=
+         shared_.steps_run.end();
 }
 
 absl::Status StageContext::PointsMoved(float max_shift) {

@@ -33,6 +33,11 @@ struct SharedState {
   // The job's exact duplicates, collapsed before the first stage: the stages see one point per
   // group, and the report counts every input point of a group. Null: none.
   const DuplicateGroups* duplicates = nullptr;
+  // The steps that ran to their end so far, in order (a stage whose figures depend on an earlier
+  // one, e.g. health's merged share on correction, asks StageContext::Ran).
+  std::vector<std::string_view> steps_run;
+  // Set by the "health" stage; the runner moves it into PipelineReport::health.
+  std::optional<HealthReport> health;
 };
 
 // The running stage's progress, kept by the runner.
@@ -108,6 +113,10 @@ class StageContext {
   void SetNeighbourhoods(std::unique_ptr<Neighbourhoods> nb) {
     shared_.neighbourhoods = std::move(nb);
   }
+  // Whether step `name` ran (to its end) before this one.
+  bool Ran(std::string_view name) const;
+  // The job's health report (the "health" stage's result).
+  void SetHealth(HealthReport health) { shared_.health = std::move(health); }
   size_t duplicates_collapsed() const {
     return shared_.duplicates ? shared_.duplicates->collapsed() : 0;
   }

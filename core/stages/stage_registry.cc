@@ -4,6 +4,7 @@
 
 #include "absl/strings/numbers.h"
 #include "core/stages/correction.h"
+#include "core/stages/health.h"
 #include "core/stages/measures.h"
 #include "core/stages/neighbourhoods_stage.h"
 #include "core/stages/normals.h"
@@ -16,9 +17,9 @@ namespace scanprep {
 
 const std::vector<StageInfo>& StageRegistry() {
   static const std::vector<StageInfo> registry = {
-      NeighbourhoodsStageInfo(), OutliersStageInfo(),   NormalsStageInfo(),
-      MeasuresStageInfo(),       CorrectionStageInfo(), SmoothingStageInfo(),
-      SimplificationStageInfo(),
+      NeighbourhoodsStageInfo(), OutliersStageInfo(),       NormalsStageInfo(),
+      MeasuresStageInfo(),       CorrectionStageInfo(),     HealthStageInfo(),
+      SmoothingStageInfo(),      SimplificationStageInfo(),
   };
   return registry;
 }

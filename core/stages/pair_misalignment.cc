@@ -1,0 +1,177 @@
+// SPDX-License-Identifier: Apache-2.0
+// Point-to-plane: a moving point p_m near the fixed scan's point p_f, whose local plane has the
+// normal n_f, lies d = n_f·(p_m − p_f) − plane_offset off it (Correspondence). If moving is fixed's
+// surface moved by a small rigid motion (translation t at the centre c, rotation vector ω), d ≈
+// n_f·t + ω·((p_m − c) × n_f): one linear equation J x = d per point in x = (t, ω), solved by least
+// squares in two passes, each dropping the points more than 3 robust spreads off the median of what
+// it explains (edges, points whose nearest fixed neighbour lies on another face). The rotation
+// columns are divided by the overlap's extent L so that all six unknowns are lengths: then the
+// eigenvalues of JᵀJ compare, and a flat or narrow overlap shows as eigen-directions with little
+// weight, which are left out of the solve instead of being guessed from noise.
+#include "core/stages/pair_misalignment.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+
+namespace scanprep {
+namespace {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+// A misalignment axis is flagged when more than this share of its unit vector's squared length
+// lies in the unconstrained subspace (half its length): its estimate would be mostly guesswork.
+constexpr double kMaxUnconstrainedShare = 0.25;
+// Points more than this many robust spreads off the median residual are left out of a pass.
+constexpr double kRejectSpreads = 3.0;
+
+struct Robust {
+  double median = 0, spread = 0;
+  bool Keeps(double value) const {
+    return spread == 0 || std::abs(value - median) <= kRejectSpreads * spread;
+  }
+};
+
+double MedianInPlace(std::vector<double>& v) {
+  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+// Median and 1.4826·MAD of `values` (O(n): two selections).
+Robust MedianAndSpread(std::vector<double> values) {
+  Robust r;
+  r.median = MedianInPlace(values);
+  for (double& v : values) v = std::abs(v - r.median);
+  r.spread = RobustSpread(MedianInPlace(values));
+  return r;
+}
+
+// A residual's noise is taken as at least this (mm), so that a noise-free fit does not weigh
+// infinitely.
+constexpr double kMinSigma = 1e-4;
+
+// One correspondence's equation divided by its sigma, rotations scaled by 1/L.
+struct Row {
+  Vector6d j;
+  double d = 0;
+};
+
+struct Solution {
+  Vector6d x = Vector6d::Zero();  // (t, ω·L)
+  std::array<bool, 6> constrained{};
+};
+
+// Least squares in the eigen-directions of JᵀJ whose eigenvalue reaches flat_ratio of the
+// largest; every axis with a large share in the others is flagged and set to 0.
+Solution SolveConstrained(const Matrix6d& h, const Vector6d& g, double flat_ratio) {
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(h);
+  const Vector6d& lambda = eigen.eigenvalues();  // ascending
+  const double largest = lambda[5];
+  Solution s;
+  Vector6d unconstrained_share = Vector6d::Zero();
+  for (int e = 0; e < 6; ++e) {
+    const auto v = eigen.eigenvectors().col(e);
+    if (largest > 0 && lambda[e] >= flat_ratio * largest) {
+      s.x += v * (v.dot(g) / lambda[e]);
+    } else {
+      unconstrained_share += v.cwiseAbs2();
+    }
+  }
+  for (int k = 0; k < 6; ++k) {
+    s.constrained[k] = unconstrained_share[k] <= kMaxUnconstrainedShare;
+    if (!s.constrained[k]) s.x[k] = 0;
+  }
+  return s;
+}
+
+// One pass: the rows whose `residual` the robust statistics keep.
+template <typename Residual>
+Solution Pass(const std::vector<Row>& rows, Residual residual, const Robust& robust,
+              double flat_ratio) {
+  Matrix6d h = Matrix6d::Zero();
+  Vector6d g = Vector6d::Zero();
+  for (const Row& row : rows) {
+    if (!robust.Keeps(residual(row))) continue;
+    h.selfadjointView<Eigen::Lower>().rankUpdate(row.j);
+    g += row.j * row.d;
+  }
+  h = h.selfadjointView<Eigen::Lower>();
+  return SolveConstrained(h, g, flat_ratio);
+}
+
+std::string Unconstrained(const std::array<bool, 6>& constrained) {
+  std::vector<std::string> names;
+  for (size_t k = 0; k < 6; ++k) {
+    if (!constrained[k]) names.push_back(kMisalignmentAxes[k]);
+  }
+  return absl::StrJoin(names, ", ");
+}
+
+}  // namespace
+
+PairHealth EstimatePairHealth(const PointCloud& cloud, uint32_t fixed_scan, uint32_t moving_scan,
+                              std::span<const Correspondence> matches,
+                              const MisalignmentSettings& settings) {
+  PairHealth pair{.fixed = fixed_scan, .moving = moving_scan, .overlap_points = matches.size()};
+  if (matches.empty()) return pair;
+  const double n = static_cast<double>(matches.size());
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const Correspondence& m : matches) centre += cloud.point(m.moving).cast<double>();
+  centre /= n;
+  double squared_extent = 0;
+  for (const Correspondence& m : matches) {
+    squared_extent += (cloud.point(m.moving).cast<double>() - centre).squaredNorm();
+  }
+  const double extent = std::sqrt(squared_extent / n);
+  const double inv_extent = extent > 0 ? 1 / extent : 0;
+
+  std::vector<Row> rows(matches.size());
+  std::vector<double> residuals(matches.size());
+  for (size_t i = 0; i < matches.size(); ++i) {
+    const Eigen::Vector3d pm = cloud.point(matches[i].moving).cast<double>();
+    const Eigen::Vector3d pf = cloud.point(matches[i].fixed).cast<double>();
+    const Eigen::Vector3d nf = matches[i].normal.cast<double>();
+    residuals[i] = nf.dot(pm - pf) - matches[i].plane_offset;
+    const double weight = 1 / std::max<double>(matches[i].sigma, kMinSigma);
+    rows[i].j << nf * weight, (pm - centre).cross(nf) * (inv_extent * weight);
+    rows[i].d = residuals[i] * weight;
+  }
+  const Robust raw = MedianAndSpread(residuals);
+  pair.residual_median_mm = raw.median;
+  pair.residual_spread_mm = raw.spread;
+  for (size_t i = 0; i < rows.size(); ++i) residuals[i] = rows[i].d;
+  const Robust weighted = MedianAndSpread(residuals);
+  pair.centre = centre;
+  if (matches.size() < settings.min_points) {
+    pair.note =
+        absl::StrFormat("overlap too small (%d points < %d)", matches.size(), settings.min_points);
+    return pair;  // constrained: all false
+  }
+
+  // Pass 1 keeps the residuals near their median; pass 2 those near what pass 1's motion explains
+  // (a tilt spreads the raw residuals, which pass 1 would otherwise cut into).
+  Solution s = Pass(
+      rows, [](const Row& r) { return r.d; }, raw, settings.flat_ratio);
+  const auto left = [&](const Row& r) { return r.d - r.j.dot(s.x); };
+  for (size_t i = 0; i < rows.size(); ++i) residuals[i] = left(rows[i]);
+  const Robust after = MedianAndSpread(residuals);
+  s = Pass(rows, left, after, settings.flat_ratio);
+
+  pair.translation_mm = s.x.head<3>();
+  pair.rotation_deg = s.x.tail<3>() * inv_extent * (180 / std::numbers::pi);
+  pair.constrained = s.constrained;
+  if (const std::string loose = Unconstrained(s.constrained); !loose.empty()) {
+    pair.note = "too flat to constrain " + loose;
+  }
+  return pair;
+}
+
+}  // namespace scanprep

@@ -1,0 +1,45 @@
+// SPDX-License-Identifier: Apache-2.0
+// How one scan lies against another where they overlap: the signed point-to-plane residuals of
+// the moving scan's points against the fixed scan's local planes, and the rigid misalignment
+// they imply, solved only in the directions the overlap's shape constrains (docs/health.md).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "core/base/point_cloud.h"
+#include "core/stages/health_report.h"
+
+namespace scanprep {
+
+// A point of the moving scan and the fixed scan's local plane it is measured against: the plane
+// of fixed point `fixed`'s own-scan neighbourhood, with unit normal `normal` (fixed's orientation)
+// and `plane_offset` = normal·(plane point − p_fixed). `sigma`: the residual's expected noise
+// (mm), from the two points' own fit residuals; the solve weights by 1/sigma², so a face seen at
+// a grazing angle (noise σ/cos q) does not drown the rest.
+struct Correspondence {
+  uint32_t moving = 0, fixed = 0;
+  Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();
+  float plane_offset = 0;
+  float sigma = 1;
+};
+
+struct MisalignmentSettings {
+  size_t min_points = 1000;  // fewer correspondences: nothing is constrained
+  // An eigen-direction of JᵀJ (rotations scaled by the overlap's extent) whose eigenvalue is
+  // below this fraction of the largest is unconstrained.
+  double flat_ratio = 0.01;
+};
+
+// The robust spread of residuals whose median absolute deviation is `mad`: 1.4826·MAD, which is
+// σ for normally distributed residuals.
+inline double RobustSpread(double mad) { return 1.4826 * mad; }
+
+// The pair's report from its correspondences (any order; the result does not depend on it beyond
+// rounding). Coordinates are taken relative to the overlap's centroid in double.
+PairHealth EstimatePairHealth(const PointCloud& cloud, uint32_t fixed_scan, uint32_t moving_scan,
+                              std::span<const Correspondence> matches,
+                              const MisalignmentSettings& settings);
+
+}  // namespace scanprep

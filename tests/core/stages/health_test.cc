@@ -1,0 +1,219 @@
+// SPDX-License-Identifier: Apache-2.0
+// The health stage against the simulator's ground truth: a sensor misregistered by a known rigid
+// motion must be reported with that motion (expressed at the reported centre), a flat overlap
+// must flag the in-plane components instead of guessing them, and a sensor's noise σ̂ must follow
+// its true noise.
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/pipeline/pipeline.h"
+#include "core/sim/scan_simulator.h"
+
+namespace scanprep {
+namespace {
+
+using sim::Part;
+
+constexpr size_t kPoints = 200'000;
+constexpr double kDegree = std::numbers::pi / 180;
+
+// Two overlapping sensors of `part`; the second (scan 1, the pair's moving scan) is misregistered
+// by `misregistration` and has its noise scaled by `noise_scale`.
+sim::SimulatedCloud TwoScans(Part part, const Eigen::Isometry3d& misregistration,
+                             double noise_scale = 1) {
+  std::vector<sim::SimSensor> sensors = sim::TwoOverlappingSensors(part);
+  sensors[1].misregistration = misregistration;
+  sensors[1].noise_sigma *= noise_scale;
+  return sim::SimulateWithPointCount(part, sensors, kPoints, 0, 7);
+}
+
+HealthReport Health(PointCloud& cloud, std::vector<std::string> stages = {"health"}) {
+  CancelToken cancel;
+  absl::StatusOr<PipelineReport> report = RunPipeline(cloud, {.stages = std::move(stages)}, cancel);
+  EXPECT_TRUE(report.ok()) << report.status();
+  EXPECT_TRUE(report->health.has_value());
+  return report->health.value_or(HealthReport{});
+}
+
+PairHealth OnlyPair(const HealthReport& health) {
+  EXPECT_EQ(health.pairs.size(), 1u);
+  if (health.pairs.empty()) return {};
+  EXPECT_EQ(health.pairs[0].fixed, 0u);
+  EXPECT_EQ(health.pairs[0].moving, 1u);
+  return health.pairs[0];
+}
+
+// The motion that maps fixed's surface onto moving's points, linearised at c (relative to the
+// cloud's origin): translation R c + t − c and rotation vector, as the stage reports them.
+struct Truth {
+  Eigen::Vector3d translation_mm, rotation_deg;
+};
+Truth TruthAt(const Eigen::Isometry3d& motion, const Eigen::Vector3d& c_local,
+              const Eigen::Vector3d& origin) {
+  const Eigen::Vector3d c = c_local + origin;
+  const Eigen::AngleAxisd aa(motion.linear());
+  return {motion * c - c, aa.axis() * aa.angle() / kDegree};
+}
+
+void ExpectRecovered(const Eigen::Isometry3d& motion) {
+  sim::SimulatedCloud sim = TwoScans(Part::kBoxWithBore, motion);
+  const HealthReport health = Health(sim.cloud);
+  const PairHealth pair = OnlyPair(health);
+  ASSERT_GE(pair.overlap_points, 1000u);
+  const Truth truth = TruthAt(motion, pair.centre, sim.cloud.origin);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_TRUE(pair.constrained[k] && pair.constrained[k + 3]) << pair.note;
+    EXPECT_NEAR(pair.translation_mm[k], truth.translation_mm[k],
+                std::max(0.2 * std::abs(truth.translation_mm[k]), 1e-3))
+        << kMisalignmentAxes[k];
+    EXPECT_NEAR(pair.rotation_deg[k], truth.rotation_deg[k],
+                std::max(0.2 * std::abs(truth.rotation_deg[k]), 0.005))
+        << kMisalignmentAxes[k + 3];
+  }
+}
+
+Eigen::Isometry3d Shift(const Eigen::Vector3d& t) {
+  Eigen::Isometry3d m = Eigen::Isometry3d::Identity();
+  m.translation() = t;
+  return m;
+}
+
+Eigen::Isometry3d Turn(double degrees, const Eigen::Vector3d& axis) {
+  return Eigen::Isometry3d(Eigen::AngleAxisd(degrees * kDegree, axis));
+}
+
+TEST(Health, AlignedScansReportNoMisalignment) {
+  sim::SimulatedCloud sim = TwoScans(Part::kBoxWithBore, Eigen::Isometry3d::Identity());
+  const PairHealth pair = OnlyPair(Health(sim.cloud));
+  EXPECT_LT(pair.translation_mm.norm(), 1e-3);
+  EXPECT_LT(pair.rotation_deg.norm(), 0.005);
+  EXPECT_TRUE(pair.note.empty()) << pair.note;
+}
+
+TEST(Health, ShiftAlongEachAxisIsRecoveredWithItsSign) {
+  for (double microns : {5.0, 20.0}) {
+    for (int axis = 0; axis < 3; ++axis) {
+      SCOPED_TRACE(testing::Message() << microns << " µm along " << kMisalignmentAxes[axis]);
+      ExpectRecovered(Shift(Eigen::Vector3d::Unit(axis) * microns * 1e-3));
+    }
+  }
+}
+
+TEST(Health, RotationAboutEachAxisIsRecoveredAtTheReportedCentre) {
+  for (double degrees : {0.02, 0.05}) {
+    for (int axis = 0; axis < 3; ++axis) {
+      SCOPED_TRACE(testing::Message() << degrees << "° about " << kMisalignmentAxes[axis + 3]);
+      ExpectRecovered(Turn(degrees, Eigen::Vector3d::Unit(axis)));
+    }
+  }
+}
+
+TEST(Health, FlatOverlapFlagsTheInPlaneComponentsAndDoesNotGuessThem) {
+  // 20 µm along x and along z: the plane z = 0 sees only the second.
+  sim::SimulatedCloud sim = TwoScans(Part::kPlane, Shift({0.02, 0, 0.02}));
+  const PairHealth pair = OnlyPair(Health(sim.cloud));
+  const std::array<bool, 6> expected = {false, false, true, true, true, false};
+  EXPECT_EQ(pair.constrained, expected);
+  EXPECT_EQ(pair.note, "too flat to constrain tx, ty, rz");
+  EXPECT_EQ(pair.translation_mm.x(), 0);
+  EXPECT_EQ(pair.translation_mm.y(), 0);
+  EXPECT_EQ(pair.rotation_deg.z(), 0);
+  EXPECT_NEAR(pair.translation_mm.z(), 0.02, 0.2 * 0.02);
+}
+
+TEST(Health, TooSmallAnOverlapConstrainsNothing) {
+  sim::SimulatedCloud sim = TwoScans(Part::kBoxWithBore, Shift({0, 0, 0.02}));
+  CancelToken cancel;
+  auto report = RunPipeline(
+      sim.cloud, {.stages = {"health"}, .params = {{"health.min_overlap_points", "1000000"}}},
+      cancel);
+  ASSERT_TRUE(report.ok()) << report.status();
+  const PairHealth pair = OnlyPair(*report->health);
+  EXPECT_EQ(pair.constrained, (std::array<bool, 6>{}));
+  EXPECT_EQ(pair.translation_mm, Eigen::Vector3d::Zero());
+  EXPECT_EQ(pair.note,
+            "overlap too small (" + std::to_string(pair.overlap_points) + " points < 1000000)");
+}
+
+TEST(Health, ResidualSpreadIsTheCombinedNoiseOfBothScans) {
+  // Range noise along the camera ray, σ/cos q, seen along the normal: at least σ per scan.
+  sim::SimulatedCloud sim = TwoScans(Part::kBoxWithBore, Shift({0, 0, 0.01}));
+  const std::vector<sim::SimSensor> sensors = sim::TwoOverlappingSensors(Part::kBoxWithBore);
+  const double combined = std::hypot(sensors[0].noise_sigma, sensors[1].noise_sigma);
+  const PairHealth pair = OnlyPair(Health(sim.cloud));
+  EXPECT_GT(pair.residual_spread_mm, combined);
+  EXPECT_LT(pair.residual_spread_mm, 1.6 * combined);
+}
+
+TEST(Health, NoiseFollowsTheSensorsTrueNoise) {
+  std::vector<double> noise;
+  for (double scale : {1.0, 1.5, 2.0}) {
+    sim::SimulatedCloud sim = TwoScans(Part::kBoxWithBore, Eigen::Isometry3d::Identity(), scale);
+    const HealthReport health = Health(sim.cloud);
+    ASSERT_EQ(health.scans.size(), 2u);
+    ASSERT_TRUE(health.scans[1].noise_mm.has_value());
+    noise.push_back(*health.scans[1].noise_mm);
+    const double u = sim.cloud.scans[1].uncertainty;
+    EXPECT_NEAR(*health.scans[1].noise_to_uncertainty, noise.back() / u, 1e-12);
+  }
+  EXPECT_NEAR(noise[1] / noise[0], 1.5, 0.15);
+  EXPECT_NEAR(noise[2] / noise[0], 2.0, 0.2);
+}
+
+TEST(Health, ScanFiguresCountWhatTheStagesBeforeRemoved) {
+  sim::SimulatedCloud sim = TwoScans(Part::kBoxWithBore, Eigen::Isometry3d::Identity());
+  PointCloud copy = sim.cloud;
+  const HealthReport alone = Health(sim.cloud);
+  ASSERT_EQ(alone.scans.size(), 2u);
+  // Health alone: no stage removed anything before it, so the shares are not known.
+  EXPECT_FALSE(alone.scans[0].outlier_share.has_value());
+  EXPECT_FALSE(alone.scans[0].merged_share.has_value());
+  const HealthReport after = Health(copy, {"outliers", "correction", "health"});
+  size_t merged = 0, in_scan = 0;
+  for (size_t i = 0; i < copy.size(); ++i) {
+    if (copy.scan[i] != 1) continue;
+    ++in_scan;
+    merged += (copy.flags[i] & kRemovedMerge) != 0;
+  }
+  EXPECT_EQ(after.scans[1].points, in_scan);
+  ASSERT_TRUE(after.scans[1].merged_share.has_value());
+  EXPECT_GT(merged, 0u);
+  EXPECT_DOUBLE_EQ(*after.scans[1].merged_share, double(merged) / double(in_scan));
+  ASSERT_TRUE(after.scans[1].outlier_share.has_value());
+  // The viewing angles against the true ones (true normal, camera ray). Normal noise (σ = 20 µm
+  // on the oblique scan) widens the spread, so the outer deciles get a wider margin.
+  for (uint32_t scan : {0u, 1u}) {
+    std::vector<double> truth;
+    for (size_t i = 0; i < sim.cloud.size(); ++i) {
+      if (sim.cloud.scan[i] != scan) continue;
+      const Eigen::Vector3d t = sim.truth[i].cast<double>();
+      const Eigen::Vector3d ray = (*sim.cloud.scans[scan].camera_position - t).normalized();
+      truth.push_back(std::acos(std::abs(ray.dot(sim.true_normal[i].cast<double>()))) / kDegree);
+    }
+    std::sort(truth.begin(), truth.end());
+    ASSERT_TRUE(alone.scans[scan].viewing_angle_deg.has_value());
+    const std::array<double, 3>& reported = *alone.scans[scan].viewing_angle_deg;
+    for (int q = 0; q < 3; ++q) {
+      const double expected = truth[static_cast<size_t>((0.1 + 0.4 * q) * (truth.size() - 1))];
+      EXPECT_NEAR(reported[q], expected, q == 1 ? 1.5 : 4.0)
+          << "scan " << scan << " decile " << 1 + 4 * q;
+    }
+  }
+}
+
+TEST(Health, AbsentUnlessTheJobRunsIt) {
+  sim::SimulatedCloud sim = TwoScans(Part::kBoxWithBore, Eigen::Isometry3d::Identity());
+  CancelToken cancel;
+  auto report = RunPipeline(sim.cloud, {.stages = {"outliers", "smoothing"}}, cancel);
+  ASSERT_TRUE(report.ok()) << report.status();
+  EXPECT_FALSE(report->health.has_value());
+  for (const StageReport& stage : report->stages) EXPECT_NE(stage.name, "health");
+}
+
+}  // namespace
+}  // namespace scanprep
