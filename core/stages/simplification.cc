@@ -345,8 +345,8 @@ StageInfo SimplificationStageInfo() {
                         "(0 = the paper)",
                         0, RightOpen(0, 1)),
               ChoiceParam(kSimplificationOrder,
-                          "sequential (the paper's order) or tiled: 8-colour cells of edge 2·r_s "
-                          "in parallel"),
+                          "tiled: 8-colour cells of edge 2·r_s in parallel, or sequential (the "
+                          "paper's order)"),
           },
       .make = [] { return std::make_unique<SimplificationStage>(); },
       .prerequisites = [](const ParamOverrides&) { return std::vector<std::string>{"measures"}; },

@@ -153,12 +153,11 @@ absl::Status JudgeBySurface(const PointCloud& cloud, const Neighbourhoods& nb,
     for (size_t i = begin; i < end; ++i) {
       const uint32_t scan = cloud.scan[i];
       if (cloud.removed(i) || !noise[scan]) continue;
-      // The k-NN list (radius d_k, no ball query) where it holds k of i's own scan: the r_p ball
-      // cost 16 % more with a lower precision on the metrology scan (docs/benchmarks.md). Where
-      // scans overlap it is widened once to hold about k of i's own scan, as for the normals.
-      float radius = nb.dk(i);
+      // Where scans overlap the ball is widened once to hold about k of i's own scan, as for
+      // the normals.
+      float radius = nb.adaptive_radius(i);
       OwnScanNeighbours(cloud, nb, i, radius, scratch.matches);
-      if (scratch.matches.size() + 1 < nb.k()) {
+      if (scratch.matches.size() < nb.k()) {
         radius *= OwnScanWidening(scratch.matches.size(), nb.k());
         OwnScanNeighbours(cloud, nb, i, radius, scratch.matches);
       }
