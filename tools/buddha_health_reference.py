@@ -9,6 +9,10 @@ registration and again after ICP, and what the ICP moved: the misalignment it im
 convention of PairHealth (the rigid motion that maps fixed onto moving: the inverse of ICP's
 correction), as a translation at the overlap's centroid (µm) and a rotation vector (degrees).
 
+With --health_json (the report `scanprep health --report_json` wrote for the same scans) it
+also undoes each pair's misalignment as `health` estimated it and measures the residual again:
+how much of the misregistration the service's own estimate accounts for.
+
 A measurement script, not a test and not a build dependency: it needs Debian's python3-open3d
 (apt-get install python3-open3d) and the shared data (../shared/data, or --data), and exits 0
 saying what is missing when either is absent. Run: /usr/bin/python3 tools/buddha_health_reference.py
@@ -87,11 +91,41 @@ def rotation_vector_deg(rotation: np.ndarray) -> np.ndarray:
     return np.degrees(angle) * axis
 
 
+def rotation_matrix(vector_deg: np.ndarray) -> np.ndarray:
+    """Rodrigues: the rotation by |v| degrees about v."""
+    angle = np.radians(np.linalg.norm(vector_deg))
+    if angle < 1e-15:
+        return np.eye(3)
+    k = np.radians(vector_deg) / angle
+    cross = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(angle) * cross + (1 - np.cos(angle)) * cross @ cross
+
+
+def health_corrections(path: pathlib.Path) -> dict:
+    """Per (fixed, moving) scan id: the 4×4 transform that undoes PairHealth's misalignment
+    x ↦ R(x − c) + c + t (fixed onto moving; the job had no origin, so c is in the common
+    frame): y ↦ Rᵀ(y − c − t) + c."""
+    import json
+    corrections = {}
+    for pair in json.loads(path.read_text())["health"]["pairs"]:
+        def vec(name):
+            return np.array([pair.get(name, {}).get(a, 0.0) for a in "xyz"])
+        rotation, centre, t = rotation_matrix(vec("rotation_deg")), vec("centre"), vec("translation_mm")
+        undo = np.eye(4)
+        undo[:3, :3] = rotation.T
+        undo[:3, 3] = centre - rotation.T @ (centre + t)
+        corrections[(pair["fixed_scan_id"], pair["moving_scan_id"])] = undo
+    return corrections
+
+
 def main() -> int:
     here = pathlib.Path(__file__).resolve().parents[1]
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", type=pathlib.Path,
                         default=here.parent / "shared" / "data" / "stanford_happy_stand_range_scans")
+    parser.add_argument("--health_json", type=pathlib.Path,
+                        help="scanprep health --report_json of the same scans: also undo its "
+                             "estimate and measure again")
     args = parser.parse_args()
     try:
         import open3d as o3d
@@ -106,9 +140,11 @@ def main() -> int:
     clouds = {name: read_scan(o3d, args.data / f"{name}.ply", *poses[name]) for name in SCANS}
     estimation = o3d.pipelines.registration.TransformationEstimationPointToPlane()
     criteria = o3d.pipelines.registration.ICPConvergenceCriteria(max_iteration=100)
+    undo = health_corrections(args.health_json) if args.health_json else {}
     print("| fixed | moving | overlap | conf: median µm | conf: spread µm | ICP: median µm | "
-          "ICP: spread µm | ICP-implied t µm (x, y, z) | ICP-implied r ° (x, y, z) |")
-    print("|---|---|---:|---:|---:|---:|---:|---|---|")
+          "ICP: spread µm | ICP-implied t µm (x, y, z) | ICP-implied r ° (x, y, z) |" +
+          (" health undone: median µm | health undone: spread µm |" if undo else ""))
+    print("|---|---|---:|---:|---:|---:|---:|---|---|" + ("---:|---:|" if undo else ""))
     for fixed_name, moving_name in itertools.combinations(SCANS, 2):
         fixed, moving = clouds[fixed_name], clouds[moving_name]
         spacing = float(np.median(np.asarray(fixed.compute_nearest_neighbor_distance())))
@@ -126,10 +162,15 @@ def main() -> int:
         t_centre = inverse[:3, :3] @ centre + inverse[:3, 3] - centre
         r = rotation_vector_deg(inverse[:3, :3])
         (m0, s0), (m1, s1) = robust(before), robust(after)
+        undone = ""
+        if (fixed_name, moving_name) in undo:
+            m2, s2 = robust(residuals(o3d, fixed, moving, distance,
+                                      undo[(fixed_name, moving_name)])[0])
+            undone = f" {1000 * m2:.1f} | {1000 * s2:.1f} |"
         print(f"| {fixed_name.split('_')[1]}° | {moving_name.split('_')[1]}° | {len(before)} | "
               f"{1000 * m0:.1f} | {1000 * s0:.1f} | {1000 * m1:.1f} | {1000 * s1:.1f} | "
               f"{', '.join(f'{1000 * v:.0f}' for v in t_centre)} | "
-              f"{', '.join(f'{v:.4f}' for v in r)} |")
+              f"{', '.join(f'{v:.4f}' for v in r)} |{undone}")
         sys.stdout.flush()
     return 0
 
