@@ -241,7 +241,7 @@ StageInfo HealthStageInfo() {
             return std::vector<std::string>{"neighbourhoods", "normals", "measures"};
           },
       .work_per_point = 1,
-      .cost_weight = 0.1,
+      .cost_weight = 0.35,
   };
 }
 
