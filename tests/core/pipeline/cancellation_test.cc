@@ -132,6 +132,7 @@ TEST(Cancellation, EveryStageReturnsWithinTwoTenthsOfASecond) {
        {{"correction.mode", "scatter"}},
        false,
        0.1},
+      {"health", after_measures("health"), {}, false, 0.02},
       {"smoothing", after_measures("smoothing"), {}, false, 0.1},
       {"simplification", after_measures("simplification"), {}, false, 0.1},
       {"simplification tiled",
