@@ -92,13 +92,34 @@ Solution SolveConstrained(const Matrix6d& h, const Vector6d& g, double flat_rati
   return s;
 }
 
-// One pass: the rows whose `residual` the robust statistics keep.
-template <typename Residual>
-Solution Pass(const std::vector<Row>& rows, Residual residual, const Robust& robust,
-              double flat_ratio) {
+// Signed distance of m's moving point from its fixed plane (mm).
+double Residual(const PointCloud& cloud, const Correspondence& m) {
+  const Eigen::Vector3d pm = cloud.point(m.moving).cast<double>();
+  const Eigen::Vector3d pf = cloud.point(m.fixed).cast<double>();
+  return m.normal.cast<double>().dot(pm - pf) - m.plane_offset;
+}
+
+// m's equation divided by its sigma, rotations scaled by 1/L (`inv_extent`), the lever taken
+// from the centre c. Computed when needed rather than stored: 56 bytes a match.
+Row RowOf(const PointCloud& cloud, const Correspondence& m, const Eigen::Vector3d& centre,
+          double inv_extent) {
+  const Eigen::Vector3d pm = cloud.point(m.moving).cast<double>();
+  const Eigen::Vector3d nf = m.normal.cast<double>();
+  const double weight = 1 / std::max<double>(m.sigma, kMinSigma);
+  Row row;
+  row.j << nf * weight, (pm - centre).cross(nf) * (inv_extent * weight);
+  row.d = Residual(cloud, m) * weight;
+  return row;
+}
+
+// One pass: least squares over the rows whose `residual` the robust statistics keep.
+template <typename MakeRow, typename RowResidual>
+Solution Pass(std::span<const Correspondence> matches, MakeRow make_row, RowResidual residual,
+              const Robust& robust, double flat_ratio) {
   Matrix6d h = Matrix6d::Zero();
   Vector6d g = Vector6d::Zero();
-  for (const Row& row : rows) {
+  for (const Correspondence& m : matches) {
+    const Row row = make_row(m);
     if (!robust.Keeps(residual(row))) continue;
     h.selfadjointView<Eigen::Lower>().rankUpdate(row.j);
     g += row.j * row.d;
@@ -133,22 +154,11 @@ PairHealth EstimatePairHealth(const PointCloud& cloud, uint32_t fixed_scan, uint
   const double extent = std::sqrt(squared_extent / n);
   const double inv_extent = extent > 0 ? 1 / extent : 0;
 
-  std::vector<Row> rows(matches.size());
   std::vector<double> residuals(matches.size());
-  for (size_t i = 0; i < matches.size(); ++i) {
-    const Eigen::Vector3d pm = cloud.point(matches[i].moving).cast<double>();
-    const Eigen::Vector3d pf = cloud.point(matches[i].fixed).cast<double>();
-    const Eigen::Vector3d nf = matches[i].normal.cast<double>();
-    residuals[i] = nf.dot(pm - pf) - matches[i].plane_offset;
-    const double weight = 1 / std::max<double>(matches[i].sigma, kMinSigma);
-    rows[i].j << nf * weight, (pm - centre).cross(nf) * (inv_extent * weight);
-    rows[i].d = residuals[i] * weight;
-  }
+  for (size_t i = 0; i < matches.size(); ++i) residuals[i] = Residual(cloud, matches[i]);
   const Robust raw = MedianAndSpread(residuals);
   pair.residual_median_mm = raw.median;
   pair.residual_spread_mm = raw.spread;
-  for (size_t i = 0; i < rows.size(); ++i) residuals[i] = rows[i].d;
-  const Robust weighted = MedianAndSpread(residuals);
   pair.centre = centre;
   if (matches.size() < settings.min_points) {
     pair.note =
@@ -156,14 +166,15 @@ PairHealth EstimatePairHealth(const PointCloud& cloud, uint32_t fixed_scan, uint
     return pair;  // constrained: all false
   }
 
-  // Pass 1 keeps the residuals near their median; pass 2 those near what pass 1's motion explains
-  // (a tilt spreads the raw residuals, which pass 1 would otherwise cut into).
-  Solution s = Pass(
-      rows, [](const Row& r) { return r.d; }, raw, settings.flat_ratio);
+  // Pass 1 keeps the weighted residuals near their median; pass 2 those near what pass 1's motion
+  // explains (a tilt spreads the raw residuals, which pass 1 would otherwise cut into).
+  const auto row = [&](const Correspondence& m) { return RowOf(cloud, m, centre, inv_extent); };
+  const auto whole = [](const Row& r) { return r.d; };
+  for (size_t i = 0; i < matches.size(); ++i) residuals[i] = whole(row(matches[i]));
+  Solution s = Pass(matches, row, whole, MedianAndSpread(residuals), settings.flat_ratio);
   const auto left = [&](const Row& r) { return r.d - r.j.dot(s.x); };
-  for (size_t i = 0; i < rows.size(); ++i) residuals[i] = left(rows[i]);
-  const Robust after = MedianAndSpread(residuals);
-  s = Pass(rows, left, after, settings.flat_ratio);
+  for (size_t i = 0; i < matches.size(); ++i) residuals[i] = left(row(matches[i]));
+  s = Pass(matches, row, left, MedianAndSpread(residuals), settings.flat_ratio);
 
   pair.translation_mm = s.x.head<3>();
   pair.rotation_deg = s.x.tail<3>() * inv_extent * (180 / std::numbers::pi);
