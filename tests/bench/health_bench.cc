@@ -98,6 +98,10 @@ int main(int argc, char** argv) {
       MisalignmentRow(absl::StrFormat("%g° about %c", degrees, axes[axis]), m, points);
     }
   }
+  // Far above the noise, as on a badly calibrated cell (docs/health.md's real scans).
+  Eigen::Isometry3d large(Eigen::AngleAxisd(0.3 * kDegree, Eigen::Vector3d(1, 1, 0).normalized()));
+  large.translation() = Eigen::Vector3d(0.1, 0.1, 0.1);
+  MisalignmentRow("100 µm along x, y, z and 0.3° about (1, 1, 0)", large, points);
   std::printf(
       "\n| noise of sensor 2 | σ̂ sensor 1 (µm) | σ̂ sensor 2 (µm) | ratio to 1.0× |\n"
       "|---|---|---|---|\n");
