@@ -11,6 +11,7 @@
 #include <map>
 #include <mutex>
 #include <numbers>
+#include <span>
 #include <utility>
 
 #include "core/base/parallel.h"
@@ -123,22 +124,25 @@ Plane LocalPlane(const PointCloud& cloud, const Neighbourhoods& nb, uint32_t j) 
   return {normal, normal.dot(offset) / static_cast<float>(count)};
 }
 
-// Correspondences per pair (fixed scan, moving scan), fixed < moving: each point with a normal
-// fit, not removed as an outlier, with its partner in every lower-numbered scan: among its k-NN
-// neighbours of that scan within `reach` and offering a plane, the one nearest along its tangent
-// plane. In point order (blocks kept by their start, so the sums do not depend on the threads).
-absl::StatusOr<std::map<std::pair<uint32_t, uint32_t>, std::vector<Correspondence>>>
-FindCorrespondences(StageContext& ctx, const Neighbourhoods& nb, const std::vector<float>& reach) {
+// The correspondences of the moving scan whose points are `points`, per fixed scan (a lower-
+// numbered one): each point with a normal fit, not removed as an outlier, with its partner in
+// every lower-numbered scan: among its k-NN neighbours of that scan within `reach` and offering a
+// plane, the one nearest along its tangent plane. In point order (blocks kept by their start, so
+// the sums do not depend on the threads).
+absl::StatusOr<std::map<uint32_t, std::vector<Correspondence>>> FindCorrespondences(
+    StageContext& ctx, const Neighbourhoods& nb, const std::vector<float>& reach,
+    std::span<const uint32_t> points) {
   const PointCloud& cloud = ctx.cloud();
   const std::vector<float>& fit_rms = ctx.measures().fit_rms;
   std::mutex mu;
   std::map<size_t, std::vector<Correspondence>> blocks;
-  SCANPREP_RETURN_IF_ERROR(ParallelFor(cloud.size(), ctx.cancel(), [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(points.size(), ctx.cancel(), [&](size_t begin, size_t end) {
     std::vector<Correspondence> found;
     std::vector<std::pair<uint32_t, float>> best;  // per lower scan met: (point, tangential)
-    for (size_t i = begin; i < end; ++i) {
+    for (size_t at = begin; at < end; ++at) {
+      const uint32_t i = points[at];
       const uint32_t s = cloud.scan[i];
-      if (s == 0 || (cloud.flags[i] & (kRemovedOutlier | kNormalInvalid))) continue;
+      if (cloud.flags[i] & (kRemovedOutlier | kNormalInvalid)) continue;
       best.clear();
       const KnnList list = nb.knn(i);
       for (size_t m = 0; m < list.size(); ++m) {
@@ -157,21 +161,28 @@ FindCorrespondences(StageContext& ctx, const Neighbourhoods& nb, const std::vect
       }
       for (const auto& [j, tangential] : best) {
         const Plane plane = LocalPlane(cloud, nb, j);
-        found.push_back({static_cast<uint32_t>(i), j, plane.normal, plane.offset,
-                         std::hypot(fit_rms[i], fit_rms[j])});
+        found.push_back({i, j, plane.normal, plane.offset, std::hypot(fit_rms[i], fit_rms[j])});
       }
     }
     std::lock_guard lock(mu);
     blocks.emplace(begin, std::move(found));
   }));
-  std::map<std::pair<uint32_t, uint32_t>, std::vector<Correspondence>> pairs;
+  std::map<uint32_t, std::vector<Correspondence>> by_fixed;
   for (auto& [begin, found] : blocks) {
-    for (const Correspondence& c : found) {
-      pairs[{cloud.scan[c.fixed], cloud.scan[c.moving]}].push_back(c);
-    }
+    for (const Correspondence& c : found) by_fixed[cloud.scan[c.fixed]].push_back(c);
     std::vector<Correspondence>().swap(found);
   }
-  return pairs;
+  return by_fixed;
+}
+
+// The points of each scan, in index order (a counting sort).
+std::vector<std::vector<uint32_t>> PointsPerScan(const PointCloud& cloud) {
+  std::vector<std::vector<uint32_t>> points(cloud.scans.size());
+  std::vector<size_t> count(cloud.scans.size(), 0);
+  for (const uint32_t s : cloud.scan) ++count[s];
+  for (size_t s = 0; s < points.size(); ++s) points[s].reserve(count[s]);
+  for (uint32_t i = 0; i < cloud.size(); ++i) points[cloud.scan[i]].push_back(i);
+  return points;
 }
 
 absl::StatusOr<std::vector<PairHealth>> PairHealths(StageContext& ctx) {
@@ -190,11 +201,19 @@ absl::StatusOr<std::vector<PairHealth>> PairHealths(StageContext& ctx) {
     const double ds = cloud.kind == ScannerKind::kLine ? cloud.scans[s].scanline_spacing : 0.0;
     reach[s] = static_cast<float>(spacings * std::max(spacing[s], ds));
   }
-  SCANPREP_ASSIGN_OR_RETURN(auto pairs, FindCorrespondences(ctx, *nb, reach));
-  for (const auto& [scans, matches] : pairs) {
-    SCANPREP_RETURN_IF_ERROR(ctx.cancel().Check());
-    out.push_back(EstimatePairHealth(cloud, scans.first, scans.second, matches, settings));
+  // One moving scan at a time: the correspondences held at once are one scan's (up to k a point
+  // where k scans overlap), not the job's.
+  const std::vector<std::vector<uint32_t>> points = PointsPerScan(cloud);
+  for (uint32_t moving = 1; moving < points.size(); ++moving) {
+    SCANPREP_ASSIGN_OR_RETURN(auto by_fixed, FindCorrespondences(ctx, *nb, reach, points[moving]));
+    for (const auto& [fixed, matches] : by_fixed) {
+      SCANPREP_RETURN_IF_ERROR(ctx.cancel().Check());
+      out.push_back(EstimatePairHealth(cloud, fixed, moving, matches, settings));
+    }
   }
+  std::sort(out.begin(), out.end(), [](const PairHealth& a, const PairHealth& b) {
+    return std::pair(a.fixed, a.moving) < std::pair(b.fixed, b.moving);
+  });
   return out;
 }
 

@@ -122,6 +122,23 @@ TEST(Health, LargeMisregistrationIsRecoveredWithinFivePercent) {
   ExpectRecovered(motion, 0.05);
 }
 
+// Three scans, the third 10 µm up: one pair per two scans, in (fixed, moving) order, and only
+// the pairs with the third read the shift, with its sign (moving is the higher index).
+TEST(Health, EveryOverlappingPairIsReportedOnceInOrder) {
+  std::vector<sim::SimSensor> sensors = sim::ThreeOverlappingSensors(Part::kBoxWithBore);
+  sensors[2].misregistration = Shift({0, 0, 0.01});
+  sim::SimulatedCloud sim = sim::SimulateWithPointCount(Part::kBoxWithBore, sensors, kPoints, 0, 7);
+  const HealthReport health = Health(sim.cloud);
+  ASSERT_EQ(health.pairs.size(), 3u);
+  const std::array<std::pair<uint32_t, uint32_t>, 3> order = {{{0, 1}, {0, 2}, {1, 2}}};
+  for (size_t p = 0; p < 3; ++p) {
+    const PairHealth& pair = health.pairs[p];
+    EXPECT_EQ(std::pair(pair.fixed, pair.moving), order[p]);
+    ASSERT_TRUE(pair.constrained[2]) << pair.note;
+    EXPECT_NEAR(pair.translation_mm.z(), pair.moving == 2 ? 0.01 : 0.0, 0.002) << p;
+  }
+}
+
 TEST(Health, FlatOverlapFlagsTheInPlaneComponentsAndDoesNotGuessThem) {
   // 20 µm along x and along z: the plane z = 0 sees only the second.
   sim::SimulatedCloud sim = TwoScans(Part::kPlane, Shift({0.02, 0, 0.02}));
