@@ -468,6 +468,7 @@ v1::ScanHeader ScanHeaderFromMeta(const ScanMeta& meta) {
   v1::ScanHeader scan;
   scan.set_scan_id(meta.id);
   scan.set_sensor_id(meta.sensor_id);
+  scan.set_points_unmeasured(meta.points_invalid);
   if (meta.camera_position) SetVec3(*meta.camera_position, scan.mutable_camera_position());
   if (meta.view_direction) SetVec3(*meta.view_direction, scan.mutable_view_direction());
   if (meta.projector_position) {

@@ -281,6 +281,7 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
     // Finite in the request's unit can still overflow float once in millimetres.
     if (!(q.array().abs() <= kMaxCoordinateMm).all()) {
       ++job_.points_invalid;
+      ++cloud.scans[scan].points_invalid;
       continue;
     }
     SCANPREP_RETURN_IF_ERROR(CheckPrecision(q, i, cloud.scans[scan].uncertainty));

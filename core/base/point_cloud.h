@@ -44,6 +44,10 @@ struct ScanMeta {
   // that use u then say so in the report).
   bool uncertainty_stated = true;
   double point_spacing = 0.0;  // nominal spacing along a scanline; 0 = derive from data
+  // The scan's points that had no position (NaN, infinite or out of range) and are not in the
+  // cloud: left out by a file reader (ScanHeader.points_unmeasured on the wire) or by the server.
+  // Health reports them as the scan's invalid share.
+  uint64_t points_invalid = 0;
 };
 
 // The grid a file stored its coordinates on as integers, per axis: value = integer * scale +

@@ -352,8 +352,8 @@ absl::StatusOr<std::vector<uint32_t>> GridLines(const std::vector<double>& row,
 // are counted in `unmeasured` as records of `label`.
 absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size,
                                     const XmlNode& scan, const Pose& pose, const std::string& what,
-                                    const std::string& label, WideCoordinates& positions,
-                                    UnmeasuredPoints& unmeasured,
+                                    const std::string& label, size_t scan_index,
+                                    WideCoordinates& positions, UnmeasuredPoints& unmeasured,
                                     std::vector<std::string>& unused) {
   const XmlNode* points = scan.Child("points");
   if (points == nullptr || points->Attribute("type") != "CompressedVector") {
@@ -433,7 +433,7 @@ absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size
       p = {r * std::cos(e) * std::cos(a), r * std::cos(e) * std::sin(a), r * std::sin(e)};
     }
     if ((invalid && (*invalid)[i] != 0) || !p.allFinite()) {
-      unmeasured.Count(i, label);
+      unmeasured.Count(i, label, scan_index);
       continue;
     }
     // Kept in double: a georeferenced pose (a UTM easting of 5e5 m) would leave float a 3 cm
@@ -519,7 +519,7 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
     SCANPREP_ASSIGN_OR_RETURN(
         ScanPoints points,
         ReadScan(logical, page_size, node, pose, what, absl::StrCat("scan ", s, " '", meta.id, "'"),
-                 positions, unmeasured, unused));
+                 s, positions, unmeasured, unused));
     cloud.scans.push_back(std::move(meta));
     scans.push_back(std::move(points));
   }
@@ -549,6 +549,7 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
     p = {};
   }
   SCANPREP_RETURN_IF_ERROR(unmeasured.Finish(name, cloud.scan.size(), warnings));
+  unmeasured.Record(cloud.scans);
   SCANPREP_RETURN_IF_ERROR(positions.Narrow(cloud, name));
   // Positions, like the points, are relative to the cloud's origin.
   for (ScanMeta& meta : cloud.scans) {

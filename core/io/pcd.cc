@@ -380,6 +380,7 @@ absl::StatusOr<PointCloud> ParsePcd(std::string_view data, const std::string& na
   if (wide != nullptr) SCANPREP_RETURN_IF_ERROR(wide->Narrow(cloud, name));
   SCANPREP_RETURN_IF_ERROR(invalid.Finish(name, cloud.size(), warnings));
   cloud.scans.push_back(ScanMeta{.id = std::filesystem::path(name).stem().string()});
+  invalid.Record(cloud.scans);
   AddMetadataWarnings(header, layout, name, cloud, warnings);
   cloud.FinishLoading(std::exchange(cloud.flags, {}));
   return cloud;

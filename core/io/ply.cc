@@ -387,6 +387,7 @@ class VertexBuilder {
     UnmeasuredPoints unmeasured("vertex");
     DropUnmeasured(unmeasured);
     SCANPREP_RETURN_IF_ERROR(unmeasured.Finish(name, cloud_.size(), warnings));
+    unmeasured.Record(cloud_.scans);
     return std::move(cloud_);
   }
 
@@ -413,7 +414,7 @@ class VertexBuilder {
       if (std::isfinite(cloud_.x[i]) && std::isfinite(cloud_.y[i]) && std::isfinite(cloud_.z[i])) {
         kept.push_back(i);
       } else {
-        unmeasured.Count(i);
+        unmeasured.Count(i, "", cloud_.scan[i]);
       }
     }
     if (kept.size() == n) return;

@@ -14,9 +14,17 @@ absl::Status NoPointsError(const std::string& name) {
   return absl::InvalidArgumentError(absl::StrCat(name, ": no points in the file"));
 }
 
-void UnmeasuredPoints::Count(uint64_t index, const std::string& within) {
+void UnmeasuredPoints::Count(uint64_t index, const std::string& within, size_t scan) {
+  if (per_scan_.size() <= scan) per_scan_.resize(scan + 1, 0);
+  ++per_scan_[scan];
   if (count_++ > 0) return;
   first_ = absl::StrCat(unit_, " ", index, within.empty() ? "" : " of ", within);
+}
+
+void UnmeasuredPoints::Record(std::vector<ScanMeta>& scans) const {
+  for (size_t s = 0; s < per_scan_.size() && s < scans.size(); ++s) {
+    scans[s].points_invalid += per_scan_[s];
+  }
 }
 
 absl::Status UnmeasuredPoints::Finish(const std::string& name, uint64_t kept,

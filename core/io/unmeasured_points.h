@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "core/base/point_cloud.h"
 
 namespace scanprep::io {
 
@@ -25,8 +26,11 @@ class UnmeasuredPoints {
 
   // A point left out; `index` is its place in the file's terms (a line number, a vertex index),
   // `within` what it is counted in, when the file has several parts (an E57 scan).
-  void Count(uint64_t index, const std::string& within = "");
+  // `scan`: the index, in the cloud's scans, of the scan the point belonged to.
+  void Count(uint64_t index, const std::string& within = "", size_t scan = 0);
   uint64_t count() const { return count_; }
+  // Adds each scan's count to its ScanMeta::points_invalid (call once the scans exist).
+  void Record(std::vector<ScanMeta>& scans) const;
 
   // After reading, `kept` points kept: NoPointsError (saying that all were unmeasured, when
   // they were) for none; else a warning appended when any was left out.
@@ -36,6 +40,7 @@ class UnmeasuredPoints {
  private:
   std::string unit_;
   uint64_t count_ = 0;
+  std::vector<uint64_t> per_scan_;
   std::string first_;  // the first one's place, e.g. "line 4"
 };
 

@@ -180,6 +180,7 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
   SCANPREP_RETURN_IF_ERROR(unmeasured.Finish(name, cloud.size(), warnings));
   if (profile_gap > 0.0 && columns.scanline < 0) SplitProfiles(cloud, profile_gap);
   cloud.scans.push_back(ScanMeta{.id = std::filesystem::path(name).stem().string()});
+  unmeasured.Record(cloud.scans);
   cloud.FinishLoading(std::exchange(cloud.flags, {}));
   return cloud;
 }

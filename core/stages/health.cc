@@ -44,7 +44,10 @@ std::optional<double> ShareOf(uint64_t count, uint64_t points, bool known) {
 absl::StatusOr<std::vector<ScanHealth>> ScanHealths(StageContext& ctx) {
   const PointCloud& cloud = ctx.cloud();
   const size_t scans = cloud.scans.size();
-  const std::vector<std::optional<double>> noise = MeasuredScanNoise(cloud, ctx.measures(), scans);
+  // The sensor's noise over every point it measured well: the merged-away ones included (a scan
+  // another sees better may lose most of its points to the merge).
+  const std::vector<std::optional<double>> noise =
+      MeasuredScanNoise(cloud, ctx.measures(), scans, kRemovedOutlier);
   std::vector<uint64_t> outliers(scans), merged(scans);
   std::vector<std::vector<float>> angles(scans);
   std::vector<ScanHealth> out(scans);
@@ -75,6 +78,8 @@ absl::StatusOr<std::vector<ScanHealth>> ScanHealths(StageContext& ctx) {
     }
     h.outlier_share = ShareOf(outliers[s], h.points, outliers_ran);
     h.merged_share = ShareOf(merged[s], h.points, correction_ran);
+    // Of every point the sensor delivered: the unmeasured ones never entered the pipeline.
+    h.invalid_share = *ShareOf(meta.points_invalid, h.points + meta.points_invalid, true);
     if (!angles[s].empty()) h.viewing_angle_deg = Deciles(angles[s]);
   }
   return out;
@@ -244,7 +249,7 @@ StageInfo HealthStageInfo() {
           {
               IntegerParam(kHealthMinOverlapPoints,
                            "fewer overlap points than this: a pair's misalignment is not solved",
-                           1000, Closed(6, 1e9)),
+                           1000, Closed(6, 1e4)),
               RealParam(kHealthFlatRatio,
                         "eigenvalues of the overlap's JᵀJ below this fraction of the largest "
                         "leave their direction unconstrained (flat or narrow overlaps)",

@@ -27,7 +27,8 @@ struct ScanHealth {
   // σ̂ / u, absent when the job stated no u or σ̂ is absent.
   std::optional<double> noise_to_uncertainty;
   // Shares of `points`: removed as outliers, merged away by the correction stage (absent when the
-  // stage did not run before health), and of the scan's received points that were unmeasured.
+  // stage did not run before health); and of points + ScanMeta::points_invalid, the scan's
+  // unmeasured points (left out by a reader or the server).
   std::optional<double> outlier_share;
   std::optional<double> merged_share;
   double invalid_share = 0;

@@ -6,10 +6,11 @@
 namespace scanprep {
 
 std::vector<std::optional<double>> MeasuredScanNoise(const PointCloud& cloud,
-                                                     const PointMeasures& m, size_t scans) {
+                                                     const PointMeasures& m, size_t scans,
+                                                     uint8_t skip) {
   std::vector<std::vector<float>> residuals(scans);
   for (size_t i = 0; i < cloud.size(); ++i) {
-    if (cloud.removed(i) || cloud.flags[i] & kNormalInvalid) continue;
+    if (cloud.flags[i] & (skip | kNormalInvalid)) continue;
     residuals[cloud.scan[i]].push_back(m.fit_rms[i]);
   }
   std::vector<std::optional<double>> noise(scans);

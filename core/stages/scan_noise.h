@@ -16,8 +16,10 @@ namespace scanprep {
 // Fewer valid normal fits than this in a scan: its noise is not measured.
 inline constexpr size_t kMinNoiseSamples = 32;
 
-// σ̂ per scan (`scans` entries), or nothing where fewer than kMinNoiseSamples fits are valid.
+// σ̂ per scan (`scans` entries), or nothing where fewer than kMinNoiseSamples fits are valid;
+// over the points not removed for a reason in `skip`.
 std::vector<std::optional<double>> MeasuredScanNoise(const PointCloud& cloud,
-                                                     const PointMeasures& m, size_t scans);
+                                                     const PointMeasures& m, size_t scans,
+                                                     uint8_t skip = kRemovedMask);
 
 }  // namespace scanprep

@@ -212,6 +212,7 @@ absl::StatusOr<ScanMeta> ScanMetaFromProto(const v1::ScanHeader& scan, const Sca
   meta.id = scan.scan_id();
   SCANPREP_RETURN_IF_ERROR(CheckSensorId(scan.sensor_id(), field));
   meta.sensor_id = scan.sensor_id();
+  meta.points_invalid = scan.points_unmeasured();
   if (scan.has_camera_position()) {
     SCANPREP_ASSIGN_OR_RETURN(meta.camera_position,
                               Position(scan.camera_position(), frame, field, "camera_position"));

@@ -79,5 +79,12 @@ TEST(GeneratedSensorIds, AScansMetaSensorIsSent) {
   EXPECT_EQ(ScanHeaderFromMeta(meta).sensor_id(), "sim-sensor-a");
 }
 
+// The rows a reader left out as unmeasured travel with the scan, for its invalid share.
+TEST(GeneratedSensorIds, AScansUnmeasuredCountIsSent) {
+  ScanMeta meta;
+  meta.points_invalid = 17;
+  EXPECT_EQ(ScanHeaderFromMeta(meta).points_unmeasured(), 17u);
+}
+
 }  // namespace
 }  // namespace scanprep::client

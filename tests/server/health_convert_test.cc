@@ -27,6 +27,14 @@ TEST(SensorId, AValidIdReachesTheScanMeta) {
   }
 }
 
+TEST(SensorId, TheClientsUnmeasuredCountReachesTheScanMeta) {
+  v1::ScanHeader scan;
+  scan.set_points_unmeasured(42);
+  const auto meta = ScanMetaFromProto(scan, ScanFrame{}, "header.scans[0]");
+  ASSERT_TRUE(meta.ok()) << meta.status();
+  EXPECT_EQ(meta->points_invalid, 42u);
+}
+
 TEST(SensorId, ABadIdIsRefusedNamingTheField) {
   for (const std::string& id :
        {std::string(65, 'a'), std::string("cell 3"), std::string("a|b"), std::string("x\"y"),

@@ -61,6 +61,7 @@ TEST(JobAssembler, AppliesUnitAndPoseToPointsAndScannerMetadata) {
   EXPECT_EQ(job->mm_per_unit, 25.4);
   EXPECT_EQ(job->points_received, 3u);
   EXPECT_EQ(job->points_invalid, 1u);
+  EXPECT_EQ(job->cloud.scans[0].points_invalid, 1u);  // the scan's invalid share in health
   ASSERT_EQ(job->warnings.size(), 1u);
   EXPECT_EQ(job->warnings[0].code, WarningCode::kPointsInvalid);
   const PointCloud& c = job->cloud;

@@ -56,6 +56,9 @@ TEST(Unmeasured, ANanRowIsLeftOutAndCountedInEveryFormat) {
     ASSERT_EQ(cloud->size(), 2u) << c.file;
     EXPECT_EQ(cloud->point(0), Eigen::Vector3f(1, 2, 3)) << c.file;
     EXPECT_THAT(warnings, ElementsAre(path.string() + ": " + kWhy + c.first)) << c.file;
+    // Kept with the scan, for its invalid share in the health report.
+    ASSERT_EQ(cloud->scans.size(), 1u) << c.file;
+    EXPECT_EQ(cloud->scans[0].points_invalid, 1u) << c.file;
   }
 }
 

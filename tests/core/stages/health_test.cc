@@ -153,17 +153,22 @@ TEST(Health, FlatOverlapFlagsTheInPlaneComponentsAndDoesNotGuessThem) {
 }
 
 TEST(Health, TooSmallAnOverlapConstrainsNothing) {
-  sim::SimulatedCloud sim = TwoScans(Part::kBoxWithBore, Shift({0, 0, 0.02}));
+  // 20 k points: an overlap of a few thousand, below the largest minimum a job may ask for.
+  std::vector<sim::SimSensor> sensors = sim::TwoOverlappingSensors(Part::kBoxWithBore);
+  sensors[1].misregistration = Shift({0, 0, 0.02});
+  sim::SimulatedCloud sim = sim::SimulateWithPointCount(Part::kBoxWithBore, sensors, 20'000, 0, 7);
   CancelToken cancel;
   auto report = RunPipeline(
-      sim.cloud, {.stages = {"health"}, .params = {{"health.min_overlap_points", "1000000"}}},
+      sim.cloud, {.stages = {"health"}, .params = {{"health.min_overlap_points", "10000"}}},
       cancel);
   ASSERT_TRUE(report.ok()) << report.status();
   const PairHealth pair = OnlyPair(*report->health);
+  ASSERT_GT(pair.overlap_points, 0u);
+  ASSERT_LT(pair.overlap_points, 10'000u);
   EXPECT_EQ(pair.constrained, (std::array<bool, 6>{}));
   EXPECT_EQ(pair.translation_mm, Eigen::Vector3d::Zero());
   EXPECT_EQ(pair.note,
-            "overlap too small (" + std::to_string(pair.overlap_points) + " points < 1000000)");
+            "overlap too small (" + std::to_string(pair.overlap_points) + " points < 10000)");
 }
 
 TEST(Health, ResidualSpreadIsTheCombinedNoiseOfBothScans) {
@@ -230,6 +235,44 @@ TEST(Health, ScanFiguresCountWhatTheStagesBeforeRemoved) {
           << "scan " << scan << " decile " << 1 + 4 * q;
     }
   }
+}
+
+// Of every point a sensor delivered, the share that had no position (ScanMeta::points_invalid:
+// left out by a reader or by the server) never reached the pipeline.
+TEST(Health, InvalidShareIsTheUnmeasuredShareOfWhatTheSensorDelivered) {
+  sim::SimulatedCloud sim = TwoScans(Part::kBoxWithBore, Eigen::Isometry3d::Identity());
+  const size_t in_scan = std::count(sim.cloud.scan.begin(), sim.cloud.scan.end(), 1u);
+  sim.cloud.scans[1].points_invalid = in_scan / 4;
+  const HealthReport health = Health(sim.cloud);
+  ASSERT_EQ(health.scans.size(), 2u);
+  EXPECT_EQ(health.scans[0].invalid_share, 0.0);
+  EXPECT_DOUBLE_EQ(health.scans[1].invalid_share,
+                   double(in_scan / 4) / double(in_scan + in_scan / 4));
+}
+
+// On a plane both sensors see whole, the merge removes most of the worse-viewed scan; its noise is
+// still the sensor's, measured over every point it delivered.
+TEST(Health, NoiseCountsThePointsTheMergeRemoved) {
+  std::vector<sim::SimSensor> sensors = sim::TwoOverlappingSensors(Part::kPlane);
+  sim::SimulatedCloud sim = sim::SimulateWithPointCount(Part::kPlane, sensors, kPoints, 0, 7);
+  const HealthReport health = Health(sim.cloud, {"correction", "health"});
+  ASSERT_EQ(health.scans.size(), 2u);
+  ASSERT_TRUE(health.scans[1].merged_share.has_value());
+  EXPECT_GT(*health.scans[1].merged_share, 0.5);
+  ASSERT_TRUE(health.scans[0].noise_mm.has_value());
+  ASSERT_TRUE(health.scans[1].noise_mm.has_value());
+  double sum2[2] = {0, 0}, count[2] = {0, 0};
+  for (size_t i = 0; i < sim.cloud.size(); ++i) {
+    const double offset = (sim.cloud.point(i) - sim.truth[i]).dot(sim.true_normal[i]);
+    sum2[sim.cloud.scan[i]] += offset * offset;
+    ++count[sim.cloud.scan[i]];
+  }
+  const double truth = std::sqrt(sum2[1] / count[1]) / std::sqrt(sum2[0] / count[0]);
+  // The median fit residual weighs the grazing (noisiest) parts of the oblique scan less than the
+  // RMS does: its ratio lies between the sensors' σ ratio (2) and the true RMS ratio (3.3).
+  const double ratio = *health.scans[1].noise_mm / *health.scans[0].noise_mm;
+  EXPECT_GE(ratio, sensors[1].noise_sigma / sensors[0].noise_sigma);
+  EXPECT_LE(ratio, truth);
 }
 
 TEST(Health, AbsentUnlessTheJobRunsIt) {
