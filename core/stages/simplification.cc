@@ -198,31 +198,38 @@ absl::Status RunTiled(StageContext& ctx, Thinner& thinner, std::vector<uint32_t>
   Eigen::Vector3f hi = lo;
   for (uint32_t i : order) hi = hi.cwiseMax(cloud.point(i));
   cell_edge = std::max(cell_edge, (hi - lo).maxCoeff() / float((1 << 20) - 2));
-  std::vector<uint64_t> key(cloud.size());
-  for (uint32_t i : order) {
+  auto key = [&](uint32_t i) {
     const Eigen::Vector3f c = ((cloud.point(i) - lo) / cell_edge).array().floor();
     const uint64_t cx = uint64_t(c.x()), cy = uint64_t(c.y()), cz = uint64_t(c.z());
     const uint64_t colour = (cx & 1) | (cy & 1) << 1 | (cz & 1) << 2;
     const uint64_t phase = thinner.InEdgeSet(i) ? 0 : 1;
-    key[i] = phase << 63 | colour << 60 | cx << 40 | cy << 20 | cz;
-  }
-  // By key, then by position in the sequential order, which so survives within a cell.
+    return phase << 63 | colour << 60 | cx << 40 | cy << 20 | cz;
+  };
+  // By key, then by position in the sequential order, which so survives within a cell. The keys
+  // live only here, not per point of the cloud: the stage's peak is this sort.
   std::vector<std::pair<uint64_t, uint32_t>> ranked(order.size());
-  for (size_t v = 0; v < order.size(); ++v) ranked[v] = {key[order[v]], static_cast<uint32_t>(v)};
+  for (size_t v = 0; v < order.size(); ++v) ranked[v] = {key(order[v]), static_cast<uint32_t>(v)};
   SCANPREP_RETURN_IF_ERROR(CancellableSort(ranked, ctx.cancel()));
-  const std::vector<uint32_t> sequential = std::move(order);
-  order.resize(ranked.size());
-  for (size_t v = 0; v < ranked.size(); ++v) order[v] = sequential[ranked[v].second];
-  std::vector<size_t> cell_start;  // start of each cell's run, plus the end
-  for (size_t v = 0; v < order.size(); ++v) {
-    if (v == 0 || key[order[v]] != key[order[v - 1]]) cell_start.push_back(v);
+  // Each cell's start in the new order, with its key's phase and colour (the top 4 bits).
+  std::vector<size_t> cell_start;
+  std::vector<uint8_t> cell_group;
+  for (size_t v = 0; v < ranked.size(); ++v) {
+    if (v > 0 && ranked[v].first == ranked[v - 1].first) continue;
+    cell_start.push_back(v);
+    cell_group.push_back(static_cast<uint8_t>(ranked[v].first >> 60));
   }
-  cell_start.push_back(order.size());
+  cell_start.push_back(ranked.size());
+  {
+    const std::vector<uint32_t> sequential = std::move(order);
+    order.resize(ranked.size());
+    for (size_t v = 0; v < ranked.size(); ++v) order[v] = sequential[ranked[v].second];
+  }
+  FreeMemory(ranked);
   const size_t cells = cell_start.size() - 1;
   for (size_t first = 0; first < cells;) {
-    const uint64_t group = key[order[cell_start[first]]] >> 60;  // phase and colour
+    const uint8_t group = cell_group[first];
     size_t last = first;
-    while (last < cells && key[order[cell_start[last]]] >> 60 == group) ++last;
+    while (last < cells && cell_group[last] == group) ++last;
     SCANPREP_RETURN_IF_ERROR(ParallelFor(
         last - first, ctx.cancel(),
         [&](size_t begin, size_t end) {
@@ -345,8 +352,8 @@ StageInfo SimplificationStageInfo() {
                         "(0 = the paper)",
                         0, RightOpen(0, 1)),
               ChoiceParam(kSimplificationOrder,
-                          "tiled: 8-colour cells of edge 2·r_s in parallel, or sequential (the "
-                          "paper's order)"),
+                          "sequential (the paper's order) or tiled: 8-colour cells of edge 2·r_s "
+                          "in parallel"),
           },
       .make = [] { return std::make_unique<SimplificationStage>(); },
       .prerequisites = [](const ParamOverrides&) { return std::vector<std::string>{"measures"}; },
