@@ -36,9 +36,12 @@ std::array<double, 3> Deciles(std::vector<float>& v) {
   return out;
 }
 
+// count / of, 0 for none; in double, so a client's absurd count cannot wrap a sum.
+double Fraction(double count, double of) { return of > 0 ? count / of : 0.0; }
+
 std::optional<double> ShareOf(uint64_t count, uint64_t points, bool known) {
   if (!known) return std::nullopt;
-  return points > 0 ? double(count) / double(points) : 0.0;
+  return Fraction(double(count), double(points));
 }
 
 absl::StatusOr<std::vector<ScanHealth>> ScanHealths(StageContext& ctx) {
@@ -79,7 +82,8 @@ absl::StatusOr<std::vector<ScanHealth>> ScanHealths(StageContext& ctx) {
     h.outlier_share = ShareOf(outliers[s], h.points, outliers_ran);
     h.merged_share = ShareOf(merged[s], h.points, correction_ran);
     // Of every point the sensor delivered: the unmeasured ones never entered the pipeline.
-    h.invalid_share = *ShareOf(meta.points_invalid, h.points + meta.points_invalid, true);
+    const double invalid = double(meta.points_invalid);
+    h.invalid_share = Fraction(invalid, double(h.points) + invalid);
     if (!angles[s].empty()) h.viewing_angle_deg = Deciles(angles[s]);
   }
   return out;

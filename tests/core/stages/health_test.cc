@@ -5,6 +5,7 @@
 // its true noise.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -273,6 +274,16 @@ TEST(Health, NoiseCountsThePointsTheMergeRemoved) {
   const double ratio = *health.scans[1].noise_mm / *health.scans[0].noise_mm;
   EXPECT_GE(ratio, sensors[1].noise_sigma / sensors[0].noise_sigma);
   EXPECT_LE(ratio, truth);
+}
+
+// A client may state any count (ScanHeader.points_unmeasured): the share stays within [0, 1].
+TEST(Health, AnAbsurdUnmeasuredCountCannotWrapTheShare) {
+  sim::SimulatedCloud sim = TwoScans(Part::kBoxWithBore, Eigen::Isometry3d::Identity());
+  sim.cloud.scans[0].points_invalid = std::numeric_limits<uint64_t>::max();
+  const HealthReport health = Health(sim.cloud);
+  ASSERT_EQ(health.scans.size(), 2u);
+  EXPECT_GT(health.scans[0].invalid_share, 0.999);
+  EXPECT_LE(health.scans[0].invalid_share, 1.0);
 }
 
 TEST(Health, AbsentUnlessTheJobRunsIt) {
