@@ -3,6 +3,8 @@
 // simulated two-scan job through a real server prints both scans with the sensors the command
 // line named and their one overlapping pair, writes the same into --report_json, and writes no
 // cloud; a sensor id the server refuses names its field.
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -26,7 +28,8 @@ namespace fs = std::filesystem;
 class HealthCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new fs::path(fs::path(::testing::TempDir()) / "health_cli");
+    // One directory per process: ctest runs each test of the suite as its own process, in parallel.
+    dir_ = new fs::path(fs::path(::testing::TempDir()) / absl::StrCat("health_cli_", ::getpid()));
     fs::remove_all(*dir_);
     fs::create_directories(*dir_);
     const CommandResult sim =
