@@ -47,6 +47,13 @@ float SampleDk(const PointCloud& cloud, const CellGrid& grid, uint32_t k) {
   return dk[sample / 2];
 }
 
+// entries[m] = the old entries[slot[m]] for the k = slot.size() entries of one list.
+template <typename T>
+void PermuteList(T* entries, const std::vector<uint32_t>& slot, std::vector<T>& old) {
+  old.assign(entries, entries + slot.size());
+  for (size_t m = 0; m < slot.size(); ++m) entries[m] = old[slot[m]];
+}
+
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
@@ -129,25 +136,32 @@ absl::Status Neighbourhoods::PointsMoved(const PointCloud& cloud, float max_shif
   SCANPREP_RETURN_IF_ERROR(grid_.Build(cloud, grid_.cell_edge(), cancel));
   if (k_ == 0) return absl::OkStatus();
   SCANPREP_RETURN_IF_ERROR(ParallelFor(cloud.size(), cancel, [&](size_t begin, size_t end) {
-    std::vector<float> dist(k_);
-    std::vector<uint32_t> idx(k_);
+    std::vector<float> d2(k_);
+    std::vector<uint32_t> slot(k_);
+    std::vector<int16_t> deltas;
+    std::vector<uint32_t> wide;
     for (size_t i = begin; i < end; ++i) {
       const KnnList list = knn(i);
-      // Insertion sort: small moves leave the list nearly ordered.
+      // Insertion sort of the list's slots by squared distance: small moves leave the list
+      // nearly ordered.
       for (uint32_t m = 0; m < k_; ++m) {
-        const uint32_t j = list[m];
-        const float d = std::sqrt(cloud.squared_distance(i, j));
+        const float d = cloud.squared_distance(i, list[m]);
         uint32_t at = m;
-        for (; at > 0 && dist[at - 1] > d; --at) {
-          idx[at] = idx[at - 1];
-          dist[at] = dist[at - 1];
+        for (; at > 0 && d2[at - 1] > d; --at) {
+          slot[at] = slot[at - 1];
+          d2[at] = d2[at - 1];
         }
-        idx[at] = j;
-        dist[at] = d;
+        slot[at] = m;
+        d2[at] = d;
       }
-      // The same neighbours re-ordered: their differences fit where they did.
-      if (!Encode(i, idx.data())) std::copy(idx.begin(), idx.end(), &wide_[WideStart(i)]);
-      dk_[i] = dist[k_ - 1];
+      // The same neighbours re-ordered: the stored entries are permuted in place, so no
+      // neighbour's rank is looked up again (a random read each) and every list keeps its form.
+      if (list.wide_ != nullptr) {
+        PermuteList(&wide_[WideStart(i)], slot, wide);
+      } else {
+        PermuteList(&delta_[i * k_], slot, deltas);
+      }
+      dk_[i] = std::sqrt(d2[k_ - 1]);
     }
   }));
   ComputeGlobalRadius();

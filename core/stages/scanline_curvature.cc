@@ -39,23 +39,37 @@ struct LineScratch {
   std::vector<uint32_t> segment;
   // prefix[t]: moments of points [0, t) of the line relative to its first point.
   std::vector<MomentAccumulator> prefix;
+  // The line's points relative to its first, read from the cloud once for all their windows.
+  std::vector<Eigen::Vector3d> at;
+  // One window's abscissae x, ordinates y and Gaussian weights w, in the window's frame.
+  std::vector<double> x, y;
+  std::vector<float> w;
 };
 
-// The weighted quadratic y = a0 + a1·x + a2·x² in the window's own PCA frame.
-float WindowCurvature(const PointCloud& cloud, const LineScratch& s, size_t centre, size_t lo,
-                      size_t hi, double h) {
-  const Eigen::Vector3d p = cloud.point(s.idx[centre]).cast<double>();
+// The weighted quadratic y = a0 + a1·x + a2·x² in the window's own PCA frame. In three passes,
+// so that the loop that sums holds no call: frame coordinates, weights, power sums.
+float WindowCurvature(LineScratch& s, size_t centre, size_t lo, size_t hi, double h) {
   const LocalFrame frame = s.prefix[hi + 1].Without(s.prefix[lo]).Solve();
   if (!(frame.eigenvalues[2] > 0)) return std::numeric_limits<float>::quiet_NaN();
   const Eigen::Vector3d tangent = frame.axes.col(2), across = frame.axes.col(1);
   const double inv_two_var = 1.0 / (2 * (h / 2) * (h / 2));
+  const size_t count = hi - lo + 1;
+  s.x.resize(count);
+  s.y.resize(count);
+  s.w.resize(count);
+  for (size_t t = 0; t < count; ++t) {
+    const Eigen::Vector3d d = s.at[lo + t] - s.at[centre];
+    s.x[t] = d.dot(tangent);
+    s.y[t] = d.dot(across);
+    const double x2 = s.x[t] * s.x[t];
+    s.w[t] = static_cast<float>(-x2 * inv_two_var);
+  }
+  for (float& w : s.w) w = std::exp(w);  // float: a weight
   // The normal equations of rows (1, x, x²) hold only the weighted power sums Σw·xᵏ, k <= 4,
   // and Σw·y·xᵏ, k <= 2.
   double sx[5] = {0, 0, 0, 0, 0}, sy[3] = {0, 0, 0};
-  for (size_t t = lo; t <= hi; ++t) {
-    const Eigen::Vector3d d = cloud.point(s.idx[t]).cast<double>() - p;
-    const double x = d.dot(tangent), y = d.dot(across), x2 = x * x;
-    const double w = std::exp(static_cast<float>(-x2 * inv_two_var));  // float: a weight
+  for (size_t t = 0; t < count; ++t) {
+    const double w = s.w[t], x = s.x[t], y = s.y[t], x2 = x * x;
     const double wx = w * x, wx2 = w * x2;
     sx[0] += w, sx[1] += wx, sx[2] += wx2, sx[3] += wx2 * x, sx[4] += wx2 * x2;
     sy[0] += w * y, sy[1] += wx * y, sy[2] += wx2 * y;
@@ -94,9 +108,11 @@ void LineCurvature(const PointCloud& cloud, size_t begin, size_t end, double h,
   const Eigen::Vector3d origin = cloud.point(s.idx[0]).cast<double>();
   s.prefix.resize(m + 1);
   s.prefix[0] = MomentAccumulator();
+  s.at.resize(m);
   for (size_t t = 0; t < m; ++t) {
+    s.at[t] = cloud.point(s.idx[t]).cast<double>() - origin;
     s.prefix[t + 1] = s.prefix[t];
-    s.prefix[t + 1].Add(cloud.point(s.idx[t]).cast<double>() - origin, 1.0);
+    s.prefix[t + 1].Add(s.at[t], 1.0);
   }
   // The window [lo, hi] by arc length, then cut to kMaxWindowSide points a side; `reach` is
   // the uncut upper end, kept so that both ends still move forward only.
@@ -114,7 +130,7 @@ void LineCurvature(const PointCloud& cloud, size_t begin, size_t end, double h,
     if (t - first < 2 || last - t < 2) continue;  // a segment end: the caller falls back
     counts.windows_capped += first != lo || last != reach;
     counts.window_points += last - first + 1;
-    kappa[s.idx[t]] = WindowCurvature(cloud, s, t, first, last, h);
+    kappa[s.idx[t]] = WindowCurvature(s, t, first, last, h);
   }
 }
 
