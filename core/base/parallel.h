@@ -45,6 +45,27 @@ absl::Status ParallelFor(size_t n, const CancelToken& cancel, Body&& body, size_
   return cancel.Check();
 }
 
+// Sums block(begin, end), which returns a T, over [0, n) in fixed blocks of `grain` indices and
+// adds the blocks' sums in block order into `sum`: the same result on any number of threads (a
+// floating-point sum depends on its order). T needs `+=`; `zero` is its neutral value.
+template <typename T, typename Block>
+absl::Status ParallelSum(size_t n, const CancelToken& cancel, const T& zero, Block&& block, T& sum,
+                         size_t grain = 4096) {
+  const size_t blocks = (n + grain - 1) / grain;
+  std::vector<T> partial(blocks, zero);
+  absl::Status status = ParallelFor(
+      blocks, cancel,
+      [&](size_t first, size_t last) {
+        for (size_t b = first; b < last; ++b) {
+          partial[b] = block(b * grain, std::min(n, (b + 1) * grain));
+        }
+      },
+      1);
+  sum = zero;
+  for (const T& part : partial) sum += part;
+  return status;
+}
+
 // Merges the sorted runs run[0, left) and run[left, left + right) into run[0, left + right),
 // moving the shorter run to `aside` (room for min(left, right) items) first: with the left one
 // aside the merge fills from the front, with the right one from the back, and never overwrites

@@ -5,6 +5,8 @@
 
 #include <vector>
 
+#include "absl/status/statusor.h"
+#include "core/base/cancel.h"
 #include "core/base/point_cloud.h"
 #include "core/spatial/neighbourhoods.h"
 
@@ -12,7 +14,10 @@ namespace scanprep {
 
 // Per scan: the median nearest-neighbour distance of its unremoved points, for the scans where
 // `wanted[s]` is true (every scan when `wanted` is empty); 0 where not wanted or without points.
-std::vector<double> MedianNearestDistance(const PointCloud& cloud, const Neighbourhoods& nb,
-                                          const std::vector<bool>& wanted = {});
+// In parallel; CANCELLED when `cancel` fires.
+absl::StatusOr<std::vector<double>> MedianNearestDistance(const PointCloud& cloud,
+                                                          const Neighbourhoods& nb,
+                                                          const CancelToken& cancel,
+                                                          const std::vector<bool>& wanted = {});
 
 }  // namespace scanprep

@@ -132,7 +132,7 @@ class CorrectionStage : public Stage {
     const PointCloud& cloud = ctx.cloud();
     const double scale = settings.radius_scale;
     const std::optional<double> forced = settings.radius;
-    const std::vector<double> spacing = ScanPointSpacing(ctx);
+    SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing, ScanPointSpacing(ctx));
     std::vector<float> radius;
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
       const ScanMeta& scan = cloud.scans[s];

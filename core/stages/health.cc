@@ -15,6 +15,7 @@
 #include <utility>
 
 #include "core/base/parallel.h"
+#include "core/base/per_scan_values.h"
 #include "core/base/status_macros.h"
 #include "core/stages/measures.h"
 #include "core/stages/pair_misalignment.h"
@@ -49,30 +50,36 @@ absl::StatusOr<std::vector<ScanHealth>> ScanHealths(StageContext& ctx) {
   const size_t scans = cloud.scans.size();
   // The sensor's noise over every point it measured well: the merged-away ones included (a scan
   // another sees better may lose most of its points to the merge).
-  const std::vector<std::optional<double>> noise =
-      MeasuredScanNoise(cloud, ctx.measures(), scans, kRemovedOutlier);
-  std::vector<uint64_t> outliers(scans), merged(scans);
-  std::vector<std::vector<float>> angles(scans);
-  std::vector<ScanHealth> out(scans);
+  SCANPREP_ASSIGN_OR_RETURN(
+      const std::vector<std::optional<double>> noise,
+      MeasuredScanNoise(cloud, ctx.measures(), scans, ctx.cancel(), kRemovedOutlier));
+  std::vector<uint64_t> points(scans), outliers(scans), merged(scans);
   for (size_t i = 0; i < cloud.size(); ++i) {
-    if (ctx.cancel().CancelledAt(i)) return ctx.cancel().Check();
     const uint32_t s = cloud.scan[i];
-    ++out[s].points;
+    ++points[s];
     outliers[s] += (cloud.flags[i] & kRemovedOutlier) != 0;
     merged[s] += (cloud.flags[i] & kRemovedMerge) != 0;
-    // The sensor's view of every surface point it measured, the merged-away ones included.
-    if (cloud.flags[i] & (kRemovedOutlier | kNormalInvalid)) continue;
-    const Eigen::Vector3d p = cloud.point(i).cast<double>();
-    if (const auto toward = TowardCamera(cloud.scans[s], p)) {
-      const double angle = ViewAngle(cloud.normal(i).cast<double>(), *toward);
-      angles[s].push_back(static_cast<float>(angle * 180 / std::numbers::pi));
-    }
   }
+  // The sensor's view of every surface point it measured, the merged-away ones included; per
+  // scan in any order, as only their deciles are reported.
+  SCANPREP_ASSIGN_OR_RETURN(
+      std::vector<std::vector<float>> angles,
+      ValuesPerScan(cloud.size(), scans, ctx.cancel(), [&](size_t i, const auto& add) {
+        if (cloud.flags[i] & (kRemovedOutlier | kNormalInvalid)) return;
+        const uint32_t s = cloud.scan[i];
+        const Eigen::Vector3d p = cloud.point(i).cast<double>();
+        if (const auto toward = TowardCamera(cloud.scans[s], p)) {
+          const double angle = ViewAngle(cloud.normal(i).cast<double>(), *toward);
+          add(s, static_cast<float>(angle * 180 / std::numbers::pi));
+        }
+      }));
+  std::vector<ScanHealth> out(scans);
   const bool outliers_ran = ctx.Ran("outliers"), correction_ran = ctx.Ran("correction");
   for (size_t s = 0; s < scans; ++s) {
     ScanHealth& h = out[s];
     const ScanMeta& meta = cloud.scans[s];
     h.scan = static_cast<uint32_t>(s);
+    h.points = points[s];
     h.scan_id = meta.id;
     h.sensor_id = meta.sensor_id;
     h.noise_mm = noise[s];
@@ -211,7 +218,7 @@ absl::StatusOr<std::vector<PairHealth>> PairHealths(StageContext& ctx) {
   if (cloud.scans.size() < 2) return out;
   SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* nb, ctx.neighbourhoods());
   // A scan's spacing: the coarser of Δp and, for a line scanner, Δs.
-  const std::vector<double> spacing = ScanPointSpacing(ctx);
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing, ScanPointSpacing(ctx));
   std::vector<float> reach(cloud.scans.size());
   for (size_t s = 0; s < reach.size(); ++s) {
     const double ds = cloud.kind == ScannerKind::kLine ? cloud.scans[s].scanline_spacing : 0.0;
@@ -224,7 +231,9 @@ absl::StatusOr<std::vector<PairHealth>> PairHealths(StageContext& ctx) {
     SCANPREP_ASSIGN_OR_RETURN(auto by_fixed, FindCorrespondences(ctx, *nb, reach, points[moving]));
     for (const auto& [fixed, matches] : by_fixed) {
       SCANPREP_RETURN_IF_ERROR(ctx.cancel().Check());
-      out.push_back(EstimatePairHealth(cloud, fixed, moving, matches, settings));
+      SCANPREP_ASSIGN_OR_RETURN(PairHealth pair, EstimatePairHealth(cloud, fixed, moving, matches,
+                                                                    settings, ctx.cancel()));
+      out.push_back(std::move(pair));
     }
   }
   std::sort(out.begin(), out.end(), [](const PairHealth& a, const PairHealth& b) {

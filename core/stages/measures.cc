@@ -149,7 +149,7 @@ class MeasuresStage : public Stage {
     const size_t n = cloud.size();
     const CurvatureSettings settings = ReadCurvatureSettings(ctx);
 
-    const std::vector<double> spacing = ScanPointSpacing(ctx);
+    SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing, ScanPointSpacing(ctx));
     std::vector<double> window(cloud.scans.size(), 0.0);
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
       const double u = cloud.scans[s].uncertainty;
@@ -227,9 +227,10 @@ class MeasuresStage : public Stage {
 
 }  // namespace
 
-std::vector<double> ScanPointSpacing(StageContext& ctx) {
+absl::StatusOr<std::vector<double>> ScanPointSpacing(StageContext& ctx) {
   const PointCloud& cloud = ctx.cloud();
-  std::vector<double> spacing = MedianScanlineSpacing(cloud);
+  SCANPREP_ASSIGN_OR_RETURN(std::vector<double> spacing,
+                            MedianScanlineSpacing(cloud, ctx.cancel()));
   auto nb = ctx.neighbourhoods();
   std::vector<bool> unknown(spacing.size());
   for (size_t s = 0; s < spacing.size(); ++s) {
@@ -237,7 +238,8 @@ std::vector<double> ScanPointSpacing(StageContext& ctx) {
     unknown[s] = spacing[s] == 0;
   }
   if (!nb.ok() || (*nb)->k() == 0) return spacing;
-  const std::vector<double> measured = MedianNearestDistance(cloud, **nb, unknown);
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> measured,
+                            MedianNearestDistance(cloud, **nb, ctx.cancel(), unknown));
   for (size_t s = 0; s < spacing.size(); ++s) {
     if (unknown[s]) spacing[s] = measured[s];
   }

@@ -10,6 +10,7 @@
 #include <string_view>
 #include <vector>
 
+#include "absl/status/statusor.h"
 #include "core/base/point_cloud.h"
 #include "core/stages/stage.h"
 
@@ -32,8 +33,8 @@ double ViewAngle(const Eigen::Vector3d& n, const Eigen::Vector3d& toward);
 
 // Δp per scan, the spacing of points along a scanline: measured (median consecutive distance)
 // when the scan has scanlines, else the scanner's nominal point_spacing, else the median
-// nearest-neighbour distance of the scan.
-std::vector<double> ScanPointSpacing(StageContext& ctx);
+// nearest-neighbour distance of the scan. CANCELLED when the job's token fires.
+absl::StatusOr<std::vector<double>> ScanPointSpacing(StageContext& ctx);
 
 // Whether every unremoved point has the same q̂ (no scan had sensor poses or a per-point
 // quality): then a weight or a choice by q̂ tells nothing apart.

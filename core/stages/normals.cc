@@ -143,8 +143,7 @@ class NormalsStage : public Stage {
     }
     // Here because the fits measure the noise σ̂ that the unit is judged by, and with a fail_on
     // the job then stops before any stage works in a wrong unit.
-    WarnIfUnitSuspect(ctx);
-    return absl::OkStatus();
+    return WarnIfUnitSuspect(ctx);
   }
 
  private:

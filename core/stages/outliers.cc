@@ -154,8 +154,8 @@ absl::Status RemoveOutliers(StageContext& ctx, const OutliersSettings& settings,
     // The plan ran "normals" before: before the outlier stage for nn (its prerequisite),
     // after LoOP's removals for loop (the surface step's prerequisite).
     const size_t scans = std::max<size_t>(cloud.scans.size(), 1);
-    const std::vector<std::optional<double>> noise =
-        MeasuredScanNoise(cloud, ctx.measures(), scans);
+    SCANPREP_ASSIGN_OR_RETURN(const std::vector<std::optional<double>> noise,
+                              MeasuredScanNoise(cloud, ctx.measures(), scans, ctx.cancel()));
     for (size_t s = 0; s < scans; ++s) {
       if (noise[s]) {
         ctx.RecordForScan("outliers.surface_noise_mm", s, *noise[s]);

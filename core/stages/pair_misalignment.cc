@@ -19,6 +19,8 @@
 
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "core/base/parallel.h"
+#include "core/base/status_macros.h"
 
 namespace scanprep {
 namespace {
@@ -112,20 +114,48 @@ Row RowOf(const PointCloud& cloud, const Correspondence& m, const Eigen::Vector3
   return row;
 }
 
-// One pass: least squares over the rows whose `residual` the robust statistics keep.
-template <typename MakeRow, typename RowResidual>
-Solution Pass(std::span<const Correspondence> matches, MakeRow make_row, RowResidual residual,
-              const Robust& robust, double flat_ratio) {
+// The normal equations JᵀJ x = Jᵀd of some rows (JᵀJ's lower triangle only, until solved).
+struct NormalEquations {
   Matrix6d h = Matrix6d::Zero();
   Vector6d g = Vector6d::Zero();
-  for (const Correspondence& m : matches) {
-    const Row row = make_row(m);
-    if (!robust.Keeps(residual(row))) continue;
-    h.selfadjointView<Eigen::Lower>().rankUpdate(row.j);
-    g += row.j * row.d;
+  NormalEquations& operator+=(const NormalEquations& other) {
+    h += other.h;
+    g += other.g;
+    return *this;
   }
-  h = h.selfadjointView<Eigen::Lower>();
-  return SolveConstrained(h, g, flat_ratio);
+};
+
+// values[i] = value(matches[i]) for every match, in parallel.
+template <typename Value>
+absl::Status Fill(std::span<const Correspondence> matches, Value value, std::vector<double>& values,
+                  const CancelToken& cancel) {
+  values.resize(matches.size());
+  return ParallelFor(matches.size(), cancel, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) values[i] = value(matches[i]);
+  });
+}
+
+// One pass: least squares over the rows whose `residual` the robust statistics keep.
+template <typename MakeRow, typename RowResidual>
+absl::StatusOr<Solution> Pass(std::span<const Correspondence> matches, MakeRow make_row,
+                              RowResidual residual, const Robust& robust, double flat_ratio,
+                              const CancelToken& cancel) {
+  NormalEquations sum;
+  SCANPREP_RETURN_IF_ERROR(ParallelSum(
+      matches.size(), cancel, NormalEquations{},
+      [&](size_t begin, size_t end) {
+        NormalEquations part;
+        for (size_t i = begin; i < end; ++i) {
+          const Row row = make_row(matches[i]);
+          if (!robust.Keeps(residual(row))) continue;
+          part.h.selfadjointView<Eigen::Lower>().rankUpdate(row.j);
+          part.g += row.j * row.d;
+        }
+        return part;
+      },
+      sum));
+  const Matrix6d h = sum.h.selfadjointView<Eigen::Lower>();
+  return SolveConstrained(h, sum.g, flat_ratio);
 }
 
 std::string Unconstrained(const std::array<bool, 6>& constrained) {
@@ -138,24 +168,43 @@ std::string Unconstrained(const std::array<bool, 6>& constrained) {
 
 }  // namespace
 
-PairHealth EstimatePairHealth(const PointCloud& cloud, uint32_t fixed_scan, uint32_t moving_scan,
-                              std::span<const Correspondence> matches,
-                              const MisalignmentSettings& settings) {
+absl::StatusOr<PairHealth> EstimatePairHealth(const PointCloud& cloud, uint32_t fixed_scan,
+                                              uint32_t moving_scan,
+                                              std::span<const Correspondence> matches,
+                                              const MisalignmentSettings& settings,
+                                              const CancelToken& cancel) {
   PairHealth pair{.fixed = fixed_scan, .moving = moving_scan, .overlap_points = matches.size()};
   if (matches.empty()) return pair;
   const double n = static_cast<double>(matches.size());
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (const Correspondence& m : matches) centre += cloud.point(m.moving).cast<double>();
+  // A concrete vector: an Eigen expression returned would refer to the point gone with the call.
+  const auto moving = [&](size_t i) -> Eigen::Vector3d {
+    return cloud.point(matches[i].moving).cast<double>();
+  };
+  Eigen::Vector3d centre;
+  SCANPREP_RETURN_IF_ERROR(ParallelSum(
+      matches.size(), cancel, Eigen::Vector3d::Zero().eval(),
+      [&](size_t begin, size_t end) -> Eigen::Vector3d {
+        Eigen::Vector3d part = Eigen::Vector3d::Zero();
+        for (size_t i = begin; i < end; ++i) part += moving(i);
+        return part;
+      },
+      centre));
   centre /= n;
   double squared_extent = 0;
-  for (const Correspondence& m : matches) {
-    squared_extent += (cloud.point(m.moving).cast<double>() - centre).squaredNorm();
-  }
+  SCANPREP_RETURN_IF_ERROR(ParallelSum(
+      matches.size(), cancel, 0.0,
+      [&](size_t begin, size_t end) {
+        double part = 0;
+        for (size_t i = begin; i < end; ++i) part += (moving(i) - centre).squaredNorm();
+        return part;
+      },
+      squared_extent));
   const double extent = std::sqrt(squared_extent / n);
   const double inv_extent = extent > 0 ? 1 / extent : 0;
 
-  std::vector<double> residuals(matches.size());
-  for (size_t i = 0; i < matches.size(); ++i) residuals[i] = Residual(cloud, matches[i]);
+  std::vector<double> residuals;
+  const auto raw_residual = [&](const Correspondence& m) { return Residual(cloud, m); };
+  SCANPREP_RETURN_IF_ERROR(Fill(matches, raw_residual, residuals, cancel));
   const Robust raw = MedianAndSpread(residuals);
   pair.residual_median_mm = raw.median;
   pair.residual_spread_mm = raw.spread;
@@ -170,11 +219,15 @@ PairHealth EstimatePairHealth(const PointCloud& cloud, uint32_t fixed_scan, uint
   // explains (a tilt spreads the raw residuals, which pass 1 would otherwise cut into).
   const auto row = [&](const Correspondence& m) { return RowOf(cloud, m, centre, inv_extent); };
   const auto whole = [](const Row& r) { return r.d; };
-  for (size_t i = 0; i < matches.size(); ++i) residuals[i] = whole(row(matches[i]));
-  Solution s = Pass(matches, row, whole, MedianAndSpread(residuals), settings.flat_ratio);
+  SCANPREP_RETURN_IF_ERROR(Fill(
+      matches, [&](const Correspondence& m) { return whole(row(m)); }, residuals, cancel));
+  SCANPREP_ASSIGN_OR_RETURN(Solution s, Pass(matches, row, whole, MedianAndSpread(residuals),
+                                             settings.flat_ratio, cancel));
   const auto left = [&](const Row& r) { return r.d - r.j.dot(s.x); };
-  for (size_t i = 0; i < matches.size(); ++i) residuals[i] = left(row(matches[i]));
-  s = Pass(matches, row, left, MedianAndSpread(residuals), settings.flat_ratio);
+  SCANPREP_RETURN_IF_ERROR(Fill(
+      matches, [&](const Correspondence& m) { return left(row(m)); }, residuals, cancel));
+  SCANPREP_ASSIGN_OR_RETURN(
+      s, Pass(matches, row, left, MedianAndSpread(residuals), settings.flat_ratio, cancel));
 
   pair.translation_mm = s.x.head<3>();
   pair.rotation_deg = s.x.tail<3>() * inv_extent * (180 / std::numbers::pi);

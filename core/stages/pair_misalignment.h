@@ -8,6 +8,8 @@
 #include <cstdint>
 #include <span>
 
+#include "absl/status/statusor.h"
+#include "core/base/cancel.h"
 #include "core/base/point_cloud.h"
 #include "core/stages/health_report.h"
 
@@ -38,8 +40,12 @@ inline double RobustSpread(double mad) { return 1.4826 * mad; }
 
 // The pair's report from its correspondences (any order; the result does not depend on it beyond
 // rounding). Coordinates are taken relative to the overlap's centroid in double.
-PairHealth EstimatePairHealth(const PointCloud& cloud, uint32_t fixed_scan, uint32_t moving_scan,
-                              std::span<const Correspondence> matches,
-                              const MisalignmentSettings& settings);
+// Its sums run in parallel, in fixed blocks (the same result on any number of threads); CANCELLED
+// when `cancel` fires.
+absl::StatusOr<PairHealth> EstimatePairHealth(const PointCloud& cloud, uint32_t fixed_scan,
+                                              uint32_t moving_scan,
+                                              std::span<const Correspondence> matches,
+                                              const MisalignmentSettings& settings,
+                                              const CancelToken& cancel);
 
 }  // namespace scanprep

@@ -8,6 +8,8 @@
 #include <optional>
 #include <vector>
 
+#include "absl/status/statusor.h"
+#include "core/base/cancel.h"
 #include "core/base/point_cloud.h"
 #include "core/base/point_measures.h"
 
@@ -17,9 +19,11 @@ namespace scanprep {
 inline constexpr size_t kMinNoiseSamples = 32;
 
 // σ̂ per scan (`scans` entries), or nothing where fewer than kMinNoiseSamples fits are valid;
-// over the points not removed for a reason in `skip`.
-std::vector<std::optional<double>> MeasuredScanNoise(const PointCloud& cloud,
-                                                     const PointMeasures& m, size_t scans,
-                                                     uint8_t skip = kRemovedMask);
+// over the points not removed for a reason in `skip`. In parallel; CANCELLED when `cancel` fires.
+absl::StatusOr<std::vector<std::optional<double>>> MeasuredScanNoise(const PointCloud& cloud,
+                                                                     const PointMeasures& m,
+                                                                     size_t scans,
+                                                                     const CancelToken& cancel,
+                                                                     uint8_t skip = kRemovedMask);
 
 }  // namespace scanprep

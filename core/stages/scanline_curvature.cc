@@ -9,6 +9,8 @@
 #include <Eigen/Cholesky>
 
 #include "core/base/parallel.h"
+#include "core/base/per_scan_values.h"
+#include "core/base/status_macros.h"
 #include "core/spatial/local_moments.h"
 
 namespace scanprep {
@@ -136,23 +138,26 @@ void LineCurvature(const PointCloud& cloud, size_t begin, size_t end, double h,
 
 }  // namespace
 
-std::vector<double> MedianScanlineSpacing(const PointCloud& cloud) {
-  std::vector<std::vector<float>> gaps(cloud.scans.size());
-  for (const auto& [begin, end] : ScanlineRuns(cloud)) {
-    size_t previous = end;
-    for (size_t i = begin; i < end; ++i) {
-      if (cloud.removed(i)) continue;
-      if (previous != end)
-        gaps[cloud.scan[i]].push_back(static_cast<float>(Distance(cloud, previous, i)));
-      previous = i;
-    }
-  }
+absl::StatusOr<std::vector<double>> MedianScanlineSpacing(const PointCloud& cloud,
+                                                          const CancelToken& cancel) {
+  const std::vector<std::pair<size_t, size_t>> runs = ScanlineRuns(cloud);
+  SCANPREP_ASSIGN_OR_RETURN(std::vector<std::vector<float>> gaps,
+                            ValuesPerScan(
+                                runs.size(), cloud.scans.size(), cancel,
+                                [&](size_t r, const auto& add) {
+                                  const auto [begin, end] = runs[r];
+                                  size_t previous = end;
+                                  for (size_t i = begin; i < end; ++i) {
+                                    if (cloud.removed(i)) continue;
+                                    if (previous != end)
+                                      add(cloud.scan[i],
+                                          static_cast<float>(Distance(cloud, previous, i)));
+                                    previous = i;
+                                  }
+                                },
+                                8));
   std::vector<double> spacing(cloud.scans.size(), 0.0);
-  for (size_t s = 0; s < gaps.size(); ++s) {
-    if (gaps[s].empty()) continue;
-    std::nth_element(gaps[s].begin(), gaps[s].begin() + gaps[s].size() / 2, gaps[s].end());
-    spacing[s] = gaps[s][gaps[s].size() / 2];
-  }
+  for (size_t s = 0; s < gaps.size(); ++s) spacing[s] = UpperMedian(gaps[s]);
   return spacing;
 }
 

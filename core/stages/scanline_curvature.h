@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/status/statusor.h"
 #include "core/base/cancel.h"
 #include "core/base/point_cloud.h"
 
@@ -14,7 +15,9 @@ namespace scanprep {
 
 // Δp per scan: the median distance between consecutive unremoved points of a scanline; 0 for a
 // scan without scanlines.
-std::vector<double> MedianScanlineSpacing(const PointCloud& cloud);
+// In parallel; CANCELLED when `cancel` fires.
+absl::StatusOr<std::vector<double>> MedianScanlineSpacing(const PointCloud& cloud,
+                                                          const CancelToken& cancel);
 
 // A window holds at most this many points on each side of its centre, whatever its half-width:
 // a half-width far beyond the data's scale (a window_mm given in the wrong unit) would otherwise

@@ -268,8 +268,9 @@ std::optional<double> SpacingFromPitch(const PointCloud& cloud,
 }
 
 // The default r_s: from the pitch, else (recorded and warned) 2/√ρ_g of the global density.
-double DefaultSpacing(StageContext& ctx, const Neighbourhoods& nb) {
-  const std::optional<double> pitch = SpacingFromPitch(ctx.cloud(), ScanPointSpacing(ctx));
+absl::StatusOr<double> DefaultSpacing(StageContext& ctx, const Neighbourhoods& nb) {
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing, ScanPointSpacing(ctx));
+  const std::optional<double> pitch = SpacingFromPitch(ctx.cloud(), spacing);
   ctx.Record("simplification.spacing_from_density", pitch ? 0 : 1);
   if (pitch) return *pitch;
   if (!ctx.Overridden(kSimplificationSpacing)) {
@@ -287,7 +288,8 @@ absl::StatusOr<Plan> ReadPlan(StageContext& ctx, const Neighbourhoods& nb) {
   // r_s is held to kMaxSpacingPerGlobalRadius·r_g: a derived one beyond it comes from spacings
   // in the wrong unit, and where κ̂ keeps most points every centre's ball would be a large
   // part of the cloud. The report shows the spacing used.
-  const double spacing = ctx.Number(kSimplificationSpacing, DefaultSpacing(ctx, nb));
+  SCANPREP_ASSIGN_OR_RETURN(const double derived, DefaultSpacing(ctx, nb));
+  const double spacing = ctx.Number(kSimplificationSpacing, derived);
   plan.spacing = static_cast<float>(ctx.CapRadius("the thinning spacing r_s", spacing,
                                                   kMaxSpacingPerGlobalRadius * nb.global_radius()));
   ctx.Record(kSimplificationSpacing, plan.spacing);

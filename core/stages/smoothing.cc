@@ -37,7 +37,7 @@ class SmoothingStage : public Stage {
     if (m.quality.size() != n || m.curvature.size() != n || m.fit_rms.size() != n) {
       return absl::InternalError("smoothing: the measures stage left no quality/curvature/fit");
     }
-    const SmoothingSettings settings = ReadSettings(ctx);
+    SCANPREP_ASSIGN_OR_RETURN(const SmoothingSettings settings, ReadSettings(ctx));
     // Without poses every q̂ is the same and Eq. (6) weighs by flatness alone.
     const bool uniform = UniformQuality(cloud, m.quality);
     ctx.Record("smoothing.without_quality", uniform ? 1 : 0);
@@ -95,7 +95,7 @@ class SmoothingStage : public Stage {
   }
 
  private:
-  static SmoothingSettings ReadSettings(StageContext& ctx) {
+  static absl::StatusOr<SmoothingSettings> ReadSettings(StageContext& ctx) {
     SmoothingSettings s;
     s.own_side = ctx.Choice(kSmoothingMethod) == SmoothingMethod::kOwnSide;
     s.knn = ctx.Choice(kSmoothingNeighbourhood) == SmoothingNeighbourhood::kKnn;
@@ -108,8 +108,8 @@ class SmoothingStage : public Stage {
     const std::optional<double> forced = ctx.Overridden(kSmoothingToleranceMm);
     const std::optional<double> forced_noise = ctx.Overridden(kSmoothingNoise);
     s.fixed_tolerance = forced.has_value() || !s.own_side;
-    const std::vector<std::optional<double>> measured =
-        MeasuredScanNoise(cloud, ctx.measures(), scans);
+    SCANPREP_ASSIGN_OR_RETURN(const std::vector<std::optional<double>> measured,
+                              MeasuredScanNoise(cloud, ctx.measures(), scans, ctx.cancel()));
     size_t tolerance_from_default = 0;
     for (size_t scan = 0; scan < scans; ++scan) {
       const double u = scan < cloud.scans.size() ? cloud.scans[scan].uncertainty : 0.1;

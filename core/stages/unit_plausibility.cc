@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
 #include "core/spatial/median_nearest.h"
 #include "core/stages/scan_noise.h"
 
@@ -33,13 +34,15 @@ int Disagreement(double measured, double stated) {
 
 }  // namespace
 
-void WarnIfUnitSuspect(StageContext& ctx) {
+absl::Status WarnIfUnitSuspect(StageContext& ctx) {
   auto nb = ctx.neighbourhoods();
-  if (!nb.ok() || (*nb)->k() == 0) return;
+  if (!nb.ok() || (*nb)->k() == 0) return absl::OkStatus();
   const PointCloud& cloud = ctx.cloud();
-  const std::vector<double> spacing = MedianNearestDistance(cloud, **nb);
-  const std::vector<std::optional<double>> noise =
-      MeasuredScanNoise(cloud, ctx.measures(), cloud.scans.size());
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing,
+                            MedianNearestDistance(cloud, **nb, ctx.cancel()));
+  SCANPREP_ASSIGN_OR_RETURN(
+      const std::vector<std::optional<double>> noise,
+      MeasuredScanNoise(cloud, ctx.measures(), cloud.scans.size(), ctx.cancel()));
   for (size_t s = 0; s < cloud.scans.size(); ++s) {
     const ScanMeta& scan = cloud.scans[s];
     std::vector<int> verdicts;
@@ -70,6 +73,7 @@ void WarnIfUnitSuspect(StageContext& ctx) {
                           "millimetres is 1000x smaller)?"),
              std::move(params));
   }
+  return absl::OkStatus();
 }
 
 }  // namespace scanprep

@@ -4,6 +4,7 @@
 // sent as millimetres has both about 1000x smaller than stated (inches as mm: 25.4x larger).
 #pragma once
 
+#include "absl/status/status.h"
 #include "core/stages/stage_context.h"
 
 namespace scanprep {
@@ -16,7 +17,8 @@ inline constexpr double kUnitSuspectFactor = 20;
 // Warns UNIT_SUSPECT for each scan whose every stated scale that can be checked (a stated
 // scanline or point spacing; a stated u when σ̂ is measured) disagrees with the data by more than
 // kUnitSuspectFactor in the same direction. A scan that states nothing is not judged. Needs the
-// shared neighbourhoods and the normal fits (run at the end of the normals stage).
-void WarnIfUnitSuspect(StageContext& ctx);
+// shared neighbourhoods and the normal fits (run at the end of the normals stage). CANCELLED
+// when the job's token fires.
+absl::Status WarnIfUnitSuspect(StageContext& ctx);
 
 }  // namespace scanprep
