@@ -2,12 +2,18 @@
 #include "tests/bench/bench_cloud.h"
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <map>
 #include <memory>
+#include <string>
 
 #include <sys/resource.h>
 
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "absl/strings/string_view.h"
 #include "core/sim/scan_simulator.h"
 
 namespace scanprep::bench {
@@ -86,10 +92,32 @@ void SetCounters(benchmark::State& state, size_t points) {
   state.counters["peak_rss_bytes"] = PeakRssBytes();
 }
 
-void Sizes(benchmark::internal::Benchmark* b) {
-  for (int64_t points : {100'000, 1'000'000, 4'000'000}) {
-    for (int64_t threads : {1, 2}) b->Args({points, threads});
+std::vector<int64_t> BenchThreads(std::vector<int64_t> fallback) {
+  const char* list = std::getenv("SCANPREP_BENCH_THREADS");
+  if (list == nullptr || *list == '\0') return fallback;
+  std::vector<int64_t> threads;
+  for (absl::string_view item : absl::StrSplit(list, ',')) {
+    int64_t count = 0;
+    if (!absl::SimpleAtoi(item, &count) || count < 1 || count > 1024) {
+      std::fprintf(stderr, "SCANPREP_BENCH_THREADS: '%s' is not a thread count from 1 to 1024\n",
+                   std::string(item).c_str());
+      std::exit(2);
+    }
+    threads.push_back(count);
   }
+  return threads;
+}
+
+void Sizes(benchmark::internal::Benchmark* b) {
+  const std::vector<int64_t> threads = BenchThreads({1, 2});
+  for (int64_t points : {100'000, 1'000'000, 4'000'000}) {
+    for (int64_t t : threads) b->Args({points, t});
+  }
+  Timing(b);
+}
+
+void PartsInARowSizes(benchmark::internal::Benchmark* b) {
+  for (int64_t t : BenchThreads({2})) b->Args({4'000'000, t});
   Timing(b);
 }
 

@@ -6,6 +6,8 @@
 
 #include <cstddef>
 
+#include <vector>
+
 #include <benchmark/benchmark.h>
 
 #include "core/base/point_cloud.h"
@@ -31,9 +33,17 @@ double PeakRssBytes();
 // argument), points_per_second, peak_rss_bytes.
 void SetCounters(benchmark::State& state, size_t points);
 
-// Every case's arguments {points, threads}: 100 k, 1 M and 4 M points on 1 and 2 threads; the
-// minimum time is short enough that one iteration suffices at the large sizes.
+// The thread counts a run measures: SCANPREP_BENCH_THREADS, a comma-separated list (e.g.
+// "1,2,4,8,16" on a many-core machine, tools/run-scaling-benchmark.sh), else `fallback`. A value
+// that is not a count from 1 to 1024 stops the run with a message naming it.
+std::vector<int64_t> BenchThreads(std::vector<int64_t> fallback);
+
+// Every case's arguments {points, threads}: 100 k, 1 M and 4 M points on 1 and 2 threads
+// (BenchThreads); the minimum time is short enough that one iteration suffices at the large sizes.
 void Sizes(benchmark::internal::Benchmark* b);
+
+// {4 M, threads} for the 4 M-points-at-the-1 M-density case: 2 threads (BenchThreads).
+void PartsInARowSizes(benchmark::internal::Benchmark* b);
 
 // Milliseconds, and a minimum time short enough that one iteration suffices at the large sizes;
 // part of Sizes, and for cases with arguments of their own.

@@ -67,8 +67,7 @@ BENCHMARK_CAPTURE(RunPipelineCase, PaperPreset, std::string(), ReferenceCloud,
     ->UseManualTime();
 // 4 M points at the 1 M density: whether the pipeline scales with the point count alone.
 BENCHMARK_CAPTURE(RunPipelineCase, DefaultPipelinePartsInARow, std::string(), PartsInARowCloud)
-    ->Args({4'000'000, 2})
-    ->Apply(Timing)
+    ->Apply(PartsInARowSizes)
     ->UseManualTime();
 // The same points without scanlines (a point soup from a flexible scanner).
 BENCHMARK_CAPTURE(RunPipelineCase, DefaultPipelineUnorganized, std::string(), UnorganizedCloud)
