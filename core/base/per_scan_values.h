@@ -15,18 +15,24 @@
 #include "absl/status/statusor.h"
 #include "core/base/cancel.h"
 #include "core/base/parallel.h"
+#include "core/base/point_cloud.h"
 #include "core/base/status_macros.h"
 
 namespace scanprep {
 
-// For the items [0, n) (points, scanlines): emit(item, add) calls add(scan, value) for each value
-// the item gives. Returns the values of each of `scans` scans, in an order that depends on the
-// threads.
+// For the items [0, n) (points, scanlines) of `cloud`: emit(item, add) calls add(scan, value)
+// for each value the item gives, at most one per point of the scan. Returns the values of each
+// scan, in an order that depends on the threads. Each scan's list is reserved for its points by
+// the calling thread, so the appends never reallocate and the workers allocate only their
+// block's pairs (memory grown in a worker thread's arena stays with the process).
 template <typename Emit>
-absl::StatusOr<std::vector<std::vector<float>>> ValuesPerScan(size_t n, size_t scans,
+absl::StatusOr<std::vector<std::vector<float>>> ValuesPerScan(const PointCloud& cloud, size_t n,
                                                               const CancelToken& cancel,
                                                               Emit&& emit, size_t grain = 16384) {
-  std::vector<std::vector<float>> per_scan(scans);
+  std::vector<size_t> points(cloud.scans.size(), 0);
+  for (const uint32_t s : cloud.scan) ++points[s];
+  std::vector<std::vector<float>> per_scan(cloud.scans.size());
+  for (size_t s = 0; s < per_scan.size(); ++s) per_scan[s].reserve(points[s]);
   std::mutex mu;
   SCANPREP_RETURN_IF_ERROR(ParallelFor(
       n, cancel,

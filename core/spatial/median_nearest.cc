@@ -11,7 +11,7 @@ absl::StatusOr<std::vector<double>> MedianNearestDistance(const PointCloud& clou
                                                           const std::vector<bool>& wanted) {
   SCANPREP_ASSIGN_OR_RETURN(
       std::vector<std::vector<float>> nearest,
-      ValuesPerScan(cloud.size(), cloud.scans.size(), cancel, [&](size_t i, const auto& add) {
+      ValuesPerScan(cloud, cloud.size(), cancel, [&](size_t i, const auto& add) {
         if (!cloud.removed(i) && (wanted.empty() || wanted[cloud.scan[i]])) {
           add(cloud.scan[i], nb.knn_dist(cloud, i, 0));
         }

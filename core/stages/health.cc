@@ -64,7 +64,7 @@ absl::StatusOr<std::vector<ScanHealth>> ScanHealths(StageContext& ctx) {
   // scan in any order, as only their deciles are reported.
   SCANPREP_ASSIGN_OR_RETURN(
       std::vector<std::vector<float>> angles,
-      ValuesPerScan(cloud.size(), scans, ctx.cancel(), [&](size_t i, const auto& add) {
+      ValuesPerScan(cloud, cloud.size(), ctx.cancel(), [&](size_t i, const auto& add) {
         if (cloud.flags[i] & (kRemovedOutlier | kNormalInvalid)) return;
         const uint32_t s = cloud.scan[i];
         const Eigen::Vector3d p = cloud.point(i).cast<double>();

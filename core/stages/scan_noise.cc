@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "core/stages/scan_noise.h"
 
+#include <algorithm>
+
 #include "core/base/per_scan_values.h"
 
 namespace scanprep {
@@ -12,11 +14,12 @@ absl::StatusOr<std::vector<std::optional<double>>> MeasuredScanNoise(const Point
                                                                      uint8_t skip) {
   SCANPREP_ASSIGN_OR_RETURN(
       std::vector<std::vector<float>> residuals,
-      ValuesPerScan(cloud.size(), scans, cancel, [&](size_t i, const auto& add) {
+      ValuesPerScan(cloud, cloud.size(), cancel, [&](size_t i, const auto& add) {
         if (!(cloud.flags[i] & (skip | kNormalInvalid))) add(cloud.scan[i], m.fit_rms[i]);
       }));
   std::vector<std::optional<double>> noise(scans);
-  for (size_t s = 0; s < scans; ++s) {
+  // `scans` may exceed the cloud's (callers ask for at least one): those have no points.
+  for (size_t s = 0; s < std::min(scans, residuals.size()); ++s) {
     std::vector<float>& r = residuals[s];
     if (r.size() < kMinNoiseSamples) continue;
     const float median = UpperMedian(r);

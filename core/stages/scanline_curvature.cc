@@ -143,7 +143,7 @@ absl::StatusOr<std::vector<double>> MedianScanlineSpacing(const PointCloud& clou
   const std::vector<std::pair<size_t, size_t>> runs = ScanlineRuns(cloud);
   SCANPREP_ASSIGN_OR_RETURN(std::vector<std::vector<float>> gaps,
                             ValuesPerScan(
-                                runs.size(), cloud.scans.size(), cancel,
+                                cloud, runs.size(), cancel,
                                 [&](size_t r, const auto& add) {
                                   const auto [begin, end] = runs[r];
                                   size_t previous = end;
