@@ -20,6 +20,13 @@
 
 namespace scanprep {
 
+// How many points each scan of `cloud` holds.
+inline std::vector<size_t> ScanPointCounts(const PointCloud& cloud) {
+  std::vector<size_t> count(cloud.scans.size(), 0);
+  for (const uint32_t s : cloud.scan) ++count[s];
+  return count;
+}
+
 // For the items [0, n) (points, scanlines) of `cloud`: emit(item, add) calls add(scan, value)
 // for each value the item gives, at most one per point of the scan. Returns the values of each
 // scan, in an order that depends on the threads. Each scan's list is reserved for its points by
@@ -29,8 +36,7 @@ template <typename Emit>
 absl::StatusOr<std::vector<std::vector<float>>> ValuesPerScan(const PointCloud& cloud, size_t n,
                                                               const CancelToken& cancel,
                                                               Emit&& emit, size_t grain = 16384) {
-  std::vector<size_t> points(cloud.scans.size(), 0);
-  for (const uint32_t s : cloud.scan) ++points[s];
+  const std::vector<size_t> points = ScanPointCounts(cloud);
   std::vector<std::vector<float>> per_scan(cloud.scans.size());
   for (size_t s = 0; s < per_scan.size(); ++s) per_scan[s].reserve(points[s]);
   std::mutex mu;

@@ -201,8 +201,7 @@ absl::StatusOr<std::map<uint32_t, std::vector<Correspondence>>> FindCorresponden
 // The points of each scan, in index order (a counting sort).
 std::vector<std::vector<uint32_t>> PointsPerScan(const PointCloud& cloud) {
   std::vector<std::vector<uint32_t>> points(cloud.scans.size());
-  std::vector<size_t> count(cloud.scans.size(), 0);
-  for (const uint32_t s : cloud.scan) ++count[s];
+  const std::vector<size_t> count = ScanPointCounts(cloud);
   for (size_t s = 0; s < points.size(); ++s) points[s].reserve(count[s]);
   for (uint32_t i = 0; i < cloud.size(); ++i) points[cloud.scan[i]].push_back(i);
   return points;

@@ -43,7 +43,8 @@ struct LineScratch {
   std::vector<MomentAccumulator> prefix;
   // The line's points relative to its first, read from the cloud once for all their windows.
   std::vector<Eigen::Vector3d> at;
-  // One window's abscissae x, ordinates y and Gaussian weights w, in the window's frame.
+  // One window's abscissae x, ordinates y and Gaussian weights w (first their exponents), in the
+  // window's frame.
   std::vector<double> x, y;
   std::vector<float> w;
 };
