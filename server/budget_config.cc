@@ -34,7 +34,7 @@ absl::Status AddEntry(const std::string& name, const std::string& value, const s
     defaults.total_seconds = seconds;
     return absl::OkStatus();
   }
-  if (FindStage(name) == nullptr) {
+  if (FindOfferedStage(name) == nullptr) {
     const std::vector<std::string> known = StageNames();
     return absl::InvalidArgumentError(absl::StrCat(where, ": unknown stage '", name, "'",
                                                    DidYouMean(name, known),

@@ -49,11 +49,8 @@ uint64_t BaseBytesPerPoint() {
 std::string FormatMiB(double bytes) { return absl::StrFormat("%.0f MiB", bytes / 1048576.0); }
 
 uint64_t BytesPerPoint(const ParamOverrides& params) {
-  int k = kDefaultNeighbours;
-  if (const auto it = params.find(kNeighbourhoodsK); it != params.end()) {
-    double value = 0;
-    if (absl::SimpleAtod(it->second, &value)) k = static_cast<int>(value);
-  }
+  // The k the job's plan will build its shared graph with (validated before admission).
+  const int k = static_cast<int>(NeighbourhoodsParams().Read(params).k);
   return BaseBytesPerPoint() + kBytesPerPointPerExtraNeighbour *
                                    static_cast<uint64_t>(std::max(0, k - kDefaultNeighbours));
 }

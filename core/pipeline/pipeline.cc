@@ -10,20 +10,22 @@
 #include "core/base/did_you_mean.h"
 #include "core/base/field_error.h"
 #include "core/base/status_macros.h"
+#include "core/pipeline/pipeline_runner.h"
 #include "core/pipeline/plan.h"
-#include "core/pipeline/runner.h"
 #include "core/spatial/duplicates.h"
+#include "core/stages/stage_names.h"
 
 namespace scanprep {
 
 std::vector<std::string> DefaultStages() {
-  return {"outliers", "correction", "health", "smoothing", "simplification"};
+  using namespace stage_names;
+  return List({kOutliers, kCorrection, kHealth, kSmoothing, kSimplification});
 }
 
 absl::Status ValidateOptions(const PipelineOptions& options) {
   std::set<std::string> seen;
   for (const std::string& name : options.stages) {
-    if (FindStage(name) == nullptr) {
+    if (FindOfferedStage(name) == nullptr) {
       const std::vector<std::string> known = StageNames();
       return FieldError("options.stages",
                         absl::StrCat("unknown stage '", name, "'", DidYouMean(name, known),
@@ -35,7 +37,7 @@ absl::Status ValidateOptions(const PipelineOptions& options) {
   }
   for (const auto& [name, seconds] : options.stage_budget_seconds) {
     const std::string field = absl::StrCat("budget.stage_seconds['", name, "']");
-    if (FindStage(name) == nullptr) {
+    if (FindOfferedStage(name) == nullptr) {
       return FieldError(field, absl::StrCat("unknown stage", DidYouMean(name, StageNames())));
     }
     if (!(seconds >= 0)) return FieldError(field, "must be >= 0");
@@ -51,7 +53,7 @@ namespace {
 absl::StatusOr<PipelineReport> RunStages(const Plan& plan, PointCloud& cloud,
                                          const PipelineOptions& options, const CancelToken& cancel,
                                          ProgressFn progress, const DuplicateGroups& duplicates) {
-  Runner runner(plan, cloud, cancel, std::move(progress), options.fail_on, &duplicates);
+  PipelineRunner runner(plan, cloud, cancel, std::move(progress), options.fail_on, &duplicates);
   SCANPREP_RETURN_IF_ERROR(runner.Run());
   return std::move(runner.report());
 }

@@ -27,13 +27,11 @@ std::vector<Preset> BuiltinPresets() {
       {.name = "paper",
        .description = "the paper's configuration, the fast one: its outlier rule alone, "
                       "weighted-mean smoothing, k-NN neighbourhoods",
-       .params = {{std::string(kOutliersSurfaceSigmas), "0"},
-                  {std::string(kSmoothingMethod.name),
-                   std::string(kSmoothingMethod.Text(SmoothingMethod::kMean))},
-                  {std::string(kNormalsRadiusMode.name),
-                   std::string(kNormalsRadiusMode.Text(NormalsRadiusMode::kKnn))},
-                  {std::string(kSmoothingNeighbourhood.name),
-                   std::string(kSmoothingNeighbourhood.Text(SmoothingNeighbourhood::kKnn))}},
+       .params = {OutliersParams().Override(&OutliersSettings::surface_sigmas, 0.0),
+                  SmoothingParams().Override(&SmoothingSettings::method, SmoothingMethod::kMean),
+                  NormalsParams().Override(&NormalsSettings::radius_mode, NormalsRadiusMode::kKnn),
+                  SmoothingParams().Override(&SmoothingSettings::neighbourhood,
+                                             SmoothingNeighbourhood::kKnn)},
        .built_in = true},
   };
 }

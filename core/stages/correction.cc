@@ -18,9 +18,11 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/base/parallel.h"
+#include "core/base/quality_order.h"
 #include "core/base/status_macros.h"
-#include "core/stages/measures.h"
+#include "core/stages/scan_spacing.h"
 #include "core/stages/stage_context.h"
+#include "core/stages/stage_names.h"
 
 namespace scanprep {
 namespace {
@@ -63,12 +65,8 @@ bool ShouldGo(const PointCloud& cloud, const std::vector<float>& quality, const 
   return v.overlap && cloud.scan[j] != v.best_scan && quality[j] < v.mean_quality;
 }
 
-struct CorrectionSettings {
-  CorrectionMode mode;
-  int rounds = 0;  // gather: the most rounds
-  double radius_scale;
-  std::optional<double> radius;  // r_c for every scan, else derived per scan (Eq. 11)
-};
+// The report's count of the points the merge removed, whichever way the stage ends.
+constexpr std::string_view kRemoved = "correction.removed";
 
 class CorrectionStage : public Stage {
  public:
@@ -76,7 +74,7 @@ class CorrectionStage : public Stage {
     PointCloud& cloud = ctx.cloud();
     ctx.Record("correction.single_scan", cloud.scans.size() < 2 ? 1 : 0);
     if (cloud.scans.size() < 2) {  // nothing can overlap
-      ctx.Record("correction.removed", 0);
+      ctx.Record(kRemoved, 0);
       ctx.Warn(WarningCode::kSingleScanNoMerge,
                "correction: the job has one scan, so there is no overlap to merge and nothing "
                "was changed; send each scan as its own scan (one file per scan, or a per-point "
@@ -92,7 +90,7 @@ class CorrectionStage : public Stage {
     const bool uniform = UniformQuality(cloud, quality);
     ctx.Record("correction.without_quality", uniform ? 1 : 0);
     if (uniform) {
-      ctx.Record("correction.removed", 0);
+      ctx.Record(kRemoved, 0);
       ctx.Warn(WarningCode::kUniformQualityNoMerge,
                "correction: every point has the same viewing quality (no scan has sensor poses "
                "or a per-point quality), so overlapping scans cannot be told apart and were not "
@@ -102,37 +100,26 @@ class CorrectionStage : public Stage {
     SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
     const Neighbourhoods& nb = *shared;
 
-    const CorrectionSettings settings = ReadSettings(ctx);
+    // Read (and recorded) only when there is an overlap to merge.
+    const CorrectionSettings settings = ctx.Settings(CorrectionParams());
     SCANPREP_ASSIGN_OR_RETURN(const std::vector<float> radius, Radii(ctx, settings, nb));
     SCANPREP_ASSIGN_OR_RETURN(const size_t removed,
                               settings.mode == CorrectionMode::kScatter
                                   ? Scatter(ctx, nb, quality, radius)
                                   : Gather(ctx, nb, quality, radius, settings.rounds));
-    ctx.Record("correction.removed", static_cast<double>(removed));
+    ctx.Record(kRemoved, static_cast<double>(removed));
     return absl::OkStatus();
   }
 
  private:
-  // The stage's parameters, read (and recorded) once, when there is an overlap to merge.
-  static CorrectionSettings ReadSettings(StageContext& ctx) {
-    CorrectionSettings s;
-    s.radius_scale = ctx.Number(kCorrectionRadiusScale);
-    s.radius = ctx.Overridden(kCorrectionRadius);
-    s.mode = ctx.Choice(kCorrectionMode);
-    if (s.mode == CorrectionMode::kGather) {
-      s.rounds = static_cast<int>(ctx.Integer(kCorrectionRounds));
-    }
-    return s;
-  }
-
   // r_c per scan, scaled; recorded per scan when there are several.
   static absl::StatusOr<std::vector<float>> Radii(StageContext& ctx,
                                                   const CorrectionSettings& settings,
                                                   const Neighbourhoods& nb) {
     const PointCloud& cloud = ctx.cloud();
     const double scale = settings.radius_scale;
-    const std::optional<double> forced = settings.radius;
-    SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing, ScanPointSpacing(ctx));
+    SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing,
+                              ScanPointSpacing(cloud, &nb, ctx.cancel()));
     std::vector<float> radius;
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
       const ScanMeta& scan = cloud.scans[s];
@@ -141,8 +128,8 @@ class CorrectionStage : public Stage {
                                    spacing[s] * spacing[s]);  // Eq. (11)
       radius.push_back(static_cast<float>(ctx.CapRadius(
           absl::StrCat("the merge radius r_c (Eq. 11) of scan '", scan.id, "'"),
-          forced.value_or(scale * r_c), kMaxMergeRadiusPerGlobalRadius * nb.global_radius())));
-      ctx.RecordForScan(kCorrectionRadius, s, radius.back());
+          settings.radius.Or(scale * r_c), kMaxMergeRadiusPerGlobalRadius * nb.global_radius())));
+      ctx.RecordForScan(settings.radius.name, s, radius.back());
     }
     return radius;
   }
@@ -258,30 +245,36 @@ class CorrectionStage : public Stage {
 
 }  // namespace
 
+const ParamTable<CorrectionSettings>& CorrectionParams() {
+  using S = CorrectionSettings;
+  static const ParamTable<S> table = {
+      param::Choice(&S::mode, "correction.mode", {"gather", "scatter"},
+                    "gather: each point decides from its own neighbourhood (parallel, "
+                    "order-free); scatter: centres in descending quality remove neighbours at "
+                    "once (paper)"),
+      param::Integer(&S::rounds, "correction.rounds", 10, Closed(1, 1000),
+                     "most gather rounds, each from the previous round's labels (1 = a single "
+                     "pass); stops early when a round removes nothing")
+          .When([](const S& s) { return s.mode == CorrectionMode::kGather; }),
+      param::Real(&S::radius_scale, "correction.radius_scale", 1, LeftOpen(0, 100),
+                  "factor on r_c, for registration residuals larger than r_c"),
+      param::DerivedReal(&S::radius, "correction.radius_mm",
+                         "radius_scale·√(Δs² + u² + Δp²) per scan", LeftOpen(0, 1e4),
+                         "r_c of Eq. (11) for every scan"),
+  };
+  return table;
+}
+
 StageInfo CorrectionStageInfo() {
   return {
-      .name = "correction",
+      .name = std::string(stage_names::kCorrection),
       .summary =
           "merge overlapping scans: in N_{r_c}(p) spanning ≥ 2 scans, remove points of "
           "other scans than the best point's whose quality is below the mean (Eq. 11)",
-      .params =
-          {
-              ChoiceParam(kCorrectionMode,
-                          "gather: each point decides from its own neighbourhood (parallel, "
-                          "order-free); scatter: centres in descending quality remove "
-                          "neighbours at once (paper)"),
-              IntegerParam(kCorrectionRounds,
-                           "most gather rounds, each from the previous round's labels (1 = a "
-                           "single pass); stops early when a round removes nothing",
-                           10, Closed(1, 1000)),
-              RealParam(kCorrectionRadiusScale,
-                        "factor on r_c, for registration residuals larger than r_c", 1,
-                        LeftOpen(0, 100)),
-              DerivedRealParam(kCorrectionRadius, "r_c of Eq. (11) for every scan",
-                               "radius_scale·√(Δs² + u² + Δp²) per scan", LeftOpen(0, 1e4)),
-          },
+      .params = CorrectionParams().Specs(),
       .make = [] { return std::make_unique<CorrectionStage>(); },
-      .prerequisites = [](const ParamOverrides&) { return std::vector<std::string>{"measures"}; },
+      .prerequisites =
+          [](const ParamOverrides&) { return stage_names::List({stage_names::kMeasures}); },
       .work_per_point = 1,
       .cost_weight = 0.72,
   };

@@ -1,18 +1,22 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-#include <string_view>
 
+#include "core/stages/param_table.h"
 #include "core/stages/stage.h"
 namespace scanprep {
 // Quality-based merging of overlapping scans (paper §3.2, Eq. 11 and the removal rule called
 // "Eq. 12" elsewhere in the project; docs/algorithms.md §10).
 StageInfo CorrectionStageInfo();
 
-// The stage's parameters, each name declared here once (its spec and its reader use these).
+// gather: each point decides from its own neighbourhood; scatter: the paper's order.
 enum class CorrectionMode { kGather, kScatter };
-inline constexpr ChoiceDecl<CorrectionMode, 2> kCorrectionMode{"correction.mode",
-                                                               {"gather", "scatter"}};
-inline constexpr std::string_view kCorrectionRounds = "correction.rounds";
-inline constexpr std::string_view kCorrectionRadiusScale = "correction.radius_scale";
-inline constexpr std::string_view kCorrectionRadius = "correction.radius_mm";
+
+// The parameters (CorrectionParams() declares them).
+struct CorrectionSettings {
+  CorrectionMode mode = CorrectionMode::kGather;
+  int rounds = 0;  // gather: the most rounds
+  double radius_scale = 0;
+  Derived<double> radius;  // r_c for every scan, else derived per scan (Eq. 11)
+};
+const ParamTable<CorrectionSettings>& CorrectionParams();
 }  // namespace scanprep

@@ -17,10 +17,12 @@
 #include "core/base/parallel.h"
 #include "core/base/per_scan_values.h"
 #include "core/base/status_macros.h"
-#include "core/stages/measures.h"
+#include "core/spatial/view_geometry.h"
 #include "core/stages/pair_misalignment.h"
 #include "core/stages/scan_noise.h"
+#include "core/stages/scan_spacing.h"
 #include "core/stages/stage_context.h"
+#include "core/stages/stage_names.h"
 
 namespace scanprep {
 namespace {
@@ -74,7 +76,8 @@ absl::StatusOr<std::vector<ScanHealth>> ScanHealths(StageContext& ctx) {
         }
       }));
   std::vector<ScanHealth> out(scans);
-  const bool outliers_ran = ctx.Ran("outliers"), correction_ran = ctx.Ran("correction");
+  const bool outliers_ran = ctx.Ran(stage_names::kOutliers),
+             correction_ran = ctx.Ran(stage_names::kCorrection);
   for (size_t s = 0; s < scans; ++s) {
     ScanHealth& h = out[s];
     const ScanMeta& meta = cloud.scans[s];
@@ -209,15 +212,16 @@ std::vector<std::vector<uint32_t>> PointsPerScan(const PointCloud& cloud) {
 
 absl::StatusOr<std::vector<PairHealth>> PairHealths(StageContext& ctx) {
   const PointCloud& cloud = ctx.cloud();
-  const MisalignmentSettings settings{
-      .min_points = static_cast<size_t>(ctx.Integer(kHealthMinOverlapPoints)),
-      .flat_ratio = ctx.Number(kHealthFlatRatio)};
-  const double spacings = ctx.Number(kHealthMaxPairDistance);
+  const HealthSettings params = ctx.Settings(HealthParams());
+  const MisalignmentSettings settings{.min_points = params.min_overlap_points,
+                                      .flat_ratio = params.flat_ratio};
+  const double spacings = params.max_pair_distance;
   std::vector<PairHealth> out;
   if (cloud.scans.size() < 2) return out;
   SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* nb, ctx.neighbourhoods());
   // A scan's spacing: the coarser of Δp and, for a line scanner, Δs.
-  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing, ScanPointSpacing(ctx));
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing,
+                            ScanPointSpacing(cloud, nb, ctx.cancel()));
   std::vector<float> reach(cloud.scans.size());
   for (size_t s = 0; s < reach.size(); ++s) {
     const double ds = cloud.kind == ScannerKind::kLine ? cloud.scans[s].scanline_spacing : 0.0;
@@ -258,30 +262,33 @@ class HealthStage : public Stage {
 
 }  // namespace
 
+const ParamTable<HealthSettings>& HealthParams() {
+  using S = HealthSettings;
+  static const ParamTable<S> table = {
+      param::Integer(&S::min_overlap_points, "health.min_overlap_points", 1000, Closed(6, 1e4),
+                     "fewer overlap points than this: a pair's misalignment is not solved"),
+      param::Real(&S::flat_ratio, "health.flat_ratio", 0.01, Open(0, 1),
+                  "eigenvalues of the overlap's JᵀJ below this fraction of the largest leave "
+                  "their direction unconstrained (flat or narrow overlaps)"),
+      param::Real(&S::max_pair_distance, "health.max_pair_distance", 2, LeftOpen(0, 100),
+                  "farthest a fixed scan's point may lie from a moving one to give it a plane, "
+                  "in the fixed scan's spacings (the coarser of Δp and Δs)"),
+  };
+  return table;
+}
+
 StageInfo HealthStageInfo() {
   return {
-      .name = "health",
+      .name = std::string(stage_names::kHealth),
       .summary =
           "scanner health: per scan noise σ̂, removed shares and viewing angles; per "
           "overlapping pair point-to-plane residuals and rigid misalignment",
-      .params =
-          {
-              IntegerParam(kHealthMinOverlapPoints,
-                           "fewer overlap points than this: a pair's misalignment is not solved",
-                           1000, Closed(6, 1e4)),
-              RealParam(kHealthFlatRatio,
-                        "eigenvalues of the overlap's JᵀJ below this fraction of the largest "
-                        "leave their direction unconstrained (flat or narrow overlaps)",
-                        0.01, Open(0, 1)),
-              RealParam(kHealthMaxPairDistance,
-                        "farthest a fixed scan's point may lie from a moving one to give it a "
-                        "plane, in the fixed scan's spacings (the coarser of Δp and Δs)",
-                        2, LeftOpen(0, 100)),
-          },
+      .params = HealthParams().Specs(),
       .make = [] { return std::make_unique<HealthStage>(); },
       .prerequisites =
           [](const ParamOverrides&) {
-            return std::vector<std::string>{"neighbourhoods", "normals", "measures"};
+            return stage_names::List(
+                {stage_names::kNeighbourhoods, stage_names::kNormals, stage_names::kMeasures});
           },
       .work_per_point = 1,
       .cost_weight = 0.35,

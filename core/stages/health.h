@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-#include <string_view>
 
+#include <cstddef>
+
+#include "core/stages/param_table.h"
 #include "core/stages/stage.h"
 namespace scanprep {
 // Scanner health (docs/health.md): per scan its noise σ̂, shares removed and viewing angles; per
@@ -9,8 +11,11 @@ namespace scanprep {
 // Reads the pipeline's measures and moves nothing; fills PipelineReport::health.
 StageInfo HealthStageInfo();
 
-// The stage's parameters, each name declared here once (its spec and its reader use these).
-inline constexpr std::string_view kHealthMinOverlapPoints = "health.min_overlap_points";
-inline constexpr std::string_view kHealthFlatRatio = "health.flat_ratio";
-inline constexpr std::string_view kHealthMaxPairDistance = "health.max_pair_distance";
+// The parameters (HealthParams() declares them).
+struct HealthSettings {
+  size_t min_overlap_points = 0;  // fewer: nothing of the pair is solved
+  double flat_ratio = 0;          // eigenvalue fraction below which a direction is unconstrained
+  double max_pair_distance = 0;   // farthest partner, in the fixed scan's spacings
+};
+const ParamTable<HealthSettings>& HealthParams();
 }  // namespace scanprep

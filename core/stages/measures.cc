@@ -13,31 +13,15 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/parallel.h"
 #include "core/base/status_macros.h"
-#include "core/spatial/median_nearest.h"
+#include "core/spatial/view_geometry.h"
+#include "core/stages/scan_spacing.h"
 #include "core/stages/scanline_curvature.h"
 #include "core/stages/stage_context.h"
+#include "core/stages/stage_names.h"
 
 namespace scanprep {
 
-std::optional<Eigen::Vector3d> TowardCamera(const ScanMeta& scan, const Eigen::Vector3d& p) {
-  if (scan.camera_position) return *scan.camera_position - p;
-  if (scan.view_direction) return *scan.view_direction;
-  return std::nullopt;
-}
-
-double ViewAngle(const Eigen::Vector3d& n, const Eigen::Vector3d& toward) {
-  const double norm = toward.norm();
-  if (!(norm > 0)) return 0;
-  return std::acos(std::clamp(std::abs(n.dot(toward)) / norm, 0.0, 1.0));
-}
-
 namespace {
-
-std::optional<Eigen::Vector3d> TowardProjector(const ScanMeta& scan, const Eigen::Vector3d& p) {
-  if (scan.projector_position) return *scan.projector_position - p;
-  if (scan.projector_direction) return *scan.projector_direction;
-  return std::nullopt;
-}
 
 // The smallest window that keeps flat-surface noise below half the edge scale at 99 %: the
 // least-squares x² coefficient over a window of half-width h, with points Δp apart and noise σ,
@@ -70,21 +54,6 @@ void AssignScanMedians(const PointCloud& cloud, Unknown unknown, std::vector<flo
   for (size_t i = 0; i < cloud.size(); ++i) {
     if (!cloud.removed(i) && unknown(i)) values[i] = median[cloud.scan[i]];
   }
-}
-
-// The curvature half's parameters, read once at its start.
-struct CurvatureSettings {
-  double scale;                  // s: scanline curvature of a significant edge
-  double variation_scale;        // s_σ: surface variation of one (fallback without scanlines)
-  double edge_threshold;         // κ̂ at or above which a point is an edge
-  std::optional<double> window;  // h for every scan, else derived per scan
-};
-
-CurvatureSettings ReadCurvatureSettings(StageContext& ctx) {
-  return {.scale = ctx.Number(kMeasuresCurvatureScale),
-          .variation_scale = ctx.Number(kMeasuresVariationScale),
-          .edge_threshold = ctx.Number(kMeasuresEdgeThreshold),
-          .window = ctx.Overridden(kMeasuresWindow)};
 }
 
 class MeasuresStage : public Stage {
@@ -147,16 +116,18 @@ class MeasuresStage : public Stage {
   static absl::Status Curvature(StageContext& ctx) {
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
-    const CurvatureSettings settings = ReadCurvatureSettings(ctx);
+    const MeasuresSettings settings = ctx.Settings(MeasuresParams());
 
-    SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing, ScanPointSpacing(ctx));
+    SCANPREP_ASSIGN_OR_RETURN(
+        const std::vector<double> spacing,
+        ScanPointSpacing(cloud, ctx.neighbourhoods().value_or(nullptr), ctx.cancel()));
     std::vector<double> window(cloud.scans.size(), 0.0);
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
       const double u = cloud.scans[s].uncertainty;
-      window[s] = settings.window.value_or(
+      window[s] = settings.window.Or(
           std::max({3 * spacing[s], 2 * u, NoiseWindow(u, spacing[s], settings.scale)}));
       ctx.RecordForScan("measures.point_spacing_mm", s, spacing[s]);
-      ctx.RecordForScan(kMeasuresWindow, s, window[s]);
+      ctx.RecordForScan(settings.window.name, s, window[s]);
     }
 
     std::vector<float> kappa;
@@ -227,59 +198,33 @@ class MeasuresStage : public Stage {
 
 }  // namespace
 
-absl::StatusOr<std::vector<double>> ScanPointSpacing(StageContext& ctx) {
-  const PointCloud& cloud = ctx.cloud();
-  SCANPREP_ASSIGN_OR_RETURN(std::vector<double> spacing,
-                            MedianScanlineSpacing(cloud, ctx.cancel()));
-  auto nb = ctx.neighbourhoods();
-  std::vector<bool> unknown(spacing.size());
-  for (size_t s = 0; s < spacing.size(); ++s) {
-    if (spacing[s] == 0) spacing[s] = cloud.scans[s].point_spacing;
-    unknown[s] = spacing[s] == 0;
-  }
-  if (!nb.ok() || (*nb)->k() == 0) return spacing;
-  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> measured,
-                            MedianNearestDistance(cloud, **nb, ctx.cancel(), unknown));
-  for (size_t s = 0; s < spacing.size(); ++s) {
-    if (unknown[s]) spacing[s] = measured[s];
-  }
-  return spacing;
+const ParamTable<MeasuresSettings>& MeasuresParams() {
+  using S = MeasuresSettings;
+  static const ParamTable<S> table = {
+      param::Real(&S::scale, "measures.curvature_scale_per_mm", 0.2, LeftOpen(0, 1000),
+                  "s: scanline curvature of a significant edge"),
+      param::Real(&S::variation_scale, "measures.variation_scale", 0.02, LeftOpen(0, 1),
+                  "s_σ: surface variation of a significant edge (fallback without scanlines)"),
+      param::Real(&S::edge_threshold, "measures.edge_threshold", 0.5, Closed(0, 1),
+                  "κ̂ at or above which a point is flagged as an edge"),
+      param::DerivedReal(&S::window, "measures.window_mm",
+                         "max(3Δp, 2u, (1215·u²·Δp/s²)^(1/5)) per scan", LeftOpen(0, 1e4),
+                         "half-width h of the scanline curvature window"),
+  };
+  return table;
 }
 
 StageInfo MeasuresStageInfo() {
   return {
-      .name = "measures",
+      .name = std::string(stage_names::kMeasures),
       .summary = "viewing quality q̂ and normalised curvature κ̂ per point (Eq. 7); edge flags",
-      .params =
-          {
-              RealParam(kMeasuresCurvatureScale, "s: scanline curvature of a significant edge", 0.2,
-                        LeftOpen(0, 1000)),
-              RealParam(kMeasuresVariationScale,
-                        "s_σ: surface variation of a significant "
-                        "edge (fallback without scanlines)",
-                        0.02, LeftOpen(0, 1)),
-              RealParam(kMeasuresEdgeThreshold, "κ̂ at or above which a point is flagged as an edge",
-                        0.5, Closed(0, 1)),
-              DerivedRealParam(kMeasuresWindow,
-                               "half-width h of the scanline curvature "
-                               "window",
-                               "max(3Δp, 2u, (1215·u²·Δp/s²)^(1/5)) per scan", LeftOpen(0, 1e4)),
-          },
+      .params = MeasuresParams().Specs(),
       .make = [] { return std::make_unique<MeasuresStage>(); },
-      .prerequisites = [](const ParamOverrides&) { return std::vector<std::string>{"normals"}; },
+      .prerequisites =
+          [](const ParamOverrides&) { return stage_names::List({stage_names::kNormals}); },
       .work_per_point = 2,
       .cost_weight = 0.65,
   };
-}
-
-bool UniformQuality(const PointCloud& cloud, const std::vector<float>& quality) {
-  std::optional<float> first;
-  for (size_t i = 0; i < cloud.size(); ++i) {
-    if (cloud.removed(i)) continue;
-    if (!first) first = quality[i];
-    if (quality[i] != *first) return false;
-  }
-  return true;
 }
 
 }  // namespace scanprep

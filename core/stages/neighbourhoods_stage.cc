@@ -12,6 +12,7 @@
 #include "absl/strings/str_join.h"
 #include "core/base/status_macros.h"
 #include "core/stages/stage_context.h"
+#include "core/stages/stage_names.h"
 
 namespace scanprep {
 namespace {
@@ -69,23 +70,22 @@ class NeighbourhoodsStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
     const PointCloud& cloud = ctx.cloud();
+    const NeighbourhoodsSettings settings = ctx.Settings(NeighbourhoodsParams());
     NeighbourhoodOptions options;
-    options.k = static_cast<uint32_t>(ctx.Integer(kNeighbourhoodsK));
+    options.k = settings.k;
     // Per scan: a job mixing sensors would otherwise give the finer one the coarser one's r_min.
-    const std::optional<double> forced_epsilon = ctx.Overridden(kNeighbourhoodsEpsilonU);
-    const std::optional<double> forced_radius = ctx.Overridden(kNeighbourhoodsMinRadius);
     for (size_t s = 0; s < cloud.scans.size(); ++s) {
       const ScanMeta& scan = cloud.scans[s];
       const double spacing = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
-      const double epsilon_u = forced_epsilon.value_or(scan.uncertainty);
+      const double epsilon_u = settings.epsilon_u.Or(scan.uncertainty);
       // Flexible scanners have no fixed spacing: r_min = ε_u and r_p = max(r_min, d_k) grows
       // the ball until it holds k points (docs/algorithms.md §4).
       options.min_radius.push_back(
-          forced_radius.value_or(MinRadiusFromScanlineSpacing(spacing, epsilon_u)));
-      ctx.RecordForScan(kNeighbourhoodsEpsilonU, s, epsilon_u);
-      ctx.RecordForScan(kNeighbourhoodsMinRadius, s, options.min_radius.back());
+          settings.min_radius.Or(MinRadiusFromScanlineSpacing(spacing, epsilon_u)));
+      ctx.RecordForScan(settings.epsilon_u.name, s, epsilon_u);
+      ctx.RecordForScan(settings.min_radius.name, s, options.min_radius.back());
     }
-    WarnAboutMissingMetadata(ctx, forced_radius.has_value());
+    WarnAboutMissingMetadata(ctx, settings.min_radius.forced.has_value());
     const std::vector<double> requested = options.min_radius;
     SCANPREP_ASSIGN_OR_RETURN(std::unique_ptr<Neighbourhoods> nb,
                               Neighbourhoods::Build(cloud, options, ctx.cancel()));
@@ -127,20 +127,25 @@ class NeighbourhoodsStage : public Stage {
 
 }  // namespace
 
+const ParamTable<NeighbourhoodsSettings>& NeighbourhoodsParams() {
+  using S = NeighbourhoodsSettings;
+  static const ParamTable<S> table = {
+      param::Integer(&S::k, "neighbourhoods.k", kDefaultNeighbourK, Closed(3, 64),
+                     "neighbours per point in the shared graph (k_g)"),
+      param::DerivedReal(&S::epsilon_u, "neighbourhoods.epsilon_u_mm", "the scan's uncertainty u",
+                         Closed(0, 1e4), "ε_u of Eq. (2), uncertainty margin"),
+      param::DerivedReal(&S::min_radius, "neighbourhoods.min_radius_mm",
+                         "per scan from its scanline spacing; ε_u for flexible scanners",
+                         Closed(0, 1e4), "r_min of Eq. (2): √3·Δs + ε_u"),
+  };
+  return table;
+}
+
 StageInfo NeighbourhoodsStageInfo() {
   return {
-      .name = "neighbourhoods",
+      .name = std::string(stage_names::kNeighbourhoods),
       .summary = "spatial grid and k-NN graph shared by all stages; global radius r_g and density",
-      .params =
-          {
-              IntegerParam(kNeighbourhoodsK, "neighbours per point in the shared graph (k_g)",
-                           kDefaultNeighbourK, Closed(3, 64)),
-              DerivedRealParam(kNeighbourhoodsEpsilonU, "ε_u of Eq. (2), uncertainty margin",
-                               "the scan's uncertainty u", Closed(0, 1e4)),
-              DerivedRealParam(kNeighbourhoodsMinRadius, "r_min of Eq. (2): √3·Δs + ε_u",
-                               "per scan from its scanline spacing; ε_u for flexible scanners",
-                               Closed(0, 1e4)),
-          },
+      .params = NeighbourhoodsParams().Specs(),
       .make = [] { return std::make_unique<NeighbourhoodsStage>(); },
       .work_per_point = 5,
       .cost_weight = 1.33,

@@ -180,20 +180,12 @@ absl::Status FindComponents(const std::vector<uint8_t>& member, DisjointSets& se
   return absl::OkStatus();
 }
 
-// Candidate pairs of components to bridge where the k-NN graph does not link them (separate
-// objects, or parts of one surface split by a wide gap), from up to kSamples points of each
-// component: each component with the kPartners other components whose samples come nearest to
-// its own. Then, if these pairs leave groups apart (a cluster of objects far from the rest),
-// each such group is paired with the largest group at their nearest pair of samples, so the
-// candidates connect all. Adds the neighbours asked for to `work`.
-absl::Status CandidatePairs(const PointCloud& cloud, const Neighbourhoods& nb,
-                            const Components& components, DisjointSets groups,
-                            const CancelToken& cancel,
-                            std::vector<std::pair<uint32_t, uint32_t>>& pairs, size_t& work) {
-  const size_t count = components.size();
-  // Rim points: their k nearest lie to one side (mean offset over a quarter of d_k; about 0.4
-  // at a straight border, near 0 inside). Gaps between parts of one surface run between rims,
-  // so a big component's few samples must sit there, not spread over its inside.
+// Rim points: their k nearest lie to one side (mean offset over a quarter of d_k; about 0.4 at a
+// straight border, near 0 inside). Gaps between parts of one surface run between rims, so a big
+// component's few samples must sit there, not spread over its inside.
+absl::StatusOr<std::vector<uint8_t>> RimPoints(const PointCloud& cloud, const Neighbourhoods& nb,
+                                               const Components& components,
+                                               const CancelToken& cancel) {
   std::vector<uint8_t> rim(cloud.size(), 0);
   SCANPREP_RETURN_IF_ERROR(ParallelFor(cloud.size(), cancel, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
@@ -203,8 +195,19 @@ absl::Status CandidatePairs(const PointCloud& cloud, const Neighbourhoods& nb,
       rim[i] = offset.norm() > 0.25f * nb.k() * nb.dk(i);
     }
   }));
-  std::vector<uint32_t> sample, owner, rim_members;
-  for (uint32_t c = 0; c < count; ++c) {
+  return rim;
+}
+
+// Up to kSamples points of each component (half of them on its rim when it is larger), and the
+// component of each.
+struct Samples {
+  std::vector<uint32_t> point, owner;
+};
+
+Samples SampleComponents(const Components& components, const std::vector<uint8_t>& rim) {
+  Samples out;
+  std::vector<uint32_t> rim_members;
+  for (uint32_t c = 0; c < components.size(); ++c) {
     const std::span<const uint32_t> members = components.members(c);
     std::vector<uint32_t> chosen =
         Stride(members, members.size() <= kSamples ? kSamples : kSamples / 2);
@@ -216,25 +219,37 @@ absl::Status CandidatePairs(const PointCloud& cloud, const Neighbourhoods& nb,
       for (uint32_t i : Stride(rim_members, kSamples / 2)) chosen.push_back(i);
     }
     for (uint32_t i : chosen) {
-      sample.push_back(i);
-      owner.push_back(c);
+      out.point.push_back(i);
+      out.owner.push_back(c);
     }
   }
-  const SubsetAdaptor samples{cloud.x.data(), cloud.y.data(), cloud.z.data(), sample,
+  return out;
+}
+
+// A sample's nearest sample of another component.
+struct Near {
+  uint32_t component;
+  float d2;
+  uint32_t other;
+  bool operator<(const Near& o) const {
+    return std::tie(component, d2, other) < std::tie(o.component, o.d2, o.other);
+  }
+};
+
+// Per sample its nearest sample of each other component among its k nearest, k reaching
+// kSamples past the own component's: not only the nearest component, which may be a small
+// fragment in a gap whose normals say little, but the next ones too. Sorted by component, then
+// distance. Adds the neighbours asked for to `work`.
+absl::StatusOr<std::vector<Near>> NearestOtherComponents(const PointCloud& cloud,
+                                                         const Components& components,
+                                                         const Samples& samples,
+                                                         const CancelToken& cancel, size_t& work) {
+  const std::vector<uint32_t>& sample = samples.point;
+  const std::vector<uint32_t>& owner = samples.owner;
+  const SubsetAdaptor adaptor{cloud.x.data(), cloud.y.data(), cloud.z.data(), sample,
                               sample.size()};
-  SubsetTree sample_tree(3, samples, nanoflann::KDTreeSingleIndexAdaptorParams(12));
+  SubsetTree sample_tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(12));
   sample_tree.buildIndex();
-  // Per sample its nearest sample of each other component among its k nearest, k reaching
-  // kSamples past the own component's: not only the nearest component, which may be a small
-  // fragment in a gap whose normals say little, but the next ones too.
-  struct Near {
-    uint32_t component;
-    float d2;
-    uint32_t other;
-    bool operator<(const Near& o) const {
-      return std::tie(component, d2, other) < std::tie(o.component, o.d2, o.other);
-    }
-  };
   constexpr size_t kAsk = 2 * kSamples + 1;
   std::vector<Near> near(sample.size() * kPartners, Near{kNone, 0, kNone});
   std::atomic<size_t> asked{0};
@@ -264,7 +279,13 @@ absl::Status CandidatePairs(const PointCloud& cloud, const Neighbourhoods& nb,
   work += asked;
   std::erase_if(near, [](const Near& e) { return e.component == kNone; });
   SCANPREP_RETURN_IF_ERROR(CancellableSort(near, cancel));
-  // Per component its kPartners nearest other components.
+  return near;
+}
+
+// Per component its kPartners nearest other components (`near` sorted as
+// NearestOtherComponents leaves it), each pair once, smaller component first, united in `groups`.
+absl::StatusOr<std::vector<std::pair<uint32_t, uint32_t>>> NearestPartners(
+    const std::vector<Near>& near, DisjointSets& groups, const CancelToken& cancel) {
   std::vector<std::pair<uint32_t, uint32_t>> found_pairs;
   for (size_t e = 0, taken = 0; e < near.size(); ++e) {
     if (e > 0 && near[e].component != near[e - 1].component) taken = 0;
@@ -282,8 +303,18 @@ absl::Status CandidatePairs(const PointCloud& cloud, const Neighbourhoods& nb,
   SCANPREP_RETURN_IF_ERROR(CancellableSort(found_pairs, cancel));
   found_pairs.erase(std::unique(found_pairs.begin(), found_pairs.end()), found_pairs.end());
   for (const auto& [a, b] : found_pairs) groups.Unite(a, b);
-  pairs.insert(pairs.end(), found_pairs.begin(), found_pairs.end());
+  return found_pairs;
+}
 
+// Pairs each group of components that `groups` leaves apart from the largest with the largest,
+// at their nearest pair of samples. Adds the neighbours asked for to `work`.
+absl::Status LinkToLargestGroup(const PointCloud& cloud, const Components& components,
+                                const Samples& samples, DisjointSets& groups,
+                                const CancelToken& cancel,
+                                std::vector<std::pair<uint32_t, uint32_t>>& pairs, size_t& work) {
+  const std::vector<uint32_t>& sample = samples.point;
+  const std::vector<uint32_t>& owner = samples.owner;
+  const size_t count = components.size();
   std::vector<size_t> group_points(count, 0);
   for (uint32_t c = 0; c < count; ++c) group_points[groups.Find(c)] += components.members(c).size();
   const uint32_t largest = static_cast<uint32_t>(
@@ -314,6 +345,26 @@ absl::Status CandidatePairs(const PointCloud& cloud, const Neighbourhoods& nb,
     if (std::isfinite(e.cost)) pairs.emplace_back(e.a, e.b);
   }
   return absl::OkStatus();
+}
+
+// Candidate pairs of components to bridge where the k-NN graph does not link them (separate
+// objects, or parts of one surface split by a wide gap), from up to kSamples points of each
+// component: each component with the kPartners other components whose samples come nearest to
+// its own. Then, if these pairs leave groups apart (a cluster of objects far from the rest),
+// each such group is paired with the largest group at their nearest pair of samples, so the
+// candidates connect all. Adds the neighbours asked for to `work`.
+absl::Status CandidatePairs(const PointCloud& cloud, const Neighbourhoods& nb,
+                            const Components& components, DisjointSets groups,
+                            const CancelToken& cancel,
+                            std::vector<std::pair<uint32_t, uint32_t>>& pairs, size_t& work) {
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<uint8_t> rim,
+                            RimPoints(cloud, nb, components, cancel));
+  const Samples samples = SampleComponents(components, rim);
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<Near> near,
+                            NearestOtherComponents(cloud, components, samples, cancel, work));
+  SCANPREP_ASSIGN_OR_RETURN(const auto nearest_pairs, NearestPartners(near, groups, cancel));
+  pairs.insert(pairs.end(), nearest_pairs.begin(), nearest_pairs.end());
+  return LinkToLargestGroup(cloud, components, samples, groups, cancel, pairs, work);
 }
 
 // Per pair of components its bridge: of the edges from each point of the smaller to its nearest

@@ -17,6 +17,7 @@
 #include "core/stages/neighbourhoods_stage.h"
 #include "core/stages/normal_orientation.h"
 #include "core/stages/stage_context.h"
+#include "core/stages/stage_names.h"
 #include "core/stages/unit_plausibility.h"
 
 namespace scanprep {
@@ -25,13 +26,12 @@ namespace {
 // Neighbours per point in the orientation graph unless the request says otherwise.
 constexpr uint32_t kOrientationK = 10;
 
-struct NormalsSettings {
-  NormalsRadiusMode radius_mode;
-  double h_factor;  // Gaussian width h as a fraction of the ball radius
+// The table's settings and what the stage derives from them and the shared neighbourhoods.
+struct Resolved {
+  NormalsSettings params;
   uint32_t orientation_k;
-  size_t min_own_points;              // in an overlap: fewer of the point's own scan widen its ball
-  MitraOptions mitra;                 // kMitra
-  std::optional<double> mitra_sigma;  // σ_n for every scan, else each scan's u
+  size_t min_own_points;  // in an overlap: fewer of the point's own scan widen its ball
+  MitraOptions mitra;     // kMitra
 };
 
 struct Scratch {
@@ -44,11 +44,27 @@ class NormalsStage : public Stage {
   absl::Status Run(StageContext& ctx) override {
     SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
     const Neighbourhoods& nb = *shared;
+    const Resolved settings = ReadSettings(ctx, nb);
+    std::vector<float> radius(ctx.cloud().size(), 0.f);
+    SCANPREP_ASSIGN_OR_RETURN(const size_t invalid, FitNormals(ctx, nb, settings, radius));
+    ctx.Progress(0.5);  // the normals are fitted; orientation follows
+    OrientationCounts counts;
+    SCANPREP_RETURN_IF_ERROR(
+        OrientNormals(ctx.cloud(), nb, settings.orientation_k, ctx.cancel(), counts));
+    Report(ctx, radius, invalid, counts);
+    // Here because the fits measure the noise σ̂ that the unit is judged by, and with a fail_on
+    // the job then stops before any stage works in a wrong unit.
+    return WarnIfUnitSuspect(ctx);
+  }
+
+ private:
+  // Every unremoved point's normal, surface variation and fit residual, and the ball radius it
+  // was fitted in (`radius`); flags the points without one. Returns how many fits failed.
+  static absl::StatusOr<size_t> FitNormals(StageContext& ctx, const Neighbourhoods& nb,
+                                           const Resolved& settings, std::vector<float>& radius) {
     PointCloud& cloud = ctx.cloud();
     const size_t n = cloud.size();
-    const NormalsSettings settings = ReadSettings(ctx, nb);
     const bool per_scan = cloud.scans.size() > 1;
-
     cloud.nx.assign(n, 0.f);
     cloud.ny.assign(n, 0.f);
     cloud.nz.assign(n, 0.f);
@@ -56,7 +72,6 @@ class NormalsStage : public Stage {
     variation.assign(n, 0.f);
     std::vector<float>& fit_rms = ctx.measures().fit_rms;
     fit_rms.assign(n, 0.f);
-    std::vector<float> radius(n, 0.f);
     std::atomic<size_t> invalid{0};
     // Flags are applied after the loop: other blocks read flags[j] of their neighbours
     // (removed()) while this one would write flags[i] of the same byte.
@@ -65,7 +80,7 @@ class NormalsStage : public Stage {
     const std::span<const uint32_t> order = nb.order();
     // A Mitra radius costs up to 5 balls of up to 5·r_g (25·k points) with a quadric fit each:
     // smaller blocks, so that a cancel does not wait for 1024 of them.
-    const size_t grain = settings.radius_mode == NormalsRadiusMode::kMitra ? 128 : 1024;
+    const size_t grain = settings.params.mitra() ? 128 : 1024;
     SCANPREP_RETURN_IF_ERROR(ParallelFor(
         n, ctx.cancel(),
         [&](size_t begin, size_t end) {
@@ -78,11 +93,12 @@ class NormalsStage : public Stage {
               no_normal[i] = 1;
               continue;
             }
-            float r =
-                settings.radius_mode == NormalsRadiusMode::kKnn ? nb.dk(i) : nb.adaptive_radius(i);
-            if (settings.radius_mode == NormalsRadiusMode::kMitra) {
+            float r = settings.params.radius_mode == NormalsRadiusMode::kKnn
+                          ? nb.dk(i)
+                          : nb.adaptive_radius(i);
+            if (settings.params.mitra()) {
               const double sigma =
-                  settings.mitra_sigma.value_or(cloud.scans[cloud.scan[i]].uncertainty);
+                  settings.params.mitra_sigma_mm.Or(cloud.scans[cloud.scan[i]].uncertainty);
               r = MitraRadius(cloud, nb, i, sigma, settings.mitra, scratch.mitra);
             }
             // In an overlap part of the k-NN ball belongs to other scans: widen it once
@@ -95,7 +111,7 @@ class NormalsStage : public Stage {
               r *= OwnScanWidening(own, nb.k());
               Gather(cloud, nb, i, r, per_scan, scratch.matches);
             }
-            const LocalFrame frame = Fit(cloud, i, r, settings.h_factor, scratch.matches);
+            const LocalFrame frame = Fit(cloud, i, r, settings.params.h_factor, scratch.matches);
             radius[i] = r;
             if (!frame.valid) {
               no_normal[i] = 1;
@@ -117,11 +133,14 @@ class NormalsStage : public Stage {
                                     : cloud.flags[i] & static_cast<uint8_t>(~kNormalInvalid);
     }
 
-    ctx.Progress(0.5);  // the normals are fitted; orientation follows
-    OrientationCounts counts;
-    SCANPREP_RETURN_IF_ERROR(
-        OrientNormals(cloud, nb, settings.orientation_k, ctx.cancel(), counts));
+    return invalid.load();
+  }
 
+  // The fits' figures and the orientation's counts into the report.
+  static void Report(StageContext& ctx, const std::vector<float>& radius, size_t invalid,
+                     const OrientationCounts& counts) {
+    const PointCloud& cloud = ctx.cloud();
+    const size_t n = cloud.size();
     std::vector<float> kept;
     for (size_t i = 0; i < n; ++i) {
       if (!cloud.removed(i)) kept.push_back(radius[i]);
@@ -141,37 +160,29 @@ class NormalsStage : public Stage {
                             " normals oriented by spanning-tree propagation (no sensor pose); "
                             "their sign is consistent but may be globally inverted"));
     }
-    // Here because the fits measure the noise σ̂ that the unit is judged by, and with a fail_on
-    // the job then stops before any stage works in a wrong unit.
-    return WarnIfUnitSuspect(ctx);
   }
 
- private:
   // The stage's parameters, read (and recorded) once; the derived defaults from the shared
   // neighbourhoods.
-  static NormalsSettings ReadSettings(StageContext& ctx, const Neighbourhoods& nb) {
-    NormalsSettings s;
-    s.radius_mode = ctx.Choice(kNormalsRadiusMode);
-    s.h_factor = ctx.Number(kNormalsGaussianHFactor);
-    s.min_own_points = s.radius_mode == NormalsRadiusMode::kKnn ? nb.k() / 2 : nb.k() + 1;
+  static Resolved ReadSettings(StageContext& ctx, const Neighbourhoods& nb) {
+    Resolved s{.params = ctx.Settings(NormalsParams())};
+    const NormalsSettings& p = s.params;
+    s.min_own_points = p.radius_mode == NormalsRadiusMode::kKnn ? nb.k() / 2 : nb.k() + 1;
     // At most neighbourhoods.k (ValidateOverrides): orientation walks the shared graph.
-    s.orientation_k =
-        static_cast<uint32_t>(ctx.Integer(kNormalsOrientationK, std::min(kOrientationK, nb.k())));
-    if (s.radius_mode == NormalsRadiusMode::kMitra) {
-      s.mitra.c1 = ctx.Number(kNormalsMitraC1);
-      s.mitra.c2 = ctx.Number(kNormalsMitraC2);
-      s.mitra.epsilon = ctx.Number(kNormalsMitraEpsilon);
-      const double r_max_limit = kMaxRadiusPerGlobalRadius * nb.global_radius();
-      s.mitra.r_max = ctx.CapRadius(kNormalsMitraMaxRadius,
-                                    ctx.Number(kNormalsMitraMaxRadius, r_max_limit), r_max_limit);
-      ctx.Record(kNormalsMitraMaxRadius, s.mitra.r_max);  // the value used
-    }
-    s.mitra_sigma = ctx.Overridden(kNormalsMitraSigma);
+    s.orientation_k = p.orientation_k.Or(std::min(kOrientationK, nb.k()));
+    ctx.Record(p.orientation_k.name, s.orientation_k);
+    if (!p.mitra()) return s;
+    s.mitra.c1 = p.mitra_c1;
+    s.mitra.c2 = p.mitra_c2;
+    s.mitra.epsilon = p.mitra_epsilon;
+    const double r_max_limit = kMaxRadiusPerGlobalRadius * nb.global_radius();
+    s.mitra.r_max = ctx.CapRadius(p.mitra_max_radius_mm.name, p.mitra_max_radius_mm.Or(r_max_limit),
+                                  r_max_limit);
+    ctx.Record(p.mitra_max_radius_mm.name, s.mitra.r_max);  // the value used
     const PointCloud& cloud = ctx.cloud();
-    for (size_t scan = 0; s.radius_mode == NormalsRadiusMode::kMitra && scan < cloud.scans.size();
-         ++scan) {
-      ctx.RecordForScan(kNormalsMitraSigma, scan,
-                        s.mitra_sigma.value_or(cloud.scans[scan].uncertainty));
+    for (size_t scan = 0; scan < cloud.scans.size(); ++scan) {
+      ctx.RecordForScan(p.mitra_sigma_mm.name, scan,
+                        p.mitra_sigma_mm.Or(cloud.scans[scan].uncertainty));
     }
     return s;
   }
@@ -203,37 +214,48 @@ class NormalsStage : public Stage {
 
 }  // namespace
 
+const ParamTable<NormalsSettings>& NormalsParams() {
+  using S = NormalsSettings;
+  const auto mitra = [](const S& s) { return s.mitra(); };
+  // Orientation walks the shared graph: at most its k.
+  const std::string& graph_k = NeighbourhoodsParams().Name(&NeighbourhoodsSettings::k);
+  static const ParamTable<S> table = {
+      param::Choice(&S::radius_mode, "normals.radius_mode", {"adaptive", "mitra", "knn"},
+                    "PCA ball radius: adaptive r_p = max(r_min, d_k), the Mitra et al. radius of "
+                    "Eq. (1), or knn: d_k (the k-NN list alone, cheapest)"),
+      param::Real(&S::h_factor, "normals.gaussian_h_factor", 0.5, LeftOpen(0, 10),
+                  "Gaussian width h as a fraction of the ball radius"),
+      param::DerivedInteger(&S::orientation_k, "normals.orientation_k",
+                            absl::StrCat("min(", kOrientationK, ", ", graph_k, ")"), Closed(1, 64),
+                            "neighbours per point in the orientation graph (Eq. 5)")
+          .AtMost(graph_k),
+      param::Real(&S::mitra_c1, "normals.mitra_c1", MitraOptions{}.c1, Closed(0, 1000),
+                  "c1 of Eq. (1)")
+          .When(mitra),
+      param::Real(&S::mitra_c2, "normals.mitra_c2", MitraOptions{}.c2, Closed(0, 1000),
+                  "c2 of Eq. (1)")
+          .When(mitra),
+      param::Real(&S::mitra_epsilon, "normals.mitra_epsilon", MitraOptions{}.epsilon, Open(0, 1),
+                  "ε of Eq. (1): the normal bound fails with this probability")
+          .When(mitra),
+      param::DerivedReal(&S::mitra_sigma_mm, "normals.mitra_sigma_mm", "the scan's uncertainty u",
+                         Closed(0, 1e4), "noise σ_n of Eq. (1)"),
+      param::DerivedReal(&S::mitra_max_radius_mm, "normals.mitra_max_radius_mm", "5·r_g",
+                         LeftOpen(0, 1e4), "upper clamp of the Mitra radius"),
+  };
+  return table;
+}
+
 StageInfo NormalsStageInfo() {
   return {
-      .name = "normals",
+      .name = std::string(stage_names::kNormals),
       .summary =
           "Gaussian-weighted PCA normals (Eq. 4), oriented toward the sensor (Eq. 3) or "
           "along a minimum spanning tree (Eq. 5)",
-      .params =
-          {
-              ChoiceParam(kNormalsRadiusMode,
-                          "PCA ball radius: adaptive r_p = max(r_min, d_k), the Mitra et al. "
-                          "radius of Eq. (1), or knn: d_k (the k-NN list alone, cheapest)"),
-              RealParam(kNormalsGaussianHFactor,
-                        "Gaussian width h as a fraction of the ball radius", 0.5, LeftOpen(0, 10)),
-              DerivedIntegerParam(
-                  kNormalsOrientationK, "neighbours per point in the orientation graph (Eq. 5)",
-                  absl::StrCat("min(", kOrientationK, ", neighbourhoods.k)"), Closed(1, 64))
-                  .AtMost(kNeighbourhoodsK),
-              RealParam(kNormalsMitraC1, "c1 of Eq. (1)", MitraOptions{}.c1, Closed(0, 1000)),
-              RealParam(kNormalsMitraC2, "c2 of Eq. (1)", MitraOptions{}.c2, Closed(0, 1000)),
-              RealParam(kNormalsMitraEpsilon,
-                        "ε of Eq. (1): the normal bound fails with this "
-                        "probability",
-                        MitraOptions{}.epsilon, Open(0, 1)),
-              DerivedRealParam(kNormalsMitraSigma, "noise σ_n of Eq. (1)",
-                               "the scan's uncertainty u", Closed(0, 1e4)),
-              DerivedRealParam(kNormalsMitraMaxRadius, "upper clamp of the Mitra radius", "5·r_g",
-                               LeftOpen(0, 1e4)),
-          },
+      .params = NormalsParams().Specs(),
       .make = [] { return std::make_unique<NormalsStage>(); },
       .prerequisites =
-          [](const ParamOverrides&) { return std::vector<std::string>{"neighbourhoods"}; },
+          [](const ParamOverrides&) { return stage_names::List({stage_names::kNeighbourhoods}); },
       .work_per_point = 2,
       .cost_weight = 1.78,
   };

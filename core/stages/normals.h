@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-#include <string_view>
 
+#include <cstdint>
+
+#include "core/stages/param_table.h"
 #include "core/stages/stage.h"
 namespace scanprep {
 // Gaussian-weighted PCA normals (paper §2.2, Eq. 4; docs/algorithms.md §6) oriented by Eq. (3) or,
@@ -9,17 +11,21 @@ namespace scanprep {
 // variation σ of every point into StageContext::measures().
 StageInfo NormalsStageInfo();
 
-// The stage's parameters, each name declared here once (its spec and its reader use these).
 // adaptive: r_p = max(r_min, d_k), the paper's ball; knn: r = d_k, the k-NN list alone (no ball
-// query; the paper's "k nearest neighbors (typically 20)"), the preset `paper`'s; mitra: below.
+// query; the paper's "k nearest neighbors (typically 20)"), the preset `paper`'s; mitra: the
+// radius of Mitra et al.'s Eq. (1).
 enum class NormalsRadiusMode { kAdaptive, kMitra, kKnn };
-inline constexpr ChoiceDecl<NormalsRadiusMode, 3> kNormalsRadiusMode{"normals.radius_mode",
-                                                                     {"adaptive", "mitra", "knn"}};
-inline constexpr std::string_view kNormalsGaussianHFactor = "normals.gaussian_h_factor";
-inline constexpr std::string_view kNormalsOrientationK = "normals.orientation_k";
-inline constexpr std::string_view kNormalsMitraC1 = "normals.mitra_c1";
-inline constexpr std::string_view kNormalsMitraC2 = "normals.mitra_c2";
-inline constexpr std::string_view kNormalsMitraEpsilon = "normals.mitra_epsilon";
-inline constexpr std::string_view kNormalsMitraSigma = "normals.mitra_sigma_mm";
-inline constexpr std::string_view kNormalsMitraMaxRadius = "normals.mitra_max_radius_mm";
+
+// The parameters (NormalsParams() declares them).
+struct NormalsSettings {
+  NormalsRadiusMode radius_mode = NormalsRadiusMode::kAdaptive;
+  double h_factor = 0;              // Gaussian width h as a fraction of the ball radius
+  Derived<uint32_t> orientation_k;  // min(10, neighbourhoods.k) unless set
+  double mitra_c1 = 0, mitra_c2 = 0, mitra_epsilon = 0;  // Eq. (1)
+  Derived<double> mitra_sigma_mm;                        // σ_n for every scan, else each scan's u
+  Derived<double> mitra_max_radius_mm;                   // 5·r_g unless set
+
+  bool mitra() const { return radius_mode == NormalsRadiusMode::kMitra; }
+};
+const ParamTable<NormalsSettings>& NormalsParams();
 }  // namespace scanprep

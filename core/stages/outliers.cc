@@ -24,21 +24,11 @@
 #include "core/stages/outliers_loop.h"
 #include "core/stages/scan_noise.h"
 #include "core/stages/stage_context.h"
+#include "core/stages/stage_names.h"
 #include "core/stages/surface_spikes.h"
 
 namespace scanprep {
 namespace {
-
-// What both the stage and its surface step read, once each, at their start.
-struct OutliersSettings {
-  OutlierMethod method;
-  double surface_sigmas;  // 0: no surface test
-};
-
-OutliersSettings ReadSettings(StageContext& ctx) {
-  return {.method = ctx.Choice(kOutliersMethod),
-          .surface_sigmas = ctx.Number(kOutliersSurfaceSigmas)};
-}
 
 struct ScanStats {
   double sum = 0, sum_sq = 0;
@@ -46,27 +36,11 @@ struct ScanStats {
   std::vector<float> values;  // for the median floor
 };
 
-// The paper's rule's parameters, read once at its start.
-struct DistanceRule {
-  int64_t k;                        // neighbours averaged into d
-  double multiplier;                // m of μ + m·σ
-  double floor_factor;              // the threshold is at least this times median(d)
-  std::optional<double> threshold;  // for every scan, else derived per scan
-};
-
-DistanceRule ReadDistanceRule(StageContext& ctx) {
-  return {.k = ctx.Integer(kOutliersK),
-          .multiplier = ctx.Number(kOutliersMultiplier),
-          .floor_factor = ctx.Number(kOutliersMedianFloor),
-          .threshold = ctx.Overridden(kOutliersThreshold)};
-}
-
 // The paper's rule: d (d_1, or a k_o-mean) above max(μ + m·σ, floor·median) of its scan.
 absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
-                                  std::vector<uint8_t>& far) {
+                                  const OutliersSettings& rule, std::vector<uint8_t>& far) {
   PointCloud& cloud = ctx.cloud();
   const size_t n = cloud.size();
-  const DistanceRule rule = ReadDistanceRule(ctx);
 
   // At most neighbourhoods.k (ValidateOverrides); only a cloud of n ≤ k points has fewer.
   const int64_t k_asked = rule.k;
@@ -126,11 +100,11 @@ absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
     auto mid = st.values.begin() + st.values.size() / 2;
     std::nth_element(st.values.begin(), mid, st.values.end());
     // A regular scan grid has σ ≈ 0; the median floor keeps its slightly wider gaps.
-    threshold[s] = std::max(mean + rule.multiplier * sigma, rule.floor_factor * *mid);
+    threshold[s] = std::max(mean + rule.multiplier * sigma, rule.median_floor * *mid);
     ctx.RecordForScan("outliers.mean_d_mm", s, mean);
     ctx.RecordForScan("outliers.sigma_d_mm", s, sigma);
-    threshold[s] = rule.threshold.value_or(threshold[s]);
-    ctx.RecordForScan(kOutliersThreshold, s, threshold[s]);
+    threshold[s] = rule.threshold_mm.Or(threshold[s]);
+    ctx.RecordForScan(rule.threshold_mm.name, s, threshold[s]);
   }
 
   for (size_t i = 0; i < n; ++i) {
@@ -152,7 +126,7 @@ absl::Status RemoveOutliers(StageContext& ctx, const OutliersSettings& settings,
   std::vector<uint8_t> verdict(n, kNotJudged);
   if (sigmas > 0) {
     // The plan ran "normals" before: before the outlier stage for nn (its prerequisite),
-    // after LoOP's removals for loop (the surface step's prerequisite).
+    // after LoOP's removals for loop (the surface stage's prerequisite).
     const size_t scans = std::max<size_t>(cloud.scans.size(), 1);
     SCANPREP_ASSIGN_OR_RETURN(const std::vector<std::optional<double>> noise,
                               MeasuredScanNoise(cloud, ctx.measures(), scans, ctx.cancel()));
@@ -182,8 +156,8 @@ absl::Status RemoveOutliers(StageContext& ctx, const OutliersSettings& settings,
       ++(far[i] ? removed_far : spikes);
     }
   }
-  if (settings.method != OutlierMethod::kLoop) {  // LoOP recorded its own removals
-    ctx.Record("outliers.removed", static_cast<double>(removed_far + spikes));
+  if (!settings.loop()) {  // LoOP recorded its own removals
+    ctx.Record(kOutliersRemoved, static_cast<double>(removed_far + spikes));
     ctx.Record("outliers.far_removed", static_cast<double>(removed_far));
     ctx.Record("outliers.far_on_surface_kept", static_cast<double>(kept_on_surface));
   }
@@ -197,94 +171,102 @@ class OutliersStage : public Stage {
     SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
     const Neighbourhoods& nb = *shared;
     if (nb.k() == 0) return absl::OkStatus();
-    const OutliersSettings settings = ReadSettings(ctx);
+    const OutliersSettings settings = ctx.Settings(OutliersParams());
     std::vector<uint8_t> far(ctx.cloud().size(), 0);
-    if (settings.method == OutlierMethod::kLoop) {
+    if (settings.loop()) {
       // LoOP removes its outliers itself; the surface test looks for spikes among the rest, with
-      // normals fitted without them: the plan's next steps (SurfaceTestFollowsLoop).
-      SCANPREP_RETURN_IF_ERROR(RemoveLoopOutliers(ctx, nb));
+      // normals fitted without them: the plan's next stages (SurfaceTestFollowsLoop).
+      SCANPREP_RETURN_IF_ERROR(RemoveLoopOutliers(ctx, nb, settings));
       if (settings.surface_sigmas > 0) return absl::OkStatus();
-    } else if (absl::Status s = FindDistanceOutliers(ctx, nb, far); !s.ok()) {
+    } else if (absl::Status s = FindDistanceOutliers(ctx, nb, settings, far); !s.ok()) {
       return s;
     }
     return RemoveOutliers(ctx, settings, nb, far);
   }
 };
 
-// The surface test after LoOP's removals (a step of the outlier stage, planned after "normals").
-class SurfaceSpikesStep : public Stage {
+// The surface test after LoOP's removals (the outlier stage's internal stage, planned after
+// "normals").
+class SurfaceSpikesStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
     SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
     if (shared->k() == 0) return absl::OkStatus();
     // LoOP removed its own far points: only the surface decides here.
-    return RemoveOutliers(ctx, ReadSettings(ctx), *shared,
+    return RemoveOutliers(ctx, ctx.SettingsOfStage(OutliersParams()), *shared,
                           std::vector<uint8_t>(ctx.cloud().size(), 0));
   }
 };
 
-// Whether the outlier stage's surface test runs as its own step after LoOP's removals.
+// Whether the outlier stage's surface test runs as a stage of its own after LoOP's removals.
 bool SurfaceTestFollowsLoop(const ParamOverrides& params) {
-  return PlannedNumber(params, kOutliersSurfaceSigmas) > 0 &&
-         PlannedChoice(params, kOutliersMethod) == OutlierMethod::kLoop;
+  const OutliersSettings planned = OutliersParams().Read(params);
+  return planned.surface_sigmas > 0 && planned.loop();
 }
 
 }  // namespace
 
+const ParamTable<OutliersSettings>& OutliersParams() {
+  using S = OutliersSettings;
+  const auto nn = [](const S& s) { return !s.loop(); };
+  const auto loop = [](const S& s) { return s.loop(); };
+  // Neither neighbour count may exceed the shared graph's.
+  const std::string& graph_k = NeighbourhoodsParams().Name(&NeighbourhoodsSettings::k);
+  static const ParamTable<S> table = {
+      param::Choice(&S::method, "outliers.method", {"nn", "loop"},
+                    "nn: the paper's global d_1 rule; loop: Local Outlier Probabilities for "
+                    "strongly varying density"),
+      param::Integer(&S::k, "outliers.k", 1, Closed(1, 64),
+                     "neighbours averaged into d (1 = the paper's d_1)")
+          .AtMost(graph_k)
+          .When(nn),
+      param::Real(&S::multiplier, "outliers.multiplier", 2, Closed(0, 100),
+                  "σ multiplier of the threshold μ + m·σ")
+          .When(nn),
+      param::Real(&S::surface_sigmas, "outliers.surface_sigmas", 4, Closed(0, 1000),
+                  "a point farther than this many local σ from every plane its scan's neighbours "
+                  "support is a spike (0 = no surface test)"),
+      param::Real(&S::median_floor, "outliers.median_floor", 1.5, Closed(0, 100),
+                  "the threshold is at least this times median(d)")
+          .When(nn),
+      param::DerivedReal(&S::threshold_mm, "outliers.threshold_mm",
+                         "max(μ + m·σ, floor·median) per scan", LeftOpen(0, 1e4),
+                         "distance above which a point is an outlier"),
+      param::DerivedInteger(&S::loop_k, "outliers.loop_k", graph_k, Closed(1, 64),
+                            "LoOP neighbourhood size")
+          .AtMost(graph_k),
+      param::Real(&S::loop_lambda, "outliers.loop_lambda", 3, LeftOpen(0, 100),
+                  "LoOP λ (standard deviations of the probabilistic distance)")
+          .When(loop),
+      param::Real(&S::loop_threshold, "outliers.loop_threshold", 0.8, Closed(0, 1),
+                  "LoOP probability above which a point is an outlier")
+          .When(loop),
+  };
+  return table;
+}
+
 StageInfo OutliersStageInfo() {
   return {
-      .name = "outliers",
+      .name = std::string(stage_names::kOutliers),
       .summary =
           "statistical outlier removal: d_1 > max(μ + 2σ, 1.5·median) per scan unless "
           "the point lies on a plane its neighbours support; and points more than 4σ off "
           "every such plane",
-      .params =
-          {
-              ChoiceParam(kOutliersMethod,
-                          "nn: the paper's global d_1 rule; loop: Local "
-                          "Outlier Probabilities for strongly varying density"),
-              IntegerParam(kOutliersK, "neighbours averaged into d (1 = the paper's d_1)", 1,
-                           Closed(1, 64))
-                  .AtMost(kNeighbourhoodsK),
-              RealParam(kOutliersMultiplier, "σ multiplier of the threshold μ + m·σ", 2,
-                        Closed(0, 100)),
-              RealParam(kOutliersSurfaceSigmas,
-                        "a point farther than this many local σ from every plane its scan's "
-                        "neighbours support is a spike (0 = no surface test)",
-                        4, Closed(0, 1000)),
-              RealParam(kOutliersMedianFloor, "the threshold is at least this times median(d)", 1.5,
-                        Closed(0, 100)),
-              DerivedRealParam(kOutliersThreshold,
-                               "distance above which a point is an "
-                               "outlier",
-                               "max(μ + m·σ, floor·median) per scan", LeftOpen(0, 1e4)),
-              DerivedIntegerParam(kOutliersLoopK, "LoOP neighbourhood size",
-                                  std::string(kNeighbourhoodsK), Closed(1, 64))
-                  .AtMost(kNeighbourhoodsK),
-              RealParam(kOutliersLoopLambda,
-                        "LoOP λ (standard deviations of the probabilistic "
-                        "distance)",
-                        3, LeftOpen(0, 100)),
-              RealParam(kOutliersLoopThreshold,
-                        "LoOP probability above which a point is an "
-                        "outlier",
-                        0.8, Closed(0, 1)),
-          },
+      .params = OutliersParams().Specs(),
       .make = [] { return std::make_unique<OutliersStage>(); },
       .prerequisites =
           [](const ParamOverrides& params) {
             // The surface test needs the normals, fitted before anything is removed; LoOP removes
-            // its outliers first, so its surface test is a step of its own after the normals.
-            std::vector<std::string> need = {"neighbourhoods"};
-            if (PlannedNumber(params, kOutliersSurfaceSigmas) > 0 &&
-                PlannedChoice(params, kOutliersMethod) == OutlierMethod::kNn) {
-              need.push_back("normals");
-            }
+            // its outliers first, so its surface test is a stage of its own after the normals.
+            std::vector<std::string> need = stage_names::List({stage_names::kNeighbourhoods});
+            const OutliersSettings planned = OutliersParams().Read(params);
+            if (planned.surface_sigmas > 0 && !planned.loop())
+              need.emplace_back(stage_names::kNormals);
             return need;
           },
       .followers =
           [](const ParamOverrides& params) {
-            return SurfaceTestFollowsLoop(params) ? std::vector<std::string>{"surface_spikes"}
+            return SurfaceTestFollowsLoop(params) ? stage_names::List({stage_names::kSurfaceSpikes})
                                                   : std::vector<std::string>{};
           },
       .work_per_point = 2,
@@ -292,16 +274,16 @@ StageInfo OutliersStageInfo() {
   };
 }
 
-StageInfo SurfaceSpikesStepInfo() {
+StageInfo SurfaceSpikesStageInfo() {
   return {
-      .name = "surface_spikes",
+      .name = std::string(stage_names::kSurfaceSpikes),
       .summary =
           "the outlier stage's surface test after LoOP's removals, on normals fitted "
           "without them",
-      .make = [] { return std::make_unique<SurfaceSpikesStep>(); },
+      .make = [] { return std::make_unique<SurfaceSpikesStage>(); },
       .prerequisites =
           [](const ParamOverrides&) {
-            return std::vector<std::string>{"outliers", "normals"};
+            return stage_names::List({stage_names::kOutliers, stage_names::kNormals});
           },
       // One metered pass (JudgeBySurface). Not in the default plan, where the weights were
       // measured: weighted as the lightest stage.

@@ -11,35 +11,18 @@
 
 #include "core/base/parallel.h"
 #include "core/base/status_macros.h"
-#include "core/stages/outliers.h"
 #include "core/stages/stage_context.h"
 
 namespace scanprep {
 
-namespace {
-
-struct LoopSettings {
-  uint32_t k;        // neighbourhood size
-  double lambda;     // λ: standard deviations of the probabilistic distance
-  double threshold;  // LoOP probability above which a point is an outlier
-};
-
-// Read once, at the start; k defaults to the shared graph's.
-LoopSettings ReadLoopSettings(StageContext& ctx, const Neighbourhoods& nb) {
-  // At most neighbourhoods.k (ValidateOverrides); for_neighbours() takes what the graph holds.
-  return {.k = static_cast<uint32_t>(ctx.Integer(kOutliersLoopK, nb.k())),
-          .lambda = ctx.Number(kOutliersLoopLambda),
-          .threshold = ctx.Number(kOutliersLoopThreshold)};
-}
-
-}  // namespace
-
-absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb) {
+absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb,
+                                const OutliersSettings& settings) {
   PointCloud& cloud = ctx.cloud();
   const size_t n = cloud.size();
-  const LoopSettings settings = ReadLoopSettings(ctx, nb);
-  const uint32_t k = settings.k;
-  const double lambda = settings.lambda;
+  // At most neighbourhoods.k (ValidateOverrides); for_neighbours() takes what the graph holds.
+  const uint32_t k = settings.loop_k.Or(nb.k());
+  ctx.Record(settings.loop_k.name, k);
+  const double lambda = settings.loop_lambda;
 
   // Visits the first k unremoved neighbours of i.
   auto for_neighbours = [&](size_t i, auto&& visit) {
@@ -84,7 +67,7 @@ absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb) {
   const double nplof = count ? lambda * std::sqrt(total_sq / count) : 0.0;
   ctx.Record("outliers.loop_nplof", nplof);
   if (!(nplof > 0)) {
-    ctx.Record("outliers.removed", 0);
+    ctx.Record(kOutliersRemoved, 0);
     return absl::OkStatus();
   }
 
@@ -92,12 +75,12 @@ absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb) {
   for (size_t i = 0; i < n; ++i) {
     if (cloud.removed(i)) continue;
     const double loop = std::max(0.0, std::erf(plof[i] / (nplof * std::sqrt(2.0))));
-    if (loop > settings.threshold) {
+    if (loop > settings.loop_threshold) {
       cloud.flags[i] |= kRemovedOutlier;
       ++removed;
     }
   }
-  ctx.Record("outliers.removed", static_cast<double>(removed));
+  ctx.Record(kOutliersRemoved, static_cast<double>(removed));
   return absl::OkStatus();
 }
 

@@ -73,11 +73,6 @@ ParamRange LeftOpen(double min, double max) { return {min, max, false, true}; }
 ParamRange RightOpen(double min, double max) { return {min, max, true, false}; }
 ParamRange Open(double min, double max) { return {min, max, false, false}; }
 
-ParamSpec ParamSpec::AtMost(std::string_view other) && {
-  at_most = std::string(other);
-  return std::move(*this);
-}
-
 ParamSpec RealParam(std::string_view name, std::string description, double default_value,
                     ParamRange range) {
   return Numeric(std::string(name), ParamKind::kReal, std::move(description), default_value,

@@ -1,10 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
-// Named pipeline parameters: each is declared once by its stage (kind, default, valid range), may
-// be overridden by the request, is range-checked before any stage runs, and is always reported
-// with the value actually used.
+// Named pipeline parameters: each is declared once by its stage's ParamTable (kind, default, valid
+// range), may be overridden by the request, is range-checked before any stage runs, and is always
+// reported with the value actually used.
 #pragma once
 
-#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <map>
@@ -47,11 +46,9 @@ struct ParamSpec {
   std::vector<std::string> choices;  // kChoice; the first is the default
   // Another integer parameter this one may not exceed (a subset of the shared k-NN graph).
   std::string at_most;
-
-  ParamSpec AtMost(std::string_view other) &&;
 };
 
-// One line per parameter in a stage's declaration.
+// The specs a stage's ParamTable builds, one per line of it (core/stages/param_table.h).
 ParamSpec RealParam(std::string_view name, std::string description, double default_value,
                     ParamRange range);
 ParamSpec DerivedRealParam(std::string_view name, std::string description, std::string rule,
@@ -62,28 +59,6 @@ ParamSpec DerivedIntegerParam(std::string_view name, std::string description, st
                               ParamRange range);
 ParamSpec ChoiceParam(std::string_view name, std::string description,
                       std::vector<std::string> choices);
-
-// A choice parameter, declared once: its name and its values' names, indexed by the enum E that
-// stages hold and compare (never the text); the first is the default.
-template <typename E, size_t N>
-struct ChoiceDecl {
-  std::string_view name;
-  std::array<std::string_view, N> values;
-
-  std::string_view Text(E value) const { return values[static_cast<size_t>(value)]; }
-  // The value named `text`, which ValidateOverrides accepted, so it is one of `values`.
-  E Parse(std::string_view text) const {
-    size_t i = 0;
-    while (i + 1 < N && values[i] != text) ++i;
-    return static_cast<E>(i);
-  }
-};
-
-template <typename E, size_t N>
-ParamSpec ChoiceParam(const ChoiceDecl<E, N>& decl, std::string description) {
-  return ChoiceParam(decl.name, std::move(description),
-                     std::vector<std::string>(decl.values.begin(), decl.values.end()));
-}
 
 // The shortest text that reads back as `value` ("1e+30", "0.05", "4294967296").
 std::string FormatNumber(double value);

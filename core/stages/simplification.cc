@@ -21,9 +21,11 @@
 #include "core/base/field_error.h"
 #include "core/base/free_memory.h"
 #include "core/base/parallel.h"
+#include "core/base/quality_order.h"
 #include "core/base/status_macros.h"
-#include "core/stages/measures.h"
+#include "core/stages/scan_spacing.h"
 #include "core/stages/stage_context.h"
+#include "core/stages/stage_names.h"
 
 namespace scanprep {
 namespace {
@@ -268,12 +270,14 @@ std::optional<double> SpacingFromPitch(const PointCloud& cloud,
 }
 
 // The default r_s: from the pitch, else (recorded and warned) 2/√ρ_g of the global density.
-absl::StatusOr<double> DefaultSpacing(StageContext& ctx, const Neighbourhoods& nb) {
-  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing, ScanPointSpacing(ctx));
+absl::StatusOr<double> DefaultSpacing(StageContext& ctx, const Neighbourhoods& nb,
+                                      const SimplificationSettings& settings) {
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing,
+                            ScanPointSpacing(ctx.cloud(), &nb, ctx.cancel()));
   const std::optional<double> pitch = SpacingFromPitch(ctx.cloud(), spacing);
   ctx.Record("simplification.spacing_from_density", pitch ? 0 : 1);
   if (pitch) return *pitch;
-  if (!ctx.Overridden(kSimplificationSpacing)) {
+  if (!settings.spacing.forced) {
     ctx.Warn(WarningCode::kSpacingFromDensity,
              "simplification: no scan states a scanline spacing, so the thinning spacing is "
              "derived from the cloud's density (2/√ρ) rather than the scanner's pitch");
@@ -283,24 +287,25 @@ absl::StatusOr<double> DefaultSpacing(StageContext& ctx, const Neighbourhoods& n
 
 // The stage's parameters, read (and recorded) once; r_s derived from the data unless given.
 absl::StatusOr<Plan> ReadPlan(StageContext& ctx, const Neighbourhoods& nb) {
+  const SimplificationSettings settings = ctx.Settings(SimplificationParams());
   Plan plan;
-  plan.adaptive = ctx.Choice(kSimplificationMode) == SimplificationMode::kAdaptive;
+  plan.adaptive = settings.mode == SimplificationMode::kAdaptive;
   // r_s is held to kMaxSpacingPerGlobalRadius·r_g: a derived one beyond it comes from spacings
   // in the wrong unit, and where κ̂ keeps most points every centre's ball would be a large
   // part of the cloud. The report shows the spacing used.
-  SCANPREP_ASSIGN_OR_RETURN(const double derived, DefaultSpacing(ctx, nb));
-  const double spacing = ctx.Number(kSimplificationSpacing, derived);
+  SCANPREP_ASSIGN_OR_RETURN(const double derived, DefaultSpacing(ctx, nb, settings));
+  const double spacing = settings.spacing.Or(derived);
   plan.spacing = static_cast<float>(ctx.CapRadius("the thinning spacing r_s", spacing,
                                                   kMaxSpacingPerGlobalRadius * nb.global_radius()));
-  ctx.Record(kSimplificationSpacing, plan.spacing);
+  ctx.Record(settings.spacing.name, plan.spacing);
   if (!(plan.spacing > 0)) {
-    return FieldError(absl::StrCat("options.params['", std::string(kSimplificationSpacing), "']"),
+    return FieldError(absl::StrCat("options.params['", settings.spacing.name, "']"),
                       "must be > 0 (no spacing could be derived from the data)");
   }
-  plan.edge_threshold = static_cast<float>(ctx.Number(kSimplificationEdgeThreshold));
-  plan.curvature_floor = static_cast<float>(ctx.Number(kSimplificationCurvatureFloor));
+  plan.edge_threshold = static_cast<float>(settings.edge_threshold);
+  plan.curvature_floor = static_cast<float>(settings.curvature_floor);
   if (!plan.adaptive) plan.edge_threshold = std::numeric_limits<float>::infinity();
-  plan.tiled = ctx.Choice(kSimplificationOrder) == SimplificationOrder::kTiled;
+  plan.tiled = settings.order == SimplificationOrder::kTiled;
   return plan;
 }
 
@@ -332,33 +337,36 @@ class SimplificationStage : public Stage {
 
 }  // namespace
 
+const ParamTable<SimplificationSettings>& SimplificationParams() {
+  using S = SimplificationSettings;
+  static const ParamTable<S> table = {
+      param::Choice(&S::mode, "simplification.mode", {"adaptive", "uniform"},
+                    "adaptive: Eq. (13) keeps points by curvature; uniform: κ̂ ignored"),
+      param::DerivedReal(&S::spacing, "simplification.spacing_mm",
+                         "2·√(Δs·Δp), median over scans; 2/√density without scanlines",
+                         LeftOpen(0, 1e4), "target spacing r_s between kept points"),
+      param::Real(&S::edge_threshold, "simplification.edge_threshold", 0.5, Closed(0, 1),
+                  "τ_E: centres with κ̂ ≥ τ_E form the edge set, processed first"),
+      param::Real(&S::curvature_floor, "simplification.curvature_floor", 0, RightOpen(0, 1),
+                  "κ̂ at or below which Eq. (13) keeps no neighbours (rescaled above): suppresses "
+                  "the clusters that curvature noise on flat parts would keep (0 = the paper)"),
+      param::Choice(&S::order, "simplification.order", {"sequential", "tiled"},
+                    "sequential (the paper's order) or tiled: 8-colour cells of edge 2·r_s in "
+                    "parallel"),
+  };
+  return table;
+}
+
 StageInfo SimplificationStageInfo() {
   return {
-      .name = "simplification",
+      .name = std::string(stage_names::kSimplification),
       .summary =
           "thin to spacing r_s, keeping ⌊κ̂·n + 0.5⌋ neighbours per centre (Eq. 13): "
           "dense at edges, uniform on flat parts",
-      .params =
-          {
-              ChoiceParam(kSimplificationMode,
-                          "adaptive: Eq. (13) keeps points by curvature; uniform: κ̂ ignored"),
-              DerivedRealParam(kSimplificationSpacing, "target spacing r_s between kept points",
-                               "2·√(Δs·Δp), median over scans; 2/√density without scanlines",
-                               LeftOpen(0, 1e4)),
-              RealParam(kSimplificationEdgeThreshold,
-                        "τ_E: centres with κ̂ ≥ τ_E form the edge set, processed first", 0.5,
-                        Closed(0, 1)),
-              RealParam(kSimplificationCurvatureFloor,
-                        "κ̂ at or below which Eq. (13) keeps no neighbours (rescaled above): "
-                        "suppresses the clusters that curvature noise on flat parts would keep "
-                        "(0 = the paper)",
-                        0, RightOpen(0, 1)),
-              ChoiceParam(kSimplificationOrder,
-                          "sequential (the paper's order) or tiled: 8-colour cells of edge 2·r_s "
-                          "in parallel"),
-          },
+      .params = SimplificationParams().Specs(),
       .make = [] { return std::make_unique<SimplificationStage>(); },
-      .prerequisites = [](const ParamOverrides&) { return std::vector<std::string>{"measures"}; },
+      .prerequisites =
+          [](const ParamOverrides&) { return stage_names::List({stage_names::kMeasures}); },
       .work_per_point = 1,
       .cost_weight = 0.4,
   };

@@ -15,11 +15,12 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/free_memory.h"
 #include "core/base/parallel.h"
+#include "core/base/quality_order.h"
 #include "core/base/status_macros.h"
-#include "core/stages/measures.h"
 #include "core/stages/scan_noise.h"
 #include "core/stages/smoothing_kernels.h"
 #include "core/stages/stage_context.h"
+#include "core/stages/stage_names.h"
 
 namespace scanprep {
 namespace {
@@ -95,33 +96,28 @@ class SmoothingStage : public Stage {
   }
 
  private:
+  // The table's settings, with σ̂ and δ derived per scan.
   static absl::StatusOr<SmoothingSettings> ReadSettings(StageContext& ctx) {
-    SmoothingSettings s;
-    s.own_side = ctx.Choice(kSmoothingMethod) == SmoothingMethod::kOwnSide;
-    s.knn = ctx.Choice(kSmoothingNeighbourhood) == SmoothingNeighbourhood::kKnn;
-    s.lambda = static_cast<float>(ctx.Number(kSmoothingLambda));
-    s.influence = ctx.Choice(kSmoothingInfluence);
-    s.blend = ctx.Choice(kSmoothingMode) == SmoothingMode::kBlend;
-    s.clamp = ctx.Choice(kSmoothingTolerance) == SmoothingTolerance::kClamp;
+    SmoothingSettings s = ctx.Settings(SmoothingParams());
     const PointCloud& cloud = ctx.cloud();
     const size_t scans = std::max<size_t>(cloud.scans.size(), 1);
-    const std::optional<double> forced = ctx.Overridden(kSmoothingToleranceMm);
-    const std::optional<double> forced_noise = ctx.Overridden(kSmoothingNoise);
-    s.fixed_tolerance = forced.has_value() || !s.own_side;
+    const std::optional<double> forced = s.tolerance_mm.forced;
+    const std::optional<double> forced_noise = s.noise_mm.forced;
+    s.fixed_tolerance = forced.has_value() || !s.own_side();
     SCANPREP_ASSIGN_OR_RETURN(const std::vector<std::optional<double>> measured,
                               MeasuredScanNoise(cloud, ctx.measures(), scans, ctx.cancel()));
     size_t tolerance_from_default = 0;
     for (size_t scan = 0; scan < scans; ++scan) {
       const double u = scan < cloud.scans.size() ? cloud.scans[scan].uncertainty : 0.1;
       double noise = forced_noise.value_or(measured[scan].value_or(u));
-      if (s.own_side && !forced_noise && !measured[scan]) {
+      if (s.own_side() && !forced_noise && !measured[scan]) {
         ctx.Warn(WarningCode::kNoiseUnmeasured,
                  absl::StrCat("smoothing: scan ", scan,
                               " has too few normal fits to measure its "
                               "noise; its stated uncertainty u = ",
                               u, " mm stands in"));
       }
-      if (s.own_side && !forced_noise && measured[scan] && noise > 3 * u) {
+      if (s.own_side() && !forced_noise && measured[scan] && noise > 3 * u) {
         ctx.Warn(WarningCode::kNoiseAboveUncertainty,
                  absl::StrCat("smoothing: scan ", scan, " is noisier (σ̂ = ", noise,
                               " mm) than three times its stated uncertainty u = ", u,
@@ -133,8 +129,8 @@ class SmoothingStage : public Stage {
       s.noise.push_back(static_cast<float>(noise));
       // δ = u (the paper), or kMoveSigmas·σ̂ at the scan's typical noise (own side).
       s.tolerance.push_back(
-          static_cast<float>(forced.value_or(s.own_side ? kMoveSigmas * noise : u)));
-      if (s.own_side) ctx.RecordForScan(kSmoothingNoise, scan, noise);
+          static_cast<float>(forced.value_or(s.own_side() ? kMoveSigmas * noise : u)));
+      if (s.own_side()) ctx.RecordForScan(s.noise_mm.name, scan, noise);
       const bool default_u = scan < cloud.scans.size() && !cloud.scans[scan].uncertainty_stated;
       if (!forced && s.fixed_tolerance && default_u) {
         ++tolerance_from_default;
@@ -144,57 +140,60 @@ class SmoothingStage : public Stage {
                               "u = ",
                               u, " mm (smoothing.method = own_side measures the noise)"));
       }
-      ctx.RecordForScan(kSmoothingToleranceMm, scan, s.tolerance.back());
+      ctx.RecordForScan(s.tolerance_mm.name, scan, s.tolerance.back());
     }
     ctx.Record("smoothing.tolerance_from_default_u", static_cast<double>(tolerance_from_default));
-    s.iterations = static_cast<int>(ctx.Integer(kSmoothingIterations));
     return s;
   }
 };
 
 }  // namespace
 
+const ParamTable<SmoothingSettings>& SmoothingParams() {
+  using S = SmoothingSettings;
+  static const ParamTable<S> table = {
+      param::Choice(&S::method, "smoothing.method", {"own_side", "mean"},
+                    "own_side: projection onto the plane of the point's own side, δ = 3σ from the "
+                    "data; mean: the paper's Eq. (8) with δ = u"),
+      param::Choice(&S::neighbourhood, "smoothing.neighbourhood", {"ball", "knn"},
+                    "ball: r_p = max(r_min, d_k), the paper's; knn: the k-NN list alone (cheaper)"),
+      param::Real(&S::lambda, "smoothing.lambda", 0.5, Closed(0, 1),
+                  "λ of Eq. (6): share of viewing quality vs. flatness in w_j"),
+      param::Choice(&S::influence, "smoothing.influence", {"cubic", "gauss", "average"},
+                    "distance fall-off Φ: 1-0.8x³, e^{-2x²} or none"),
+      param::Choice(&S::mode, "smoothing.mode", {"mean", "blend"},
+                    "mean method: p' of Eq. (8), or blend: p + w_p·(p' - p), each point's move "
+                    "scaled by its own weight"),
+      param::Choice(&S::tolerance_rule, "smoothing.tolerance", {"reject", "clamp"},
+                    "a move longer than δ is rejected (Eq. 10) or clamped to δ"),
+      param::DerivedReal(&S::noise_mm, "smoothing.noise_mm",
+                         "per scan, the median RMS residual of its normal fits (u when fewer than "
+                         "32 fits)",
+                         LeftOpen(0, 1e4), "own_side: the noise σ the gates and δ are set in"),
+      param::DerivedReal(&S::tolerance_mm, "smoothing.tolerance_mm",
+                         "own_side: 3σ per point, σ its fit residual within [σ̂, 2σ̂] of its scan; "
+                         "mean: the scan's uncertainty u",
+                         Closed(0, 1e4), "δ of Eq. (10)"),
+      // Each pass costs the first one's time again, 29 % of a default job (the cost weights
+      // below, measured at 1 M points): 7 passes keep the job within 3× its default's time
+      // (100 k points through the service: 100 passes were 20×).
+      param::Integer(&S::iterations, "smoothing.iterations", 1, Closed(0, 7),
+                     "Jacobi passes, each from the previous pass's positions"),
+  };
+  return table;
+}
+
 StageInfo SmoothingStageInfo() {
   return {
-      .name = "smoothing",
+      .name = std::string(stage_names::kSmoothing),
       .summary =
           "edge-sharpening smoothing: each point projected onto its own side's plane, "
           "fitted with the weights of Eqs. 6 and 9 within 3 measured σ; or the paper's "
           "weighted mean with moves longer than u rejected (Eqs. 6-10)",
-      .params =
-          {
-              ChoiceParam(kSmoothingMethod,
-                          "own_side: projection onto the plane of the point's own side, δ = 3σ "
-                          "from the data; mean: the paper's Eq. (8) with δ = u"),
-              ChoiceParam(
-                  kSmoothingNeighbourhood,
-                  "ball: r_p = max(r_min, d_k), the paper's; knn: the k-NN list alone (cheaper)"),
-              RealParam(kSmoothingLambda,
-                        "λ of Eq. (6): share of viewing quality vs. flatness in w_j",
-                        kDefaultSmoothingLambda, Closed(0, 1)),
-              ChoiceParam(kSmoothingInfluence, "distance fall-off Φ: 1-0.8x³, e^{-2x²} or none"),
-              ChoiceParam(kSmoothingMode,
-                          "mean method: p' of Eq. (8), or blend: p + w_p·(p' - p), each point's "
-                          "move scaled by its own weight"),
-              ChoiceParam(kSmoothingTolerance,
-                          "a move longer than δ is rejected (Eq. 10) or clamped to δ"),
-              DerivedRealParam(kSmoothingNoise, "own_side: the noise σ the gates and δ are set in",
-                               "per scan, the median RMS residual of its normal fits (u when "
-                               "fewer than 32 fits)",
-                               LeftOpen(0, 1e4)),
-              DerivedRealParam(kSmoothingToleranceMm, "δ of Eq. (10)",
-                               "own_side: 3σ per point, σ its fit residual within [σ̂, 2σ̂] of "
-                               "its scan; mean: the scan's uncertainty u",
-                               Closed(0, 1e4)),
-              // Each pass costs the first one's time again, 29 % of a default job (the cost
-              // weights below, measured at 1 M points): 7 passes keep the job within 3× its
-              // default's time (100 k points through the service: 100 passes were 20×).
-              IntegerParam(kSmoothingIterations,
-                           "Jacobi passes, each from the previous pass's positions", 1,
-                           Closed(0, 7)),
-          },
+      .params = SmoothingParams().Specs(),
       .make = [] { return std::make_unique<SmoothingStage>(); },
-      .prerequisites = [](const ParamOverrides&) { return std::vector<std::string>{"measures"}; },
+      .prerequisites =
+          [](const ParamOverrides&) { return stage_names::List({stage_names::kMeasures}); },
       .work_per_point = kLoopItemsPerIteration,  // one iteration, the default
       .cost_weight = 3.17,
   };

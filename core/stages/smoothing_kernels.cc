@@ -39,7 +39,7 @@ SmoothingOutcome Limit(const SmoothingSettings& s, float delta, const Eigen::Vec
   if (len == 0) return kKept;
   SmoothingOutcome outcome = kMoved;
   if (len > delta) {
-    if (!s.clamp) return kRejected;
+    if (!s.clamp()) return kRejected;
     step *= delta / len;
     outcome = kClamped;
   }
@@ -59,7 +59,7 @@ SmoothingOutcome Mean(const SmoothingInputs& in, size_t i, const Eigen::Vector3f
   if (total < 1e-12) return kKept;
   Eigen::Vector3d target = sum / total;
   const Eigen::Vector3d p0 = p.cast<double>();
-  if (in.s.blend) target = p0 + double(Eq6Weight(in, static_cast<uint32_t>(i))) * (target - p0);
+  if (in.s.blend()) target = p0 + double(Eq6Weight(in, static_cast<uint32_t>(i))) * (target - p0);
   return Limit(in.s, in.s.tolerance[in.cloud.scan[i]], p, (target - p0).cast<float>(), out);
 }
 
@@ -152,15 +152,15 @@ SmoothingOutcome SmoothPoint(const SmoothingInputs& in, size_t i, SmoothingScrat
   const Eigen::Vector3f p = in.cloud.point(i);
   out = p;
   if (in.cloud.removed(i)) return kKept;
-  const float r_p = in.s.knn ? in.nb.dk(i) : in.nb.adaptive_radius(i);
+  const float r_p = in.s.knn() ? in.nb.dk(i) : in.nb.adaptive_radius(i);
   if (!(r_p > 0)) return kKept;
   // Includes i itself (x = 0, Φ = 1). The own-side fit also takes the points merging removed:
   // they are measurements of the same surface, only worse viewed (Eq. 6 weighs them so), and
   // without them the merged layer is smoothed from a third of the data where three scans overlap.
-  const uint8_t skip = in.s.own_side ? kRemovedOutlier | kRemovedSimplify : kRemovedMask;
+  const uint8_t skip = in.s.own_side() ? kRemovedOutlier | kRemovedSimplify : kRemovedMask;
   in.nb.Within(in.cloud, i, r_p, scratch.matches, skip);
   BaseWeights(in, r_p, scratch);
-  return in.s.own_side ? OwnSide(in, i, p, scratch, out) : Mean(in, i, p, scratch, out);
+  return in.s.own_side() ? OwnSide(in, i, p, scratch, out) : Mean(in, i, p, scratch, out);
 }
 
 }  // namespace scanprep

@@ -14,7 +14,7 @@
 #include "core/base/point_measures.h"
 #include "core/spatial/ball_points.h"
 #include "core/spatial/neighbourhoods.h"
-#include "core/stages/smoothing.h"
+#include "core/stages/param_table.h"
 
 namespace scanprep {
 
@@ -22,16 +22,36 @@ namespace scanprep {
 // the candidate planes passes near it); the point keeps its position.
 enum SmoothingOutcome : uint8_t { kKept = 0, kMoved, kClamped, kRejected, kUnfitted };
 
-// Φ(x) of Fig. 3: 20 % (cubic) and 13.5 % (Gaussian) weight at the rim of the neighbourhood.
-float InfluenceAt(Influence kind, float x);
+// own_side: projection onto the plane of the point's own side; mean: the paper's Eq. (8).
+enum class SmoothingMethod { kOwnSide, kMean };
+// ball: r_p = max(r_min, d_k), the paper's "k nearest neighbors (typically 20) and the minimal
+// radius"; knn: the k-NN list alone (radius d_k, no ball query), half the stage's time, the
+// preset `paper`'s. Not the default: own-side planes fitted to 20 points leave more noise on flats
+// (0.43× raw where metrology_test holds outliers + smoothing to 0.40×).
+enum class SmoothingNeighbourhood { kBall, kKnn };
+enum class Influence { kCubic, kGauss, kAverage };
+// mean: p' of Eq. (8); blend: each point's own displacement scaled by its weight w_p.
+enum class SmoothingMode { kMean, kBlend };
+// A move longer than δ is rejected (Eq. 10) or shortened to δ.
+enum class SmoothingTolerance { kReject, kClamp };
 
+// The parameters (SmoothingParams() declares them), and what the stage derives per scan.
 struct SmoothingSettings {
-  bool own_side = true;  // project onto the own side's plane; false = the paper's mean (Eq. 8)
-  bool knn = false;      // the k-NN list (radius d_k) in place of the r_p ball
-  float lambda = static_cast<float>(kDefaultSmoothingLambda);
+  SmoothingMethod method = SmoothingMethod::kOwnSide;
+  SmoothingNeighbourhood neighbourhood = SmoothingNeighbourhood::kBall;
+  float lambda = 0;
   Influence influence = Influence::kCubic;
-  bool blend = false;  // mean: scale each point's own displacement by its weight w_p
-  bool clamp = false;  // shorten a long move to δ instead of rejecting it
+  SmoothingMode mode = SmoothingMode::kMean;
+  SmoothingTolerance tolerance_rule = SmoothingTolerance::kReject;
+  Derived<double> noise_mm;      // σ̂ per scan, unless the request fixed it
+  Derived<double> tolerance_mm;  // δ per scan (or per point), unless the request fixed it
+  int iterations = 0;            // Jacobi passes
+
+  bool own_side() const { return method == SmoothingMethod::kOwnSide; }
+  bool knn() const { return neighbourhood == SmoothingNeighbourhood::kKnn; }
+  bool blend() const { return mode == SmoothingMode::kBlend; }
+  bool clamp() const { return tolerance_rule == SmoothingTolerance::kClamp; }
+
   // own_side: per scan, the noise σ̂ the gates are set in; a point's local σ lies in
   // [σ̂, kLocalNoiseCap·σ̂].
   std::vector<float> noise;
@@ -39,8 +59,10 @@ struct SmoothingSettings {
   // unless the request fixed it (fixed_tolerance).
   std::vector<float> tolerance;
   bool fixed_tolerance = false;
-  int iterations = 0;  // Jacobi passes
 };
+
+// Φ(x) of Fig. 3: 20 % (cubic) and 13.5 % (Gaussian) weight at the rim of the neighbourhood.
+float InfluenceAt(Influence kind, float x);
 
 // A point's own fit may be noisier than its scan's median (oblique view, curvature), but never
 // counts as more than this many times it: an edge's mixed fit must not widen the gates.

@@ -2,70 +2,11 @@
 #include "core/stages/stage_context.h"
 
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
 
-#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "core/stages/stage.h"
 
 namespace scanprep {
-namespace {
-
-// A stage reading a parameter it did not declare, or with the wrong kind of default, is a
-// programming error that no request can cause; the parameter sweep test reads every one.
-const ParamSpec& DeclaredSpec(std::string_view name, ParamKind kind, bool derived) {
-  const ParamSpec* spec = FindParam(name);
-  if (spec == nullptr || spec->kind != kind ||
-      (kind != ParamKind::kChoice && spec->default_value.has_value() == derived)) {
-    std::fprintf(stderr, "scanprep: parameter %.*s is read against its declaration\n",
-                 static_cast<int>(name.size()), name.data());
-    std::abort();
-  }
-  return *spec;
-}
-
-}  // namespace
-
-std::optional<double> StageContext::Overridden(std::string_view name) const {
-  auto it = overrides_.find(name);
-  double value = 0;
-  // Validated before the job started (ValidateOverrides), so the parse succeeds.
-  if (it == overrides_.end() || !absl::SimpleAtod(it->second, &value)) return std::nullopt;
-  return value;
-}
-
-double StageContext::Number(std::string_view name) {
-  const ParamSpec& spec = DeclaredSpec(name, ParamKind::kReal, /*derived=*/false);
-  return Recorded(name, Overridden(name).value_or(*spec.default_value));
-}
-
-double StageContext::Number(std::string_view name, double derived) {
-  DeclaredSpec(name, ParamKind::kReal, /*derived=*/true);
-  return Recorded(name, Overridden(name).value_or(derived));
-}
-
-int64_t StageContext::Integer(std::string_view name) {
-  const ParamSpec& spec = DeclaredSpec(name, ParamKind::kInteger, /*derived=*/false);
-  // In range, so well inside int64_t: the conversion is exact.
-  return static_cast<int64_t>(Recorded(name, Overridden(name).value_or(*spec.default_value)));
-}
-
-int64_t StageContext::Integer(std::string_view name, int64_t derived) {
-  DeclaredSpec(name, ParamKind::kInteger, /*derived=*/true);
-  const double value = Overridden(name).value_or(static_cast<double>(derived));
-  return static_cast<int64_t>(Recorded(name, value));
-}
-
-std::string StageContext::ChoiceText(std::string_view name) {
-  const ParamSpec& spec = DeclaredSpec(name, ParamKind::kChoice, /*derived=*/false);
-  auto it = overrides_.find(name);
-  std::string value = it != overrides_.end() ? it->second : spec.choices.front();
-  report_.text_parameters[std::string(name)] = value;
-  return value;
-}
-
 void StageContext::Record(std::string_view name, double value) {
   report_.parameters[std::string(name)] = value;
 }
@@ -73,11 +14,6 @@ void StageContext::Record(std::string_view name, double value) {
 void StageContext::RecordForScan(std::string_view name, size_t scan, double value) {
   const std::string base(name);
   Record(cloud_.scans.size() > 1 ? absl::StrCat(base, ".scan", scan) : base, value);
-}
-
-double StageContext::Recorded(std::string_view name, double value) {
-  Record(name, value);
-  return value;
 }
 
 void StageContext::Warn(WarningCode code, std::string message,
@@ -110,8 +46,8 @@ absl::StatusOr<const Neighbourhoods*> StageContext::neighbourhoods() const {
 }
 
 bool StageContext::Ran(std::string_view name) const {
-  return std::find(shared_.steps_run.begin(), shared_.steps_run.end(), name) !=
-         shared_.steps_run.end();
+  return std::find(shared_.stages_run.begin(), shared_.stages_run.end(), name) !=
+         shared_.stages_run.end();
 }
 
 absl::Status StageContext::PointsMoved(float max_shift) {

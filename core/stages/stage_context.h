@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // What a stage works with, and nothing more: the job's cloud, the shared neighbourhoods and
-// measures, the cancel token, its parameters (each use recorded in its report entry), warnings and
-// progress. It cannot run another stage: the plan orders them and the runner runs them.
+// measures, the cancel token, its settings (each parameter used recorded in its report entry),
+// warnings and progress. It cannot run another stage: the plan orders them and the runner runs
+// them.
 #pragma once
 
 #include <cstdint>
@@ -19,23 +20,23 @@
 #include "core/base/point_measures.h"
 #include "core/spatial/duplicates.h"
 #include "core/spatial/neighbourhoods.h"
-#include "core/stages/params.h"
+#include "core/stages/param_table.h"
 #include "core/stages/report.h"
 #include "core/stages/warning.h"
 
 namespace scanprep {
 
-// What the plan's steps build for the ones after them; the runner owns it for the job.
+// What the plan's stages build for the ones after them; the runner owns it for the job.
 struct SharedState {
   PointMeasures measures;
-  // Built by the "neighbourhoods" step, which the plan puts before every step that needs them.
+  // Built by the "neighbourhoods" stage, which the plan puts before every stage that needs them.
   std::unique_ptr<Neighbourhoods> neighbourhoods;
   // The job's exact duplicates, collapsed before the first stage: the stages see one point per
   // group, and the report counts every input point of a group. Null: none.
   const DuplicateGroups* duplicates = nullptr;
-  // The steps that ran to their end so far, in order (a stage whose figures depend on an earlier
+  // The stages that ran to their end so far, in order (a stage whose figures depend on an earlier
   // one, e.g. health's merged share on correction, asks StageContext::Ran).
-  std::vector<std::string_view> steps_run;
+  std::vector<std::string_view> stages_run;
   // Set by the "health" stage; the runner moves it into PipelineReport::health.
   std::optional<HealthReport> health;
 };
@@ -66,23 +67,19 @@ class StageContext {
   const CancelToken& cancel() const { return cancel_; }
   PointMeasures& measures() { return shared_.measures; }
 
-  // The value to use for a numeric parameter: the request's override if there is one, else the
-  // default its spec declares. Either way it is recorded in the stage's report.
-  // Overrides were range-checked before the job started (ValidateOverrides).
-  double Number(std::string_view name);
-  // Like Number() for a parameter whose default is derived from the data: `derived`.
-  double Number(std::string_view name, double derived);
-  // Like Number() for an integer parameter.
-  int64_t Integer(std::string_view name);
-  int64_t Integer(std::string_view name, int64_t derived);
-  // The request's override of a numeric parameter, if any, without recording it; for parameters
-  // that are derived per scan and recorded under per-scan names.
-  std::optional<double> Overridden(std::string_view name) const;
-  // The chosen value of a choice parameter (override, else the spec's default); recorded in the
-  // stage's report as a text parameter.
-  template <typename E, size_t N>
-  E Choice(const ChoiceDecl<E, N>& decl) {
-    return decl.Parse(ChoiceText(decl.name));
+  // The stage's settings from its table: each parameter's override, else its default, recorded
+  // in the stage's report (derived ones are the stage's to record, with the value it derives).
+  template <typename S>
+  S Settings(const ParamTable<S>& table) {
+    S settings = table.Read(overrides_);
+    table.Record(overrides_, settings, report_);
+    return settings;
+  }
+  // The same without recording them: for an internal stage that carries on its offered stage's
+  // work, whose report has them.
+  template <typename S>
+  S SettingsOfStage(const ParamTable<S>& table) const {
+    return table.Read(overrides_);
   }
   // Records a derived value that cannot be overridden (e.g. a count or a measured statistic).
   void Record(std::string_view name, double value);
@@ -103,17 +100,17 @@ class StageContext {
   // depends on parameters, e.g. iterations).
   void ExpectWork(double items) { meter_.ExpectWork(items); }
 
-  // The shared neighbourhoods. The plan puts the "neighbourhoods" step before every step that
+  // The shared neighbourhoods. The plan puts the "neighbourhoods" stage before every stage that
   // asks (Plan refuses one that does not), so the error is a programming error's backstop.
   absl::StatusOr<const Neighbourhoods*> neighbourhoods() const;
   // A stage that moved points by at most `max_shift` each calls this so the shared
   // neighbourhoods follow them (Neighbourhoods::PointsMoved) instead of being rebuilt.
   absl::Status PointsMoved(float max_shift);
-  // Used by the "neighbourhoods" step only.
+  // Used by the "neighbourhoods" stage only.
   void SetNeighbourhoods(std::unique_ptr<Neighbourhoods> nb) {
     shared_.neighbourhoods = std::move(nb);
   }
-  // Whether step `name` ran (to its end) before this one.
+  // Whether stage `name` ran (to its end) before this one.
   bool Ran(std::string_view name) const;
   // The job's health report (the "health" stage's result).
   void SetHealth(HealthReport health) { shared_.health = std::move(health); }
@@ -122,11 +119,6 @@ class StageContext {
   }
 
  private:
-  // Choice()'s text, recorded.
-  std::string ChoiceText(std::string_view name);
-  // Record()s a parameter's value and returns it.
-  double Recorded(std::string_view name, double value);
-
   PointCloud& cloud_;
   SharedState& shared_;
   const ParamOverrides& overrides_;

@@ -2,7 +2,6 @@
 // The list of stages the service offers, in the paper's execution order (docs/algorithms.md).
 #include <algorithm>
 
-#include "absl/strings/numbers.h"
 #include "core/stages/correction.h"
 #include "core/stages/health.h"
 #include "core/stages/measures.h"
@@ -26,10 +25,10 @@ const std::vector<StageInfo>& StageRegistry() {
 
 namespace {
 
-// The steps offered stages expand to; a job cannot list them.
-const std::vector<StageInfo>& ExpansionSteps() {
-  static const std::vector<StageInfo> steps = {SurfaceSpikesStepInfo()};
-  return steps;
+// The internal stages offered stages expand to; a job cannot list them.
+const std::vector<StageInfo>& InternalStages() {
+  static const std::vector<StageInfo> stages = {SurfaceSpikesStageInfo()};
+  return stages;
 }
 
 const StageInfo* FindIn(const std::vector<StageInfo>& list, std::string_view name) {
@@ -40,11 +39,11 @@ const StageInfo* FindIn(const std::vector<StageInfo>& list, std::string_view nam
 
 }  // namespace
 
-const StageInfo* FindStage(std::string_view name) { return FindIn(StageRegistry(), name); }
+const StageInfo* FindOfferedStage(std::string_view name) { return FindIn(StageRegistry(), name); }
 
-const StageInfo* FindStep(std::string_view name) {
-  const StageInfo* stage = FindStage(name);
-  return stage != nullptr ? stage : FindIn(ExpansionSteps(), name);
+const StageInfo* FindStage(std::string_view name) {
+  const StageInfo* stage = FindOfferedStage(name);
+  return stage != nullptr ? stage : FindIn(InternalStages(), name);
 }
 
 std::vector<std::string> StageNames() {
@@ -68,18 +67,6 @@ const ParamSpec* FindParam(std::string_view name) {
     }
   }
   return nullptr;
-}
-
-double PlannedNumber(const ParamOverrides& overrides, std::string_view name) {
-  auto it = overrides.find(name);
-  double value = 0;
-  if (it != overrides.end() && absl::SimpleAtod(it->second, &value)) return value;
-  return FindParam(name)->default_value.value_or(0);
-}
-
-std::string PlannedChoiceText(const ParamOverrides& overrides, std::string_view name) {
-  auto it = overrides.find(name);
-  return it != overrides.end() ? it->second : FindParam(name)->choices.front();
 }
 
 }  // namespace scanprep

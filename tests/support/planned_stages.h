@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "core/pipeline/pipeline_runner.h"
 #include "core/pipeline/plan.h"
-#include "core/pipeline/runner.h"
 
 namespace scanprep::testing {
 
@@ -20,15 +20,16 @@ class PlannedStages {
   PlannedStages(PointCloud& cloud, const std::vector<std::string>& stages,
                 const ParamOverrides& params = {})
       : plan_(Plan::Resolve(stages, params)) {
-    if (plan_.ok()) runner_ = std::make_unique<Runner>(*plan_, cloud, cancel_, ProgressFn{});
+    if (plan_.ok())
+      runner_ = std::make_unique<PipelineRunner>(*plan_, cloud, cancel_, ProgressFn{});
   }
   // The runner refers to the plan and the token held here: not to be copied or moved.
   PlannedStages(const PlannedStages&) = delete;
   PlannedStages& operator=(const PlannedStages&) = delete;
 
-  // Runs the rest of the plan (Runner::Run).
+  // Runs the rest of the plan (PipelineRunner::Run).
   absl::Status Run() { return plan_.ok() ? runner_->Run() : plan_.status(); }
-  // Runs the plan up to and including `step` (Runner::RunThrough).
+  // Runs the plan up to and including `step` (PipelineRunner::RunThrough).
   absl::Status RunThrough(std::string_view step) {
     return plan_.ok() ? runner_->RunThrough(step) : plan_.status();
   }
@@ -41,7 +42,7 @@ class PlannedStages {
  private:
   CancelToken cancel_;
   absl::StatusOr<Plan> plan_;
-  std::unique_ptr<Runner> runner_;
+  std::unique_ptr<PipelineRunner> runner_;
 };
 
 }  // namespace scanprep::testing

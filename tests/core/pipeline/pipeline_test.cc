@@ -37,7 +37,7 @@ void PrintReport(const PipelineReport& report) {
 void ExpectParametersReported(const PipelineReport& report, const std::string& stage_name) {
   const StageReport* stage = FindReport(report, stage_name);
   ASSERT_NE(stage, nullptr) << stage_name;
-  for (const ParamSpec& spec : FindStage(stage_name)->params) {
+  for (const ParamSpec& spec : FindOfferedStage(stage_name)->params) {
     if (!spec.choices.empty()) continue;
     EXPECT_TRUE(stage->parameters.contains(spec.name) ||
                 stage->parameters.contains(spec.name + ".scan0"))

@@ -17,7 +17,7 @@ namespace {
 
 std::vector<const StageInfo*> Steps(const std::vector<std::string>& names) {
   std::vector<const StageInfo*> steps;
-  for (const std::string& name : names) steps.push_back(FindStep(name));
+  for (const std::string& name : names) steps.push_back(FindStage(name));
   return steps;
 }
 
@@ -31,7 +31,7 @@ void ExpectRefused(const absl::StatusOr<Plan>& plan, const std::string& step,
                    const std::string& missing) {
   ASSERT_FALSE(plan.ok());
   EXPECT_EQ(plan.status().code(), absl::StatusCode::kFailedPrecondition);
-  EXPECT_NE(plan.status().message().find("'" + step + "' needs step '" + missing + "'"),
+  EXPECT_NE(plan.status().message().find("'" + step + "' needs stage '" + missing + "'"),
             std::string::npos)
       << plan.status();
 }
@@ -39,31 +39,31 @@ void ExpectRefused(const absl::StatusOr<Plan>& plan, const std::string& step,
 // A hand-built plan whose step lacks a prerequisite is refused when it is built: there is no plan
 // to hand a runner, so nothing runs. Each refusal has its control, the same plan made whole.
 TEST(Plan, AStepWithoutItsPrerequisiteBeforeItIsRefused) {
-  ExpectRefused(Plan::FromSteps(Steps({"normals"}), {}), "normals", "neighbourhoods");
+  ExpectRefused(Plan::FromStages(Steps({"normals"}), {}), "normals", "neighbourhoods");
   // In the wrong order is as missing.
-  ExpectRefused(Plan::FromSteps(Steps({"normals", "neighbourhoods"}), {}), "normals",
+  ExpectRefused(Plan::FromStages(Steps({"normals", "neighbourhoods"}), {}), "normals",
                 "neighbourhoods");
-  EXPECT_TRUE(Plan::FromSteps(Steps({"neighbourhoods", "normals"}), {}).ok());
+  EXPECT_TRUE(Plan::FromStages(Steps({"neighbourhoods", "normals"}), {}).ok());
 
   // The outlier stage's surface test needs normals fitted before it runs (method nn)...
-  ExpectRefused(Plan::FromSteps(Steps({"neighbourhoods", "outliers"}), {}), "outliers", "normals");
+  ExpectRefused(Plan::FromStages(Steps({"neighbourhoods", "outliers"}), {}), "outliers", "normals");
   // ... and without the surface test it does not: prerequisites follow the parameters.
   EXPECT_TRUE(
-      Plan::FromSteps(Steps({"neighbourhoods", "outliers"}), {{"outliers.surface_sigmas", "0"}})
+      Plan::FromStages(Steps({"neighbourhoods", "outliers"}), {{"outliers.surface_sigmas", "0"}})
           .ok());
 
   // LoOP's surface test is a step of its own, after the outliers and the normals.
   const ParamOverrides loop = {{"outliers.method", "loop"}};
-  ExpectRefused(Plan::FromSteps(Steps({"neighbourhoods", "normals", "surface_spikes"}), loop),
+  ExpectRefused(Plan::FromStages(Steps({"neighbourhoods", "normals", "surface_spikes"}), loop),
                 "surface_spikes", "outliers");
   EXPECT_TRUE(
-      Plan::FromSteps(Steps({"neighbourhoods", "outliers", "normals", "surface_spikes"}), loop)
+      Plan::FromStages(Steps({"neighbourhoods", "outliers", "normals", "surface_spikes"}), loop)
           .ok());
 }
 
 TEST(Plan, AStepListedTwiceIsRefused) {
   const absl::StatusOr<Plan> twice =
-      Plan::FromSteps(Steps({"neighbourhoods", "normals", "normals"}), {});
+      Plan::FromStages(Steps({"neighbourhoods", "normals", "normals"}), {});
   ASSERT_FALSE(twice.ok());
   EXPECT_EQ(twice.status().code(), absl::StatusCode::kFailedPrecondition);
 }
@@ -89,7 +89,7 @@ TEST(Plan, TheReportListsThePlansStepsInItsOrder) {
   for (const auto& [params, expected] : cases) {
     const absl::StatusOr<Plan> plan = Plan::Resolve(DefaultStages(), params);
     ASSERT_TRUE(plan.ok()) << plan.status();
-    EXPECT_EQ(Names(plan->steps()), expected);
+    EXPECT_EQ(Names(plan->stages()), expected);
 
     auto sim = sim::SimulateWithPointCount(
         sim::Part::kPlane, sim::TwoOverlappingSensors(sim::Part::kPlane), 20'000, 0.01, 3);

@@ -90,7 +90,7 @@ TEST(Progress, EveryStagesPlanPutsPrerequisitesFirst) {
   for (const StageInfo& info : StageRegistry()) {
     const absl::StatusOr<Plan> planned = Plan::Resolve({info.name}, none);
     ASSERT_TRUE(planned.ok()) << planned.status();
-    const std::vector<const StageInfo*>& plan = planned->steps();
+    const std::vector<const StageInfo*>& plan = planned->stages();
     ASSERT_FALSE(plan.empty());
     EXPECT_EQ(plan.back(), &info);
     EXPECT_EQ(plan.front()->name, "neighbourhoods") << info.name;

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
-// Each parameter's name is written once outside the tests: in its stage's declaration
-// (core/stages/<stage>.h), which the spec and every reader refer to. A second copy of the text
-// is a second place to change when the name changes, and a reader whose copy is misspelt only
-// fails when it runs. The source is scanned as C++ string literals, comments left out.
+// Each parameter's name is written once outside the tests: in its line of its stage's parameter
+// table (core/stages/param_table.h), which the spec, the reader and the report come from. A
+// second copy of the text is a second place to change when the name changes, and a reader whose
+// copy is misspelt only fails when it runs. The source is scanned as C++ string literals,
+// comments left out; the one copy must stand in a `param::` line of a stage's table.
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -21,10 +22,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The contents of the string literals in C++ source `text`; comments, character literals and
-// the code between them are skipped.
-std::vector<std::string> StringLiterals(const std::string& text) {
-  std::vector<std::string> literals;
+// The contents of the string literals in C++ source `text`, each with the code of its statement
+// before it (from the last ';', '{' or '}'); comments and character literals are skipped.
+std::vector<std::pair<std::string, std::string>> StringLiterals(const std::string& text) {
+  std::vector<std::pair<std::string, std::string>> literals;
+  std::string statement;
   size_t i = 0;
   while (i < text.size()) {
     if (text.compare(i, 2, "//") == 0) {
@@ -39,9 +41,11 @@ std::vector<std::string> StringLiterals(const std::string& text) {
         if (text[i] == '\\') ++i;  // an escaped character, quotes included
         if (i < text.size()) literal += text[i];
       }
-      if (quote == '"') literals.push_back(std::move(literal));
+      if (quote == '"') literals.emplace_back(std::move(literal), statement);
       ++i;
     } else {
+      if (text[i] == ';' || text[i] == '{' || text[i] == '}') statement.clear();
+      statement += text[i];
       ++i;
     }
   }
@@ -49,7 +53,8 @@ std::vector<std::string> StringLiterals(const std::string& text) {
 }
 
 // Per name in `names`: the files under root/dirs (C++ sources and headers) that hold it as a
-// literal, one entry per occurrence.
+// literal, one entry per occurrence, as "file" or, where the statement around the literal
+// (from the last ';', '{' or '}' before it) declares a table line, "file param::".
 std::map<std::string, std::vector<std::string>> Occurrences(const fs::path& root,
                                                             const std::vector<std::string>& dirs,
                                                             const std::set<std::string>& names) {
@@ -61,10 +66,11 @@ std::map<std::string, std::vector<std::string>> Occurrences(const fs::path& root
       std::ifstream in(entry.path());
       std::stringstream text;
       text << in.rdbuf();
-      for (const std::string& literal : StringLiterals(text.str())) {
-        if (names.contains(literal)) {
-          found[literal].push_back(fs::relative(entry.path(), root).string());
-        }
+      for (const auto& [literal, statement] : StringLiterals(text.str())) {
+        if (!names.contains(literal)) continue;
+        std::string where = fs::relative(entry.path(), root).string();
+        if (statement.find("param::") != std::string::npos) where += " param::";
+        found[literal].push_back(where);
       }
     }
   }
@@ -91,6 +97,10 @@ TEST(ParamNamesTest, EveryRegisteredNameIsWrittenOnceOutsideTheTests) {
     for (size_t k = 0; count > 0 && k < count; ++k) where += " " + it->second[k];
     // None would be a name the registry builds at run time, out of reach of this check.
     EXPECT_EQ(count, 1u) << '"' << name << "\" is written " << count << " times:" << where;
+    if (count == 1) {
+      EXPECT_TRUE(it->second[0].starts_with("core/stages/") && it->second[0].ends_with(" param::"))
+          << '"' << name << "\" is written outside a stage's parameter table:" << where;
+    }
   }
 }
 
@@ -104,12 +114,13 @@ TEST(ParamNamesTest, TheScanCountsLiteralsNotCommentsOrLongerText) {
                                           "auto a = Read(\"stage.twice\");\n"
                                           "/* \"stage.once\" */ auto b = \"stage.twice.not\";\n"
                                           "char q = '\"'; auto c = \"say \\\"stage.once\\\"\";\n";
-  std::ofstream(root / "src" / "inner" / "b.h") << "constexpr auto kA = \"stage.twice\";\n"
-                                                   "constexpr auto kB = \"stage.once\";\n";
+  std::ofstream(root / "src" / "inner" / "b.h")
+      << "constexpr auto kA = \"stage.twice\";\n"
+         "static const ParamTable<S> table = {param::Real(&S::x, \"stage.once\", 1)};\n";
   std::ofstream(root / "src" / "notes.md") << "\"stage.once\"\n";
   const auto found = Occurrences(root, {"src"}, {"stage.twice", "stage.once", "stage.never"});
   EXPECT_EQ(found.at("stage.twice"), (std::vector<std::string>{"src/a.cc", "src/inner/b.h"}));
-  EXPECT_EQ(found.at("stage.once"), (std::vector<std::string>{"src/inner/b.h"}));
+  EXPECT_EQ(found.at("stage.once"), (std::vector<std::string>{"src/inner/b.h param::"}));
   EXPECT_FALSE(found.contains("stage.never"));
 }
 

@@ -169,7 +169,7 @@ TEST(Params, TheReportListsEveryParameterUsed) {
       cloud, {.stages = kAllStages, .params = {{"smoothing.influence", "gauss"}}}, cancel);
   ASSERT_TRUE(report.ok()) << report.status();
   for (const StageReport& stage : report->stages) {
-    for (const ParamSpec& spec : FindStage(stage.name)->params) {
+    for (const ParamSpec& spec : FindOfferedStage(stage.name)->params) {
       if (spec.name.starts_with("outliers.loop_") || spec.name.starts_with("normals.mitra_")) {
         continue;  // read only by the other method
       }
@@ -199,9 +199,9 @@ TEST(Params, TheReportListsEveryParameterUsed) {
 // cost the default job (every stage's measured cost_weight) plus that many more of smoothing's.
 TEST(Params, SmoothingPassesKeepTheJobWithinThreeTimesItsDefaultCost) {
   double job = 0;
-  for (const std::string& stage : kAllStages) job += FindStage(stage)->cost_weight;
+  for (const std::string& stage : kAllStages) job += FindOfferedStage(stage)->cost_weight;
   const double most = FindParam("smoothing.iterations")->range.max;
-  EXPECT_LE(job + (most - 1) * FindStage("smoothing")->cost_weight, 3 * job) << most;
+  EXPECT_LE(job + (most - 1) * FindOfferedStage("smoothing")->cost_weight, 3 * job) << most;
 }
 
 // A flat square scan, `side`² points 0.1 mm apart (Δs = 0.1 mm, u = 0.01 mm), rows as scanlines.

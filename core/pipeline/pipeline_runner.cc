@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "core/pipeline/runner.h"
+#include "core/pipeline/pipeline_runner.h"
 
 #include <algorithm>
 #include <chrono>
@@ -11,55 +11,56 @@
 
 namespace scanprep {
 
-Runner::Runner(const Plan& plan, PointCloud& cloud, const CancelToken& cancel, ProgressFn progress,
-               std::set<WarningCode> fail_on, const DuplicateGroups* duplicates)
+PipelineRunner::PipelineRunner(const Plan& plan, PointCloud& cloud, const CancelToken& cancel,
+                               ProgressFn progress, std::set<WarningCode> fail_on,
+                               const DuplicateGroups* duplicates)
     : plan_(plan),
       cloud_(cloud),
       cancel_(cancel, *this),
       progress_(std::move(progress)),
       fail_on_(std::move(fail_on)) {
   shared_.duplicates = duplicates;
-  for (const StageInfo* step : plan_.steps()) plan_weight_ += step->cost_weight;
+  for (const StageInfo* stage : plan_.stages()) plan_weight_ += stage->cost_weight;
 }
 
-absl::Status Runner::Run() {
-  while (next_ < plan_.steps().size()) SCANPREP_RETURN_IF_ERROR(RunStep(next_++));
+absl::Status PipelineRunner::Run() {
+  while (next_ < plan_.stages().size()) SCANPREP_RETURN_IF_ERROR(RunStage(next_++));
   return absl::OkStatus();
 }
 
-absl::Status Runner::RunThrough(std::string_view step) {
-  const auto& steps = plan_.steps();
-  const auto it = std::find_if(steps.begin() + next_, steps.end(),
-                               [&](const StageInfo* s) { return s->name == step; });
-  if (it == steps.end()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("step '", std::string(step), "' is not among the plan's steps still to run"));
+absl::Status PipelineRunner::RunThrough(std::string_view stage) {
+  const auto& stages = plan_.stages();
+  const auto it = std::find_if(stages.begin() + next_, stages.end(),
+                               [&](const StageInfo* s) { return s->name == stage; });
+  if (it == stages.end()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "stage '", std::string(stage), "' is not among the plan's stages still to run"));
   }
-  const size_t end = static_cast<size_t>(it - steps.begin()) + 1;
-  while (next_ < end) SCANPREP_RETURN_IF_ERROR(RunStep(next_++));
+  const size_t end = static_cast<size_t>(it - stages.begin()) + 1;
+  while (next_ < end) SCANPREP_RETURN_IF_ERROR(RunStage(next_++));
   return absl::OkStatus();
 }
 
-// A step's loops take it to at most this fraction: its end says 1.
+// A stage's loops take it to at most this fraction: its end says 1.
 constexpr double kLoopCeiling = 0.99;
 
-void Runner::Worked(size_t items) {
+void PipelineRunner::Worked(size_t items) {
   const uint64_t done = meter_.done.fetch_add(items, std::memory_order_relaxed) + items;
   Emit(std::min(kLoopCeiling, static_cast<double>(done) / meter_.expected));
 }
 
-void Runner::Progress(double fraction) { Emit(std::clamp(fraction, 0.0, 1.0)); }
+void PipelineRunner::Progress(double fraction) { Emit(std::clamp(fraction, 0.0, 1.0)); }
 
-void Runner::ExpectWork(double items) { meter_.expected = std::max(1.0, items); }
+void PipelineRunner::ExpectWork(double items) { meter_.expected = std::max(1.0, items); }
 
-void Runner::Emit(double stage_fraction) {
+void PipelineRunner::Emit(double stage_fraction) {
   if (!progress_) return;
-  const int step = static_cast<int>(stage_fraction * 50);
-  if (step <= meter_.step.load(std::memory_order_relaxed)) return;
+  const int tick = static_cast<int>(stage_fraction * 50);
+  if (tick <= meter_.tick.load(std::memory_order_relaxed)) return;
   std::lock_guard lock(progress_mu_);
-  if (step <= meter_.step.load(std::memory_order_relaxed)) return;
-  meter_.step.store(step, std::memory_order_relaxed);
-  const StageInfo& running = *plan_.steps()[index_];
+  if (tick <= meter_.tick.load(std::memory_order_relaxed)) return;
+  meter_.tick.store(tick, std::memory_order_relaxed);
+  const StageInfo& running = *plan_.stages()[index_];
   if (plan_weight_ > 0) {
     job_fraction_ = std::max(
         job_fraction_,
@@ -67,7 +68,7 @@ void Runner::Emit(double stage_fraction) {
   }
   progress_({.stage = running.name,
              .stage_index = index_,
-             .stage_count = plan_.steps().size(),
+             .stage_count = plan_.stages().size(),
              .stage_fraction = stage_fraction,
              .job_fraction = job_fraction_});
 }
@@ -75,10 +76,10 @@ void Runner::Emit(double stage_fraction) {
 // Capped balls above this share of the points get a warning (they are always recorded).
 constexpr double kCappedBallsWarnShare = 0.01;
 
-void Runner::RecordCappedBalls(StageReport& stage) {
+void PipelineRunner::RecordCappedBalls(StageReport& stage) {
   const Neighbourhoods* nb = shared_.neighbourhoods.get();
   if (nb == nullptr) return;
-  // Since the last step that ended: each step claims the balls it capped.
+  // Since the last stage that ended: each stage claims the balls it capped.
   const uint64_t capped = nb->capped_balls() - capped_reported_;
   const uint64_t cut = nb->capped_points() - cut_reported_;
   capped_reported_ += capped;
@@ -102,7 +103,7 @@ void Runner::RecordCappedBalls(StageReport& stage) {
        {{"balls_capped", absl::StrCat(capped)}, {"points_left_out", absl::StrCat(cut)}}});
 }
 
-uint64_t Runner::KeptInputPoints() const {
+uint64_t PipelineRunner::KeptInputPoints() const {
   const DuplicateGroups* duplicates = shared_.duplicates;
   if (duplicates == nullptr || duplicates->collapsed() == 0) return cloud_.CountKept();
   uint64_t kept = 0;
@@ -112,14 +113,14 @@ uint64_t Runner::KeptInputPoints() const {
   return kept;
 }
 
-absl::Status Runner::RunStep(size_t index) {
+absl::Status PipelineRunner::RunStage(size_t index) {
   SCANPREP_RETURN_IF_ERROR(cancel_.Check());
-  const StageInfo& info = *plan_.steps()[index];
+  const StageInfo& info = *plan_.stages()[index];
   index_ = index;
   StageReport& stage = report_.stages.emplace_back(StageReport{.name = info.name});
   stage.points_in = KeptInputPoints();
   meter_.done.store(0, std::memory_order_relaxed);
-  meter_.step.store(-1, std::memory_order_relaxed);
+  meter_.tick.store(-1, std::memory_order_relaxed);
   ExpectWork(info.work_per_point * static_cast<double>(cloud_.size()));
   Emit(0.0);
 
@@ -136,7 +137,7 @@ absl::Status Runner::RunStep(size_t index) {
   if (status.ok()) {
     Emit(1.0);
     done_weight_ += info.cost_weight;
-    shared_.steps_run.push_back(info.name);
+    shared_.stages_run.push_back(info.name);
     if (shared_.health) report_.health = *std::exchange(shared_.health, std::nullopt);
   }
   return status;
