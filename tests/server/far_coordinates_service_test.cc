@@ -120,5 +120,52 @@ TEST(FarCoordinatesService, FarCoordinatesWithoutAnOriginAreRefusedNotCollapsed)
   }
 }
 
+// The limit itself (issue 43): a coordinate 300,000 mm from the origin, where floats are
+// s = 2^-5 mm apart, sent with uncertainties that put s at u/8, just under u/4, just over u/4 and
+// at u/2. The first two are accepted, the last two refused naming the chunk's field and the
+// spacing. Controls on both sides, where the limit does not bite: s = u/32 is accepted and s = 2u
+// refused by any limit between u/32 and u.
+TEST(FarCoordinatesService, ACoordinateIsRefusedExactlyWhereItsFloatSpacingExceedsAQuarterOfU) {
+  InProcessServer server;
+  constexpr double kX = 300000;
+  constexpr double kSpacing = 0.03125;  // 2^-5: floats in [2^18, 2^19) mm
+  ASSERT_EQ(std::nextafter(static_cast<float>(kX), 1e9f) - static_cast<float>(kX), kSpacing);
+  constexpr double kEpsilon = 1e-6;
+  const struct {
+    const char* what;
+    double uncertainty;
+    bool accepted;
+  } cases[] = {
+      {"s = u/32 (control)", 32 * kSpacing, true},
+      {"s = u/8", 8 * kSpacing, true},
+      {"s = u/4 - eps", 4 * kSpacing / (1 - kEpsilon), true},
+      {"s = u/4 + eps", 4 * kSpacing / (1 + kEpsilon), false},
+      {"s = u/2", 2 * kSpacing, false},
+      {"s = 2u (control)", kSpacing / 2, false},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.what);
+    v1::JobHeader header = SimpleHeader();
+    header.mutable_scans(0)->set_uncertainty(c.uncertainty);
+    v1::PointChunk chunk = LineChunk(10);
+    for (int i = 0; i < chunk.xyz_size(); i += 3) chunk.set_xyz(i, chunk.xyz(i) + kX);
+    const absl::Status status =
+        client::FromGrpc(RawCall(*server.Stub(), {HeaderRequest(header, 10), ChunkRequest(chunk)}));
+    if (c.accepted) {
+      EXPECT_TRUE(status.ok()) << status;
+      continue;
+    }
+    EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << status;
+    EXPECT_THAT(status.message(),
+                HasSubstr("chunk 0: point 0: its x = 300000 mm from header.origin cannot be held "
+                          "as a float"));
+    EXPECT_THAT(status.message(), HasSubstr("(floats are 0.03125 mm apart there, more than u/4)"));
+    const client::CallErrorDetails details = client::DetailsOf(status);
+    EXPECT_EQ(details.reason, "INVALID_CHUNK");
+    ASSERT_EQ(details.field_violations.size(), 1u);
+    EXPECT_EQ(details.field_violations[0].field, "points[0].xyz");
+  }
+}
+
 }  // namespace
 }  // namespace scanprep::testing
