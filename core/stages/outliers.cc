@@ -193,8 +193,9 @@ class SurfaceSpikesStage : public Stage {
     SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
     if (shared->k() == 0) return absl::OkStatus();
     // LoOP removed its own far points: only the surface decides here.
-    return RemoveOutliers(ctx, ctx.SettingsOfStage(OutliersParams()), *shared,
-                          std::vector<uint8_t>(ctx.cloud().size(), 0));
+    const OutliersSettings settings = ctx.SettingsUsing(OutliersParams(), &OutliersSettings::method,
+                                                        &OutliersSettings::surface_sigmas);
+    return RemoveOutliers(ctx, settings, *shared, std::vector<uint8_t>(ctx.cloud().size(), 0));
   }
 };
 

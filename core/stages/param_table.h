@@ -6,6 +6,7 @@
 // one its table does not declare.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdlib>
 #include <functional>
@@ -105,10 +106,12 @@ class ParamTable {
   // Records, in `report`, every parameter with a fixed default that applies to `settings`, with
   // the value used: a number as the request's text reads (the double, not the field's narrower
   // type), a choice as its text. Derived ones are the stage's to record.
-  void Record(const ParamOverrides& overrides, const Settings& settings,
-              StageReport& report) const {
+  // With `only`, just the parameters named there.
+  void Record(const ParamOverrides& overrides, const Settings& settings, StageReport& report,
+              const std::vector<std::string>& only = {}) const {
     for (const Param<Settings>& p : params_) {
       if (p.applies && !p.applies(settings)) continue;
+      if (!only.empty() && std::find(only.begin(), only.end(), p.spec.name) == only.end()) continue;
       const ParamSpec& spec = p.spec;
       if (spec.kind == ParamKind::kChoice) {
         report.text_parameters[spec.name] = spec.choices[ChoiceIndex(spec, overrides)];

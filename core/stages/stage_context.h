@@ -75,11 +75,13 @@ class StageContext {
     table.Record(overrides_, settings, report_);
     return settings;
   }
-  // The same without recording them: for an internal stage that carries on its offered stage's
-  // work, whose report has them.
-  template <typename S>
-  S SettingsOfStage(const ParamTable<S>& table) const {
-    return table.Read(overrides_);
+  // The same, recording only `fields`: for an internal stage that carries on its offered stage's
+  // work with some of its parameters.
+  template <typename S, typename... T>
+  S SettingsUsing(const ParamTable<S>& table, T S::*... fields) {
+    S settings = table.Read(overrides_);
+    table.Record(overrides_, settings, report_, {table.Name(fields)...});
+    return settings;
   }
   // Records a derived value that cannot be overridden (e.g. a count or a measured statistic).
   void Record(std::string_view name, double value);

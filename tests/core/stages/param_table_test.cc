@@ -82,6 +82,12 @@ TEST(ParamTable, RecordReportsWhatAppliesAsTheRequestWroteIt) {
   EXPECT_EQ(report.parameters,
             (std::map<std::string, double>{{"toy.weight", 0.1}, {"toy.rounds", 4}}));
   EXPECT_EQ(report.text_parameters.at("toy.method"), "second");
+
+  // An internal stage that uses some of them records just those.
+  StageReport some;
+  ToyParams().Record(second, ToyParams().Read(second), some, {"toy.rounds"});
+  EXPECT_EQ(some.parameters, (std::map<std::string, double>{{"toy.rounds", 4}}));
+  EXPECT_TRUE(some.text_parameters.empty());
 }
 
 // Code outside the stage names a parameter by its field: a preset writes an override, a bound
