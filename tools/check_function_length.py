@@ -27,8 +27,8 @@ CONTAINER_WORDS = {"namespace", "class", "struct", "union", "enum", "extern"}
 HEAD_PREFIX = re.compile(
     r"^(?:\s+|\[\[.*?\]\]|(?:public|protected|private)\s*:(?!:)|(?:inline|export)\b)+", re.S)
 # The function's name: the (qualified) identifier or operator just before its parameter list.
-NAME = re.compile(r"((?:[A-Za-z_]\w*\s*::\s*)*(?:operator\s*(?:\(\s*\)|[^\s\w(]+|\w+)|~?[A-Za-z_]\w*))"
-                  r"\s*(?:<[^<>()]*>)?\s*$")
+NAME = re.compile(r"((?:[A-Za-z_]\w*\s*::\s*)*"
+                  r"(?:operator\s*(?:[^\s\w(]+|\w+)|~?[A-Za-z_]\w*))\s*(?:<[^<>()]*>)?\s*$")
 
 
 def blank(text):
