@@ -10,8 +10,8 @@
 #include "client/commands.h"
 #include "client/connection_flags.h"
 #include "client/job_builder.h"
+#include "client/load_generator.h"
 #include "client/load_report.h"
-#include "client/load_runner.h"
 #include "client/scan_generator.h"
 #include "client/scanprep_client.h"
 #include "core/base/status_macros.h"
@@ -114,7 +114,7 @@ int RunLoadCommand(const ParsedArgs& args) {
     return FailCall("load", target, info.status());
   }
   const LoadReport report =
-      MakeLoadReport(target, *options, *job, RunLoad(channel, *job, *options), budget);
+      MakeLoadReport(target, *options, *job, GenerateLoad(channel, *job, *options), budget);
   PrintLoadReport(std::cout, report);
   if (args.Has("json")) {
     std::ofstream out(args.Get("json"));

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "client/load_runner.h"
+#include "client/load_generator.h"
 
 #include <algorithm>
 #include <cmath>
@@ -70,8 +70,8 @@ uint64_t LoadResult::error_count() const {
   return n;
 }
 
-LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job,
-                   const LoadOptions& options) {
+LoadResult GenerateLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job,
+                        const LoadOptions& options) {
   LoadResult result;
   std::mutex mu;  // guards result
   const absl::Time start = absl::Now();
