@@ -70,88 +70,142 @@ uint64_t LoadResult::error_count() const {
   return n;
 }
 
-LoadResult GenerateLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job,
-                        const LoadOptions& options) {
-  LoadResult result;
-  std::mutex mu;  // guards result
-  const absl::Time start = absl::Now();
-  Schedule schedule(options, start);
-  uint64_t next_id = 0;
+namespace {
 
-  auto worker = [&](uint64_t index) {
-    std::mt19937_64 rng(options.seed + index);
-    std::uniform_real_distribution<double> jitter(0, 1);
-    ScanPrepClient client(channel);
-    CallOptions call{.timeout = options.call_timeout, .chunk_points = options.chunk_points};
-    v1::JobHeader header = job.header;
-    const std::string base_id = header.job_id().empty() ? "load" : header.job_id();
+// One run of the load test: the workers' calls and the tally they share.
+class LoadRun {
+ public:
+  LoadRun(const std::shared_ptr<grpc::Channel>& channel, const Job& job, const LoadOptions& options)
+      : channel_(channel), job_(job), options_(options), schedule_(options, start_) {}
+
+  LoadResult Run() {
+    std::vector<std::thread> workers;
+    for (int i = 0; i < options_.concurrency; ++i) workers.emplace_back(&LoadRun::Work, this, i);
+    for (std::thread& t : workers) t.join();
+    result_.elapsed_seconds = absl::ToDoubleSeconds(absl::Now() - start_);
+    return std::move(result_);
+  }
+
+ private:
+  // What one worker needs for its calls, its own so that no call waits on another's.
+  struct Caller {
+    Caller(const LoadRun& run, uint64_t index)
+        : rng(run.options_.seed + index),
+          client(run.channel_),
+          call{.timeout = run.options_.call_timeout, .chunk_points = run.options_.chunk_points},
+          header(run.job_.header),
+          base_id(header.job_id().empty() ? "load" : header.job_id()) {}
+
+    std::mt19937_64 rng;
+    std::uniform_real_distribution<double> jitter{0, 1};
+    ScanPrepClient client;
+    CallOptions call;
+    v1::JobHeader header;  // the job's, with each call's own job_id
+    std::string base_id;   // of those job ids
+  };
+
+  // One worker: calls at the times the schedule hands out until it has none left.
+  void Work(uint64_t index) {
+    Caller caller(*this, index);
     bool pause = false;
     while (true) {
       if (pause) absl::SleepFor(kPauseAfterError);
-      pause = false;
-      const std::optional<absl::Time> at = schedule.Next();
+      const std::optional<absl::Time> at = schedule_.Next();
       if (!at) break;
       absl::SleepFor(*at - absl::Now());
-      const absl::Time begin = absl::Now();
-      bool abort = false;
-      {
-        std::lock_guard lock(mu);
-        abort = AbortsUpload(next_id, options.abort_uploads);
-        header.set_job_id(absl::StrCat(base_id, "-", next_id++));
-        if (options.rate > 0 && begin - *at > kLateStart) ++result.late_starts;
-      }
-      CallCanceller canceller;
-      if (abort) {
-        call.canceller = &canceller;
-        call.progress = [&canceller](const v1::Progress& p) {
-          if (p.phase() == v1::Progress::PHASE_UPLOAD) canceller.Cancel();
-        };
-      }
-      absl::StatusOr<ProcessResult> r = client.Process(header, job.points, call);
-      // The retries share the call's deadline, and their waits count in its latency: both are
-      // what a caller lives through.
-      const absl::Time deadline =
-          options.call_timeout ? begin + *options.call_timeout : absl::InfiniteFuture();
-      while (!r.ok() && options.retry) {
-        const std::optional<absl::Duration> wait = RetryWait(r.status(), jitter(rng));
-        if (!wait || absl::Now() + *wait >= deadline) break;
-        absl::SleepFor(*wait);
-        {
-          std::lock_guard lock(mu);
-          ++result.retried_refusals;
-        }
-        CallOptions again = call;
-        if (options.call_timeout) again.timeout = deadline - absl::Now();
-        r = client.Process(header, job.points, again);
-      }
-      call.canceller = nullptr;
-      call.progress = nullptr;
-      const double seconds = absl::ToDoubleSeconds(absl::Now() - begin);
-      std::lock_guard lock(mu);
-      if (abort && r.status().code() == absl::StatusCode::kCancelled) {
-        ++result.aborted;
-        continue;
-      }
-      if (!r.ok()) {
-        ErrorTally& tally = result.errors[absl::StatusCodeToString(r.status().code())];
-        if (tally.count++ == 0)
-          tally.example = absl::StrCat(r.status().message(), DetailsText(r.status()));
-        pause = options.rate <= 0;
-        continue;
-      }
-      ++result.jobs_ok;
-      result.retries += r->retries;
-      result.latencies.push_back(seconds);
-      if (!r->report.budget_met()) ++result.budget_misses;
-      result.report_budget_seconds =
-          std::max(result.report_budget_seconds, r->report.budget_seconds());
+      pause = Call(caller, *at);
     }
-  };
-  std::vector<std::thread> workers;
-  for (int i = 0; i < options.concurrency; ++i) workers.emplace_back(worker, i);
-  for (std::thread& t : workers) t.join();
-  result.elapsed_seconds = absl::ToDoubleSeconds(absl::Now() - start);
-  return result;
+  }
+
+  // One call, scheduled for `at`; returns whether the worker pauses before its
+  // next (a failed closed-loop call).
+  bool Call(Caller& caller, absl::Time at) {
+    const absl::Time begin = absl::Now();
+    const bool abort = Claim(caller, at, begin);
+    CallCanceller canceller;
+    if (abort) {
+      caller.call.canceller = &canceller;
+      caller.call.progress = [&canceller](const v1::Progress& p) {
+        if (p.phase() == v1::Progress::PHASE_UPLOAD) canceller.Cancel();
+      };
+    }
+    absl::StatusOr<ProcessResult> r = CallWithRetries(caller, begin);
+    caller.call.canceller = nullptr;
+    caller.call.progress = nullptr;
+    return Tally(r, abort, absl::ToDoubleSeconds(absl::Now() - begin));
+  }
+
+  // The call's job id, and whether it is one of the uploads to abort; counts an open-loop call
+  // that started late.
+  bool Claim(Caller& caller, absl::Time at, absl::Time begin) {
+    std::lock_guard lock(mu_);
+    const bool abort = AbortsUpload(next_id_, options_.abort_uploads);
+    caller.header.set_job_id(absl::StrCat(caller.base_id, "-", next_id_++));
+    if (options_.rate > 0 && begin - at > kLateStart) ++result_.late_starts;
+    return abort;
+  }
+
+  // The call, sent again after each refusal with RetryInfo (RetryWait) while its deadline
+  // allows.
+  absl::StatusOr<ProcessResult> CallWithRetries(Caller& caller, absl::Time begin) {
+    absl::StatusOr<ProcessResult> r =
+        caller.client.Process(caller.header, job_.points, caller.call);
+    // The retries share the call's deadline, and their waits count in its latency: both are
+    // what a caller lives through.
+    const absl::Time deadline =
+        options_.call_timeout ? begin + *options_.call_timeout : absl::InfiniteFuture();
+    while (!r.ok() && options_.retry) {
+      const std::optional<absl::Duration> wait = RetryWait(r.status(), caller.jitter(caller.rng));
+      if (!wait || absl::Now() + *wait >= deadline) break;
+      absl::SleepFor(*wait);
+      {
+        std::lock_guard lock(mu_);
+        ++result_.retried_refusals;
+      }
+      CallOptions again = caller.call;
+      if (options_.call_timeout) again.timeout = deadline - absl::Now();
+      r = caller.client.Process(caller.header, job_.points, again);
+    }
+    return r;
+  }
+
+  // Counts the call's outcome; returns whether the worker pauses before its next call.
+  bool Tally(const absl::StatusOr<ProcessResult>& r, bool abort, double seconds) {
+    std::lock_guard lock(mu_);
+    if (abort && r.status().code() == absl::StatusCode::kCancelled) {
+      ++result_.aborted;
+      return false;
+    }
+    if (!r.ok()) {
+      ErrorTally& tally = result_.errors[absl::StatusCodeToString(r.status().code())];
+      if (tally.count++ == 0)
+        tally.example = absl::StrCat(r.status().message(), DetailsText(r.status()));
+      return options_.rate <= 0;
+    }
+    ++result_.jobs_ok;
+    result_.retries += r->retries;
+    result_.latencies.push_back(seconds);
+    if (!r->report.budget_met()) ++result_.budget_misses;
+    result_.report_budget_seconds =
+        std::max(result_.report_budget_seconds, r->report.budget_seconds());
+    return false;
+  }
+
+  const std::shared_ptr<grpc::Channel>& channel_;
+  const Job& job_;
+  const LoadOptions& options_;
+  const absl::Time start_ = absl::Now();
+  Schedule schedule_;
+  std::mutex mu_;  // guards next_id_ and result_
+  uint64_t next_id_ = 0;
+  LoadResult result_;
+};
+
+}  // namespace
+
+LoadResult GenerateLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job,
+                        const LoadOptions& options) {
+  return LoadRun(channel, job, options).Run();
 }
 
 }  // namespace scanprep::client
