@@ -16,6 +16,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "client/call_flags.h"
 #include "core/base/status_macros.h"
 #include "core/io/conf.h"
 #include "core/io/read_file.h"
@@ -32,9 +33,11 @@ namespace v1 = ::scanprep::v1;
 // --strict's codes and --fail_on's, as options.fail_on.
 absl::Status SetFailOn(const ParsedArgs& args, v1::PipelineOptions& options) {
   std::set<WarningCode> codes;
-  if (args.Bool("strict")) codes.insert(StrictWarningCodes().begin(), StrictWarningCodes().end());
-  if (args.Has("fail_on")) {
-    for (absl::string_view name : absl::StrSplit(args.Get("fail_on"), ',', absl::SkipEmpty())) {
+  if (args.Bool(CallFlags::kStrict))
+    codes.insert(StrictWarningCodes().begin(), StrictWarningCodes().end());
+  if (args.Has(CallFlags::kFailOn)) {
+    for (absl::string_view name :
+         absl::StrSplit(args.Get(CallFlags::kFailOn), ',', absl::SkipEmpty())) {
       const std::optional<WarningCode> code =
           WarningCodeFromName(std::string_view(name.data(), name.size()));
       if (!code) {
@@ -110,39 +113,36 @@ absl::Status ApplyConf(const std::string& conf_path, const std::vector<std::stri
 }
 
 absl::Status ApplyOptionFlags(const ParsedArgs& args, v1::JobHeader& header) {
-  if (args.Has("unit")) {
-    SCANPREP_ASSIGN_OR_RETURN(auto unit, ParseUnit(args.Get("unit")));
+  if (args.Has(CallFlags::kUnit)) {
+    SCANPREP_ASSIGN_OR_RETURN(auto unit, ParseUnit(args.Get(CallFlags::kUnit)));
     header.set_unit(unit);
   } else if (header.unit() == v1::LENGTH_UNIT_UNSPECIFIED) {
     header.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
   }
   v1::PipelineOptions* options = header.mutable_options();
-  if (args.Has("stages")) {
+  if (args.Has(CallFlags::kStages)) {
     options->clear_stages();
-    for (absl::string_view s : absl::StrSplit(args.Get("stages"), ',', absl::SkipEmpty())) {
+    for (absl::string_view s :
+         absl::StrSplit(args.Get(CallFlags::kStages), ',', absl::SkipEmpty())) {
       options->add_stages(std::string(s));
     }
   }
-  for (const std::string& param : args.All("param")) {
+  for (const std::string& param : args.All(CallFlags::kParam)) {
     const size_t eq = param.find('=');
     if (eq == std::string::npos || eq == 0) {
       return absl::InvalidArgumentError(absl::StrCat("--param '", param, "': expected name=value"));
     }
     (*options->mutable_params())[param.substr(0, eq)] = param.substr(eq + 1);
   }
-  if (args.Has("preset")) options->set_preset(args.Get("preset"));
-  if (args.Bool("include_removed")) options->set_include_removed(true);
+  if (args.Has(CallFlags::kPreset)) options->set_preset(args.Get(CallFlags::kPreset));
+  if (args.Bool(CallFlags::kIncludeRemoved)) options->set_include_removed(true);
   SCANPREP_RETURN_IF_ERROR(SetFailOn(args, *options));
-  for (const char* flag : {"scanline_spacing", "uncertainty"}) {
+  for (const auto& [flag, set] :
+       {std::pair{CallFlags::kScanlineSpacing, &v1::ScanHeader::set_scanline_spacing},
+        std::pair{CallFlags::kUncertainty, &v1::ScanHeader::set_uncertainty}}) {
     if (!args.Has(flag)) continue;
     SCANPREP_ASSIGN_OR_RETURN(auto value, ParseLength(args, flag));
-    for (v1::ScanHeader& scan : *header.mutable_scans()) {
-      if (std::string(flag) == "uncertainty") {
-        scan.set_uncertainty(value);
-      } else {
-        scan.set_scanline_spacing(value);
-      }
-    }
+    for (v1::ScanHeader& scan : *header.mutable_scans()) (scan.*set)(value);
   }
   return absl::OkStatus();
 }
@@ -156,7 +156,7 @@ struct SensorFlag {
 
 absl::StatusOr<std::vector<SensorFlag>> ParseSensorFlags(const ParsedArgs& args) {
   std::vector<SensorFlag> flags;
-  for (const std::string& value : args.All("sensor_id")) {
+  for (const std::string& value : args.All(CallFlags::kSensorId)) {
     const size_t eq = value.find('=');
     SensorFlag flag = eq == std::string::npos
                           ? SensorFlag{.scan = "", .sensor = value}
@@ -218,30 +218,30 @@ void SetJobOrigin(v1::JobHeader& header) {
 
 std::vector<FlagSpec> JobFlags() {
   return {
-      {"unit", FlagSpec::kValue,
+      {CallFlags::kUnit, FlagSpec::kValue,
        "length unit of the files: m, mm, um or in (default: the job file's, else mm)"},
-      {"job", FlagSpec::kValue, "JobHeader as JSON; the flags below override it"},
-      {"conf", FlagSpec::kValue,
+      {CallFlags::kJob, FlagSpec::kValue, "JobHeader as JSON; the flags below override it"},
+      {CallFlags::kConf, FlagSpec::kValue,
        "scanalyze .conf with each file's pose (sent as to_common; the server applies it)"},
-      {"stages", FlagSpec::kValue, "comma-separated stage list (see `scanprep info`)"},
-      {"param", FlagSpec::kRepeated, "parameter override name=value"},
-      {"preset", FlagSpec::kValue,
+      {CallFlags::kStages, FlagSpec::kValue, "comma-separated stage list (see `scanprep info`)"},
+      {CallFlags::kParam, FlagSpec::kRepeated, "parameter override name=value"},
+      {CallFlags::kPreset, FlagSpec::kValue,
        "named parameter set (see `scanprep info`), e.g. paper or metrology; --param overrides it"},
-      {"scanline_spacing", FlagSpec::kValue, "scanline spacing of every scan, job unit"},
-      {"profile_gap", FlagSpec::kValue,
+      {CallFlags::kScanlineSpacing, FlagSpec::kValue, "scanline spacing of every scan, job unit"},
+      {CallFlags::kProfileGap, FlagSpec::kValue,
        "text scan files (.xyz, .asc, .txt, .pts) written profile by profile: a jump longer than "
        "this (file units) between consecutive points starts a new scanline"},
-      {"uncertainty", FlagSpec::kValue, "measuring uncertainty of every scan, job unit"},
-      {"sensor_id", FlagSpec::kRepeated,
+      {CallFlags::kUncertainty, FlagSpec::kValue, "measuring uncertainty of every scan, job unit"},
+      {CallFlags::kSensorId, FlagSpec::kRepeated,
        "the physical sensor that took the scans, for their health (over the job file's): ID for "
        "every scan, or SCAN=ID for the scan named SCAN (its file's stem); repeatable"},
-      {"include_removed", FlagSpec::kBool, "also return removed points, flagged"},
-      {"strict", FlagSpec::kBool,
+      {CallFlags::kIncludeRemoved, FlagSpec::kBool, "also return removed points, flagged"},
+      {CallFlags::kStrict, FlagSpec::kBool,
        "fail the job (FAILED_PRECONDITION) on a warning that the request is probably wrong: "
        "UNIT_SUSPECT, NOISE_ABOVE_UNCERTAINTY, SCAN_REPEATED, POINTS_INVALID"},
-      {"fail_on", FlagSpec::kValue,
+      {CallFlags::kFailOn, FlagSpec::kValue,
        "fail the job on these warning codes, comma-separated (docs/api.md), e.g. UNIT_SUSPECT"},
-      {"input_format", FlagSpec::kValue,
+      {CallFlags::kInputFormat, FlagSpec::kValue,
        "format of the scan read from standard input (SCAN '-'): ply, pcd, e57, las or xyz"},
   };
 }
@@ -288,12 +288,12 @@ namespace {
 // A scan argument's format: a file's by its extension, standard input's ("-") by --input_format.
 absl::StatusOr<io::ScanFormat> ScanArgumentFormat(const std::string& file, const ParsedArgs& args) {
   if (file != "-") return io::ScanFormatOf(file);
-  if (!args.Has("input_format")) {
+  if (!args.Has(CallFlags::kInputFormat)) {
     return absl::InvalidArgumentError(
         "SCAN '-' reads standard input: say its format with --input_format (ply, pcd, e57, las, "
         "xyz)");
   }
-  return io::ParseScanFormat(args.Get("input_format"));
+  return io::ParseScanFormat(args.Get(CallFlags::kInputFormat));
 }
 
 absl::StatusOr<PointCloud> ReadScanArgument(const std::string& file, io::ScanFormat format,
@@ -311,7 +311,7 @@ absl::StatusOr<std::vector<io::ScanFormat>> ScanArgumentFormats(const ParsedArgs
   if (std::count(files.begin(), files.end(), "-") > 1) {
     return absl::InvalidArgumentError("SCAN '-' (standard input) can be given once");
   }
-  if (args.Has("input_format") && std::count(files.begin(), files.end(), "-") == 0) {
+  if (args.Has(CallFlags::kInputFormat) && std::count(files.begin(), files.end(), "-") == 0) {
     return absl::InvalidArgumentError("--input_format applies to SCAN '-' only; none was given");
   }
   std::vector<io::ScanFormat> formats;
@@ -326,7 +326,7 @@ absl::Status CheckJobFlags(const ParsedArgs& args) {
   v1::JobHeader scratch;  // the flags' values parsed as BuildJob will, into a header thrown away
   SCANPREP_RETURN_IF_ERROR(ApplyOptionFlags(args, scratch));
   SCANPREP_RETURN_IF_ERROR(ParseSensorFlags(args).status());
-  if (args.Has("profile_gap")) return ParseLength(args, "profile_gap").status();
+  if (args.Has(CallFlags::kProfileGap)) return ParseLength(args, CallFlags::kProfileGap).status();
   return absl::OkStatus();
 }
 
@@ -334,8 +334,8 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   SCANPREP_ASSIGN_OR_RETURN(const std::vector<io::ScanFormat> formats, ScanArgumentFormats(args));
   const std::vector<std::string>& files = args.positional;
   Job job;
-  if (args.Has("job")) {
-    SCANPREP_ASSIGN_OR_RETURN(auto header, ReadJobFile(args.Get("job")));
+  if (args.Has(CallFlags::kJob)) {
+    SCANPREP_ASSIGN_OR_RETURN(auto header, ReadJobFile(args.Get(CallFlags::kJob)));
     job.header = std::move(header);
   }
 
@@ -348,8 +348,8 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   std::vector<uint32_t> first_scan;     // per file: its first scan's index in the header
   std::vector<std::string> scan_files;  // per scan: the file it came from
   io::ReadOptions read_options;
-  if (args.Has("profile_gap")) {
-    SCANPREP_ASSIGN_OR_RETURN(read_options.profile_gap, ParseLength(args, "profile_gap"));
+  if (args.Has(CallFlags::kProfileGap)) {
+    SCANPREP_ASSIGN_OR_RETURN(read_options.profile_gap, ParseLength(args, CallFlags::kProfileGap));
   }
   for (size_t f = 0; f < files.size(); ++f) {
     const std::string& file = files[f];
@@ -411,19 +411,19 @@ absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
                                                    from_job.front().scan_id(),
                                                    "' but no scan file has that stem"));
   }
-  if (args.Has("conf")) {
-    SCANPREP_RETURN_IF_ERROR(ApplyConf(args.Get("conf"), scan_files, job.header));
+  if (args.Has(CallFlags::kConf)) {
+    SCANPREP_RETURN_IF_ERROR(ApplyConf(args.Get(CallFlags::kConf), scan_files, job.header));
   }
   auto is = [](io::ScanFormat format) {
     return [format](io::ScanFormat f) { return f == format; };
   };
-  if (!args.Has("unit") && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED &&
+  if (!args.Has(CallFlags::kUnit) && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED &&
       std::all_of(formats.begin(), formats.end(), is(io::ScanFormat::kE57))) {
     // E57 defines its coordinates in metres (ASTM E2807), so there is nothing to guess.
     job.header.set_unit(v1::LENGTH_UNIT_METRE);
     job.notes.push_back("E57 files are in metres by definition: the job's unit is metres");
   }
-  if (!args.Has("unit") && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED) {
+  if (!args.Has(CallFlags::kUnit) && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED) {
     // PCL's convention (REP 103) is metres, so a PCD file read as mm is likely 1000x too small.
     const bool pcd = std::any_of(formats.begin(), formats.end(), is(io::ScanFormat::kPcd));
     job.notes.push_back(
@@ -484,7 +484,7 @@ v1::ScanHeader ScanHeaderFromMeta(const ScanMeta& meta) {
 }
 
 absl::Status CheckGeneratedJobFlags(const ParsedArgs& args) {
-  for (const char* flag : {"unit", "job", "conf"}) {
+  for (const char* flag : {CallFlags::kUnit, CallFlags::kJob, CallFlags::kConf}) {
     if (args.Has(flag)) {
       return absl::InvalidArgumentError(
           absl::StrCat("--", flag, " does not apply to a generated scan (millimetres, posed)"));

@@ -3,7 +3,6 @@
 
 #include <fstream>
 #include <iostream>
-#include <optional>
 
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
@@ -11,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/call_error.h"
+#include "client/call_flags.h"
 #include "client/commands.h"
 #include "client/connection_flags.h"
 
@@ -22,15 +22,7 @@ double SecondsSince(absl::Time start) { return absl::ToDoubleSeconds(absl::Now()
 }  // namespace
 
 std::vector<FlagSpec> JobCallFlags() {
-  std::vector<FlagSpec> flags = {
-      {"server", FlagSpec::kValue, absl::StrCat(kServerFlagHelp, " (default localhost:50051)")},
-  };
-  AddTlsFlags(flags);
-  for (FlagSpec& flag : JobFlags()) flags.push_back(std::move(flag));
-  flags.push_back({"timeout", FlagSpec::kValue, "deadline for the whole call, e.g. 120s"});
-  flags.push_back({"budget", FlagSpec::kValue,
-                   "time budget of the job in seconds (over the job file's and the server's "
-                   "default); the report says whether it was met"});
+  std::vector<FlagSpec> flags = CallFlagSpecs(/*server_required=*/false);
   flags.push_back({"fail_on_budget_miss", FlagSpec::kBool,
                    "exit 5 when the job ran over its time budget (--budget or the server's "
                    "default); the output is written all the same"});
@@ -51,34 +43,23 @@ std::variant<int, SentJob> SendJob(const std::string& command, const ParsedArgs&
   if (absl::Status s = CheckJobFlags(args); !s.ok()) {
     return FailUsage(command, std::string(s.message()));
   }
-  std::optional<double> budget;
-  if (args.Has("budget")) {
-    auto seconds = GetNumber(args, "budget", 0, 0);
-    if (!seconds.ok()) return FailUsage(command, std::string(seconds.status().message()));
-    budget = *seconds;
-  }
-  CallOptions call;
-  if (args.Has("timeout")) {
-    auto timeout = GetDuration(args, "timeout", absl::ZeroDuration());
-    if (!timeout.ok()) return FailUsage(command, std::string(timeout.status().message()));
-    call.timeout = *timeout;
-  }
-  auto target = ChannelTarget(args.Get("server", "localhost:50051"));
-  if (!target.ok()) return FailUsage(command, std::string(target.status().message()));
+  auto flags = CallFlags::Parse(args);
+  if (!flags.ok()) return FailUsage(command, std::string(flags.status().message()));
   auto credentials = CredentialsFromArgs(args);
   if (!credentials.ok()) return FailFlagFiles(command, credentials.status());
   auto mode = ParseProgressMode(args.Get("progress", "auto"), isatty(STDERR_FILENO) != 0);
   if (!mode.ok()) return FailUsage(command, std::string(mode.status().message()));
-  SentJob sent{.start = absl::Now(), .server = *target};
+  SentJob sent{.start = absl::Now(), .server = flags->server};
   auto job = BuildJob(args);
   if (!job.ok()) return Fail(command, std::string(job.status().message()));
   sent.job = std::move(*job);
-  if (budget) sent.job.header.mutable_budget()->set_total_seconds(*budget);
+  flags->SetBudget(sent.job.header);
   adjust(sent.job);
   sent.phases.read = SecondsSince(sent.start);
   for (const std::string& note : sent.job.notes) std::cerr << "note: " << note << "\n";
 
   ProgressView view(std::cerr, *mode);
+  CallOptions call{.timeout = flags->timeout};
   call.progress = [&view](const v1::Progress& p) { view.Update(p); };
   auto result = ScanPrepClient::Connect(sent.server, *credentials)
                     .Process(sent.job.header, sent.job.points, call);

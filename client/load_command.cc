@@ -7,6 +7,7 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "client/call_flags.h"
 #include "client/commands.h"
 #include "client/connection_flags.h"
 #include "client/job_builder.h"
@@ -27,7 +28,6 @@ absl::StatusOr<LoadOptions> ParseLoadOptions(const ParsedArgs& args) {
   }
   options.concurrency = static_cast<int>(concurrency);
   SCANPREP_ASSIGN_OR_RETURN(options.duration, GetDuration(args, "duration", absl::Seconds(60)));
-  SCANPREP_ASSIGN_OR_RETURN(options.call_timeout, GetDuration(args, "timeout", absl::Seconds(120)));
   if (args.Has("max_jobs")) {
     uint64_t max_jobs = 0;
     if (!absl::SimpleAtoi(args.Get("max_jobs"), &max_jobs) || max_jobs == 0) {
@@ -81,40 +81,39 @@ absl::StatusOr<Job> LoadJob(const ParsedArgs& args,
 }
 
 int RunLoadCommand(const ParsedArgs& args) {
-  if (!args.Has("server")) return FailUsage("load", "--server HOST:PORT is required (no default)");
+  if (!args.Has(kServerFlag)) {
+    return FailUsage("load", "--server HOST:PORT is required (no default)");
+  }
   auto options = ParseLoadOptions(args);
   if (!options.ok()) return FailUsage("load", std::string(options.status().message()));
-  std::optional<double> budget;
-  if (args.Has("budget")) {
-    auto value = GetNumber(args, "budget", 0, 0);
-    if (!value.ok() || *value <= 0) return FailUsage("load", "--budget: seconds > 0");
-    budget = *value;
+  auto flags = CallFlags::Parse(args);
+  if (!flags.ok()) return FailUsage("load", std::string(flags.status().message()));
+  // The run fails when latency p99 exceeds the budget, which no call meets at 0 s.
+  if (flags->budget_seconds && *flags->budget_seconds <= 0) {
+    return FailUsage("load", "--budget: seconds > 0");
   }
+  options->call_timeout = flags->timeout;
   if (absl::Status s = CheckJobFlags(args); !s.ok()) {
     return FailUsage("load", std::string(s.message()));
   }
   auto generation = Generation(args);
   if (!generation.ok()) return FailUsage("load", std::string(generation.status().message()));
-  auto channel_target = ChannelTarget(args.Get("server"));
-  if (!channel_target.ok()) {
-    return FailUsage("load", std::string(channel_target.status().message()));
-  }
   auto credentials = CredentialsFromArgs(args);
   if (!credentials.ok()) return FailFlagFiles("load", credentials.status());
   // The scans are read (or generated) once; every call replays the same job.
   auto job = LoadJob(args, *generation);
   if (!job.ok()) return Fail("load", std::string(job.status().message()));
   for (const std::string& note : job->notes) std::cerr << "note: " << note << "\n";
-  if (budget) job->header.mutable_budget()->set_total_seconds(*budget);
+  flags->SetBudget(job->header);
 
-  const std::string& target = *channel_target;
+  const std::string& target = flags->server;
   std::shared_ptr<grpc::Channel> channel = RoundRobinChannel(target, *credentials);
   // An unreachable or refusing server fails here, once, rather than as a flood of errors.
   if (auto info = ScanPrepClient(channel).GetInfo(absl::Seconds(10)); !info.ok()) {
     return FailCall("load", target, info.status());
   }
-  const LoadReport report =
-      MakeLoadReport(target, *options, *job, GenerateLoad(channel, *job, *options), budget);
+  const LoadReport report = MakeLoadReport(
+      target, *options, *job, GenerateLoad(channel, *job, *options), flags->budget_seconds);
   PrintLoadReport(std::cout, report);
   if (args.Has("json")) {
     std::ofstream out(args.Get("json"));
@@ -128,21 +127,16 @@ int RunLoadCommand(const ParsedArgs& args) {
 
 Command LoadCommand() {
   std::vector<FlagSpec> flags = {
-      {"server", FlagSpec::kValue, kServerFlagHelp},
       {"concurrency", FlagSpec::kValue, "workers, i.e. calls in flight at most (default 1)"},
       {"duration", FlagSpec::kValue, "no call starts after this, e.g. 60s (default 60s)"},
       {"max_jobs", FlagSpec::kValue, "also stop after starting this many calls"},
       {"rate", FlagSpec::kValue,
        "open loop: start this many jobs/s in total (default: closed loop, calls back to back)"},
       {"arrivals", FlagSpec::kValue, "open-loop spacing: poisson (default) or fixed"},
-      {"timeout", FlagSpec::kValue, "deadline of each call (default 120s)"},
       {"chunk_points", FlagSpec::kValue, "points per upload message (default 32768)"},
       {"abort_uploads", FlagSpec::kValue,
        "share of calls in [0, 1), spread evenly, cancelled by the client once the server "
        "confirmed their first chunk (default 0); the others must still succeed"},
-      {"budget", FlagSpec::kValue,
-       "seconds: sent as the job's budget; the run fails when latency p99 exceeds it (default: "
-       "the budget the server reports for the job)"},
       {"json", FlagSpec::kValue, "also write the results as JSON to this file"},
       {"retry", FlagSpec::kBool,
        "send a call the server refused with RetryInfo (RESOURCE_EXHAUSTED, UNAVAILABLE) again "
@@ -150,8 +144,7 @@ Command LoadCommand() {
        "retried, not as an error (default true; --retry=false counts every refusal as an "
        "error)"},
   };
-  AddTlsFlags(flags);
-  for (FlagSpec& flag : JobFlags()) flags.push_back(std::move(flag));
+  for (FlagSpec& flag : CallFlagSpecs(/*server_required=*/true)) flags.push_back(std::move(flag));
   flags.push_back({"simulate", FlagSpec::kValue,
                    "replay a generated laser-line scan of about this many points instead of "
                    "SCAN files (millimetres; see `scanprep simulate`)"});
