@@ -303,6 +303,161 @@ absl::StatusOr<PointCloud> ReadScanArgument(const std::string& file, io::ScanFor
   return io::ReadScanStream(std::cin, format, "standard input", notes, options);
 }
 
+// One scan file read: its points and the scans they make.
+struct FileRead {
+  PointCloud cloud;
+  FileScans split;
+  uint32_t first_scan = 0;  // the index of its first scan in the header
+};
+
+// The ids of a file's scans: its stem ("stdin" for standard input), or STEM#VALUE per value of
+// its scan column (noted).
+std::vector<std::string> ScanIds(const std::string& file, const FileScans& split,
+                                 std::vector<std::string>& notes) {
+  const std::string stem = file == "-" ? "stdin" : fs::path(file).stem().string();
+  if (split.values.empty()) return {stem};
+  std::vector<std::string> ids;
+  for (uint32_t v : split.values) ids.push_back(absl::StrCat(stem, "#", v));
+  notes.push_back(absl::StrCat(file, ": its scan column holds ", ids.size(), " scans, sent as ",
+                               ids.front(), " … ", ids.back()));
+  return ids;
+}
+
+// Appends the file's scans to the header, in order; a job-file scan whose scan_id is a scan's id
+// supplies its metadata and is taken out of `from_job`. `scan_files` gets the file once per scan.
+void AddFileScans(const std::string& file, const FileRead& read,
+                  std::vector<v1::ScanHeader>& from_job, Job& job,
+                  std::vector<std::string>& scan_files) {
+  const std::vector<std::string> ids = ScanIds(file, read.split, job.notes);
+  const PointCloud& cloud = read.cloud;
+  for (size_t k = 0; k < ids.size(); ++k) {
+    const std::string& id = ids[k];
+    auto match = std::find_if(from_job.begin(), from_job.end(),
+                              [&](const v1::ScanHeader& s) { return s.scan_id() == id; });
+    v1::ScanHeader* scan = job.header.add_scans();
+    if (match != from_job.end()) {
+      *scan = *match;
+      from_job.erase(match);
+    }
+    scan->set_scan_id(id);
+    // A file's sensor origin (PCD VIEWPOINT, an E57 scan's pose) is in the file's frame and
+    // units, as the header's camera_position is; the job file's value, when it has one, wins.
+    // A file that describes its scans (E57) has one origin per scan.
+    const size_t value = read.split.values.empty() ? 0 : read.split.values[k];
+    const ScanMeta& meta = value < cloud.scans.size() ? cloud.scans[value] : cloud.scans.front();
+    // A reader's positions, like its points, are relative to the cloud's origin.
+    const std::optional<Eigen::Vector3d>& origin = meta.camera_position;
+    if (origin && !scan->has_camera_position()) {
+      SetVec3(*origin + cloud.origin, scan->mutable_camera_position());
+    }
+    // The points are sent relative to the origin the reader chose (double files far from zero).
+    if (!cloud.origin.isZero(0)) SetVec3(cloud.origin, scan->mutable_points_offset());
+    scan_files.push_back(file);
+  }
+}
+
+// A LAS output keeps the grid of the first LAS read (the result comes back in the files' unit,
+// so the grid still fits it); another file's points are written on that grid too.
+void KeepFirstGrid(const std::string& file, const PointCloud& cloud, Job& job) {
+  if (cloud.grid && !job.points.grid) {
+    job.points.grid = cloud.grid;
+  } else if (cloud.grid && (cloud.grid->scale != job.points.grid->scale ||
+                            cloud.grid->offset != job.points.grid->offset)) {
+    job.notes.push_back(absl::StrCat(file,
+                                     ": its LAS scale and offset differ from the first LAS "
+                                     "file's; a LAS output is written on the first's"));
+  }
+}
+
+// Reads every scan argument and adds its scans to the header: one per file, in command-line
+// order, or one per value of its scan column (named STEM#VALUE); a job-file scan with that name
+// as its scan_id supplies the scan's metadata, and one that names no scan is an error.
+// `scan_files`: the file each scan came from.
+absl::StatusOr<std::vector<FileRead>> ReadScanFiles(const ParsedArgs& args,
+                                                    const std::vector<io::ScanFormat>& formats,
+                                                    Job& job,
+                                                    std::vector<std::string>& scan_files) {
+  std::vector<v1::ScanHeader> from_job(job.header.scans().begin(), job.header.scans().end());
+  job.header.clear_scans();
+  io::ReadOptions read_options;
+  if (args.Has(CallFlags::kProfileGap)) {
+    SCANPREP_ASSIGN_OR_RETURN(read_options.profile_gap, ParseLength(args, CallFlags::kProfileGap));
+  }
+  std::vector<FileRead> files;
+  for (size_t f = 0; f < args.positional.size(); ++f) {
+    const std::string& file = args.positional[f];
+    FileRead& read = files.emplace_back();
+    SCANPREP_ASSIGN_OR_RETURN(read.cloud,
+                              ReadScanArgument(file, formats[f], job.notes, read_options));
+    if (read.cloud.has_normals()) {
+      job.notes.push_back(
+          absl::StrCat(file, ": its normals are not sent (the service estimates its own)"));
+    }
+    read.split = SplitByScanColumn(read.cloud);
+    read.first_scan = static_cast<uint32_t>(job.header.scans_size());
+    AddFileScans(file, read, from_job, job, scan_files);
+    KeepFirstGrid(file, read.cloud, job);
+  }
+  if (!from_job.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat("the job file describes scan '",
+                                                   from_job.front().scan_id(),
+                                                   "' but no scan file has that stem"));
+  }
+  return files;
+}
+
+// Without --unit or a unit in the job file: E57 files are in metres, anything else is taken as
+// millimetres, with a note.
+void DefaultUnit(const ParsedArgs& args, const std::vector<io::ScanFormat>& formats, Job& job) {
+  if (args.Has(CallFlags::kUnit) || job.header.unit() != v1::LENGTH_UNIT_UNSPECIFIED) return;
+  auto is = [](io::ScanFormat format) {
+    return [format](io::ScanFormat f) { return f == format; };
+  };
+  if (std::all_of(formats.begin(), formats.end(), is(io::ScanFormat::kE57))) {
+    // E57 defines its coordinates in metres (ASTM E2807), so there is nothing to guess.
+    job.header.set_unit(v1::LENGTH_UNIT_METRE);
+    job.notes.push_back("E57 files are in metres by definition: the job's unit is metres");
+    return;
+  }
+  // PCL's convention (REP 103) is metres, so a PCD file read as mm is likely 1000x too small.
+  const bool pcd = std::any_of(formats.begin(), formats.end(), is(io::ScanFormat::kPcd));
+  job.notes.push_back(
+      absl::StrCat("no --unit and no unit in the job file: coordinates are taken "
+                   "as millimetres",
+                   pcd ? " (PCL writes PCD files in metres: pass --unit m if so)" : ""));
+}
+
+// Every file's points into the job's cloud, each point with the header index of its scan. The
+// service wants an optional array in every chunk or none, so one is kept only when every file
+// has it.
+void JoinPoints(const std::vector<std::string>& files, const std::vector<FileRead>& read,
+                Job& job) {
+  bool scanlines = true, quality = true, intensity = true;
+  for (const FileRead& r : read) {
+    scanlines &= r.cloud.has_scanlines();
+    quality &= !r.cloud.quality.empty();
+    intensity &= !r.cloud.intensity.empty();
+  }
+  PointCloud& all = job.points;
+  for (size_t s = 0; s < read.size(); ++s) {
+    const PointCloud& c = read[s].cloud;
+    if (c.has_scanlines() && !scanlines) {
+      job.notes.push_back(absl::StrCat(files[s], ": scanlines dropped (not every file has them)"));
+    }
+    all.x.insert(all.x.end(), c.x.begin(), c.x.end());
+    all.y.insert(all.y.end(), c.y.begin(), c.y.end());
+    all.z.insert(all.z.end(), c.z.begin(), c.z.end());
+    if (read[s].split.of_point.empty()) {
+      all.scan.resize(all.x.size(), read[s].first_scan);
+    } else {
+      for (uint32_t k : read[s].split.of_point) all.scan.push_back(read[s].first_scan + k);
+    }
+    AppendOptional(scanlines, c.scanline, all.scanline);
+    AppendOptional(quality, c.quality, all.quality);
+    AppendOptional(intensity, c.intensity, all.intensity);
+  }
+}
+
 }  // namespace
 
 absl::StatusOr<std::vector<io::ScanFormat>> ScanArgumentFormats(const ParsedArgs& args) {
@@ -332,135 +487,21 @@ absl::Status CheckJobFlags(const ParsedArgs& args) {
 
 absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   SCANPREP_ASSIGN_OR_RETURN(const std::vector<io::ScanFormat> formats, ScanArgumentFormats(args));
-  const std::vector<std::string>& files = args.positional;
   Job job;
   if (args.Has(CallFlags::kJob)) {
-    SCANPREP_ASSIGN_OR_RETURN(auto header, ReadJobFile(args.Get(CallFlags::kJob)));
-    job.header = std::move(header);
+    SCANPREP_ASSIGN_OR_RETURN(job.header, ReadJobFile(args.Get(CallFlags::kJob)));
   }
-
-  // One scan per file, in command-line order, or one per value of its scan column (named
-  // STEM#VALUE); a job-file scan with that name as its scan_id supplies the scan's metadata.
-  std::vector<v1::ScanHeader> from_job(job.header.scans().begin(), job.header.scans().end());
-  job.header.clear_scans();
-  std::vector<PointCloud> clouds;
-  std::vector<FileScans> split;
-  std::vector<uint32_t> first_scan;     // per file: its first scan's index in the header
   std::vector<std::string> scan_files;  // per scan: the file it came from
-  io::ReadOptions read_options;
-  if (args.Has(CallFlags::kProfileGap)) {
-    SCANPREP_ASSIGN_OR_RETURN(read_options.profile_gap, ParseLength(args, CallFlags::kProfileGap));
-  }
-  for (size_t f = 0; f < files.size(); ++f) {
-    const std::string& file = files[f];
-    SCANPREP_ASSIGN_OR_RETURN(auto cloud,
-                              ReadScanArgument(file, formats[f], job.notes, read_options));
-    if (cloud.has_normals()) {
-      job.notes.push_back(
-          absl::StrCat(file, ": its normals are not sent (the service estimates its own)"));
-    }
-    const std::string stem = file == "-" ? "stdin" : fs::path(file).stem().string();
-    split.push_back(SplitByScanColumn(cloud));
-    first_scan.push_back(static_cast<uint32_t>(job.header.scans_size()));
-    std::vector<std::string> ids = {stem};
-    if (!split.back().values.empty()) {
-      ids.clear();
-      for (uint32_t v : split.back().values) ids.push_back(absl::StrCat(stem, "#", v));
-      job.notes.push_back(absl::StrCat(file, ": its scan column holds ", ids.size(),
-                                       " scans, sent as ", ids.front(), " … ", ids.back()));
-    }
-    for (size_t k = 0; k < ids.size(); ++k) {
-      const std::string& id = ids[k];
-      auto match = std::find_if(from_job.begin(), from_job.end(),
-                                [&](const v1::ScanHeader& s) { return s.scan_id() == id; });
-      v1::ScanHeader* scan = job.header.add_scans();
-      if (match != from_job.end()) {
-        *scan = *match;
-        from_job.erase(match);
-      }
-      scan->set_scan_id(id);
-      // A file's sensor origin (PCD VIEWPOINT, an E57 scan's pose) is in the file's frame and
-      // units, as the header's camera_position is; the job file's value, when it has one, wins.
-      // A file that describes its scans (E57) has one origin per scan.
-      const size_t value = split.back().values.empty() ? 0 : split.back().values[k];
-      const ScanMeta& meta = value < cloud.scans.size() ? cloud.scans[value] : cloud.scans.front();
-      // A reader's positions, like its points, are relative to the cloud's origin.
-      const std::optional<Eigen::Vector3d>& origin = meta.camera_position;
-      if (origin && !scan->has_camera_position()) {
-        SetVec3(*origin + cloud.origin, scan->mutable_camera_position());
-      }
-      // The points are sent relative to the origin the reader chose (double files far from zero).
-      if (!cloud.origin.isZero(0)) SetVec3(cloud.origin, scan->mutable_points_offset());
-      scan_files.push_back(file);
-    }
-    // A LAS output keeps the grid of the first LAS read (the result comes back in the files'
-    // unit, so the grid still fits it); another file's points are written on that grid too.
-    if (cloud.grid && !job.points.grid) {
-      job.points.grid = cloud.grid;
-    } else if (cloud.grid && (cloud.grid->scale != job.points.grid->scale ||
-                              cloud.grid->offset != job.points.grid->offset)) {
-      job.notes.push_back(absl::StrCat(
-          file,
-          ": its LAS scale and offset differ from the first LAS file's; a LAS output is "
-          "written on the first's"));
-    }
-    clouds.push_back(std::move(cloud));
-  }
-  if (!from_job.empty()) {
-    return absl::InvalidArgumentError(absl::StrCat("the job file describes scan '",
-                                                   from_job.front().scan_id(),
-                                                   "' but no scan file has that stem"));
-  }
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<FileRead> read,
+                            ReadScanFiles(args, formats, job, scan_files));
   if (args.Has(CallFlags::kConf)) {
     SCANPREP_RETURN_IF_ERROR(ApplyConf(args.Get(CallFlags::kConf), scan_files, job.header));
   }
-  auto is = [](io::ScanFormat format) {
-    return [format](io::ScanFormat f) { return f == format; };
-  };
-  if (!args.Has(CallFlags::kUnit) && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED &&
-      std::all_of(formats.begin(), formats.end(), is(io::ScanFormat::kE57))) {
-    // E57 defines its coordinates in metres (ASTM E2807), so there is nothing to guess.
-    job.header.set_unit(v1::LENGTH_UNIT_METRE);
-    job.notes.push_back("E57 files are in metres by definition: the job's unit is metres");
-  }
-  if (!args.Has(CallFlags::kUnit) && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED) {
-    // PCL's convention (REP 103) is metres, so a PCD file read as mm is likely 1000x too small.
-    const bool pcd = std::any_of(formats.begin(), formats.end(), is(io::ScanFormat::kPcd));
-    job.notes.push_back(
-        absl::StrCat("no --unit and no unit in the job file: coordinates are taken "
-                     "as millimetres",
-                     pcd ? " (PCL writes PCD files in metres: pass --unit m if so)" : ""));
-  }
+  DefaultUnit(args, formats, job);
   SCANPREP_RETURN_IF_ERROR(ApplyOptionFlags(args, job.header));
   SCANPREP_RETURN_IF_ERROR(ApplySensorFlags(args, job.header));
   SetJobOrigin(job.header);
-
-  // The service wants an optional array in every chunk or none, so keep one only when every
-  // file has it.
-  bool scanlines = true, quality = true, intensity = true;
-  for (const PointCloud& c : clouds) {
-    scanlines &= c.has_scanlines();
-    quality &= !c.quality.empty();
-    intensity &= !c.intensity.empty();
-  }
-  for (size_t s = 0; s < clouds.size(); ++s) {
-    const PointCloud& c = clouds[s];
-    if (c.has_scanlines() && !scanlines) {
-      job.notes.push_back(absl::StrCat(files[s], ": scanlines dropped (not every file has them)"));
-    }
-    PointCloud& all = job.points;
-    all.x.insert(all.x.end(), c.x.begin(), c.x.end());
-    all.y.insert(all.y.end(), c.y.begin(), c.y.end());
-    all.z.insert(all.z.end(), c.z.begin(), c.z.end());
-    if (split[s].of_point.empty()) {
-      all.scan.resize(all.x.size(), first_scan[s]);
-    } else {
-      for (uint32_t k : split[s].of_point) all.scan.push_back(first_scan[s] + k);
-    }
-    AppendOptional(scanlines, c.scanline, all.scanline);
-    AppendOptional(quality, c.quality, all.quality);
-    AppendOptional(intensity, c.intensity, all.intensity);
-  }
+  JoinPoints(args.positional, read, job);
   return job;
 }
 
