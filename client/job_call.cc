@@ -17,20 +17,25 @@
 namespace scanprep::client {
 namespace {
 
+// The flags that process and health add to the shared ones (CallFlagSpecs).
+constexpr char kFailOnBudgetMiss[] = "fail_on_budget_miss";
+constexpr char kProgress[] = "progress";
+constexpr char kReportJson[] = "report_json";
+
 double SecondsSince(absl::Time start) { return absl::ToDoubleSeconds(absl::Now() - start); }
 
 }  // namespace
 
 std::vector<FlagSpec> JobCallFlags() {
   std::vector<FlagSpec> flags = CallFlagSpecs(/*server_required=*/false);
-  flags.push_back({"fail_on_budget_miss", FlagSpec::kBool,
+  flags.push_back({kFailOnBudgetMiss, FlagSpec::kBool,
                    "exit 5 when the job ran over its time budget (--budget or the server's "
                    "default); the output is written all the same"});
-  flags.push_back({"progress", FlagSpec::kValue,
+  flags.push_back({kProgress, FlagSpec::kValue,
                    "progress on stderr: auto (default: live on a terminal, else plain), live (one "
                    "line redrawn), plain (a line when a phase or stage starts, at each quarter "
                    "of it and at least every 10 s) or off"});
-  flags.push_back({"report_json", FlagSpec::kValue,
+  flags.push_back({kReportJson, FlagSpec::kValue,
                    "also write the full report as JSON, with the phase timings under \"phases\""});
   return flags;
 }
@@ -47,7 +52,7 @@ std::variant<int, SentJob> SendJob(const std::string& command, const ParsedArgs&
   if (!flags.ok()) return FailUsage(command, std::string(flags.status().message()));
   auto credentials = CredentialsFromArgs(args);
   if (!credentials.ok()) return FailFlagFiles(command, credentials.status());
-  auto mode = ParseProgressMode(args.Get("progress", "auto"), isatty(STDERR_FILENO) != 0);
+  auto mode = ParseProgressMode(args.Get(kProgress, "auto"), isatty(STDERR_FILENO) != 0);
   if (!mode.ok()) return FailUsage(command, std::string(mode.status().message()));
   SentJob sent{.start = absl::Now(), .server = flags->server};
   auto job = BuildJob(args);
@@ -109,21 +114,21 @@ absl::StatusOr<std::string> ReportJson(const v1::Report& report, const PhaseSeco
 
 int WriteReportJson(const std::string& command, const ParsedArgs& args, const v1::Report& report,
                     const PhaseSeconds& phases, const std::string& done) {
-  if (!args.Has("report_json")) return kExitOk;
+  if (!args.Has(kReportJson)) return kExitOk;
   auto json = ReportJson(report, phases);
   if (!json.ok()) return Fail(command, std::string(json.status().message()));
-  std::ofstream file(args.Get("report_json"));
+  std::ofstream file(args.Get(kReportJson));
   file << *json;
   file.close();
   if (!file) {
     return Fail(command,
-                absl::StrCat(done, " but cannot write the report to ", args.Get("report_json")));
+                absl::StrCat(done, " but cannot write the report to ", args.Get(kReportJson)));
   }
   return kExitOk;
 }
 
 int BudgetExit(const std::string& command, const ParsedArgs& args, const v1::Report& report) {
-  if (args.Bool("fail_on_budget_miss") && report.budget_outcome() == v1::BUDGET_OUTCOME_MISSED) {
+  if (args.Bool(kFailOnBudgetMiss) && report.budget_outcome() == v1::BUDGET_OUTCOME_MISSED) {
     std::cerr << "scanprep " << command << ": the job missed its budget of "
               << report.budget_seconds() << " s (--fail_on_budget_miss)\n";
     return kExitBudgetMissed;
