@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
-// The flags that choose a command's transport security, shared by every command that connects:
-// TLS when --tls_ca is given (plus a client certificate for mutual TLS), plaintext otherwise.
+// The flags of every command that connects (`info`, `process`, `health`, `load`): where the
+// service is (--server) and the transport security, TLS when --tls_ca is given (plus a client
+// certificate for mutual TLS), plaintext otherwise.
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <grpcpp/security/credentials.h>
@@ -13,12 +15,16 @@
 
 namespace scanprep::client {
 
-// --server, for every command that connects: where the service is.
-inline constexpr char kServerFlagHelp[] =
-    "HOST:PORT of the service, a list IP:PORT,IP:PORT,… or a gRPC name such as "
-    "dns:///NAME:PORT; calls are spread round-robin over its addresses, and a job whose "
-    "call ends UNAVAILABLE (a replica died or drains) is sent again, at most 3 attempts within "
-    "its deadline";
+inline constexpr char kServerFlag[] = "server";
+// --server's value when the command gives it a default.
+inline constexpr char kDefaultServer[] = "localhost:50051";
+
+// --server's FlagSpec: with kDefaultServer as its default, or with none when `required`.
+FlagSpec ServerFlag(bool required);
+
+// The channel target --server names (kDefaultServer when absent): INVALID_ARGUMENT, a usage
+// error, for a list that does not parse.
+absl::StatusOr<std::string> TargetFromArgs(const ParsedArgs& args);
 
 // Appends --tls_ca, --tls_cert and --tls_key to a command's flags.
 void AddTlsFlags(std::vector<FlagSpec>& flags);

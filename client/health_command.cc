@@ -8,6 +8,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/call_error.h"
+#include "client/call_flags.h"
 #include "client/commands.h"
 #include "client/health_table.h"
 #include "client/job_call.h"
@@ -42,7 +43,7 @@ int RunHealth(const ParsedArgs& args) {
 // `process`'s job flags but --stages: the job runs the "health" stage and what it needs.
 std::vector<FlagSpec> HealthFlags() {
   std::vector<FlagSpec> flags = JobCallFlags();
-  std::erase_if(flags, [](const FlagSpec& f) { return f.name == "stages"; });
+  std::erase_if(flags, [](const FlagSpec& f) { return f.name == CallFlags::kStages; });
   return flags;
 }
 

@@ -29,7 +29,7 @@ std::string Admits(const v1::ParameterInfo& p) {
 }
 
 int RunInfo(const ParsedArgs& args) {
-  auto target = ChannelTarget(args.Get("server", "localhost:50051"));
+  auto target = TargetFromArgs(args);
   if (!target.ok()) return FailUsage("info", std::string(target.status().message()));
   const std::string& server = *target;
   auto credentials = CredentialsFromArgs(args);
@@ -101,7 +101,7 @@ int RunInfo(const ParsedArgs& args) {
 
 Command InfoCommand() {
   std::vector<FlagSpec> flags = {
-      {"server", FlagSpec::kValue, absl::StrCat(kServerFlagHelp, " (default localhost:50051)")},
+      ServerFlag(/*required=*/false),
       {"json", FlagSpec::kBool,
        "print GetInfo's answer as JSON (proto field names, every field) instead of text"}};
   AddTlsFlags(flags);

@@ -16,6 +16,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "client/call_flags.h"
 #include "core/base/status_macros.h"
 #include "core/io/conf.h"
 #include "core/io/read_file.h"
@@ -32,9 +33,11 @@ namespace v1 = ::scanprep::v1;
 // --strict's codes and --fail_on's, as options.fail_on.
 absl::Status SetFailOn(const ParsedArgs& args, v1::PipelineOptions& options) {
   std::set<WarningCode> codes;
-  if (args.Bool("strict")) codes.insert(StrictWarningCodes().begin(), StrictWarningCodes().end());
-  if (args.Has("fail_on")) {
-    for (absl::string_view name : absl::StrSplit(args.Get("fail_on"), ',', absl::SkipEmpty())) {
+  if (args.Bool(CallFlags::kStrict))
+    codes.insert(StrictWarningCodes().begin(), StrictWarningCodes().end());
+  if (args.Has(CallFlags::kFailOn)) {
+    for (absl::string_view name :
+         absl::StrSplit(args.Get(CallFlags::kFailOn), ',', absl::SkipEmpty())) {
       const std::optional<WarningCode> code =
           WarningCodeFromName(std::string_view(name.data(), name.size()));
       if (!code) {
@@ -110,39 +113,36 @@ absl::Status ApplyConf(const std::string& conf_path, const std::vector<std::stri
 }
 
 absl::Status ApplyOptionFlags(const ParsedArgs& args, v1::JobHeader& header) {
-  if (args.Has("unit")) {
-    SCANPREP_ASSIGN_OR_RETURN(auto unit, ParseUnit(args.Get("unit")));
+  if (args.Has(CallFlags::kUnit)) {
+    SCANPREP_ASSIGN_OR_RETURN(auto unit, ParseUnit(args.Get(CallFlags::kUnit)));
     header.set_unit(unit);
   } else if (header.unit() == v1::LENGTH_UNIT_UNSPECIFIED) {
     header.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
   }
   v1::PipelineOptions* options = header.mutable_options();
-  if (args.Has("stages")) {
+  if (args.Has(CallFlags::kStages)) {
     options->clear_stages();
-    for (absl::string_view s : absl::StrSplit(args.Get("stages"), ',', absl::SkipEmpty())) {
+    for (absl::string_view s :
+         absl::StrSplit(args.Get(CallFlags::kStages), ',', absl::SkipEmpty())) {
       options->add_stages(std::string(s));
     }
   }
-  for (const std::string& param : args.All("param")) {
+  for (const std::string& param : args.All(CallFlags::kParam)) {
     const size_t eq = param.find('=');
     if (eq == std::string::npos || eq == 0) {
       return absl::InvalidArgumentError(absl::StrCat("--param '", param, "': expected name=value"));
     }
     (*options->mutable_params())[param.substr(0, eq)] = param.substr(eq + 1);
   }
-  if (args.Has("preset")) options->set_preset(args.Get("preset"));
-  if (args.Bool("include_removed")) options->set_include_removed(true);
+  if (args.Has(CallFlags::kPreset)) options->set_preset(args.Get(CallFlags::kPreset));
+  if (args.Bool(CallFlags::kIncludeRemoved)) options->set_include_removed(true);
   SCANPREP_RETURN_IF_ERROR(SetFailOn(args, *options));
-  for (const char* flag : {"scanline_spacing", "uncertainty"}) {
+  for (const auto& [flag, set] :
+       {std::pair{CallFlags::kScanlineSpacing, &v1::ScanHeader::set_scanline_spacing},
+        std::pair{CallFlags::kUncertainty, &v1::ScanHeader::set_uncertainty}}) {
     if (!args.Has(flag)) continue;
     SCANPREP_ASSIGN_OR_RETURN(auto value, ParseLength(args, flag));
-    for (v1::ScanHeader& scan : *header.mutable_scans()) {
-      if (std::string(flag) == "uncertainty") {
-        scan.set_uncertainty(value);
-      } else {
-        scan.set_scanline_spacing(value);
-      }
-    }
+    for (v1::ScanHeader& scan : *header.mutable_scans()) (scan.*set)(value);
   }
   return absl::OkStatus();
 }
@@ -156,7 +156,7 @@ struct SensorFlag {
 
 absl::StatusOr<std::vector<SensorFlag>> ParseSensorFlags(const ParsedArgs& args) {
   std::vector<SensorFlag> flags;
-  for (const std::string& value : args.All("sensor_id")) {
+  for (const std::string& value : args.All(CallFlags::kSensorId)) {
     const size_t eq = value.find('=');
     SensorFlag flag = eq == std::string::npos
                           ? SensorFlag{.scan = "", .sensor = value}
@@ -218,30 +218,30 @@ void SetJobOrigin(v1::JobHeader& header) {
 
 std::vector<FlagSpec> JobFlags() {
   return {
-      {"unit", FlagSpec::kValue,
+      {CallFlags::kUnit, FlagSpec::kValue,
        "length unit of the files: m, mm, um or in (default: the job file's, else mm)"},
-      {"job", FlagSpec::kValue, "JobHeader as JSON; the flags below override it"},
-      {"conf", FlagSpec::kValue,
+      {CallFlags::kJob, FlagSpec::kValue, "JobHeader as JSON; the flags below override it"},
+      {CallFlags::kConf, FlagSpec::kValue,
        "scanalyze .conf with each file's pose (sent as to_common; the server applies it)"},
-      {"stages", FlagSpec::kValue, "comma-separated stage list (see `scanprep info`)"},
-      {"param", FlagSpec::kRepeated, "parameter override name=value"},
-      {"preset", FlagSpec::kValue,
+      {CallFlags::kStages, FlagSpec::kValue, "comma-separated stage list (see `scanprep info`)"},
+      {CallFlags::kParam, FlagSpec::kRepeated, "parameter override name=value"},
+      {CallFlags::kPreset, FlagSpec::kValue,
        "named parameter set (see `scanprep info`), e.g. paper or metrology; --param overrides it"},
-      {"scanline_spacing", FlagSpec::kValue, "scanline spacing of every scan, job unit"},
-      {"profile_gap", FlagSpec::kValue,
+      {CallFlags::kScanlineSpacing, FlagSpec::kValue, "scanline spacing of every scan, job unit"},
+      {CallFlags::kProfileGap, FlagSpec::kValue,
        "text scan files (.xyz, .asc, .txt, .pts) written profile by profile: a jump longer than "
        "this (file units) between consecutive points starts a new scanline"},
-      {"uncertainty", FlagSpec::kValue, "measuring uncertainty of every scan, job unit"},
-      {"sensor_id", FlagSpec::kRepeated,
+      {CallFlags::kUncertainty, FlagSpec::kValue, "measuring uncertainty of every scan, job unit"},
+      {CallFlags::kSensorId, FlagSpec::kRepeated,
        "the physical sensor that took the scans, for their health (over the job file's): ID for "
        "every scan, or SCAN=ID for the scan named SCAN (its file's stem); repeatable"},
-      {"include_removed", FlagSpec::kBool, "also return removed points, flagged"},
-      {"strict", FlagSpec::kBool,
+      {CallFlags::kIncludeRemoved, FlagSpec::kBool, "also return removed points, flagged"},
+      {CallFlags::kStrict, FlagSpec::kBool,
        "fail the job (FAILED_PRECONDITION) on a warning that the request is probably wrong: "
        "UNIT_SUSPECT, NOISE_ABOVE_UNCERTAINTY, SCAN_REPEATED, POINTS_INVALID"},
-      {"fail_on", FlagSpec::kValue,
+      {CallFlags::kFailOn, FlagSpec::kValue,
        "fail the job on these warning codes, comma-separated (docs/api.md), e.g. UNIT_SUSPECT"},
-      {"input_format", FlagSpec::kValue,
+      {CallFlags::kInputFormat, FlagSpec::kValue,
        "format of the scan read from standard input (SCAN '-'): ply, pcd, e57, las or xyz"},
   };
 }
@@ -288,12 +288,12 @@ namespace {
 // A scan argument's format: a file's by its extension, standard input's ("-") by --input_format.
 absl::StatusOr<io::ScanFormat> ScanArgumentFormat(const std::string& file, const ParsedArgs& args) {
   if (file != "-") return io::ScanFormatOf(file);
-  if (!args.Has("input_format")) {
+  if (!args.Has(CallFlags::kInputFormat)) {
     return absl::InvalidArgumentError(
         "SCAN '-' reads standard input: say its format with --input_format (ply, pcd, e57, las, "
         "xyz)");
   }
-  return io::ParseScanFormat(args.Get("input_format"));
+  return io::ParseScanFormat(args.Get(CallFlags::kInputFormat));
 }
 
 absl::StatusOr<PointCloud> ReadScanArgument(const std::string& file, io::ScanFormat format,
@@ -301,6 +301,161 @@ absl::StatusOr<PointCloud> ReadScanArgument(const std::string& file, io::ScanFor
                                             const io::ReadOptions& options) {
   if (file != "-") return io::ReadScanFile(file, notes, options);
   return io::ReadScanStream(std::cin, format, "standard input", notes, options);
+}
+
+// One scan file read: its points and the scans they make.
+struct FileRead {
+  PointCloud cloud;
+  FileScans split;
+  uint32_t first_scan = 0;  // the index of its first scan in the header
+};
+
+// The ids of a file's scans: its stem ("stdin" for standard input), or STEM#VALUE per value of
+// its scan column (noted).
+std::vector<std::string> ScanIds(const std::string& file, const FileScans& split,
+                                 std::vector<std::string>& notes) {
+  const std::string stem = file == "-" ? "stdin" : fs::path(file).stem().string();
+  if (split.values.empty()) return {stem};
+  std::vector<std::string> ids;
+  for (uint32_t v : split.values) ids.push_back(absl::StrCat(stem, "#", v));
+  notes.push_back(absl::StrCat(file, ": its scan column holds ", ids.size(), " scans, sent as ",
+                               ids.front(), " … ", ids.back()));
+  return ids;
+}
+
+// Appends the file's scans to the header, in order; a job-file scan whose scan_id is a scan's id
+// supplies its metadata and is taken out of `from_job`. `scan_files` gets the file once per scan.
+void AddFileScans(const std::string& file, const FileRead& read,
+                  std::vector<v1::ScanHeader>& from_job, Job& job,
+                  std::vector<std::string>& scan_files) {
+  const std::vector<std::string> ids = ScanIds(file, read.split, job.notes);
+  const PointCloud& cloud = read.cloud;
+  for (size_t k = 0; k < ids.size(); ++k) {
+    const std::string& id = ids[k];
+    auto match = std::find_if(from_job.begin(), from_job.end(),
+                              [&](const v1::ScanHeader& s) { return s.scan_id() == id; });
+    v1::ScanHeader* scan = job.header.add_scans();
+    if (match != from_job.end()) {
+      *scan = *match;
+      from_job.erase(match);
+    }
+    scan->set_scan_id(id);
+    // A file's sensor origin (PCD VIEWPOINT, an E57 scan's pose) is in the file's frame and
+    // units, as the header's camera_position is; the job file's value, when it has one, wins.
+    // A file that describes its scans (E57) has one origin per scan.
+    const size_t value = read.split.values.empty() ? 0 : read.split.values[k];
+    const ScanMeta& meta = value < cloud.scans.size() ? cloud.scans[value] : cloud.scans.front();
+    // A reader's positions, like its points, are relative to the cloud's origin.
+    const std::optional<Eigen::Vector3d>& origin = meta.camera_position;
+    if (origin && !scan->has_camera_position()) {
+      SetVec3(*origin + cloud.origin, scan->mutable_camera_position());
+    }
+    // The points are sent relative to the origin the reader chose (double files far from zero).
+    if (!cloud.origin.isZero(0)) SetVec3(cloud.origin, scan->mutable_points_offset());
+    scan_files.push_back(file);
+  }
+}
+
+// A LAS output keeps the grid of the first LAS read (the result comes back in the files' unit,
+// so the grid still fits it); another file's points are written on that grid too.
+void KeepFirstGrid(const std::string& file, const PointCloud& cloud, Job& job) {
+  if (cloud.grid && !job.points.grid) {
+    job.points.grid = cloud.grid;
+  } else if (cloud.grid && (cloud.grid->scale != job.points.grid->scale ||
+                            cloud.grid->offset != job.points.grid->offset)) {
+    job.notes.push_back(absl::StrCat(file,
+                                     ": its LAS scale and offset differ from the first LAS "
+                                     "file's; a LAS output is written on the first's"));
+  }
+}
+
+// Reads every scan argument and adds its scans to the header: one per file, in command-line
+// order, or one per value of its scan column (named STEM#VALUE); a job-file scan with that name
+// as its scan_id supplies the scan's metadata, and one that names no scan is an error.
+// `scan_files`: the file each scan came from.
+absl::StatusOr<std::vector<FileRead>> ReadScanFiles(const ParsedArgs& args,
+                                                    const std::vector<io::ScanFormat>& formats,
+                                                    Job& job,
+                                                    std::vector<std::string>& scan_files) {
+  std::vector<v1::ScanHeader> from_job(job.header.scans().begin(), job.header.scans().end());
+  job.header.clear_scans();
+  io::ReadOptions read_options;
+  if (args.Has(CallFlags::kProfileGap)) {
+    SCANPREP_ASSIGN_OR_RETURN(read_options.profile_gap, ParseLength(args, CallFlags::kProfileGap));
+  }
+  std::vector<FileRead> files;
+  for (size_t f = 0; f < args.positional.size(); ++f) {
+    const std::string& file = args.positional[f];
+    FileRead& read = files.emplace_back();
+    SCANPREP_ASSIGN_OR_RETURN(read.cloud,
+                              ReadScanArgument(file, formats[f], job.notes, read_options));
+    if (read.cloud.has_normals()) {
+      job.notes.push_back(
+          absl::StrCat(file, ": its normals are not sent (the service estimates its own)"));
+    }
+    read.split = SplitByScanColumn(read.cloud);
+    read.first_scan = static_cast<uint32_t>(job.header.scans_size());
+    AddFileScans(file, read, from_job, job, scan_files);
+    KeepFirstGrid(file, read.cloud, job);
+  }
+  if (!from_job.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat("the job file describes scan '",
+                                                   from_job.front().scan_id(),
+                                                   "' but no scan file has that stem"));
+  }
+  return files;
+}
+
+// Without --unit or a unit in the job file: E57 files are in metres, anything else is taken as
+// millimetres, with a note.
+void DefaultUnit(const ParsedArgs& args, const std::vector<io::ScanFormat>& formats, Job& job) {
+  if (args.Has(CallFlags::kUnit) || job.header.unit() != v1::LENGTH_UNIT_UNSPECIFIED) return;
+  auto is = [](io::ScanFormat format) {
+    return [format](io::ScanFormat f) { return f == format; };
+  };
+  if (std::all_of(formats.begin(), formats.end(), is(io::ScanFormat::kE57))) {
+    // E57 defines its coordinates in metres (ASTM E2807), so there is nothing to guess.
+    job.header.set_unit(v1::LENGTH_UNIT_METRE);
+    job.notes.push_back("E57 files are in metres by definition: the job's unit is metres");
+    return;
+  }
+  // PCL's convention (REP 103) is metres, so a PCD file read as mm is likely 1000x too small.
+  const bool pcd = std::any_of(formats.begin(), formats.end(), is(io::ScanFormat::kPcd));
+  job.notes.push_back(
+      absl::StrCat("no --unit and no unit in the job file: coordinates are taken "
+                   "as millimetres",
+                   pcd ? " (PCL writes PCD files in metres: pass --unit m if so)" : ""));
+}
+
+// Every file's points into the job's cloud, each point with the header index of its scan. The
+// service wants an optional array in every chunk or none, so one is kept only when every file
+// has it.
+void JoinPoints(const std::vector<std::string>& files, const std::vector<FileRead>& read,
+                Job& job) {
+  bool scanlines = true, quality = true, intensity = true;
+  for (const FileRead& r : read) {
+    scanlines &= r.cloud.has_scanlines();
+    quality &= !r.cloud.quality.empty();
+    intensity &= !r.cloud.intensity.empty();
+  }
+  PointCloud& all = job.points;
+  for (size_t s = 0; s < read.size(); ++s) {
+    const PointCloud& c = read[s].cloud;
+    if (c.has_scanlines() && !scanlines) {
+      job.notes.push_back(absl::StrCat(files[s], ": scanlines dropped (not every file has them)"));
+    }
+    all.x.insert(all.x.end(), c.x.begin(), c.x.end());
+    all.y.insert(all.y.end(), c.y.begin(), c.y.end());
+    all.z.insert(all.z.end(), c.z.begin(), c.z.end());
+    if (read[s].split.of_point.empty()) {
+      all.scan.resize(all.x.size(), read[s].first_scan);
+    } else {
+      for (uint32_t k : read[s].split.of_point) all.scan.push_back(read[s].first_scan + k);
+    }
+    AppendOptional(scanlines, c.scanline, all.scanline);
+    AppendOptional(quality, c.quality, all.quality);
+    AppendOptional(intensity, c.intensity, all.intensity);
+  }
 }
 
 }  // namespace
@@ -311,7 +466,7 @@ absl::StatusOr<std::vector<io::ScanFormat>> ScanArgumentFormats(const ParsedArgs
   if (std::count(files.begin(), files.end(), "-") > 1) {
     return absl::InvalidArgumentError("SCAN '-' (standard input) can be given once");
   }
-  if (args.Has("input_format") && std::count(files.begin(), files.end(), "-") == 0) {
+  if (args.Has(CallFlags::kInputFormat) && std::count(files.begin(), files.end(), "-") == 0) {
     return absl::InvalidArgumentError("--input_format applies to SCAN '-' only; none was given");
   }
   std::vector<io::ScanFormat> formats;
@@ -326,141 +481,27 @@ absl::Status CheckJobFlags(const ParsedArgs& args) {
   v1::JobHeader scratch;  // the flags' values parsed as BuildJob will, into a header thrown away
   SCANPREP_RETURN_IF_ERROR(ApplyOptionFlags(args, scratch));
   SCANPREP_RETURN_IF_ERROR(ParseSensorFlags(args).status());
-  if (args.Has("profile_gap")) return ParseLength(args, "profile_gap").status();
+  if (args.Has(CallFlags::kProfileGap)) return ParseLength(args, CallFlags::kProfileGap).status();
   return absl::OkStatus();
 }
 
 absl::StatusOr<Job> BuildJob(const ParsedArgs& args) {
   SCANPREP_ASSIGN_OR_RETURN(const std::vector<io::ScanFormat> formats, ScanArgumentFormats(args));
-  const std::vector<std::string>& files = args.positional;
   Job job;
-  if (args.Has("job")) {
-    SCANPREP_ASSIGN_OR_RETURN(auto header, ReadJobFile(args.Get("job")));
-    job.header = std::move(header);
+  if (args.Has(CallFlags::kJob)) {
+    SCANPREP_ASSIGN_OR_RETURN(job.header, ReadJobFile(args.Get(CallFlags::kJob)));
   }
-
-  // One scan per file, in command-line order, or one per value of its scan column (named
-  // STEM#VALUE); a job-file scan with that name as its scan_id supplies the scan's metadata.
-  std::vector<v1::ScanHeader> from_job(job.header.scans().begin(), job.header.scans().end());
-  job.header.clear_scans();
-  std::vector<PointCloud> clouds;
-  std::vector<FileScans> split;
-  std::vector<uint32_t> first_scan;     // per file: its first scan's index in the header
   std::vector<std::string> scan_files;  // per scan: the file it came from
-  io::ReadOptions read_options;
-  if (args.Has("profile_gap")) {
-    SCANPREP_ASSIGN_OR_RETURN(read_options.profile_gap, ParseLength(args, "profile_gap"));
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<FileRead> read,
+                            ReadScanFiles(args, formats, job, scan_files));
+  if (args.Has(CallFlags::kConf)) {
+    SCANPREP_RETURN_IF_ERROR(ApplyConf(args.Get(CallFlags::kConf), scan_files, job.header));
   }
-  for (size_t f = 0; f < files.size(); ++f) {
-    const std::string& file = files[f];
-    SCANPREP_ASSIGN_OR_RETURN(auto cloud,
-                              ReadScanArgument(file, formats[f], job.notes, read_options));
-    if (cloud.has_normals()) {
-      job.notes.push_back(
-          absl::StrCat(file, ": its normals are not sent (the service estimates its own)"));
-    }
-    const std::string stem = file == "-" ? "stdin" : fs::path(file).stem().string();
-    split.push_back(SplitByScanColumn(cloud));
-    first_scan.push_back(static_cast<uint32_t>(job.header.scans_size()));
-    std::vector<std::string> ids = {stem};
-    if (!split.back().values.empty()) {
-      ids.clear();
-      for (uint32_t v : split.back().values) ids.push_back(absl::StrCat(stem, "#", v));
-      job.notes.push_back(absl::StrCat(file, ": its scan column holds ", ids.size(),
-                                       " scans, sent as ", ids.front(), " … ", ids.back()));
-    }
-    for (size_t k = 0; k < ids.size(); ++k) {
-      const std::string& id = ids[k];
-      auto match = std::find_if(from_job.begin(), from_job.end(),
-                                [&](const v1::ScanHeader& s) { return s.scan_id() == id; });
-      v1::ScanHeader* scan = job.header.add_scans();
-      if (match != from_job.end()) {
-        *scan = *match;
-        from_job.erase(match);
-      }
-      scan->set_scan_id(id);
-      // A file's sensor origin (PCD VIEWPOINT, an E57 scan's pose) is in the file's frame and
-      // units, as the header's camera_position is; the job file's value, when it has one, wins.
-      // A file that describes its scans (E57) has one origin per scan.
-      const size_t value = split.back().values.empty() ? 0 : split.back().values[k];
-      const ScanMeta& meta = value < cloud.scans.size() ? cloud.scans[value] : cloud.scans.front();
-      // A reader's positions, like its points, are relative to the cloud's origin.
-      const std::optional<Eigen::Vector3d>& origin = meta.camera_position;
-      if (origin && !scan->has_camera_position()) {
-        SetVec3(*origin + cloud.origin, scan->mutable_camera_position());
-      }
-      // The points are sent relative to the origin the reader chose (double files far from zero).
-      if (!cloud.origin.isZero(0)) SetVec3(cloud.origin, scan->mutable_points_offset());
-      scan_files.push_back(file);
-    }
-    // A LAS output keeps the grid of the first LAS read (the result comes back in the files'
-    // unit, so the grid still fits it); another file's points are written on that grid too.
-    if (cloud.grid && !job.points.grid) {
-      job.points.grid = cloud.grid;
-    } else if (cloud.grid && (cloud.grid->scale != job.points.grid->scale ||
-                              cloud.grid->offset != job.points.grid->offset)) {
-      job.notes.push_back(absl::StrCat(
-          file,
-          ": its LAS scale and offset differ from the first LAS file's; a LAS output is "
-          "written on the first's"));
-    }
-    clouds.push_back(std::move(cloud));
-  }
-  if (!from_job.empty()) {
-    return absl::InvalidArgumentError(absl::StrCat("the job file describes scan '",
-                                                   from_job.front().scan_id(),
-                                                   "' but no scan file has that stem"));
-  }
-  if (args.Has("conf")) {
-    SCANPREP_RETURN_IF_ERROR(ApplyConf(args.Get("conf"), scan_files, job.header));
-  }
-  auto is = [](io::ScanFormat format) {
-    return [format](io::ScanFormat f) { return f == format; };
-  };
-  if (!args.Has("unit") && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED &&
-      std::all_of(formats.begin(), formats.end(), is(io::ScanFormat::kE57))) {
-    // E57 defines its coordinates in metres (ASTM E2807), so there is nothing to guess.
-    job.header.set_unit(v1::LENGTH_UNIT_METRE);
-    job.notes.push_back("E57 files are in metres by definition: the job's unit is metres");
-  }
-  if (!args.Has("unit") && job.header.unit() == v1::LENGTH_UNIT_UNSPECIFIED) {
-    // PCL's convention (REP 103) is metres, so a PCD file read as mm is likely 1000x too small.
-    const bool pcd = std::any_of(formats.begin(), formats.end(), is(io::ScanFormat::kPcd));
-    job.notes.push_back(
-        absl::StrCat("no --unit and no unit in the job file: coordinates are taken "
-                     "as millimetres",
-                     pcd ? " (PCL writes PCD files in metres: pass --unit m if so)" : ""));
-  }
+  DefaultUnit(args, formats, job);
   SCANPREP_RETURN_IF_ERROR(ApplyOptionFlags(args, job.header));
   SCANPREP_RETURN_IF_ERROR(ApplySensorFlags(args, job.header));
   SetJobOrigin(job.header);
-
-  // The service wants an optional array in every chunk or none, so keep one only when every
-  // file has it.
-  bool scanlines = true, quality = true, intensity = true;
-  for (const PointCloud& c : clouds) {
-    scanlines &= c.has_scanlines();
-    quality &= !c.quality.empty();
-    intensity &= !c.intensity.empty();
-  }
-  for (size_t s = 0; s < clouds.size(); ++s) {
-    const PointCloud& c = clouds[s];
-    if (c.has_scanlines() && !scanlines) {
-      job.notes.push_back(absl::StrCat(files[s], ": scanlines dropped (not every file has them)"));
-    }
-    PointCloud& all = job.points;
-    all.x.insert(all.x.end(), c.x.begin(), c.x.end());
-    all.y.insert(all.y.end(), c.y.begin(), c.y.end());
-    all.z.insert(all.z.end(), c.z.begin(), c.z.end());
-    if (split[s].of_point.empty()) {
-      all.scan.resize(all.x.size(), first_scan[s]);
-    } else {
-      for (uint32_t k : split[s].of_point) all.scan.push_back(first_scan[s] + k);
-    }
-    AppendOptional(scanlines, c.scanline, all.scanline);
-    AppendOptional(quality, c.quality, all.quality);
-    AppendOptional(intensity, c.intensity, all.intensity);
-  }
+  JoinPoints(args.positional, read, job);
   return job;
 }
 
@@ -484,7 +525,7 @@ v1::ScanHeader ScanHeaderFromMeta(const ScanMeta& meta) {
 }
 
 absl::Status CheckGeneratedJobFlags(const ParsedArgs& args) {
-  for (const char* flag : {"unit", "job", "conf"}) {
+  for (const char* flag : {CallFlags::kUnit, CallFlags::kJob, CallFlags::kConf}) {
     if (args.Has(flag)) {
       return absl::InvalidArgumentError(
           absl::StrCat("--", flag, " does not apply to a generated scan (millimetres, posed)"));

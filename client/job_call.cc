@@ -3,7 +3,6 @@
 
 #include <fstream>
 #include <iostream>
-#include <optional>
 
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
@@ -11,34 +10,32 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/call_error.h"
+#include "client/call_flags.h"
 #include "client/commands.h"
 #include "client/connection_flags.h"
 
 namespace scanprep::client {
 namespace {
 
+// The flags that process and health add to the shared ones (CallFlagSpecs).
+constexpr char kFailOnBudgetMiss[] = "fail_on_budget_miss";
+constexpr char kProgress[] = "progress";
+constexpr char kReportJson[] = "report_json";
+
 double SecondsSince(absl::Time start) { return absl::ToDoubleSeconds(absl::Now() - start); }
 
 }  // namespace
 
 std::vector<FlagSpec> JobCallFlags() {
-  std::vector<FlagSpec> flags = {
-      {"server", FlagSpec::kValue, absl::StrCat(kServerFlagHelp, " (default localhost:50051)")},
-  };
-  AddTlsFlags(flags);
-  for (FlagSpec& flag : JobFlags()) flags.push_back(std::move(flag));
-  flags.push_back({"timeout", FlagSpec::kValue, "deadline for the whole call, e.g. 120s"});
-  flags.push_back({"budget", FlagSpec::kValue,
-                   "time budget of the job in seconds (over the job file's and the server's "
-                   "default); the report says whether it was met"});
-  flags.push_back({"fail_on_budget_miss", FlagSpec::kBool,
+  std::vector<FlagSpec> flags = CallFlagSpecs(/*server_required=*/false);
+  flags.push_back({kFailOnBudgetMiss, FlagSpec::kBool,
                    "exit 5 when the job ran over its time budget (--budget or the server's "
                    "default); the output is written all the same"});
-  flags.push_back({"progress", FlagSpec::kValue,
+  flags.push_back({kProgress, FlagSpec::kValue,
                    "progress on stderr: auto (default: live on a terminal, else plain), live (one "
                    "line redrawn), plain (a line when a phase or stage starts, at each quarter "
                    "of it and at least every 10 s) or off"});
-  flags.push_back({"report_json", FlagSpec::kValue,
+  flags.push_back({kReportJson, FlagSpec::kValue,
                    "also write the full report as JSON, with the phase timings under \"phases\""});
   return flags;
 }
@@ -51,34 +48,23 @@ std::variant<int, SentJob> SendJob(const std::string& command, const ParsedArgs&
   if (absl::Status s = CheckJobFlags(args); !s.ok()) {
     return FailUsage(command, std::string(s.message()));
   }
-  std::optional<double> budget;
-  if (args.Has("budget")) {
-    auto seconds = GetNumber(args, "budget", 0, 0);
-    if (!seconds.ok()) return FailUsage(command, std::string(seconds.status().message()));
-    budget = *seconds;
-  }
-  CallOptions call;
-  if (args.Has("timeout")) {
-    auto timeout = GetDuration(args, "timeout", absl::ZeroDuration());
-    if (!timeout.ok()) return FailUsage(command, std::string(timeout.status().message()));
-    call.timeout = *timeout;
-  }
-  auto target = ChannelTarget(args.Get("server", "localhost:50051"));
-  if (!target.ok()) return FailUsage(command, std::string(target.status().message()));
+  auto flags = CallFlags::Parse(args);
+  if (!flags.ok()) return FailUsage(command, std::string(flags.status().message()));
   auto credentials = CredentialsFromArgs(args);
   if (!credentials.ok()) return FailFlagFiles(command, credentials.status());
-  auto mode = ParseProgressMode(args.Get("progress", "auto"), isatty(STDERR_FILENO) != 0);
+  auto mode = ParseProgressMode(args.Get(kProgress, "auto"), isatty(STDERR_FILENO) != 0);
   if (!mode.ok()) return FailUsage(command, std::string(mode.status().message()));
-  SentJob sent{.start = absl::Now(), .server = *target};
+  SentJob sent{.start = absl::Now(), .server = flags->server};
   auto job = BuildJob(args);
   if (!job.ok()) return Fail(command, std::string(job.status().message()));
   sent.job = std::move(*job);
-  if (budget) sent.job.header.mutable_budget()->set_total_seconds(*budget);
+  flags->SetBudget(sent.job.header);
   adjust(sent.job);
   sent.phases.read = SecondsSince(sent.start);
   for (const std::string& note : sent.job.notes) std::cerr << "note: " << note << "\n";
 
   ProgressView view(std::cerr, *mode);
+  CallOptions call{.timeout = flags->timeout};
   call.progress = [&view](const v1::Progress& p) { view.Update(p); };
   auto result = ScanPrepClient::Connect(sent.server, *credentials)
                     .Process(sent.job.header, sent.job.points, call);
@@ -128,21 +114,21 @@ absl::StatusOr<std::string> ReportJson(const v1::Report& report, const PhaseSeco
 
 int WriteReportJson(const std::string& command, const ParsedArgs& args, const v1::Report& report,
                     const PhaseSeconds& phases, const std::string& done) {
-  if (!args.Has("report_json")) return kExitOk;
+  if (!args.Has(kReportJson)) return kExitOk;
   auto json = ReportJson(report, phases);
   if (!json.ok()) return Fail(command, std::string(json.status().message()));
-  std::ofstream file(args.Get("report_json"));
+  std::ofstream file(args.Get(kReportJson));
   file << *json;
   file.close();
   if (!file) {
     return Fail(command,
-                absl::StrCat(done, " but cannot write the report to ", args.Get("report_json")));
+                absl::StrCat(done, " but cannot write the report to ", args.Get(kReportJson)));
   }
   return kExitOk;
 }
 
 int BudgetExit(const std::string& command, const ParsedArgs& args, const v1::Report& report) {
-  if (args.Bool("fail_on_budget_miss") && report.budget_outcome() == v1::BUDGET_OUTCOME_MISSED) {
+  if (args.Bool(kFailOnBudgetMiss) && report.budget_outcome() == v1::BUDGET_OUTCOME_MISSED) {
     std::cerr << "scanprep " << command << ": the job missed its budget of "
               << report.budget_seconds() << " s (--fail_on_budget_miss)\n";
     return kExitBudgetMissed;

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "client/latency_stats.h"
-#include "client/load_runner.h"
+#include "client/load_generator.h"
 
 namespace scanprep::client {
 

@@ -25,12 +25,18 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// process's own flags.
+constexpr char kOut[] = "out";
+constexpr char kOutputFormat[] = "output_format";
+constexpr char kPreview[] = "preview";
+constexpr char kHealth[] = "health";
+
 // Where the result goes: a file, its format by its extension, or standard output ("-") in
 // --output_format. Checked before the scans are read or sent.
 absl::StatusOr<io::ScanFormat> OutputFormat(const ParsedArgs& args) {
-  const std::string out = args.Get("out");
+  const std::string out = args.Get(kOut);
   if (out != "-") {
-    if (args.Has("output_format")) {
+    if (args.Has(kOutputFormat)) {
       return absl::InvalidArgumentError(
           absl::StrCat("--output_format applies to -o - only; ", out, " has its extension"));
     }
@@ -42,14 +48,14 @@ absl::StatusOr<io::ScanFormat> OutputFormat(const ParsedArgs& args) {
                      "give a file name ending in .ply, .pcd, .las, .xyz, .asc or .txt (or -o - "
                      "with --output_format)"));
   }
-  if (!args.Has("output_format")) {
+  if (!args.Has(kOutputFormat)) {
     return absl::InvalidArgumentError(
         "-o - writes the result to standard output: say its format with --output_format (ply, "
         "pcd, las, xyz)");
   }
-  auto format = io::ParseScanFormat(args.Get("output_format"));
+  auto format = io::ParseScanFormat(args.Get(kOutputFormat));
   if (format.ok() &&
-      (!io::Writable(*format) || absl::EqualsIgnoreCase(args.Get("output_format"), "laz"))) {
+      (!io::Writable(*format) || absl::EqualsIgnoreCase(args.Get(kOutputFormat), "laz"))) {
     return absl::InvalidArgumentError(
         "--output_format: the result is written as ply, pcd, las (uncompressed) or xyz");
   }
@@ -109,11 +115,11 @@ absl::Status WritePreview(const std::string& path, const PointCloud& sent,
 }
 
 int RunProcess(const ParsedArgs& args) {
-  if (!args.Has("out")) return FailUsage("process", "-o OUT.ply is required");
+  if (!args.Has(kOut)) return FailUsage("process", "-o OUT.ply is required");
   auto out_format = OutputFormat(args);
   if (!out_format.ok()) return FailUsage("process", std::string(out_format.status().message()));
-  if (args.Has("preview")) {
-    if (absl::Status s = CheckPreviewPath(args.Get("preview")); !s.ok()) {
+  if (args.Has(kPreview)) {
+    if (absl::Status s = CheckPreviewPath(args.Get(kPreview)); !s.ok()) {
       return FailUsage("process", std::string(s.message()));
     }
   }
@@ -121,11 +127,11 @@ int RunProcess(const ParsedArgs& args) {
   auto sent = SendJob("process", args, [&](Job& job) {
     // The preview shows the removed points, so they come back; the output has them only if asked.
     write_removed = job.header.options().include_removed();
-    if (args.Has("preview")) job.header.mutable_options()->set_include_removed(true);
+    if (args.Has(kPreview)) job.header.mutable_options()->set_include_removed(true);
   });
   if (const int* exit = std::get_if<int>(&sent)) return *exit;
   auto& [job, result, start, phases, server] = std::get<SentJob>(sent);
-  const std::string out = args.Get("out");
+  const std::string out = args.Get(kOut);
   // The result is in the job's unit, the scan files' own, so a LAS input's grid fits it.
   result.cloud.grid = job.points.grid;
   const io::WriteOptions write_options{.include_removed = write_removed};
@@ -148,13 +154,13 @@ int RunProcess(const ParsedArgs& args) {
   }
   PrintSummary(text, result.report);
   PrintPhases(text, phases);
-  if (args.Bool("health")) PrintHealth(text, result.report);
-  if (args.Has("preview")) {
-    if (absl::Status s = WritePreview(args.Get("preview"), job.points, job.header, result.cloud);
+  if (args.Bool(kHealth)) PrintHealth(text, result.report);
+  if (args.Has(kPreview)) {
+    if (absl::Status s = WritePreview(args.Get(kPreview), job.points, job.header, result.cloud);
         !s.ok()) {
       return Fail("process", std::string(s.message()));
     }
-    text << "wrote the preview to " << args.Get("preview") << "\n";
+    text << "wrote the preview to " << args.Get(kPreview) << "\n";
   }
   text << "wrote " << (write_removed ? result.cloud.size() : result.cloud.CountKept())
        << " points to " << (out == "-" ? std::string("standard output") : out) << "\n";
@@ -165,15 +171,15 @@ int RunProcess(const ParsedArgs& args) {
 
 Command ProcessCommand() {
   std::vector<FlagSpec> flags = {
-      {"out", FlagSpec::kValue,
+      {kOut, FlagSpec::kValue,
        "output file (required): .ply, .pcd, .las or .xyz/.asc/.txt; - for standard output", "o"},
-      {"output_format", FlagSpec::kValue, "format of -o -: ply, pcd, las or xyz"},
+      {kOutputFormat, FlagSpec::kValue, "format of -o -: ply, pcd, las or xyz"},
   };
   for (FlagSpec& flag : JobCallFlags()) flags.push_back(std::move(flag));
-  flags.push_back({"preview", FlagSpec::kValue,
+  flags.push_back({kPreview, FlagSpec::kValue,
                    "also draw the input and the result side by side as PNG: removed points by "
                    "reason, edges, smoothing displacement"});
-  flags.push_back({"health", FlagSpec::kBool,
+  flags.push_back({kHealth, FlagSpec::kBool,
                    "also print the scans' and overlapping pairs' health (noise, residual, "
                    "misalignment; the \"health\" stage, in the default stages)"});
   return Command{

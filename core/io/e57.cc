@@ -309,15 +309,6 @@ struct ScanPoints {
   bool has_intensity = false;
 };
 
-const std::vector<double>* Column(const std::vector<Field>& fields,
-                                  const std::vector<std::vector<double>>& columns,
-                                  std::string_view name) {
-  for (size_t k = 0; k < fields.size(); ++k) {
-    if (fields[k].name == name) return &columns[k];
-  }
-  return nullptr;
-}
-
 // The scanline of each point from a grid's row and column indices, with the points of each
 // line put in the order of the other index. Returns the order to take the records in.
 absl::StatusOr<std::vector<uint32_t>> GridLines(const std::vector<double>& row,
@@ -348,13 +339,26 @@ absl::StatusOr<std::vector<uint32_t>> GridLines(const std::vector<double>& row,
   return order;
 }
 
-// The scan's valid points, moved by its pose in double, are appended to `positions`; the others
-// are counted in `unmeasured` as records of `label`.
-absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size,
-                                    const XmlNode& scan, const Pose& pose, const std::string& what,
-                                    const std::string& label, size_t scan_index,
-                                    WideCoordinates& positions, UnmeasuredPoints& unmeasured,
-                                    std::vector<std::string>& unused) {
+// A scan's compressed vector decoded: its prototype's fields (their streams freed once decoded)
+// and one column of values per field.
+struct ScanColumns {
+  std::vector<Field> fields;
+  std::vector<std::vector<double>> values;
+  uint64_t count = 0;  // records
+
+  // The values of the field named `name`, or nullptr when the scan has none.
+  const std::vector<double>* Find(std::string_view name) const {
+    for (size_t k = 0; k < fields.size(); ++k) {
+      if (fields[k].name == name) return &values[k];
+    }
+    return nullptr;
+  }
+};
+
+// The scan's points as its prototype describes them, each field decoded into a column. The
+// record count is checked against the file before anything is allocated for it.
+absl::StatusOr<ScanColumns> DecodeColumns(std::string_view logical, uint64_t page_size,
+                                          const XmlNode& scan, const std::string& what) {
   const XmlNode* points = scan.Child("points");
   if (points == nullptr || points->Attribute("type") != "CompressedVector") {
     return absl::InvalidArgumentError(absl::StrCat(what, ": no points (CompressedVector)"));
@@ -365,39 +369,64 @@ absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size
     return absl::InvalidArgumentError(
         absl::StrCat(what, ": points need a recordCount (at most 2^32-1) and a fileOffset"));
   }
-  SCANPREP_ASSIGN_OR_RETURN(std::vector<Field> fields, Prototype(*points, what));
+  ScanColumns columns{.count = static_cast<uint64_t>(count)};
+  SCANPREP_ASSIGN_OR_RETURN(columns.fields, Prototype(*points, what));
   // Before decoding allocates count values per field: the widest field must fit the file.
   uint64_t widest = 0;
-  for (const Field& f : fields) widest = std::max(widest, RecordBits(f));
-  if (widest == 0 || static_cast<uint64_t>(count) > logical.size() * 8 / widest) {
+  for (const Field& f : columns.fields) widest = std::max(widest, RecordBits(f));
+  if (widest == 0 || columns.count > logical.size() * 8 / widest) {
     return absl::InvalidArgumentError(
         absl::StrCat(what, ": ", count, " records cannot fit in a ", logical.size(), "-byte file"));
   }
   SCANPREP_ASSIGN_OR_RETURN(uint64_t section,
                             ToLogical(static_cast<uint64_t>(offset), page_size, logical.size(),
                                       absl::StrCat(what, ": points")));
-  SCANPREP_RETURN_IF_ERROR(ReadStreams(logical, page_size, section, fields, what));
-  std::vector<std::vector<double>> columns;
-  for (Field& f : fields) {
-    SCANPREP_ASSIGN_OR_RETURN(std::vector<double> values, Decode(f, count, what));
-    columns.push_back(std::move(values));
+  SCANPREP_RETURN_IF_ERROR(ReadStreams(logical, page_size, section, columns.fields, what));
+  for (Field& f : columns.fields) {
+    SCANPREP_ASSIGN_OR_RETURN(std::vector<double> values, Decode(f, columns.count, what));
+    columns.values.push_back(std::move(values));
     FreeMemory(f.stream);
   }
-  auto column = [&](std::string_view name) { return Column(fields, columns, name); };
-  const std::vector<double>*cx = column("cartesianX"), *cy = column("cartesianY"),
-        *cz = column("cartesianZ");
-  const std::vector<double>*range = column("sphericalRange"), *azimuth = column("sphericalAzimuth"),
-        *elevation = column("sphericalElevation");
-  const bool cartesian = cx && cy && cz;
-  if (!cartesian && !(range && azimuth && elevation)) {
+  return columns;
+}
+
+// The columns the points are made of: cartesian or spherical coordinates, and what else a point
+// carries.
+struct PointColumns {
+  const std::vector<double>*x = nullptr, *y = nullptr, *z = nullptr;
+  const std::vector<double>*range = nullptr, *azimuth = nullptr, *elevation = nullptr;
+  const std::vector<double>*invalid = nullptr, *intensity = nullptr;
+  const std::vector<double>*row = nullptr, *column = nullptr;  // grid indices
+
+  bool cartesian() const { return x && y && z; }
+
+  // Record i's position in the scan's own frame.
+  Eigen::Vector3d Position(uint32_t i) const {
+    if (cartesian()) return {(*x)[i], (*y)[i], (*z)[i]};
+    const double r = (*range)[i], a = (*azimuth)[i], e = (*elevation)[i];
+    return {r * std::cos(e) * std::cos(a), r * std::cos(e) * std::sin(a), r * std::sin(e)};
+  }
+};
+
+// Picks the point columns out of the scan's, refused without a full set of coordinates; the
+// names of the fields no point uses are appended to `unused`, for a warning.
+absl::StatusOr<PointColumns> PickColumns(const ScanColumns& columns, const std::string& what,
+                                         std::vector<std::string>& unused) {
+  PointColumns c{.x = columns.Find("cartesianX"),
+                 .y = columns.Find("cartesianY"),
+                 .z = columns.Find("cartesianZ"),
+                 .range = columns.Find("sphericalRange"),
+                 .azimuth = columns.Find("sphericalAzimuth"),
+                 .elevation = columns.Find("sphericalElevation")};
+  if (!c.cartesian() && !(c.range && c.azimuth && c.elevation)) {
     return absl::InvalidArgumentError(absl::StrCat(
         what, ": points have neither cartesianX/Y/Z nor sphericalRange/Azimuth/Elevation"));
   }
-  const std::vector<double>* invalid =
-      column(cartesian ? "cartesianInvalidState" : "sphericalInvalidState");
-  const std::vector<double>* intensity = column("intensity");
-  const std::vector<double>*row = column("rowIndex"), *col = column("columnIndex");
-  for (const Field& f : fields) {
+  c.invalid = columns.Find(c.cartesian() ? "cartesianInvalidState" : "sphericalInvalidState");
+  c.intensity = columns.Find("intensity");
+  c.row = columns.Find("rowIndex");
+  c.column = columns.Find("columnIndex");
+  for (const Field& f : columns.fields) {
     static const char* kUsed[] = {"cartesianX",
                                   "cartesianY",
                                   "cartesianZ",
@@ -413,26 +442,32 @@ absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size
       unused.push_back(f.name);
     }
   }
+  return c;
+}
 
+// The scan's valid points, moved by its pose in double, are appended to `positions`; the others
+// are counted in `unmeasured` as records of `label`.
+absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size,
+                                    const XmlNode& scan, const Pose& pose, const std::string& what,
+                                    const std::string& label, size_t scan_index,
+                                    WideCoordinates& positions, UnmeasuredPoints& unmeasured,
+                                    std::vector<std::string>& unused) {
+  SCANPREP_ASSIGN_OR_RETURN(const ScanColumns columns,
+                            DecodeColumns(logical, page_size, scan, what));
+  SCANPREP_ASSIGN_OR_RETURN(const PointColumns c, PickColumns(columns, what, unused));
   ScanPoints out;
-  out.has_intensity = intensity != nullptr;
-  std::vector<uint32_t> order(count);
+  out.has_intensity = c.intensity != nullptr;
+  std::vector<uint32_t> order(columns.count);
   std::iota(order.begin(), order.end(), 0u);
   std::vector<uint32_t> line;
-  if (row && col) {
-    SCANPREP_ASSIGN_OR_RETURN(order, GridLines(*row, *col, line, what));
+  if (c.row && c.column) {
+    SCANPREP_ASSIGN_OR_RETURN(order, GridLines(*c.row, *c.column, line, what));
   }
   positions.Reserve(positions.size() + order.size());  // no doubling of 24 B per point
   for (size_t k = 0; k < order.size(); ++k) {
     const uint32_t i = order[k];
-    Eigen::Vector3d p;
-    if (cartesian) {
-      p = {(*cx)[i], (*cy)[i], (*cz)[i]};
-    } else {
-      const double r = (*range)[i], a = (*azimuth)[i], e = (*elevation)[i];
-      p = {r * std::cos(e) * std::cos(a), r * std::cos(e) * std::sin(a), r * std::sin(e)};
-    }
-    if ((invalid && (*invalid)[i] != 0) || !p.allFinite()) {
+    Eigen::Vector3d p = c.Position(i);
+    if ((c.invalid && (*c.invalid)[i] != 0) || !p.allFinite()) {
       unmeasured.Count(i, label, scan_index);
       continue;
     }
@@ -441,7 +476,7 @@ absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size
     p = pose.rotation * p + pose.translation;
     positions.Push(p.x(), p.y(), p.z());
     ++out.count;
-    if (intensity) out.intensity.push_back(static_cast<float>((*intensity)[i]));
+    if (c.intensity) out.intensity.push_back(static_cast<float>((*c.intensity)[i]));
     if (!line.empty()) out.line.push_back(line[k]);
   }
   return out;
@@ -464,8 +499,18 @@ uint32_t E57PageChecksum(std::string_view payload) {
   return crc ^ 0xFFFFFFFFu;
 }
 
-absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string& name,
-                                        std::vector<std::string>& warnings) {
+namespace {
+
+// An E57 file's logical bytes (every page's checksum checked and taken off) and its XML section
+// as a tree.
+struct E57File {
+  std::string logical;
+  uint64_t page_size = 0;
+  XmlNode root;
+};
+
+// The file header checked against the file, the pages checked, and the XML section parsed.
+absl::StatusOr<E57File> OpenE57(std::string_view file, const std::string& name) {
   if (file.size() < kFileHeaderBytes || file.substr(0, 8) != "ASTM-E57") {
     return absl::InvalidArgumentError(
         absl::StrCat(name, ": not an E57 file (no 'ASTM-E57' signature)"));
@@ -474,38 +519,46 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
   const uint64_t physical_length = Load<uint64_t>(file.data() + 16);
   const uint64_t xml_offset = Load<uint64_t>(file.data() + 24);
   const uint64_t xml_length = Load<uint64_t>(file.data() + 32);
-  const uint64_t page_size = Load<uint64_t>(file.data() + 40);
+  E57File e57_file{.page_size = Load<uint64_t>(file.data() + 40)};
   if (major != 1) {
     return absl::InvalidArgumentError(
         absl::StrCat(name, ": E57 version ", major, " (this reader knows version 1)"));
   }
-  if (page_size < 64 || page_size > (1u << 20) || physical_length != file.size() ||
-      file.size() % page_size != 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(name, ": header says ", physical_length, " bytes in pages of ", page_size,
-                     ", the file has ", file.size(), " (truncated or not E57)"));
+  if (e57_file.page_size < 64 || e57_file.page_size > (1u << 20) ||
+      physical_length != file.size() || file.size() % e57_file.page_size != 0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        name, ": header says ", physical_length, " bytes in pages of ", e57_file.page_size,
+        ", the file has ", file.size(), " (truncated or not E57)"));
   }
-  SCANPREP_ASSIGN_OR_RETURN(std::string logical, LogicalBytes(file, page_size, name));
-  SCANPREP_ASSIGN_OR_RETURN(uint64_t xml_at, ToLogical(xml_offset, page_size, logical.size(),
-                                                       absl::StrCat(name, ": XML section")));
-  if (xml_length > logical.size() - xml_at) {
+  SCANPREP_ASSIGN_OR_RETURN(e57_file.logical, LogicalBytes(file, e57_file.page_size, name));
+  SCANPREP_ASSIGN_OR_RETURN(uint64_t xml_at,
+                            ToLogical(xml_offset, e57_file.page_size, e57_file.logical.size(),
+                                      absl::StrCat(name, ": XML section")));
+  if (xml_length > e57_file.logical.size() - xml_at) {
     return absl::InvalidArgumentError(absl::StrCat(name, ": XML section of ", xml_length,
                                                    " bytes runs past the end of the file"));
   }
   SCANPREP_ASSIGN_OR_RETURN(
-      XmlNode root, e57::ParseXml(std::string_view(logical).substr(xml_at, xml_length), name));
-  const XmlNode* data3d = root.Child("data3D");
-  if (root.name != "e57Root" || data3d == nullptr || data3d->children.empty()) {
-    return absl::InvalidArgumentError(absl::StrCat(name, ": no data3D scan in the file"));
-  }
+      e57_file.root,
+      e57::ParseXml(std::string_view(e57_file.logical).substr(xml_at, xml_length), name));
+  return e57_file;
+}
 
-  PointCloud cloud;
-  WideCoordinates positions;
-  std::vector<ScanPoints> scans;
-  std::vector<std::string> unused, no_pose;
-  UnmeasuredPoints unmeasured("record");
-  for (size_t s = 0; s < data3d->children.size(); ++s) {
-    const XmlNode& node = data3d->children[s];
+// What reading the scans of a file gathers besides their points, for the cloud and the warnings.
+struct ScansRead {
+  std::vector<ScanPoints> points;  // per scan
+  WideCoordinates positions;       // every scan's valid points, in the file's frame
+  UnmeasuredPoints unmeasured{"record"};
+  std::vector<std::string> unused;   // fields no point uses, per scan (repeats included)
+  std::vector<std::string> no_pose;  // ids of the scans without a pose
+};
+
+// Every data3D scan: its ScanMeta (id, sensor origin from its pose) appended to `metas`, its
+// points to `read`.
+absl::Status ReadScans(const E57File& e57_file, const XmlNode& data3d, const std::string& name,
+                       std::vector<ScanMeta>& metas, ScansRead& read) {
+  for (size_t s = 0; s < data3d.children.size(); ++s) {
+    const XmlNode& node = data3d.children[s];
     const XmlNode* title = node.Child("name");
     ScanMeta meta;
     meta.id = title && !title->text.empty() ? title->text : absl::StrCat("data3D ", s);
@@ -514,17 +567,22 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
     if (pose.present) {
       meta.camera_position = pose.translation;
     } else {
-      no_pose.push_back(meta.id);
+      read.no_pose.push_back(meta.id);
     }
     SCANPREP_ASSIGN_OR_RETURN(
-        ScanPoints points,
-        ReadScan(logical, page_size, node, pose, what, absl::StrCat("scan ", s, " '", meta.id, "'"),
-                 s, positions, unmeasured, unused));
-    cloud.scans.push_back(std::move(meta));
-    scans.push_back(std::move(points));
+        ScanPoints points, ReadScan(e57_file.logical, e57_file.page_size, node, pose, what,
+                                    absl::StrCat("scan ", s, " '", meta.id, "'"), s, read.positions,
+                                    read.unmeasured, read.unused));
+    metas.push_back(std::move(meta));
+    read.points.push_back(std::move(points));
   }
-  const bool intensity =
-      std::all_of(scans.begin(), scans.end(), [](const ScanPoints& s) { return s.has_intensity; });
+  return absl::OkStatus();
+}
+
+// The scans' per-point arrays joined into the cloud's, each scan's emptied as it goes: the scan
+// index, and intensity and scanlines when every scan has them.
+absl::Status JoinScans(std::vector<ScanPoints>& scans, bool intensity, const std::string& name,
+                       PointCloud& cloud) {
   const bool lines =
       std::all_of(scans.begin(), scans.end(), [](const ScanPoints& s) { return !s.line.empty(); });
   uint64_t line_base = 0;
@@ -548,10 +606,12 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
     }
     p = {};
   }
-  SCANPREP_RETURN_IF_ERROR(unmeasured.Finish(name, cloud.scan.size(), warnings));
-  unmeasured.Record(cloud.scans);
-  SCANPREP_RETURN_IF_ERROR(positions.Narrow(cloud, name));
-  // Positions, like the points, are relative to the cloud's origin.
+  return absl::OkStatus();
+}
+
+// Moves the scans' sensor origins by the cloud's origin: positions, like the points, are
+// relative to it.
+absl::Status CameraPositionsToLocal(const std::string& name, PointCloud& cloud) {
   for (ScanMeta& meta : cloud.scans) {
     if (!meta.camera_position) continue;
     *meta.camera_position -= cloud.origin;
@@ -560,20 +620,50 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
           name, ": scan '", meta.id, "' pose translation is beyond double's range of the points"));
     }
   }
-  if (!no_pose.empty()) {
+  return absl::OkStatus();
+}
+
+// Warnings for what the cloud lacks that the file might have given: sensor origins, fields no
+// point uses, intensity that only some scans have.
+void WarnLeftOut(const std::string& name, ScansRead& read, bool intensity,
+                 std::vector<std::string>& warnings) {
+  if (!read.no_pose.empty()) {
     warnings.push_back(absl::StrCat(name, ": no pose (scanner origin) for ",
-                                    absl::StrJoin(no_pose, ", "),
+                                    absl::StrJoin(read.no_pose, ", "),
                                     ": give camera_position in a job file"));
   }
+  std::vector<std::string>& unused = read.unused;
   std::sort(unused.begin(), unused.end());
   unused.erase(std::unique(unused.begin(), unused.end()), unused.end());
   if (!unused.empty()) {
     warnings.push_back(absl::StrCat(name, ": fields not used: ", absl::StrJoin(unused, ", ")));
   }
-  if (!intensity && std::any_of(scans.begin(), scans.end(),
+  if (!intensity && std::any_of(read.points.begin(), read.points.end(),
                                 [](const ScanPoints& s) { return s.has_intensity; })) {
     warnings.push_back(absl::StrCat(name, ": intensity left out (not every scan has it)"));
   }
+}
+
+}  // namespace
+
+absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string& name,
+                                        std::vector<std::string>& warnings) {
+  SCANPREP_ASSIGN_OR_RETURN(const E57File e57_file, OpenE57(file, name));
+  const XmlNode* data3d = e57_file.root.Child("data3D");
+  if (e57_file.root.name != "e57Root" || data3d == nullptr || data3d->children.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(name, ": no data3D scan in the file"));
+  }
+  PointCloud cloud;
+  ScansRead read;
+  SCANPREP_RETURN_IF_ERROR(ReadScans(e57_file, *data3d, name, cloud.scans, read));
+  const bool intensity = std::all_of(read.points.begin(), read.points.end(),
+                                     [](const ScanPoints& s) { return s.has_intensity; });
+  SCANPREP_RETURN_IF_ERROR(JoinScans(read.points, intensity, name, cloud));
+  SCANPREP_RETURN_IF_ERROR(read.unmeasured.Finish(name, cloud.scan.size(), warnings));
+  read.unmeasured.Record(cloud.scans);
+  SCANPREP_RETURN_IF_ERROR(read.positions.Narrow(cloud, name));
+  SCANPREP_RETURN_IF_ERROR(CameraPositionsToLocal(name, cloud));
+  WarnLeftOut(name, read, intensity, warnings);
   cloud.FinishLoading();
   return cloud;
 }

@@ -74,121 +74,174 @@ Eigen::Vector3d RecordsOrigin(const char* records, uint64_t count, uint16_t reco
   return LocalOrigin(min, max);
 }
 
-}  // namespace
+// What the public header says about the point records, checked against the file.
+struct LasLayout {
+  int major = 0, minor = 0, format = 0;
+  uint16_t header_size = 0;
+  uint16_t record = 0;  // bytes per point record
+  uint32_t offset = 0;  // where the records start
+  uint64_t count = 0;
+  double scale[3] = {}, shift[3] = {};  // a coordinate is its integer * scale + shift
+};
 
-absl::StatusOr<PointCloud> ReadLasBytes(std::string_view file, const std::string& name,
-                                        std::vector<std::string>& warnings) {
+// The coordinate grid of every axis: a record's integers mean nothing without a finite, non-zero
+// scale and a finite offset.
+absl::Status ReadGrid(const char* h, const std::string& name, LasLayout& las) {
+  for (int k = 0; k < 3; ++k) {
+    las.scale[k] = Load<double>(h + 131 + 8 * k);
+    las.shift[k] = Load<double>(h + 155 + 8 * k);
+    if (!std::isfinite(las.scale[k]) || las.scale[k] == 0 || !std::isfinite(las.shift[k])) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(name, ": ", std::string(1, "xyz"[k]), " scale ", las.scale[k],
+                       " and offset ", las.shift[k], " (a scale must be finite and non-zero)"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+// The header's version, point format, record size, point count and grid, refused unless they fit
+// together and the file; the records are decoded only after this.
+absl::StatusOr<LasLayout> ReadLayout(std::string_view file, const std::string& name) {
   if (file.size() < kMinHeaderBytes || file.substr(0, 4) != "LASF") {
     return absl::InvalidArgumentError(absl::StrCat(name, ": not a LAS file (no 'LASF' signature)"));
   }
   const char* h = file.data();
-  const int major = static_cast<uint8_t>(h[24]), minor = static_cast<uint8_t>(h[25]);
-  const uint16_t header_size = Load<uint16_t>(h + 94);
-  const uint32_t offset = Load<uint32_t>(h + 96);
+  LasLayout las{.major = static_cast<uint8_t>(h[24]),
+                .minor = static_cast<uint8_t>(h[25]),
+                .header_size = Load<uint16_t>(h + 94),
+                .record = Load<uint16_t>(h + 105),
+                .offset = Load<uint32_t>(h + 96)};
   const uint8_t format_id = static_cast<uint8_t>(h[104]);
-  const uint16_t record = Load<uint16_t>(h + 105);
-  if (major != 1 || minor > 4) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(name, ": LAS version ", major, ".", minor, " (this reader knows 1.0 to 1.4)"));
+  if (las.major != 1 || las.minor > 4) {
+    return absl::InvalidArgumentError(absl::StrCat(name, ": LAS version ", las.major, ".",
+                                                   las.minor, " (this reader knows 1.0 to 1.4)"));
   }
   if ((format_id & 0xC0) != 0) return Laz(name);
-  const int format = format_id;
-  if (format > 10) {
+  las.format = format_id;
+  if (las.format > 10) {
     return absl::InvalidArgumentError(
-        absl::StrCat(name, ": point data format ", format, " (LAS defines 0 to 10)"));
+        absl::StrCat(name, ": point data format ", las.format, " (LAS defines 0 to 10)"));
   }
-  if (record < kRecordBytes[format]) {
-    return absl::InvalidArgumentError(absl::StrCat(name, ": point records of ", record,
-                                                   " bytes, format ", format, " needs at least ",
-                                                   kRecordBytes[format]));
+  if (las.record < kRecordBytes[las.format]) {
+    return absl::InvalidArgumentError(absl::StrCat(name, ": point records of ", las.record,
+                                                   " bytes, format ", las.format,
+                                                   " needs at least ", kRecordBytes[las.format]));
   }
-  if (header_size < kMinHeaderBytes || header_size > file.size() || offset < header_size ||
-      offset > file.size()) {
-    return absl::InvalidArgumentError(absl::StrCat(name, ": header of ", header_size,
-                                                   " bytes with points at offset ", offset,
+  if (las.header_size < kMinHeaderBytes || las.header_size > file.size() ||
+      las.offset < las.header_size || las.offset > file.size()) {
+    return absl::InvalidArgumentError(absl::StrCat(name, ": header of ", las.header_size,
+                                                   " bytes with points at offset ", las.offset,
                                                    " does not fit a ", file.size(), "-byte file"));
   }
-  uint64_t count = Load<uint32_t>(h + 107);
-  if (minor >= 4 && header_size >= kHeader14Bytes) count = Load<uint64_t>(h + 247);
-  const uint64_t end = PointDataEnd(file, minor, header_size, offset);
-  const uint64_t room = (end - offset) / record;
-  if (count > room) {
-    return absl::InvalidArgumentError(absl::StrCat(name, ": header claims ", count, " points of ",
-                                                   record, " bytes from offset ", offset,
-                                                   "; the file holds ", room));
+  las.count = Load<uint32_t>(h + 107);
+  if (las.minor >= 4 && las.header_size >= kHeader14Bytes) las.count = Load<uint64_t>(h + 247);
+  const uint64_t end = PointDataEnd(file, las.minor, las.header_size, las.offset);
+  const uint64_t room = (end - las.offset) / las.record;
+  if (las.count > room) {
+    return absl::InvalidArgumentError(absl::StrCat(name, ": header claims ", las.count,
+                                                   " points of ", las.record, " bytes from offset ",
+                                                   las.offset, "; the file holds ", room));
   }
   // Records the header does not count would be left out unseen: refused as PLY and PCD refuse a
   // body longer than their counts.
-  if (count * record != end - offset) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(name, ": header claims ", count, " points of ", record, " bytes from offset ",
-                     offset, " but the point data holds ", end - offset, " bytes (", room,
-                     " points): wrong count (counts disagree)"));
+  if (las.count * las.record != end - las.offset) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        name, ": header claims ", las.count, " points of ", las.record, " bytes from offset ",
+        las.offset, " but the point data holds ", end - las.offset, " bytes (", room,
+        " points): wrong count (counts disagree)"));
   }
   // Integer coordinates are always a measurement; an empty file fails as in every reader.
-  if (count == 0) return NoPointsError(name);
-  double scale[3], shift[3];
-  for (int k = 0; k < 3; ++k) {
-    scale[k] = Load<double>(h + 131 + 8 * k);
-    shift[k] = Load<double>(h + 155 + 8 * k);
-    if (!std::isfinite(scale[k]) || scale[k] == 0 || !std::isfinite(shift[k])) {
-      return absl::InvalidArgumentError(absl::StrCat(name, ": ", std::string(1, "xyz"[k]),
-                                                     " scale ", scale[k], " and offset ", shift[k],
-                                                     " (a scale must be finite and non-zero)"));
+  if (las.count == 0) return NoPointsError(name);
+  SCANPREP_RETURN_IF_ERROR(ReadGrid(h, name, las));
+  return las;
+}
+
+// Splits the records into scanlines by their bit 6 (scan direction) and bit 7 (edge of flight
+// line, the last point of its line).
+class FlightLines {
+ public:
+  // The scanline of record `i`, whose two flag bits are `flags`.
+  uint32_t LineOf(uint64_t i, uint8_t flags) {
+    // The edge flag marks a line's last point; some scanners mark its first as well, so an edge
+    // point that opened its line ends nothing.
+    const bool turned = ((flags ^ previous_) & 0x40) != 0;
+    const bool after_last = (previous_ & 0x80) != 0 && i - 1 > line_start_;
+    if (i > 0 && (turned || after_last)) {
+      ++breaks_;
+      line_start_ = i;
     }
+    previous_ = flags;
+    return breaks_;
   }
 
-  PointCloud cloud;
-  cloud.origin = RecordsOrigin(h + offset, count, record, scale, shift);
-  cloud.grid = CoordinateGrid{.scale = {scale[0], scale[1], scale[2]},
-                              .offset = {shift[0], shift[1], shift[2]}};
+  uint32_t breaks() const { return breaks_; }  // scanlines - 1
+
+ private:
+  uint32_t breaks_ = 0;
+  uint8_t previous_ = 0;
+  uint64_t line_start_ = 0;
+};
+
+// The range of the records' scan angles, degrees.
+struct AngleRange {
+  double min = std::numeric_limits<double>::infinity(), max = -min;
+};
+
+// Every record's coordinates (relative to cloud.origin), intensity and scanline into `cloud`;
+// returns their scan angles' range. Coordinates that a float cannot hold within half the file's
+// scale are refused.
+absl::StatusOr<AngleRange> DecodeRecords(std::string_view file, const LasLayout& las,
+                                         const std::string& name, FlightLines& lines,
+                                         PointCloud& cloud) {
+  const uint64_t count = las.count;
   cloud.x.resize(count), cloud.y.resize(count), cloud.z.resize(count);
   cloud.intensity.resize(count);
   std::vector<uint32_t> line(count);
-  const bool extended = format >= 6;  // formats 6..10 moved the flags and widened the angle
-  double angle_min = std::numeric_limits<double>::infinity(), angle_max = -angle_min;
-  uint32_t lines = 0;
-  uint8_t previous = 0;
-  uint64_t line_start = 0;
+  const bool extended = las.format >= 6;  // formats 6..10 moved the flags and widened the angle
+  AngleRange angles;
   for (uint64_t i = 0; i < count; ++i) {
-    const char* p = h + offset + i * record;
+    const char* p = file.data() + las.offset + i * las.record;
     float* xyz[3] = {&cloud.x[i], &cloud.y[i], &cloud.z[i]};
     for (int k = 0; k < 3; ++k) {
-      const double v = Load<int32_t>(p + 4 * k) * scale[k] + shift[k];
+      const double v = Load<int32_t>(p + 4 * k) * las.scale[k] + las.shift[k];
       const double local = v - cloud.origin[k];
       *xyz[k] = NarrowToFloat(local);
       // Within half a unit of the file's scale, a LAS written back from it has the same integers.
-      if (!(std::abs(*xyz[k] - local) <= 0.5 * std::abs(scale[k]))) {
+      if (!(std::abs(*xyz[k] - local) <= 0.5 * std::abs(las.scale[k]))) {
         return absl::InvalidArgumentError(absl::StrFormat(
             "%s: point %d %c = %.17g is %.17g from the local origin %.17g, too far for a float "
             "to keep it within half its scale %g (the file spans more than float's 24 bits "
             "of its scale)",
-            name, i, "xyz"[k], v, local, cloud.origin[k], scale[k]));
+            name, i, "xyz"[k], v, local, cloud.origin[k], las.scale[k]));
       }
     }
     cloud.intensity[i] = Load<uint16_t>(p + 12);
-    // Bit 6: scan direction, bit 7: edge of flight line (the last point of its line).
-    const uint8_t flags = static_cast<uint8_t>(p[extended ? 15 : 14]) & 0xC0;
-    // The edge flag marks a line's last point; some scanners mark its first as well, so an edge
-    // point that opened its line ends nothing.
-    const bool turned = ((flags ^ previous) & 0x40) != 0;
-    const bool after_last = (previous & 0x80) != 0 && i - 1 > line_start;
-    if (i > 0 && (turned || after_last)) {
-      ++lines;
-      line_start = i;
-    }
-    line[i] = lines;
-    previous = flags;
+    line[i] = lines.LineOf(i, static_cast<uint8_t>(p[extended ? 15 : 14]) & 0xC0);
     const double angle = extended ? Load<int16_t>(p + 18) * 0.006 : static_cast<int8_t>(p[16]);
-    angle_min = std::min(angle_min, angle), angle_max = std::max(angle_max, angle);
+    angles.min = std::min(angles.min, angle), angles.max = std::max(angles.max, angle);
   }
-  if (lines > 0) cloud.scanline = std::move(line);
+  if (lines.breaks() > 0) cloud.scanline = std::move(line);
+  return angles;
+}
+
+}  // namespace
+
+absl::StatusOr<PointCloud> ReadLasBytes(std::string_view file, const std::string& name,
+                                        std::vector<std::string>& warnings) {
+  SCANPREP_ASSIGN_OR_RETURN(const LasLayout las, ReadLayout(file, name));
+  PointCloud cloud;
+  cloud.origin =
+      RecordsOrigin(file.data() + las.offset, las.count, las.record, las.scale, las.shift);
+  cloud.grid = CoordinateGrid{.scale = {las.scale[0], las.scale[1], las.scale[2]},
+                              .offset = {las.shift[0], las.shift[1], las.shift[2]}};
+  FlightLines lines;
+  SCANPREP_ASSIGN_OR_RETURN(const AngleRange angles, DecodeRecords(file, las, name, lines, cloud));
   const std::string stem = std::filesystem::path(name).stem().string();
   cloud.scans.push_back(ScanMeta{.id = stem});
-  warnings.push_back(
-      absl::StrFormat("%s: LAS %d.%d, point format %d: scan angle from %.3f to %.3f "
-                      "degrees, %d scanlines by scan direction and flight-line edge",
-                      name, major, minor, format, angle_min, angle_max, lines + 1));
+  warnings.push_back(absl::StrFormat(
+      "%s: LAS %d.%d, point format %d: scan angle from %.3f to %.3f "
+      "degrees, %d scanlines by scan direction and flight-line edge",
+      name, las.major, las.minor, las.format, angles.min, angles.max, lines.breaks() + 1));
   warnings.push_back(absl::StrCat(name,
                                   ": LAS carries no sensor origin: give the scan's "
                                   "camera_position or view_direction in a job file"));

@@ -80,6 +80,86 @@ void SplitProfiles(PointCloud& cloud, double gap) {
   }
 }
 
+// The values of one point line, read by column; a value that does not parse names the file, the
+// line and the column.
+class PointLine {
+ public:
+  PointLine(const std::vector<std::string_view>& fields, const std::string& name,
+            size_t line_number)
+      : fields_(fields), name_(name), line_number_(line_number) {}
+
+  // Column k as a number.
+  absl::Status Number(int k, double& value) const {
+    if (ParseDouble(fields_[k], value)) return absl::OkStatus();
+    return Error(
+        absl::StrCat("column ", k + 1, " '", std::string(fields_[k]), "' is not a number"));
+  }
+
+  // Column k as a float appended to `to`.
+  absl::Status Real(int k, std::vector<float>& to) const {
+    double value = 0.0;
+    SCANPREP_RETURN_IF_ERROR(Number(k, value));
+    to.push_back(NarrowToFloat(value));
+    return absl::OkStatus();
+  }
+
+  // Column k as an integer in [0, max].
+  absl::Status Integer(int k, double max, double& value) const {
+    SCANPREP_RETURN_IF_ERROR(Number(k, value));
+    if (value >= 0 && value <= max && value == std::floor(value)) return absl::OkStatus();
+    return Error(absl::StrCat("column ", k + 1, " '", std::string(fields_[k]),
+                              "' is not an integer in [0, ", max, "]"));
+  }
+
+  size_t line_number() const { return line_number_; }
+
+  absl::Status Error(const std::string& what) const {
+    return absl::InvalidArgumentError(absl::StrCat(name_, ": line ", line_number_, ": ", what));
+  }
+
+ private:
+  const std::vector<std::string_view>& fields_;
+  const std::string& name_;
+  const size_t line_number_;
+};
+
+// One point line into the cloud: its coordinates into `wide`, its normal, flags and scanline
+// into `cloud`; a point whose coordinates are "nan" or "inf" as written is counted as unmeasured
+// (a scanner's "no return") instead.
+absl::Status ReadPoint(const PointLine& line, const Columns& columns, PointCloud& cloud,
+                       WideCoordinates& wide, UnmeasuredPoints& unmeasured) {
+  // Text carries any number of digits: coordinates are kept in double until all are read,
+  // then stored relative to a local origin.
+  const int xyz_columns[3] = {columns.x, columns.y, columns.z};
+  double xyz[3];
+  for (int k = 0; k < 3; ++k) SCANPREP_RETURN_IF_ERROR(line.Number(xyz_columns[k], xyz[k]));
+  if (!std::isfinite(xyz[0]) || !std::isfinite(xyz[1]) || !std::isfinite(xyz[2])) {
+    unmeasured.Count(line.line_number());
+    return absl::OkStatus();
+  }
+  for (int k = 0; k < 3; ++k) {
+    if (!std::isfinite(NarrowToFloat(xyz[k]))) {
+      return line.Error(absl::StrCat("column ", xyz_columns[k] + 1, " is not a finite float"));
+    }
+  }
+  wide.Push(xyz[0], xyz[1], xyz[2]);
+  if (columns.nx >= 0) {
+    SCANPREP_RETURN_IF_ERROR(line.Real(columns.nx, cloud.nx));
+    SCANPREP_RETURN_IF_ERROR(line.Real(columns.ny, cloud.ny));
+    SCANPREP_RETURN_IF_ERROR(line.Real(columns.nz, cloud.nz));
+  }
+  double value = 0;
+  if (columns.flags >= 0) {
+    SCANPREP_RETURN_IF_ERROR(line.Integer(columns.flags, 255, value));
+    cloud.flags.push_back(static_cast<uint8_t>(value));
+  }
+  if (columns.scanline >= 0) {
+    SCANPREP_RETURN_IF_ERROR(line.Integer(columns.scanline, 4294967295.0, value));
+    cloud.scanline.push_back(static_cast<uint32_t>(value));
+  }
+  return absl::OkStatus();
+}
+
 absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& name,
                                     std::vector<std::string>& warnings, double profile_gap) {
   if (!(profile_gap >= 0.0) || !std::isfinite(profile_gap)) {
@@ -109,67 +189,15 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
       declared_count = count;
       continue;
     }
+    const PointLine point_line(fields, name, cursor.line_number());
     if (fields.size() < columns.count) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(name, ": line ", cursor.line_number(), ": expected ",
-                       columns.named ? absl::StrCat(columns.count, " values (# columns:)")
-                                     : std::string("x y z"),
-                       ", found ", fields.size(), " value(s)"));
+      return point_line.Error(absl::StrCat("expected ",
+                                           columns.named
+                                               ? absl::StrCat(columns.count, " values (# columns:)")
+                                               : std::string("x y z"),
+                                           ", found ", fields.size(), " value(s)"));
     }
-    // Column k as a number, a float or an integer at most `max`.
-    auto number = [&](int k, double& value) -> absl::Status {
-      if (ParseDouble(fields[k], value)) return absl::OkStatus();
-      return absl::InvalidArgumentError(absl::StrCat(name, ": line ", cursor.line_number(),
-                                                     ": column ", k + 1, " '",
-                                                     std::string(fields[k]), "' is not a number"));
-    };
-    auto real = [&](int k, std::vector<float>& to) -> absl::Status {
-      double value = 0.0;
-      SCANPREP_RETURN_IF_ERROR(number(k, value));
-      to.push_back(NarrowToFloat(value));
-      return absl::OkStatus();
-    };
-    auto integer = [&](int k, double max, double& value) -> absl::Status {
-      SCANPREP_RETURN_IF_ERROR(number(k, value));
-      if (value >= 0 && value <= max && value == std::floor(value)) return absl::OkStatus();
-      return absl::InvalidArgumentError(
-          absl::StrCat(name, ": line ", cursor.line_number(), ": column ", k + 1, " '",
-                       std::string(fields[k]), "' is not an integer in [0, ", max, "]"));
-    };
-    // Text carries any number of digits: coordinates are kept in double until all are read,
-    // then stored relative to a local origin.
-    double xyz[3];
-    for (int k = 0; k < 3; ++k) {
-      const int column = k == 0 ? columns.x : k == 1 ? columns.y : columns.z;
-      SCANPREP_RETURN_IF_ERROR(number(column, xyz[k]));
-    }
-    if (!std::isfinite(xyz[0]) || !std::isfinite(xyz[1]) || !std::isfinite(xyz[2])) {
-      unmeasured.Count(cursor.line_number());  // "nan" or "inf" as written: no return
-      continue;
-    }
-    for (int k = 0; k < 3; ++k) {
-      const int column = k == 0 ? columns.x : k == 1 ? columns.y : columns.z;
-      if (!std::isfinite(NarrowToFloat(xyz[k]))) {
-        return absl::InvalidArgumentError(absl::StrCat(name, ": line ", cursor.line_number(),
-                                                       ": column ", column + 1,
-                                                       " is not a finite float"));
-      }
-    }
-    wide.Push(xyz[0], xyz[1], xyz[2]);
-    if (columns.nx >= 0) {
-      SCANPREP_RETURN_IF_ERROR(real(columns.nx, cloud.nx));
-      SCANPREP_RETURN_IF_ERROR(real(columns.ny, cloud.ny));
-      SCANPREP_RETURN_IF_ERROR(real(columns.nz, cloud.nz));
-    }
-    double value = 0;
-    if (columns.flags >= 0) {
-      SCANPREP_RETURN_IF_ERROR(integer(columns.flags, 255, value));
-      cloud.flags.push_back(static_cast<uint8_t>(value));
-    }
-    if (columns.scanline >= 0) {
-      SCANPREP_RETURN_IF_ERROR(integer(columns.scanline, 4294967295.0, value));
-      cloud.scanline.push_back(static_cast<uint32_t>(value));
-    }
+    SCANPREP_RETURN_IF_ERROR(ReadPoint(point_line, columns, cloud, wide, unmeasured));
   }
   SCANPREP_RETURN_IF_ERROR(wide.Narrow(cloud, name));
   const uint64_t rows = cloud.size() + unmeasured.count();

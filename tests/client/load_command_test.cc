@@ -15,7 +15,7 @@
 
 #include "client/call_error.h"
 #include "client/latency_stats.h"
-#include "client/load_runner.h"
+#include "client/load_generator.h"
 #include "core/io/ply.h"
 #include "proto/convert/error_details.h"
 #include "tests/server/server_process.h"

@@ -78,7 +78,8 @@ inline constexpr absl::Duration kMaxRetryWait = absl::Seconds(10);
 // that workers refused together do not all come back together.
 std::optional<absl::Duration> RetryWait(const absl::Status& status, double jitter);
 
-LoadResult RunLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job,
-                   const LoadOptions& options);
+// Replays `job` as `options` say until no call is left to start and every call has ended.
+LoadResult GenerateLoad(const std::shared_ptr<grpc::Channel>& channel, const Job& job,
+                        const LoadOptions& options);
 
 }  // namespace scanprep::client
