@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "server/admission.h"
 
-#include "proto/convert/error_details.h"
 #include "server/memory_budget.h"
+#include "wire/error_details.h"
 
 #include <algorithm>
 

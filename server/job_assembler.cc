@@ -6,8 +6,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/base/status_macros.h"
-#include "proto/chunk_arrays.h"
-#include "proto/convert/error_details.h"
+#include "wire/chunk_arrays.h"
+#include "wire/error_details.h"
 
 namespace scanprep::server {
 namespace {

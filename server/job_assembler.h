@@ -15,9 +15,9 @@
 #include "core/base/point_cloud.h"
 #include "core/pipeline/pipeline.h"
 #include "core/pipeline/presets.h"
-#include "proto/convert/convert.h"
-#include "proto/stream_checksum.h"
 #include "scanprep/v1/scanprep.pb.h"
+#include "wire/convert.h"
+#include "wire/stream_checksum.h"
 
 namespace scanprep::server {
 

@@ -10,8 +10,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "absl/time/time.h"
-#include "proto/convert/error_details.h"
 #include "server/memory_budget.h"
+#include "wire/error_details.h"
 
 // GCC says __SANITIZE_ADDRESS__ / __SANITIZE_THREAD__, clang __has_feature(...).
 #if defined(__has_feature)

@@ -2,7 +2,7 @@
 #include "server/peer_limiter.h"
 
 #include "absl/strings/str_cat.h"
-#include "proto/convert/error_details.h"
+#include "wire/error_details.h"
 
 namespace scanprep::server {
 

@@ -12,12 +12,12 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/stages/stage.h"
-#include "proto/chunk_arrays.h"
-#include "proto/convert/convert.h"
-#include "proto/convert/error_details.h"
-#include "proto/stream_checksum.h"
 #include "server/client_identity.h"
 #include "server/memory_budget.h"
+#include "wire/chunk_arrays.h"
+#include "wire/convert.h"
+#include "wire/error_details.h"
+#include "wire/stream_checksum.h"
 
 namespace scanprep::server {
 namespace {

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
-#include "proto/convert/convert.h"
+#include "wire/convert.h"
 
 namespace scanprep::server {
 namespace {

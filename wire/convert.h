@@ -18,8 +18,8 @@
 #include "core/pipeline/presets.h"
 #include "core/stages/report.h"
 #include "core/stages/warning.h"
-#include "proto/warning_codes.h"
 #include "scanprep/v1/scanprep.pb.h"
+#include "wire/warning_codes.h"
 
 namespace scanprep {
 

@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "proto/stream_checksum.h"
+#include "wire/stream_checksum.h"
 
 #include <bit>
 
 #include <zlib.h>
 
-#include "proto/chunk_arrays.h"
+#include "wire/chunk_arrays.h"
 
 namespace scanprep {
 namespace {

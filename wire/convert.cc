@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "proto/convert/convert.h"
+#include "wire/convert.h"
 
 #include <cmath>
 #include <limits>
@@ -7,7 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/field_error.h"
 #include "core/base/status_macros.h"
-#include "proto/convert/error_details.h"
+#include "wire/error_details.h"
 
 namespace scanprep {
 namespace {

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "proto/convert/error_details.h"
+#include "wire/error_details.h"
 
 #include <string>
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "proto/chunk_arrays.h"
+#include "wire/chunk_arrays.h"
 
 #include <bit>
 #include <cstring>
