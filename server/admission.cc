@@ -23,10 +23,9 @@ absl::Status DrainingError() {
 
 }  // namespace
 
-AdmissionQueue::AdmissionQueue(AdmissionOptions options, ServiceMetrics& metrics)
-    : options_(std::move(options)), metrics_(metrics) {
-  metrics_.SetQueueCapacity(options_.max_queued_jobs);
-  metrics_.SetMemoryBudget(options_.memory_budget_bytes);
+AdmissionQueue::AdmissionQueue(AdmissionOptions options, AdmissionObserver& observer)
+    : options_(std::move(options)), observer_(observer) {
+  observer_.AdmissionConfigured(options_.max_queued_jobs, options_.memory_budget_bytes);
   PublishLocked();
 }
 
@@ -76,11 +75,11 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
   const absl::Time arrived = options_.now();
   std::unique_lock lock(mu_);
   if (draining_) {
-    metrics_.Rejected(RejectReason::kDraining);
+    observer_.Refused(AdmissionRefusal::kDraining);
     return DrainingError();
   }
   if (claim_bytes > options_.memory_budget_bytes) {
-    metrics_.Rejected(RejectReason::kMemory);
+    observer_.Refused(AdmissionRefusal::kMemory);
     absl::Status refused = WithReason(
         absl::ResourceExhaustedError(absl::StrCat(
             "the job's estimated memory of ", FormatMiB(claim_bytes), " (", claim_bytes,
@@ -100,11 +99,11 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
     AddCallLocked(host);
     hosts_[host].last_served = ++grants_;
     PublishLocked();
-    metrics_.PhaseEnded(Phase::kQueue, 0);
+    observer_.Admitted(0);
     return Slot(this, arrived, holder);
   }
   if (static_cast<int>(waiting_.size()) >= options_.max_queued_jobs) {
-    metrics_.Rejected(RejectReason::kQueueFull);
+    observer_.Refused(AdmissionRefusal::kQueueFull);
     // Retry once the queue can be expected to have moved; at least a second, so that refused
     // clients do not hammer a server that has not finished a job yet.
     const int in_flight = static_cast<int>(holders_.size());
@@ -124,7 +123,7 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
   const double expected = ExpectedWaitLocked();
   const double remaining = absl::ToDoubleSeconds(deadline - arrived);
   if (expected > remaining) {
-    metrics_.Rejected(RejectReason::kDeadline);
+    observer_.Refused(AdmissionRefusal::kDeadline);
     return absl::DeadlineExceededError(absl::StrFormat(
         "expected wait %.3g s exceeds the deadline %.3g s (%d jobs queued, mean job time %.3g s)",
         expected, std::max(0.0, remaining), static_cast<int>(waiting_.size()), mean_hold_seconds_));
@@ -135,7 +134,7 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
   PublishLocked();
   WaitLocked(lock, self, cancelled);
   if (self.granted) {  // GrantLocked already moved it from the queue to a slot
-    metrics_.PhaseEnded(Phase::kQueue, absl::ToDoubleSeconds(options_.now() - arrived));
+    observer_.Admitted(absl::ToDoubleSeconds(options_.now() - arrived));
     return Slot(this, options_.now(), self.holder);
   }
   waiting_.erase(position);
@@ -144,7 +143,7 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
   GrantLocked();  // the calls behind it may fit now
   PublishLocked();
   if (draining_) {
-    metrics_.Rejected(RejectReason::kDraining);
+    observer_.Refused(AdmissionRefusal::kDraining);
     return DrainingError();
   }
   return absl::CancelledError("the call was cancelled or its deadline passed while queued");
@@ -307,8 +306,8 @@ double AdmissionQueue::ExpectedWaitLocked() const {
 }
 
 void AdmissionQueue::PublishLocked() {
-  metrics_.SetAdmissionState(static_cast<int>(holders_.size()), static_cast<int>(waiting_.size()));
-  metrics_.SetMemoryReserved(reserved_bytes_);
+  observer_.AdmissionChanged(static_cast<int>(holders_.size()), static_cast<int>(waiting_.size()),
+                             reserved_bytes_);
 }
 
 }  // namespace scanprep::server

@@ -33,7 +33,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
-#include "server/service_metrics.h"
+#include "server/admission_observer.h"
 
 namespace scanprep::server {
 
@@ -50,7 +50,8 @@ struct AdmissionOptions {
 
 class AdmissionQueue {
  public:
-  AdmissionQueue(AdmissionOptions options, ServiceMetrics& metrics);
+  // Reports to `observer`, which must outlive it.
+  AdmissionQueue(AdmissionOptions options, AdmissionObserver& observer);
 
  private:
   // What one slot holder claimed of the memory budget and has reserved so far.
@@ -144,10 +145,11 @@ class AdmissionQueue {
   void WaitLocked(std::unique_lock<std::mutex>& lock, Waiter& self,
                   const std::function<bool()>& cancelled);
   double ExpectedWaitLocked() const;
+  // Reports the slots held, the calls waiting and the bytes reserved.
   void PublishLocked();
 
   AdmissionOptions options_;
-  ServiceMetrics& metrics_;
+  AdmissionObserver& observer_;
   mutable std::mutex mu_;
   std::condition_variable changed_;
   std::list<Holder> holders_;  // one per slot held

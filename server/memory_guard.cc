@@ -76,11 +76,11 @@ std::optional<uint64_t> ResidentBytes() {
 std::string SanitizerInResidentMemory() { return SCANPREP_SANITIZER_IN_RSS; }
 
 MemoryGuard::MemoryGuard(MemoryGuardOptions options, const AdmissionQueue& admission,
-                         JobRunner& runner, ServiceMetrics& metrics, CallLog& log)
+                         JobRunner& runner, AdmissionObserver& observer, CallLog& log)
     : options_(std::move(options)),
       admission_(admission),
       runner_(runner),
-      metrics_(metrics),
+      observer_(observer),
       log_(log) {
   if (!options_.enabled) return;
   // A sanitizer's shadow memory and (ASan) quarantine of freed blocks are resident and no job's:
@@ -133,7 +133,7 @@ void MemoryGuard::Sample() {
   const std::shared_ptr<RunningJob>& newest = processing.back();
   newest->End(ReservationExceeded(*resident - *baseline_, reserved, *newest, processing.size()));
   ending_ = newest;
-  metrics_.MemoryGuardTripped();
+  observer_.MemoryGuardTripped();
 }
 
 }  // namespace scanprep::server

@@ -26,9 +26,9 @@
 
 #include "absl/synchronization/notification.h"
 #include "server/admission.h"
+#include "server/admission_observer.h"
 #include "server/call_log.h"
 #include "server/job_runner.h"
-#include "server/service_metrics.h"
 
 namespace scanprep::server {
 
@@ -52,9 +52,10 @@ std::string SanitizerInResidentMemory();
 class MemoryGuard {
  public:
   // Starts the sampling thread when `options.enabled` and the build allows it, and logs either
-  // way; `admission`, `runner`, `metrics` and `log` must outlive it.
+  // way; reports each job it ends to `observer`. `admission`, `runner`, `observer` and `log` must
+  // outlive it.
   MemoryGuard(MemoryGuardOptions options, const AdmissionQueue& admission, JobRunner& runner,
-              ServiceMetrics& metrics, CallLog& log);
+              AdmissionObserver& observer, CallLog& log);
   ~MemoryGuard();
   MemoryGuard(const MemoryGuard&) = delete;
   MemoryGuard& operator=(const MemoryGuard&) = delete;
@@ -68,7 +69,7 @@ class MemoryGuard {
   MemoryGuardOptions options_;
   const AdmissionQueue& admission_;
   JobRunner& runner_;
-  ServiceMetrics& metrics_;
+  AdmissionObserver& observer_;
   CallLog& log_;
   std::optional<uint64_t> baseline_;  // resident bytes while no job held a reservation
   std::weak_ptr<RunningJob> ending_;  // the job ended last, until it stopped

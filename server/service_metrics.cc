@@ -165,14 +165,30 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r, const SensorMetricsOptions&
   metrics::AddProcessMetrics(r);
 }
 
-void ServiceMetrics::SetQueueCapacity(int max_queued_jobs) { queue_capacity_.Set(max_queued_jobs); }
-
-void ServiceMetrics::SetMemoryBudget(uint64_t bytes) {
-  memory_budget_.Set(static_cast<double>(bytes));
+void ServiceMetrics::AdmissionConfigured(int max_queued_jobs, uint64_t memory_budget_bytes) {
+  queue_capacity_.Set(max_queued_jobs);
+  memory_budget_.Set(static_cast<double>(memory_budget_bytes));
 }
 
-void ServiceMetrics::SetMemoryReserved(uint64_t bytes) {
-  memory_reserved_.Set(static_cast<double>(bytes));
+void ServiceMetrics::AdmissionChanged(int in_flight, int queued, uint64_t reserved_bytes) {
+  in_flight_.Set(in_flight);
+  queued_.Set(queued);
+  memory_reserved_.Set(static_cast<double>(reserved_bytes));
+}
+
+void ServiceMetrics::Admitted(double waited_seconds) { PhaseEnded(Phase::kQueue, waited_seconds); }
+
+void ServiceMetrics::Refused(AdmissionRefusal why) {
+  switch (why) {
+    case AdmissionRefusal::kQueueFull:
+      return Rejected(RejectReason::kQueueFull);
+    case AdmissionRefusal::kDeadline:
+      return Rejected(RejectReason::kDeadline);
+    case AdmissionRefusal::kDraining:
+      return Rejected(RejectReason::kDraining);
+    case AdmissionRefusal::kMemory:
+      return Rejected(RejectReason::kMemory);
+  }
 }
 
 void ServiceMetrics::MemoryGuardTripped() { memory_guard_trips_.Inc(); }
@@ -197,11 +213,6 @@ void ServiceMetrics::RpcHandled(const RpcMethod& rpc, grpc::StatusCode code, dou
 
 void ServiceMetrics::Rejected(RejectReason reason) {
   rejected_.WithLabels({ReasonLabel(reason)}).Inc();
-}
-
-void ServiceMetrics::SetAdmissionState(int in_flight, int queued) {
-  in_flight_.Set(in_flight);
-  queued_.Set(queued);
 }
 
 void ServiceMetrics::PhaseEnded(Phase phase, double seconds) {

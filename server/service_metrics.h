@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The service's Prometheus metrics: owns the metric families and offers one typed call per event,
-// so the protocol and admission code never handles names, labels or buckets.
+// so the protocol code never handles names, labels or buckets; admission reports through its own
+// AdmissionObserver, which this implements.
 //
 // RPCs are counted under the gRPC ecosystem's names and labels (grpc_server_handled_total
 // {grpc_type, grpc_service, grpc_method, grpc_code} etc., as go-grpc-prometheus and
@@ -13,6 +14,7 @@
 #include <grpcpp/support/status.h>
 
 #include "core/stages/report.h"
+#include "server/admission_observer.h"
 #include "server/metrics/registry.h"
 #include "server/sensor_metrics.h"
 
@@ -36,29 +38,29 @@ inline constexpr RpcMethod kGetInfoRpc{"unary", "GetInfo"};
 // 0.25 s to 1 s, so a 3 s budget and a 4 s one fall in different buckets), coarse outside.
 std::vector<double> BudgetBuckets();
 
-class ServiceMetrics {
+class ServiceMetrics : public AdmissionObserver {
  public:
   // Registers every family (and the process metrics, and the per-sensor ones) in `registry`,
   // which must outlive this object.
   explicit ServiceMetrics(metrics::Registry& registry, const SensorMetricsOptions& sensors = {});
 
   // Configuration, exported so alerts can compare against it.
-  void SetQueueCapacity(int max_queued_jobs);
   void SetDefaultBudget(double seconds);
-  void SetMemoryBudget(uint64_t bytes);
 
   void RpcStarted(const RpcMethod& rpc);
   // `seconds`: from the call's start to its status.
   void RpcHandled(const RpcMethod& rpc, grpc::StatusCode code, double seconds);
   void Rejected(RejectReason reason);
 
-  // Admission: the current numbers of jobs holding a slot and waiting for one.
-  void SetAdmissionState(int in_flight, int queued);
-  // The estimated bytes the jobs holding a slot reserved from the memory budget.
-  void SetMemoryReserved(uint64_t bytes);
-  // The memory guard ended a job that took more than its reservation (memory_guard.h).
-  void MemoryGuardTripped();
-  // A phase of a Process call that ended (queue: also a zero wait for a free slot).
+  // Admission's events: the queue's capacity and memory budget (exported so alerts can compare
+  // against them), the jobs holding a slot and waiting for one with the bytes they reserved, the
+  // queue phase (also a zero wait for a free slot), refusals and memory guard trips.
+  void AdmissionConfigured(int max_queued_jobs, uint64_t memory_budget_bytes) override;
+  void AdmissionChanged(int in_flight, int queued, uint64_t reserved_bytes) override;
+  void Admitted(double waited_seconds) override;
+  void Refused(AdmissionRefusal why) override;
+  void MemoryGuardTripped() override;
+  // A phase of a Process call that ended.
   void PhaseEnded(Phase phase, double seconds);
 
   // One Process request message received, one Process response message sent.
