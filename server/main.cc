@@ -28,11 +28,11 @@
 #include "absl/synchronization/notification.h"
 #include "absl/time/time.h"
 #include "core/base/status_macros.h"
-#include "server/budget_config.h"
-#include "server/memory_budget.h"
-#include "server/presets_file.h"
+#include "server/admission/memory_budget.h"
+#include "server/job/budget_config.h"
+#include "server/job/presets_file.h"
 #include "server/scanprep_server.h"
-#include "server/transport_security.h"
+#include "server/transport/transport_security.h"
 
 ABSL_FLAG(std::string, listen, "0.0.0.0:50051", "HOST:PORT to listen on (port 0 = any free port)");
 ABSL_FLAG(std::string, tls_cert, "", "PEM certificate chain of the gRPC port (TLS)");

@@ -12,7 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/synchronization/notification.h"
 #include "core/base/status_macros.h"
-#include "server/memory_budget.h"
+#include "server/admission/memory_budget.h"
 
 namespace scanprep::server {
 namespace {

@@ -12,17 +12,17 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
-#include "server/admission.h"
-#include "server/call_log.h"
-#include "server/cidr.h"
-#include "server/job_assembler.h"
-#include "server/job_runner.h"
-#include "server/memory_guard.h"
+#include "server/admission/admission.h"
+#include "server/admission/memory_guard.h"
+#include "server/admission/peer_limiter.h"
+#include "server/job/job_assembler.h"
+#include "server/job/job_runner.h"
 #include "server/metrics/http_exporter.h"
 #include "server/metrics/registry.h"
-#include "server/peer_limiter.h"
+#include "server/metrics/service_metrics.h"
 #include "server/scanprep_service.h"
-#include "server/service_metrics.h"
+#include "server/transport/call_log.h"
+#include "server/transport/cidr.h"
 
 namespace scanprep::server {
 

@@ -11,8 +11,8 @@
 #include <gtest/gtest.h>
 
 #include "absl/cleanup/cleanup.h"
-#include "server/admission.h"
-#include "server/cidr.h"
+#include "server/admission/admission.h"
+#include "server/transport/cidr.h"
 #include "tests/server/metrics_scrape.h"
 #include "tests/server/service_fixtures.h"
 

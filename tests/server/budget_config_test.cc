@@ -3,7 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "server/budget_config.h"
+#include "server/job/budget_config.h"
 
 namespace scanprep::server {
 namespace {

@@ -9,7 +9,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "server/memory_budget.h"
+#include "server/admission/memory_budget.h"
 #include "tests/server/service_fixtures.h"
 
 namespace scanprep::testing {

@@ -12,7 +12,7 @@
 #include "client/call_error.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
-#include "server/memory_budget.h"
+#include "server/admission/memory_budget.h"
 #include "tests/server/service_fixtures.h"
 
 namespace scanprep::testing {

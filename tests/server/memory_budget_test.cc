@@ -2,7 +2,7 @@
 // The memory-aware admission's arithmetic: a job's estimate from its point count and k, the
 // automatic budget from a container limit or the RAM, and the startup check of
 // --max_points_per_job against it. Expected values are worked out by hand from the constants.
-#include "server/memory_budget.h"
+#include "server/admission/memory_budget.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

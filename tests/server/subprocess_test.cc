@@ -26,7 +26,7 @@
 #include "core/io/ply.h"
 #include "core/io/scan_file.h"
 #include "core/io/xyz.h"
-#include "server/memory_budget.h"
+#include "server/admission/memory_budget.h"
 #include "tests/server/metrics_scrape.h"
 #include "tests/server/server_process.h"
 #include "tests/server/service_fixtures.h"

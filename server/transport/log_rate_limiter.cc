@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/log_rate_limiter.h"
+#include "server/transport/log_rate_limiter.h"
 
 namespace scanprep::server {
 

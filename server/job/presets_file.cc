@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/presets_file.h"
+#include "server/job/presets_file.h"
 
 #include <algorithm>
 #include <map>

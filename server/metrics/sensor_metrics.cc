@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/sensor_metrics.h"
+#include "server/metrics/sensor_metrics.h"
 
 #include <array>
 #include <map>

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/admission.h"
+#include "server/admission/admission.h"
 
-#include "server/memory_budget.h"
+#include "server/admission/memory_budget.h"
 #include "wire/error_details.h"
 
 #include <algorithm>

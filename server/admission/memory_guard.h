@@ -25,10 +25,10 @@
 #include <thread>
 
 #include "absl/synchronization/notification.h"
-#include "server/admission.h"
-#include "server/admission_observer.h"
-#include "server/call_log.h"
-#include "server/job_runner.h"
+#include "server/admission/admission.h"
+#include "server/admission/admission_observer.h"
+#include "server/job/job_runner.h"
+#include "server/transport/call_log.h"
 
 namespace scanprep::server {
 

@@ -33,7 +33,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
-#include "server/admission_observer.h"
+#include "server/admission/admission_observer.h"
 
 namespace scanprep::server {
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/service_metrics.h"
+#include "server/metrics/service_metrics.h"
 
 #include <string_view>
 

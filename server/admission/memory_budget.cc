@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/memory_budget.h"
+#include "server/admission/memory_budget.h"
 
 #include <algorithm>
 #include <atomic>

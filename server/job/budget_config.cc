@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/budget_config.h"
+#include "server/job/budget_config.h"
 
 #include <cmath>
 

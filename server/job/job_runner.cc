@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/job_runner.h"
+#include "server/job/job_runner.h"
 
 #include <algorithm>
 #include <new>

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "absl/strings/string_view.h"
-#include "server/cidr.h"
+#include "server/transport/cidr.h"
 
 namespace grpc {
 class ServerContext;

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/call_log.h"
+#include "server/transport/call_log.h"
 
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"

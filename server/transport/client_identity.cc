@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/client_identity.h"
+#include "server/transport/client_identity.h"
 
 #include <grpcpp/server_context.h>
 

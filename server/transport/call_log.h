@@ -14,7 +14,7 @@
 
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
-#include "server/log_rate_limiter.h"
+#include "server/transport/log_rate_limiter.h"
 
 namespace scanprep::server {
 

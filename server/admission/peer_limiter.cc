@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/peer_limiter.h"
+#include "server/admission/peer_limiter.h"
 
 #include "absl/strings/str_cat.h"
 #include "wire/error_details.h"

@@ -14,9 +14,9 @@
 #include <grpcpp/support/status.h>
 
 #include "core/stages/report.h"
-#include "server/admission_observer.h"
+#include "server/admission/admission_observer.h"
 #include "server/metrics/registry.h"
-#include "server/sensor_metrics.h"
+#include "server/metrics/sensor_metrics.h"
 
 namespace scanprep::server {
 

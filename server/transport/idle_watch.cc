@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/idle_watch.h"
+#include "server/transport/idle_watch.h"
 
 #include <algorithm>
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/transport_security.h"
+#include "server/transport/transport_security.h"
 
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"

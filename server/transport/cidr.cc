@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/cidr.h"
+#include "server/transport/cidr.h"
 
 #include <arpa/inet.h>
 
