@@ -28,7 +28,7 @@
 #include "absl/synchronization/notification.h"
 #include "absl/time/time.h"
 #include "core/base/status_macros.h"
-#include "server/admission/memory_budget.h"
+#include "server/admission/memory_reservation.h"
 #include "server/job/budget_config.h"
 #include "server/job/presets_file.h"
 #include "server/scanprep_server.h"
@@ -44,7 +44,7 @@ ABSL_FLAG(bool, plaintext, false,
           "TLS flags and refuses to start");
 ABSL_FLAG(uint64_t, max_points_per_job, 0,
           "largest job in points; larger jobs end with RESOURCE_EXHAUSTED. 0 = 20,000,000 or the "
-          "largest job whose estimated memory fits --memory_budget, whichever is smaller; a "
+          "largest job whose estimated memory fits --memory_capacity, whichever is smaller; a "
           "larger explicit value than fits is refused at startup");
 ABSL_FLAG(uint64_t, max_chunk_points, 65'536,
           "largest request chunk in points; larger chunks end the call with RESOURCE_EXHAUSTED");
@@ -80,7 +80,7 @@ ABSL_FLAG(int, max_concurrent_jobs, 4,
 ABSL_FLAG(int, max_queued_jobs, 8,
           "calls that may wait for a slot; beyond that a call ends at once with "
           "RESOURCE_EXHAUSTED");
-ABSL_FLAG(uint64_t, memory_budget, 0,
+ABSL_FLAG(uint64_t, memory_capacity, 0,
           "bytes the running jobs' estimated memory may take together (docs/server.md, "
           "\"Admission control\"); a call waits until its job fits, a job that never can is "
           "refused. 0 = the container's memory limit (cgroup) minus 128 MiB for the server, else "
@@ -248,13 +248,13 @@ int main(int argc, char** argv) {
     return 1;
   }
   scanprep::server::SetBytesPerPointForTesting(absl::GetFlag(FLAGS_test_bytes_per_point));
-  auto memory = scanprep::server::ResolveMemoryLimits(absl::GetFlag(FLAGS_memory_budget),
+  auto memory = scanprep::server::ResolveMemoryLimits(absl::GetFlag(FLAGS_memory_capacity),
                                                       absl::GetFlag(FLAGS_max_points_per_job));
   if (!memory.ok()) {
     std::cerr << "scanprep-server: " << memory.status().message() << "\n";
     return 1;
   }
-  options.memory_budget_bytes = memory->budget.bytes;
+  options.memory_capacity_bytes = memory->capacity.bytes;
   options.memory_guard.enabled = absl::GetFlag(FLAGS_memory_guard);
   options.limits.max_points_per_job = memory->max_points_per_job;
   auto server = scanprep::server::ScanPrepServer::Start(options);
@@ -265,8 +265,8 @@ int main(int argc, char** argv) {
   // The actual ports, for callers that asked for port 0.
   std::cout << "scanprep-server " SCANPREP_VERSION " listening on port " << (*server)->port()
             << " (" << transport->description << ")" << std::endl;
-  std::cout << "scanprep-server: memory budget " << memory->budget.bytes << " bytes ("
-            << memory->budget.source << "), " << scanprep::server::BaseBytesPerPoint()
+  std::cout << "scanprep-server: memory capacity " << memory->capacity.bytes << " bytes ("
+            << memory->capacity.source << "), " << scanprep::server::BaseBytesPerPoint()
             << " B/point estimated, max_points_per_job " << memory->max_points_per_job << std::endl;
   if ((*server)->metrics_port() != 0) {
     std::cout << "scanprep-server: metrics on port " << (*server)->metrics_port() << std::endl;

@@ -47,8 +47,9 @@ struct ServerOptions {
   JobLimits limits;
   int max_concurrent_jobs = 4;
   int max_queued_jobs = 8;
-  // What the jobs holding a slot may reserve together (memory_budget.h); 0 = DetectMemoryBudget().
-  uint64_t memory_budget_bytes = 0;
+  // The memory capacity: what the jobs holding a slot may reserve together
+  // (memory_reservation.h); 0 = DetectMemoryCapacity().
+  uint64_t memory_capacity_bytes = 0;
   // Ends a job whose memory crosses its reservation (memory_guard.h); off unless enabled.
   MemoryGuardOptions memory_guard;
   int threads = 0;  // arena threads; 0 = hardware concurrency
@@ -86,7 +87,7 @@ class ScanPrepServer {
   void Wait() { server_->Wait(); }
 
  private:
-  // `options` with the memory budget resolved.
+  // `options` with the memory capacity resolved.
   explicit ScanPrepServer(const ServerOptions& options);
   void SetServing(bool serving);
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "server/admission/admission.h"
 
-#include "server/admission/memory_budget.h"
+#include "server/admission/memory_reservation.h"
 #include "wire/error_details.h"
 
 #include <algorithm>
@@ -25,7 +25,7 @@ absl::Status DrainingError() {
 
 AdmissionQueue::AdmissionQueue(AdmissionOptions options, AdmissionObserver& observer)
     : options_(std::move(options)), observer_(observer) {
-  observer_.AdmissionConfigured(options_.max_queued_jobs, options_.memory_budget_bytes);
+  observer_.AdmissionConfigured(options_.max_queued_jobs, options_.memory_capacity_bytes);
   PublishLocked();
 }
 
@@ -78,19 +78,20 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
     observer_.Refused(AdmissionRefusal::kDraining);
     return DrainingError();
   }
-  if (claim_bytes > options_.memory_budget_bytes) {
+  if (claim_bytes > options_.memory_capacity_bytes) {
     observer_.Refused(AdmissionRefusal::kMemory);
     absl::Status refused = WithReason(
         absl::ResourceExhaustedError(absl::StrCat(
             "the job's estimated memory of ", FormatMiB(claim_bytes), " (", claim_bytes,
-            " bytes, from header.total_points) exceeds the server's whole memory budget of ",
-            FormatMiB(options_.memory_budget_bytes), " (", options_.memory_budget_bytes,
-            " bytes, memory_budget), so it could never run here; send fewer points per job or "
-            "raise the server's --memory_budget")),
+            " bytes, from header.total_points) exceeds the server's whole memory capacity of ",
+            FormatMiB(options_.memory_capacity_bytes), " (", options_.memory_capacity_bytes,
+            " bytes, memory_capacity), so it could never run here; send fewer points per job or "
+            "raise the server's --memory_capacity")),
         "JOB_EXCEEDS_MEMORY");
     refused = WithMetadata(std::move(refused), "estimate_bytes", absl::StrCat(claim_bytes));
+    // The key clients read (docs/api.md), named before the capacity was.
     return WithMetadata(std::move(refused), "budget_bytes",
-                        absl::StrCat(options_.memory_budget_bytes));
+                        absl::StrCat(options_.memory_capacity_bytes));
   }
   Waiter self{.claim = claim_bytes, .reserve = std::min(reserve_bytes, claim_bytes), .host = host};
   if (waiting_.empty() && FitsLocked(self)) {
@@ -114,8 +115,8 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
                                " concurrent jobs (max_concurrent_jobs)")
                 : absl::StrCat("the server's ", in_flight, " running jobs hold ",
                                FormatMiB(reserved_bytes_), " of its ",
-                               FormatMiB(options_.memory_budget_bytes),
-                               " memory budget (memory_budget)"),
+                               FormatMiB(options_.memory_capacity_bytes),
+                               " memory capacity (memory_capacity)"),
             " and its queue of ", options_.max_queued_jobs,
             " waiting jobs (max_queued_jobs) is full; retry later or on another replica")),
         "QUEUE_FULL", absl::Seconds(std::max(1.0, ExpectedWaitLocked())));
@@ -178,7 +179,7 @@ bool AdmissionQueue::FitsLocked(const Waiter& waiter) const {
     return false;
   }
   const uint64_t extra = waiter.reserve - (waiter.holds_slot ? waiter.holder->reserved : 0);
-  return extra <= options_.memory_budget_bytes - reserved_bytes_ && SafeLocked(waiter);
+  return extra <= options_.memory_capacity_bytes - reserved_bytes_ && SafeLocked(waiter);
 }
 
 bool AdmissionQueue::SafeLocked(const Waiter& waiter) const {
@@ -201,7 +202,7 @@ bool AdmissionQueue::SafeLocked(const Waiter& waiter) const {
   for (const Claim& c : claims) reserved += c.reserved;
   std::sort(claims.begin(), claims.end(),
             [](const Claim& a, const Claim& b) { return a.need < b.need; });
-  uint64_t free = options_.memory_budget_bytes - reserved;
+  uint64_t free = options_.memory_capacity_bytes - reserved;
   for (const Claim& c : claims) {
     if (c.need > free) return false;
     free += c.reserved;

@@ -9,16 +9,16 @@
 // stays bounded by the running jobs, and a full server refuses before the client sends anything
 // large.
 //
-// Each call also claims its job's estimated memory (memory_budget.h), and the reservations never
-// exceed `memory_budget_bytes`. A claim is reserved as the job's data arrives (Slot::Reserve), so
-// a large declaration that sends little holds little; a job runs only once all of its claim is
-// reserved. A reservation is granted only when it leaves every holder able to reserve the rest of
-// its claim in some order, each returning all of it when done (the banker's algorithm for one
-// resource), so slot holders waiting for each other's memory can never deadlock. A call waits
-// until both a slot and the bytes it reserves at once are free; the call whose turn it is is
-// served first even when a smaller one behind it would fit, and keeps its turn while it waits for
-// memory (no host's turn comes before it then), so a large job is not starved; a job whose claim
-// exceeds the whole budget is refused at once.
+// Each call also claims its job's estimated memory (memory_reservation.h), and the reservations
+// never exceed `memory_capacity_bytes`. A claim is reserved as the job's data arrives
+// (Slot::Reserve), so a large declaration that sends little holds little; a job runs only once all
+// of its claim is reserved. A reservation is granted only when it leaves every holder able to
+// reserve the rest of its claim in some order, each returning all of it when done (the banker's
+// algorithm for one resource), so slot holders waiting for each other's memory can never deadlock.
+// A call waits until both a slot and the bytes it reserves at once are free; the call whose turn it
+// is is served first even when a smaller one behind it would fit, and keeps its turn while it waits
+// for memory (no host's turn comes before it then), so a large job is not starved; a job whose
+// claim exceeds the whole capacity is refused at once.
 #pragma once
 
 #include <condition_variable>
@@ -41,7 +41,7 @@ struct AdmissionOptions {
   int max_concurrent_jobs = 4;
   int max_queued_jobs = 8;
   // Sum of the reservations of the calls holding a slot; the default is no limit.
-  uint64_t memory_budget_bytes = std::numeric_limits<uint64_t>::max();
+  uint64_t memory_capacity_bytes = std::numeric_limits<uint64_t>::max();
   // Weight of the newest job in the running mean of slot hold times.
   double mean_weight = 0.3;
   // Time source, replaceable in tests.
@@ -54,7 +54,7 @@ class AdmissionQueue {
   AdmissionQueue(AdmissionOptions options, AdmissionObserver& observer);
 
  private:
-  // What one slot holder claimed of the memory budget and has reserved so far.
+  // What one slot holder claimed of the memory capacity and has reserved so far.
   struct Holder {
     uint64_t claim = 0;
     uint64_t reserved = 0;
@@ -87,9 +87,9 @@ class AdmissionQueue {
     std::list<Holder>::iterator holder_;
   };
 
-  // A slot for one call from client `host` claiming `claim_bytes` of the memory budget, with
+  // A slot for one call from client `host` claiming `claim_bytes` of the memory capacity, with
   // `reserve_bytes` of the claim reserved at once (Slot::Reserve the rest), waiting for them when
-  // taken. Fails at once with RESOURCE_EXHAUSTED when the claim exceeds the whole budget
+  // taken. Fails at once with RESOURCE_EXHAUSTED when the claim exceeds the whole capacity
   // (JOB_EXCEEDS_MEMORY) or the queue is full (QUEUE_FULL), DEADLINE_EXCEEDED when the expected
   // wait already exceeds `deadline`, UNAVAILABLE while draining (also for calls still waiting when
   // the drain starts), and CANCELLED when `cancelled()` turns true while waiting (polled).
@@ -101,7 +101,7 @@ class AdmissionQueue {
 
   int max_concurrent_jobs() const { return options_.max_concurrent_jobs; }
   int max_queued_jobs() const { return options_.max_queued_jobs; }
-  uint64_t memory_budget_bytes() const { return options_.memory_budget_bytes; }
+  uint64_t memory_capacity_bytes() const { return options_.memory_capacity_bytes; }
   uint64_t memory_reserved_bytes() const;
   int in_flight() const;  // slots held
   int queued() const;
@@ -127,7 +127,7 @@ class AdmissionQueue {
   };
   void Release(absl::Time since, std::list<Holder>::iterator holder);
   // Whether `waiter` can have what it waits for now: a free slot (for a new call), and its
-  // reservation within the budget with every claim still able to finish.
+  // reservation within the capacity with every claim still able to finish.
   bool FitsLocked(const Waiter& waiter) const;
   // Whether every holder could still reserve the rest of its claim, one after the other, once
   // `waiter` had what it waits for.

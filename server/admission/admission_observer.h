@@ -15,7 +15,7 @@ class AdmissionObserver {
   virtual ~AdmissionObserver() = default;
 
   // The queue's configuration, once when it is made.
-  virtual void AdmissionConfigured(int max_queued_jobs, uint64_t memory_budget_bytes) = 0;
+  virtual void AdmissionConfigured(int max_queued_jobs, uint64_t memory_capacity_bytes) = 0;
   // After every change: the calls holding a slot and those waiting for one, and the estimated
   // bytes the holders reserved.
   virtual void AdmissionChanged(int in_flight, int queued, uint64_t reserved_bytes) = 0;

@@ -10,7 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "absl/time/time.h"
-#include "server/admission/memory_budget.h"
+#include "server/admission/memory_reservation.h"
 #include "wire/error_details.h"
 
 // GCC says __SANITIZE_ADDRESS__ / __SANITIZE_THREAD__, clang __has_feature(...).

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The safety net under admission's estimate: a thread that samples the server's resident memory
 // and ends a job in processing once the process holds more than the jobs' reservations plus a
-// quarter of kMemoryGuardMarginBytes (memory_budget.h), so no input, whatever makes its stages
+// quarter of kMemoryGuardMarginBytes (memory_reservation.h), so no input, whatever makes its stages
 // allocate more than the estimate, takes the container past its limit. The job ends
 // RESOURCE_EXHAUSTED with the reason MEMORY_RESERVATION_EXCEEDED, counted in
 // scanprep_memory_guard_trips_total.

@@ -39,7 +39,7 @@ struct StageProgress {
 // it. The job owns its cloud, so the task never outlives the data it works on.
 class RunningJob {
  public:
-  // `reservation_bytes`: the memory admission reserved for the job (memory_budget.h).
+  // `reservation_bytes`: the memory admission reserved for the job (memory_reservation.h).
   RunningJob(PointCloud cloud, PipelineOptions options, ProgressHook hook,
              uint64_t reservation_bytes)
       : cloud_(std::move(cloud)),

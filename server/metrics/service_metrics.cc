@@ -129,9 +129,10 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r, const SensorMetricsOptions&
       budget_(r.AddGauge("scanprep_budget_seconds",
                          "The server's default total cycle-time budget per job; 0 = none.")
                   .WithLabels({})),
-      memory_budget_(r.AddGauge("scanprep_memory_budget_bytes",
-                                "Memory the running jobs' estimates may reserve (memory_budget).")
-                         .WithLabels({})),
+      memory_capacity_(
+          r.AddGauge("scanprep_memory_budget_bytes",
+                     "Memory the running jobs' estimates may reserve (--memory_capacity).")
+              .WithLabels({})),
       memory_reserved_(r.AddGauge("scanprep_memory_reserved_bytes",
                                   "Estimated memory of the jobs holding a slot.")
                            .WithLabels({})),
@@ -165,9 +166,9 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r, const SensorMetricsOptions&
   metrics::AddProcessMetrics(r);
 }
 
-void ServiceMetrics::AdmissionConfigured(int max_queued_jobs, uint64_t memory_budget_bytes) {
+void ServiceMetrics::AdmissionConfigured(int max_queued_jobs, uint64_t memory_capacity_bytes) {
   queue_capacity_.Set(max_queued_jobs);
-  memory_budget_.Set(static_cast<double>(memory_budget_bytes));
+  memory_capacity_.Set(static_cast<double>(memory_capacity_bytes));
 }
 
 void ServiceMetrics::AdmissionChanged(int in_flight, int queued, uint64_t reserved_bytes) {

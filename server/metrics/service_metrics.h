@@ -52,10 +52,10 @@ class ServiceMetrics : public AdmissionObserver {
   void RpcHandled(const RpcMethod& rpc, grpc::StatusCode code, double seconds);
   void Rejected(RejectReason reason);
 
-  // Admission's events: the queue's capacity and memory budget (exported so alerts can compare
-  // against them), the jobs holding a slot and waiting for one with the bytes they reserved, the
-  // queue phase (also a zero wait for a free slot), refusals and memory guard trips.
-  void AdmissionConfigured(int max_queued_jobs, uint64_t memory_budget_bytes) override;
+  // Admission's events: the queue's capacity and the memory capacity (exported so alerts can
+  // compare against them), the jobs holding a slot and waiting for one with the bytes they
+  // reserved, the queue phase (also a zero wait for a free slot), refusals and memory guard trips.
+  void AdmissionConfigured(int max_queued_jobs, uint64_t memory_capacity_bytes) override;
   void AdmissionChanged(int in_flight, int queued, uint64_t reserved_bytes) override;
   void Admitted(double waited_seconds) override;
   void Refused(AdmissionRefusal why) override;
@@ -89,7 +89,7 @@ class ServiceMetrics : public AdmissionObserver {
   metrics::Gauge& queued_;
   metrics::Gauge& queue_capacity_;
   metrics::Gauge& budget_;
-  metrics::Gauge& memory_budget_;
+  metrics::Gauge& memory_capacity_;  // exported under its older name, scanprep_memory_budget_bytes
   metrics::Gauge& memory_reserved_;
   metrics::Counter& memory_guard_trips_;
   metrics::Family<metrics::Histogram>& phase_seconds_;

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // The memory-aware admission's arithmetic: a job's estimate from its point count and k, the
-// automatic budget from a container limit or the RAM, and the startup check of
+// automatic capacity from a container limit or the RAM, and the startup check of
 // --max_points_per_job against it. Expected values are worked out by hand from the constants.
-#include "server/admission/memory_budget.h"
+#include "server/admission/memory_reservation.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -26,35 +26,35 @@ TEST(MemoryEstimate, IsTheFixedOverheadPlusTheBytesPerPointOfItsK) {
 }
 
 TEST(MemoryEstimate, CoversTheWorstMeasuredPeaksWithAMargin) {
-  // The measurements in memory_budget.h (B/point above the idle server): the worst default-k run
-  // (balls at their cap) and the worst k = 64 run.
+  // The measurements in memory_reservation.h (B/point above the idle server): the worst default-k
+  // run (balls at their cap) and the worst k = 64 run.
   EXPECT_GE(BytesPerPoint({}), 308 * 1.3);
   EXPECT_GE(BytesPerPoint({{"neighbourhoods.k", "64"}}), 491 * 1.3);
 }
 
-TEST(AutoMemoryBudget, IsTheContainerLimitMinusTheServersReserve) {
-  auto budget = AutoMemoryBudget(2 * kGiB, 24 * kGiB);
-  ASSERT_TRUE(budget.ok()) << budget.status();
-  EXPECT_EQ(budget->bytes, 2 * kGiB - 128 * kMiB);
-  EXPECT_THAT(budget->source, HasSubstr("container's memory limit 2048 MiB minus 128 MiB"));
+TEST(AutoMemoryCapacity, IsTheContainerLimitMinusTheServersReserve) {
+  auto capacity = AutoMemoryCapacity(2 * kGiB, 24 * kGiB);
+  ASSERT_TRUE(capacity.ok()) << capacity.status();
+  EXPECT_EQ(capacity->bytes, 2 * kGiB - 128 * kMiB);
+  EXPECT_THAT(capacity->source, HasSubstr("container's memory limit 2048 MiB minus 128 MiB"));
 }
 
-TEST(AutoMemoryBudget, WithoutAContainerLimitIsHalfTheRam) {
-  auto budget = AutoMemoryBudget(std::nullopt, 24 * kGiB);
-  ASSERT_TRUE(budget.ok()) << budget.status();
-  EXPECT_EQ(budget->bytes, 12 * kGiB);
-  EXPECT_THAT(budget->source, HasSubstr("no container memory limit"));
+TEST(AutoMemoryCapacity, WithoutAContainerLimitIsHalfTheRam) {
+  auto capacity = AutoMemoryCapacity(std::nullopt, 24 * kGiB);
+  ASSERT_TRUE(capacity.ok()) << capacity.status();
+  EXPECT_EQ(capacity->bytes, 12 * kGiB);
+  EXPECT_THAT(capacity->source, HasSubstr("no container memory limit"));
   // cgroup v1 states "no limit" as a huge number: a limit not below the RAM is none.
-  budget = AutoMemoryBudget(uint64_t{9223372036854771712u}, 24 * kGiB);
-  ASSERT_TRUE(budget.ok());
-  EXPECT_EQ(budget->bytes, 12 * kGiB);
+  capacity = AutoMemoryCapacity(uint64_t{9223372036854771712u}, 24 * kGiB);
+  ASSERT_TRUE(capacity.ok());
+  EXPECT_EQ(capacity->bytes, 12 * kGiB);
 }
 
-TEST(AutoMemoryBudget, FailsWhenTheLimitLeavesNothingAfterTheReserve) {
-  auto budget = AutoMemoryBudget(100 * kMiB, 24 * kGiB);
-  EXPECT_EQ(budget.status().code(), absl::StatusCode::kFailedPrecondition);
-  EXPECT_THAT(budget.status().message(), HasSubstr("limit of 100 MiB leaves nothing"));
-  EXPECT_FALSE(AutoMemoryBudget(std::nullopt, 0).ok());
+TEST(AutoMemoryCapacity, FailsWhenTheLimitLeavesNothingAfterTheReserve) {
+  auto capacity = AutoMemoryCapacity(100 * kMiB, 24 * kGiB);
+  EXPECT_EQ(capacity.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(capacity.status().message(), HasSubstr("limit of 100 MiB leaves nothing"));
+  EXPECT_FALSE(AutoMemoryCapacity(std::nullopt, 0).ok());
 }
 
 TEST(ParseCgroupLimit, ReadsBytesAndTreatsMaxAsNoLimit) {
@@ -63,13 +63,13 @@ TEST(ParseCgroupLimit, ReadsBytesAndTreatsMaxAsNoLimit) {
   EXPECT_EQ(ParseCgroupLimit(""), std::nullopt);
 }
 
-TEST(ResolveMemoryLimits, DefaultsTheLargestJobToWhatFitsTheBudget) {
+TEST(ResolveMemoryLimits, DefaultsTheLargestJobToWhatFitsTheCapacity) {
   // The shipped pod: a 2 GiB limit gives 1920 MiB; one job of (1920 - 16) MiB / 416 B.
   auto limits = ResolveMemoryLimits(2 * kGiB - 128 * kMiB, 0);
   ASSERT_TRUE(limits.ok()) << limits.status();
   EXPECT_EQ(limits->max_points_per_job, (1904 * kMiB) / 416);
-  EXPECT_EQ(limits->budget.source, "--memory_budget");
-  // A large budget keeps the 20 M default.
+  EXPECT_EQ(limits->capacity.source, "--memory_capacity");
+  // A large capacity keeps the 20 M default.
   limits = ResolveMemoryLimits(64 * kGiB, 0);
   ASSERT_TRUE(limits.ok());
   EXPECT_EQ(limits->max_points_per_job, 20'000'000u);
@@ -79,12 +79,13 @@ TEST(ResolveMemoryLimits, DefaultsTheLargestJobToWhatFitsTheBudget) {
   EXPECT_EQ(limits->max_points_per_job, 1'000'000u);
 }
 
-TEST(ResolveMemoryLimits, RefusesAJobLimitTheBudgetCannotMeet) {
+TEST(ResolveMemoryLimits, RefusesAJobLimitTheCapacityCannotMeet) {
   auto limits = ResolveMemoryLimits(kGiB, 20'000'000);
   EXPECT_EQ(limits.status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_THAT(limits.status().message(),
-              HasSubstr("--max_points_per_job=20000000 needs an estimated 7951 MiB (16 MiB + "
-                        "416 B/point), more than the memory budget of 1024 MiB (--memory_budget)"));
+  EXPECT_THAT(
+      limits.status().message(),
+      HasSubstr("--max_points_per_job=20000000 needs an estimated 7951 MiB (16 MiB + "
+                "416 B/point), more than the memory capacity of 1024 MiB (--memory_capacity)"));
   EXPECT_THAT(limits.status().message(),
               HasSubstr("at most " + std::to_string((kGiB - 16 * kMiB) / 416)));
   limits = ResolveMemoryLimits(kMiB, 0);

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// Memory-aware admission's arithmetic: a job's memory estimated from its declared point count
-// before any point arrives, and the budget the running jobs' estimates must fit in.
+// Memory-aware admission's arithmetic: a job's memory reservation, estimated from its declared
+// point count before any point arrives, and the server's memory capacity, which the running jobs'
+// reservations must fit in together.
 //
 // Measured (2026-11-25, Release, 2 arena threads, `scanprep simulate --scans 2` clouds: a box
 // with a bore seen by two overlapping line scanners; one job per fresh server; peak VmHWM minus
@@ -66,7 +67,7 @@ inline constexpr double kShareOfRam = 0.5;
 // 150): the server peaked 45-49 MB above idle, 28-31 MB over the reservation, six runs on two
 // cores shared with compilers, 2026-11-26 (at a trip of half the margin, the largest step after
 // the crossing was 33 MiB); without the guard 149-156 MB. With the 128 MiB kServerReserveBytes over
-// the budget, the margin and the idle server (20 MiB) fit under the container's limit.
+// the capacity, the margin and the idle server (20 MiB) fit under the container's limit.
 inline constexpr uint64_t kMemoryGuardMarginBytes = uint64_t{64} << 20;
 inline constexpr uint64_t kMemoryGuardTripBytes = kMemoryGuardMarginBytes / 4;
 inline constexpr int kMemoryGuardPeriodMs = 10;
@@ -86,36 +87,37 @@ uint64_t BytesPerPoint(const ParamOverrides& params);
 // The memory a job of `points` points reserves while it holds a slot.
 uint64_t EstimateJobBytes(uint64_t points, const ParamOverrides& params);
 
-struct MemoryBudget {
+// What the jobs holding a slot may reserve together.
+struct MemoryCapacity {
   uint64_t bytes = 0;
   std::string source;  // how it was derived, for the startup log
 };
 
-// The automatic budget: the container's memory limit minus kServerReserveBytes, or without one
+// The automatic capacity: the container's memory limit minus kServerReserveBytes, or without one
 // (absent, "max", or not below MemTotal) kShareOfRam of `mem_total`. Fails when the limit leaves
 // nothing after the reserve.
-absl::StatusOr<MemoryBudget> AutoMemoryBudget(std::optional<uint64_t> container_limit,
-                                              uint64_t mem_total);
-// AutoMemoryBudget from cgroup v2 memory.max (or v1 memory.limit_in_bytes) and /proc/meminfo.
-absl::StatusOr<MemoryBudget> DetectMemoryBudget();
+absl::StatusOr<MemoryCapacity> AutoMemoryCapacity(std::optional<uint64_t> container_limit,
+                                                  uint64_t mem_total);
+// AutoMemoryCapacity from cgroup v2 memory.max (or v1 memory.limit_in_bytes) and /proc/meminfo.
+absl::StatusOr<MemoryCapacity> DetectMemoryCapacity();
 // Contents of a cgroup limit file: a byte count, or nullopt for "max" / unreadable text.
 std::optional<uint64_t> ParseCgroupLimit(std::string_view text);
 
-// The largest job --max_points_per_job defaults to: also bounded by the memory budget.
+// The largest job --max_points_per_job defaults to: also bounded by the memory capacity.
 inline constexpr uint64_t kDefaultMaxPointsPerJob = 20'000'000;
 
-// Points of the largest job (default parameters) whose estimate fits in `budget_bytes`.
-uint64_t LargestJobPoints(uint64_t budget_bytes);
+// Points of the largest job (default parameters) whose estimate fits in `capacity_bytes`.
+uint64_t LargestJobPoints(uint64_t capacity_bytes);
 
 struct MemoryLimits {
-  MemoryBudget budget;
+  MemoryCapacity capacity;
   uint64_t max_points_per_job = 0;
 };
 
-// The limits in force from the flags: the budget is `budget_flag` bytes, or when 0
-// DetectMemoryBudget(); `max_points_flag` is the largest job, or when 0 kDefaultMaxPointsPerJob
+// The limits in force from the flags: the capacity is `capacity_flag` bytes, or when 0
+// DetectMemoryCapacity(); `max_points_flag` is the largest job, or when 0 kDefaultMaxPointsPerJob
 // or LargestJobPoints, whichever is smaller. Fails when a job at an explicit `max_points_flag`
-// (default parameters) could never fit the budget, a limit the server could not meet.
-absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t budget_flag, uint64_t max_points_flag);
+// (default parameters) could never fit the capacity, a limit the server could not meet.
+absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t capacity_flag, uint64_t max_points_flag);
 
 }  // namespace scanprep::server

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/admission/memory_budget.h"
+#include "server/admission/memory_reservation.h"
 
 #include <algorithm>
 #include <atomic>
@@ -70,18 +70,18 @@ std::optional<uint64_t> ParseCgroupLimit(std::string_view text) {
   return bytes;
 }
 
-absl::StatusOr<MemoryBudget> AutoMemoryBudget(std::optional<uint64_t> container_limit,
-                                              uint64_t mem_total) {
+absl::StatusOr<MemoryCapacity> AutoMemoryCapacity(std::optional<uint64_t> container_limit,
+                                                  uint64_t mem_total) {
   // cgroup v1 writes "no limit" as a huge page-aligned number; any limit not below the RAM is
   // no limit either.
   if (container_limit.has_value() && (mem_total == 0 || *container_limit < mem_total)) {
     if (*container_limit <= kServerReserveBytes) {
-      return absl::FailedPreconditionError(
-          absl::StrCat("the container's memory limit of ", FormatMiB(*container_limit),
-                       " leaves nothing for jobs after the server's own ",
-                       FormatMiB(kServerReserveBytes), "; raise the limit or set --memory_budget"));
+      return absl::FailedPreconditionError(absl::StrCat(
+          "the container's memory limit of ", FormatMiB(*container_limit),
+          " leaves nothing for jobs after the server's own ", FormatMiB(kServerReserveBytes),
+          "; raise the limit or set --memory_capacity"));
     }
-    return MemoryBudget{
+    return MemoryCapacity{
         .bytes = *container_limit - kServerReserveBytes,
         .source = absl::StrCat("the container's memory limit ", FormatMiB(*container_limit),
                                " minus ", FormatMiB(kServerReserveBytes), " for the server")};
@@ -89,14 +89,15 @@ absl::StatusOr<MemoryBudget> AutoMemoryBudget(std::optional<uint64_t> container_
   if (mem_total == 0) {
     return absl::FailedPreconditionError(
         "neither a container memory limit nor /proc/meminfo's MemTotal could be read; set "
-        "--memory_budget");
+        "--memory_capacity");
   }
-  return MemoryBudget{.bytes = static_cast<uint64_t>(kShareOfRam * static_cast<double>(mem_total)),
-                      .source = absl::StrCat(kShareOfRam * 100, " % of the machine's ",
-                                             FormatMiB(mem_total), " (no container memory limit)")};
+  return MemoryCapacity{
+      .bytes = static_cast<uint64_t>(kShareOfRam * static_cast<double>(mem_total)),
+      .source = absl::StrCat(kShareOfRam * 100, " % of the machine's ", FormatMiB(mem_total),
+                             " (no container memory limit)")};
 }
 
-absl::StatusOr<MemoryBudget> DetectMemoryBudget() {
+absl::StatusOr<MemoryCapacity> DetectMemoryCapacity() {
   std::optional<uint64_t> limit;
   for (const char* path :
        {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
@@ -105,29 +106,30 @@ absl::StatusOr<MemoryBudget> DetectMemoryBudget() {
       break;
     }
   }
-  return AutoMemoryBudget(limit, MemTotal());
+  return AutoMemoryCapacity(limit, MemTotal());
 }
 
-uint64_t LargestJobPoints(uint64_t budget_bytes) {
-  return budget_bytes > kJobOverheadBytes ? (budget_bytes - kJobOverheadBytes) / BaseBytesPerPoint()
-                                          : 0;
+uint64_t LargestJobPoints(uint64_t capacity_bytes) {
+  return capacity_bytes > kJobOverheadBytes
+             ? (capacity_bytes - kJobOverheadBytes) / BaseBytesPerPoint()
+             : 0;
 }
 
-absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t budget_flag, uint64_t max_points_flag) {
-  SCANPREP_ASSIGN_OR_RETURN(const MemoryBudget budget,
-                            budget_flag > 0
-                                ? absl::StatusOr<MemoryBudget>(MemoryBudget{
-                                      .bytes = budget_flag, .source = "--memory_budget"})
-                                : DetectMemoryBudget());
-  const uint64_t largest = LargestJobPoints(budget.bytes);
+absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t capacity_flag, uint64_t max_points_flag) {
+  SCANPREP_ASSIGN_OR_RETURN(const MemoryCapacity capacity,
+                            capacity_flag > 0
+                                ? absl::StatusOr<MemoryCapacity>(MemoryCapacity{
+                                      .bytes = capacity_flag, .source = "--memory_capacity"})
+                                : DetectMemoryCapacity());
+  const uint64_t largest = LargestJobPoints(capacity.bytes);
   if (largest == 0) {
     return absl::InvalidArgumentError(
-        absl::StrCat("the memory budget of ", budget.bytes, " bytes (", budget.source,
+        absl::StrCat("the memory capacity of ", capacity.bytes, " bytes (", capacity.source,
                      ") leaves no room for a job's fixed ", FormatMiB(kJobOverheadBytes),
-                     "; raise --memory_budget"));
+                     "; raise --memory_capacity"));
   }
   if (max_points_flag == 0) {
-    return MemoryLimits{.budget = budget,
+    return MemoryLimits{.capacity = capacity,
                         .max_points_per_job = std::min(kDefaultMaxPointsPerJob, largest)};
   }
   if (max_points_flag > largest) {
@@ -135,11 +137,11 @@ absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t budget_flag, uint64_t 
         "--max_points_per_job=", max_points_flag, " needs an estimated ",
         FormatMiB(kJobOverheadBytes + static_cast<double>(max_points_flag) * BaseBytesPerPoint()),
         " (", FormatMiB(kJobOverheadBytes), " + ", BaseBytesPerPoint(),
-        " B/point), more than the memory budget of ", FormatMiB(budget.bytes), " (", budget.source,
-        "): such a job could never run; lower --max_points_per_job to at most ", largest,
-        " or raise --memory_budget"));
+        " B/point), more than the memory capacity of ", FormatMiB(capacity.bytes), " (",
+        capacity.source, "): such a job could never run; lower --max_points_per_job to at most ",
+        largest, " or raise --memory_capacity"));
   }
-  return MemoryLimits{.budget = budget, .max_points_per_job = max_points_flag};
+  return MemoryLimits{.capacity = capacity, .max_points_per_job = max_points_flag};
 }
 
 }  // namespace scanprep::server
