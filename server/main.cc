@@ -29,8 +29,8 @@
 #include "absl/time/time.h"
 #include "core/base/status_macros.h"
 #include "server/admission/memory_reservation.h"
-#include "server/job/budget_config.h"
 #include "server/job/presets_file.h"
+#include "server/job/time_budget_config.h"
 #include "server/scanprep_server.h"
 #include "server/transport/transport_security.h"
 
@@ -136,8 +136,8 @@ ABSL_FLAG(absl::Duration, grace_period, absl::Seconds(10),
 namespace {
 
 // The config file first, then the flags, each overriding what came before.
-absl::StatusOr<scanprep::server::BudgetDefaults> BudgetsFromFlags() {
-  scanprep::server::BudgetDefaults budgets;
+absl::StatusOr<scanprep::server::TimeBudgetDefaults> TimeBudgetsFromFlags() {
+  scanprep::server::TimeBudgetDefaults budgets;
   if (const std::string path = absl::GetFlag(FLAGS_budget_config); !path.empty()) {
     SCANPREP_RETURN_IF_ERROR(scanprep::server::ReadBudgetConfig(path, budgets));
   }
@@ -183,7 +183,7 @@ int main(int argc, char** argv) {
   sigaddset(&stop_signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
-  auto budgets = BudgetsFromFlags();
+  auto budgets = TimeBudgetsFromFlags();
   if (!budgets.ok()) {
     std::cerr << "scanprep-server: " << budgets.status().message() << "\n";
     return 1;

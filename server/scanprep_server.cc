@@ -70,7 +70,7 @@ ScanPrepServer::ScanPrepServer(const ServerOptions& options)
       guard_(options.memory_guard, admission_, runner_, metrics_, log_),
       service_(options.limits, options.timeouts, options.trusted_proxies, admission_, runner_,
                metrics_, peers_, log_) {
-  metrics_.SetDefaultBudget(options.limits.default_budget_seconds);
+  metrics_.SetDefaultTimeBudget(options.limits.default_budget_seconds);
 }
 
 absl::Status CheckConnectionOptions(const ConnectionOptions& c) {

@@ -126,9 +126,10 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r, const SensorMetricsOptions&
       queue_capacity_(
           r.AddGauge("scanprep_queue_capacity", "Jobs that may wait for a slot (max_queued_jobs).")
               .WithLabels({})),
-      budget_(r.AddGauge("scanprep_budget_seconds",
-                         "The server's default total cycle-time budget per job; 0 = none.")
-                  .WithLabels({})),
+      default_time_budget_(
+          r.AddGauge("scanprep_budget_seconds",
+                     "The server's default total cycle-time budget per job; 0 = none.")
+              .WithLabels({})),
       memory_capacity_(
           r.AddGauge("scanprep_memory_budget_bytes",
                      "Memory the running jobs' estimates may reserve (--memory_capacity).")
@@ -194,7 +195,7 @@ void ServiceMetrics::Refused(AdmissionRefusal why) {
 
 void ServiceMetrics::MemoryGuardTripped() { memory_guard_trips_.Inc(); }
 
-void ServiceMetrics::SetDefaultBudget(double seconds) { budget_.Set(seconds); }
+void ServiceMetrics::SetDefaultTimeBudget(double seconds) { default_time_budget_.Set(seconds); }
 
 void ServiceMetrics::RpcStarted(const RpcMethod& rpc) {
   started_.WithLabels(RpcLabels(rpc)).Inc();

@@ -45,7 +45,7 @@ class ServiceMetrics : public AdmissionObserver {
   explicit ServiceMetrics(metrics::Registry& registry, const SensorMetricsOptions& sensors = {});
 
   // Configuration, exported so alerts can compare against it.
-  void SetDefaultBudget(double seconds);
+  void SetDefaultTimeBudget(double seconds);
 
   void RpcStarted(const RpcMethod& rpc);
   // `seconds`: from the call's start to its status.
@@ -88,7 +88,7 @@ class ServiceMetrics : public AdmissionObserver {
   metrics::Gauge& in_flight_;
   metrics::Gauge& queued_;
   metrics::Gauge& queue_capacity_;
-  metrics::Gauge& budget_;
+  metrics::Gauge& default_time_budget_;
   metrics::Gauge& memory_capacity_;  // exported under its older name, scanprep_memory_budget_bytes
   metrics::Gauge& memory_reserved_;
   metrics::Counter& memory_guard_trips_;

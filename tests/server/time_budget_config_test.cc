@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
-// Default budgets from --stage_budgets and --budget_config: parsing, precedence and precise errors.
+// Default time budgets from --stage_budgets and --budget_config: parsing, precedence and precise
+// errors.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "server/job/budget_config.h"
+#include "server/job/time_budget_config.h"
 
 namespace scanprep::server {
 namespace {
@@ -11,7 +12,7 @@ namespace {
 using ::testing::HasSubstr;
 
 TEST(BudgetConfig, StageBudgetsFlag) {
-  BudgetDefaults d;
+  TimeBudgetDefaults d;
   ASSERT_TRUE(ParseStageBudgets("outliers=0.2, smoothing = 0.5", d).ok());
   EXPECT_EQ(d.stage_seconds,
             (std::map<std::string, double>{{"outliers", 0.2}, {"smoothing", 0.5}}));
@@ -21,7 +22,7 @@ TEST(BudgetConfig, StageBudgetsFlag) {
 }
 
 TEST(BudgetConfig, FileLinesCommentsTotalAndFlagPrecedence) {
-  BudgetDefaults d;
+  TimeBudgetDefaults d;
   ASSERT_TRUE(ParseBudgetConfig("# line 3 budgets\n"
                                 "total 2.5\n"
                                 "\n"
@@ -38,7 +39,7 @@ TEST(BudgetConfig, FileLinesCommentsTotalAndFlagPrecedence) {
 }
 
 TEST(BudgetConfig, ErrorsNameTheSourceAndTheProblem) {
-  BudgetDefaults d;
+  TimeBudgetDefaults d;
   absl::Status s = ParseStageBudgets("outliers=0.2,smooth=1", d);
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(s.message(), HasSubstr("--stage_budgets entry 'smooth=1': unknown stage 'smooth' "

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "server/job/budget_config.h"
+#include "server/job/time_budget_config.h"
 
 #include <cmath>
 
@@ -28,7 +28,7 @@ absl::StatusOr<double> ParseSeconds(const std::string& text, const std::string& 
 
 // One "stage seconds" entry; "total" sets the whole-pipeline budget when `allow_total`.
 absl::Status AddEntry(const std::string& name, const std::string& value, const std::string& where,
-                      bool allow_total, BudgetDefaults& defaults) {
+                      bool allow_total, TimeBudgetDefaults& defaults) {
   SCANPREP_ASSIGN_OR_RETURN(auto seconds, ParseSeconds(value, where));
   if (allow_total && name == "total") {
     defaults.total_seconds = seconds;
@@ -46,7 +46,7 @@ absl::Status AddEntry(const std::string& name, const std::string& value, const s
 
 }  // namespace
 
-absl::Status ParseStageBudgets(std::string_view spec, BudgetDefaults& defaults) {
+absl::Status ParseStageBudgets(std::string_view spec, TimeBudgetDefaults& defaults) {
   for (absl::string_view entry :
        absl::StrSplit(absl::string_view(spec.data(), spec.size()), ',', absl::SkipWhitespace())) {
     const std::vector<std::string> kv = absl::StrSplit(entry, absl::MaxSplits('=', 1));
@@ -62,7 +62,7 @@ absl::Status ParseStageBudgets(std::string_view spec, BudgetDefaults& defaults) 
 }
 
 absl::Status ParseBudgetConfig(std::string_view text, std::string_view source,
-                               BudgetDefaults& defaults) {
+                               TimeBudgetDefaults& defaults) {
   int line_number = 0;
   for (absl::string_view line : absl::StrSplit(absl::string_view(text.data(), text.size()), '\n')) {
     ++line_number;
@@ -80,7 +80,7 @@ absl::Status ParseBudgetConfig(std::string_view text, std::string_view source,
   return absl::OkStatus();
 }
 
-absl::Status ReadBudgetConfig(const std::string& path, BudgetDefaults& defaults) {
+absl::Status ReadBudgetConfig(const std::string& path, TimeBudgetDefaults& defaults) {
   SCANPREP_ASSIGN_OR_RETURN(auto text, io::ReadFileToString(path));
   return ParseBudgetConfig(text, path, defaults);
 }
