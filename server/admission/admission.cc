@@ -15,6 +15,21 @@ namespace {
 // How often a waiting call looks at its cancellation (client gone or deadline passed).
 constexpr std::chrono::milliseconds kPollInterval(25);
 
+// RESOURCE_EXHAUSTED for a job that could never run: its claim exceeds the whole capacity.
+absl::Status ExceedsCapacityError(uint64_t claim_bytes, uint64_t capacity_bytes) {
+  absl::Status refused = WithReason(
+      absl::ResourceExhaustedError(absl::StrCat(
+          "the job's estimated memory of ", FormatMiB(claim_bytes), " (", claim_bytes,
+          " bytes, from header.total_points) exceeds the server's whole memory capacity of ",
+          FormatMiB(capacity_bytes), " (", capacity_bytes,
+          " bytes, memory_capacity), so it could never run here; send fewer points per job or "
+          "raise the server's --memory_capacity")),
+      "JOB_EXCEEDS_MEMORY");
+  refused = WithMetadata(std::move(refused), "estimate_bytes", absl::StrCat(claim_bytes));
+  // The key clients read (docs/api.md), named before the capacity was.
+  return WithMetadata(std::move(refused), "budget_bytes", absl::StrCat(capacity_bytes));
+}
+
 absl::Status DrainingError() {
   return WithReason(absl::UnavailableError("the server is shutting down (draining) and takes no "
                                            "new jobs; retry on another replica"),
@@ -80,18 +95,7 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
   }
   if (claim_bytes > options_.memory_capacity_bytes) {
     observer_.Refused(AdmissionRefusal::kMemory);
-    absl::Status refused = WithReason(
-        absl::ResourceExhaustedError(absl::StrCat(
-            "the job's estimated memory of ", FormatMiB(claim_bytes), " (", claim_bytes,
-            " bytes, from header.total_points) exceeds the server's whole memory capacity of ",
-            FormatMiB(options_.memory_capacity_bytes), " (", options_.memory_capacity_bytes,
-            " bytes, memory_capacity), so it could never run here; send fewer points per job or "
-            "raise the server's --memory_capacity")),
-        "JOB_EXCEEDS_MEMORY");
-    refused = WithMetadata(std::move(refused), "estimate_bytes", absl::StrCat(claim_bytes));
-    // The key clients read (docs/api.md), named before the capacity was.
-    return WithMetadata(std::move(refused), "budget_bytes",
-                        absl::StrCat(options_.memory_capacity_bytes));
+    return ExceedsCapacityError(claim_bytes, options_.memory_capacity_bytes);
   }
   Waiter self{.claim = claim_bytes, .reserve = std::min(reserve_bytes, claim_bytes), .host = host};
   if (waiting_.empty() && FitsLocked(self)) {
@@ -105,21 +109,7 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
   }
   if (static_cast<int>(waiting_.size()) >= options_.max_queued_jobs) {
     observer_.Refused(AdmissionRefusal::kQueueFull);
-    // Retry once the queue can be expected to have moved; at least a second, so that refused
-    // clients do not hammer a server that has not finished a job yet.
-    const int in_flight = static_cast<int>(holders_.size());
-    return WithReason(
-        absl::ResourceExhaustedError(absl::StrCat(
-            in_flight >= options_.max_concurrent_jobs
-                ? absl::StrCat("the server is running its limit of ", options_.max_concurrent_jobs,
-                               " concurrent jobs (max_concurrent_jobs)")
-                : absl::StrCat("the server's ", in_flight, " running jobs hold ",
-                               FormatMiB(reserved_bytes_), " of its ",
-                               FormatMiB(options_.memory_capacity_bytes),
-                               " memory capacity (memory_capacity)"),
-            " and its queue of ", options_.max_queued_jobs,
-            " waiting jobs (max_queued_jobs) is full; retry later or on another replica")),
-        "QUEUE_FULL", absl::Seconds(std::max(1.0, ExpectedWaitLocked())));
+    return QueueFullErrorLocked();
   }
   const double expected = ExpectedWaitLocked();
   const double remaining = absl::ToDoubleSeconds(deadline - arrived);
@@ -148,6 +138,24 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
     return DrainingError();
   }
   return absl::CancelledError("the call was cancelled or its deadline passed while queued");
+}
+
+absl::Status AdmissionQueue::QueueFullErrorLocked() const {
+  // Retry once the queue can be expected to have moved; at least a second, so that refused
+  // clients do not hammer a server that has not finished a job yet.
+  const int in_flight = static_cast<int>(holders_.size());
+  return WithReason(
+      absl::ResourceExhaustedError(absl::StrCat(
+          in_flight >= options_.max_concurrent_jobs
+              ? absl::StrCat("the server is running its limit of ", options_.max_concurrent_jobs,
+                             " concurrent jobs (max_concurrent_jobs)")
+              : absl::StrCat("the server's ", in_flight, " running jobs hold ",
+                             FormatMiB(reserved_bytes_), " of its ",
+                             FormatMiB(options_.memory_capacity_bytes),
+                             " memory capacity (memory_capacity)"),
+          " and its queue of ", options_.max_queued_jobs,
+          " waiting jobs (max_queued_jobs) is full; retry later or on another replica")),
+      "QUEUE_FULL", absl::Seconds(std::max(1.0, ExpectedWaitLocked())));
 }
 
 void AdmissionQueue::WaitLocked(std::unique_lock<std::mutex>& lock, Waiter& self,

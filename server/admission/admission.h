@@ -145,6 +145,8 @@ class AdmissionQueue {
   void WaitLocked(std::unique_lock<std::mutex>& lock, Waiter& self,
                   const std::function<bool()>& cancelled);
   double ExpectedWaitLocked() const;
+  // RESOURCE_EXHAUSTED QUEUE_FULL, naming what holds the slots, with a RetryInfo.
+  absl::Status QueueFullErrorLocked() const;
   // Reports the slots held, the calls waiting and the bytes reserved.
   void PublishLocked();
 

@@ -76,20 +76,27 @@ std::vector<double> BudgetBuckets() {
           7,     8,      9,     10,   12.5,  15,   20,  30,  45,  60,  120, 300};
 }
 
+ServiceMetrics::RpcFamilies ServiceMetrics::AddRpcFamilies(metrics::Registry& r) {
+  return {
+      .started =
+          r.AddCounter("grpc_server_started_total", "RPCs started on the server.", kRpcLabelNames),
+      .handled = r.AddCounter("grpc_server_handled_total",
+                              "RPCs completed on the server, regardless of success or failure.",
+                              {"grpc_type", "grpc_service", "grpc_method", "grpc_code"}),
+      .handling_seconds = r.AddHistogram(
+          "grpc_server_handling_seconds",
+          "Response latency of RPCs handled by the server: the whole call, queue + upload + "
+          "processing + download for Process.",
+          BudgetBuckets(), kRpcLabelNames),
+      .msg_received = r.AddCounter("grpc_server_msg_received_total",
+                                   "Stream messages received on the server.", kRpcLabelNames),
+      .msg_sent = r.AddCounter("grpc_server_msg_sent_total", "Stream messages sent by the server.",
+                               kRpcLabelNames),
+  };
+}
+
 ServiceMetrics::ServiceMetrics(metrics::Registry& r, const SensorMetricsOptions& sensors)
-    : started_(
-          r.AddCounter("grpc_server_started_total", "RPCs started on the server.", kRpcLabelNames)),
-      handled_(r.AddCounter("grpc_server_handled_total",
-                            "RPCs completed on the server, regardless of success or failure.",
-                            {"grpc_type", "grpc_service", "grpc_method", "grpc_code"})),
-      handling_seconds_(r.AddHistogram("grpc_server_handling_seconds",
-                                       "Response latency of RPCs handled by the server: the whole "
-                                       "call, queue + upload + processing + download for Process.",
-                                       BudgetBuckets(), kRpcLabelNames)),
-      msg_received_(r.AddCounter("grpc_server_msg_received_total",
-                                 "Stream messages received on the server.", kRpcLabelNames)),
-      msg_sent_(r.AddCounter("grpc_server_msg_sent_total", "Stream messages sent by the server.",
-                             kRpcLabelNames)),
+    : rpc_(AddRpcFamilies(r)),
       rejected_(r.AddCounter("scanprep_jobs_rejected_total",
                              "Process calls refused before or during upload, by reason.",
                              {"reason"})),
@@ -153,18 +160,21 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r, const SensorMetricsOptions&
   r.AddGauge("scanprep_build_info", "Always 1; the server's version as a label.", {"version"})
       .WithLabels({SCANPREP_VERSION})
       .Set(1);
-  // Series that exist before their first event, so rate() and absent() see them from the start.
+  AddFirstSeries();
+  metrics::AddProcessMetrics(r);
+}
+
+void ServiceMetrics::AddFirstSeries() {
   for (RejectReason reason : kAllReasons) rejected_.WithLabels({ReasonLabel(reason)});
   for (Phase phase : kAllPhases) phase_seconds_.WithLabels({PhaseLabel(phase)});
   for (const char* outcome : kBudgetOutcomes) budget_outcomes_.WithLabels({outcome});
   for (const RpcMethod& rpc : {kProcessRpc, kGetInfoRpc}) {
-    started_.WithLabels(RpcLabels(rpc));
-    handling_seconds_.WithLabels(RpcLabels(rpc));
+    rpc_.started.WithLabels(RpcLabels(rpc));
+    rpc_.handling_seconds.WithLabels(RpcLabels(rpc));
     std::vector<std::string> ok = RpcLabels(rpc);
     ok.push_back(CodeLabel(grpc::StatusCode::OK));
-    handled_.WithLabels(ok);
+    rpc_.handled.WithLabels(ok);
   }
-  metrics::AddProcessMetrics(r);
 }
 
 void ServiceMetrics::AdmissionConfigured(int max_queued_jobs, uint64_t memory_capacity_bytes) {
@@ -198,19 +208,19 @@ void ServiceMetrics::MemoryGuardTripped() { memory_guard_trips_.Inc(); }
 void ServiceMetrics::SetDefaultTimeBudget(double seconds) { default_time_budget_.Set(seconds); }
 
 void ServiceMetrics::RpcStarted(const RpcMethod& rpc) {
-  started_.WithLabels(RpcLabels(rpc)).Inc();
-  if (IsUnary(rpc)) msg_received_.WithLabels(RpcLabels(rpc)).Inc();
+  rpc_.started.WithLabels(RpcLabels(rpc)).Inc();
+  if (IsUnary(rpc)) rpc_.msg_received.WithLabels(RpcLabels(rpc)).Inc();
 }
 
 void ServiceMetrics::RpcHandled(const RpcMethod& rpc, grpc::StatusCode code, double seconds) {
   std::vector<std::string> labels = RpcLabels(rpc);
-  handling_seconds_.WithLabels(labels).Observe(seconds);
+  rpc_.handling_seconds.WithLabels(labels).Observe(seconds);
   // A unary call's one request and response; streams count theirs as they pass.
   if (IsUnary(rpc) && code == grpc::StatusCode::OK) {
-    msg_sent_.WithLabels(labels).Inc();
+    rpc_.msg_sent.WithLabels(labels).Inc();
   }
   labels.push_back(CodeLabel(code));
-  handled_.WithLabels(labels).Inc();
+  rpc_.handled.WithLabels(labels).Inc();
 }
 
 void ServiceMetrics::Rejected(RejectReason reason) {
@@ -222,13 +232,13 @@ void ServiceMetrics::PhaseEnded(Phase phase, double seconds) {
 }
 
 void ServiceMetrics::RequestReceived(uint64_t bytes, uint64_t points) {
-  msg_received_.WithLabels(RpcLabels(kProcessRpc)).Inc();
+  rpc_.msg_received.WithLabels(RpcLabels(kProcessRpc)).Inc();
   bytes_received_.Inc(static_cast<double>(bytes));
   points_received_.Inc(static_cast<double>(points));
 }
 
 void ServiceMetrics::ResponseSent(uint64_t bytes, uint64_t points) {
-  msg_sent_.WithLabels(RpcLabels(kProcessRpc)).Inc();
+  rpc_.msg_sent.WithLabels(RpcLabels(kProcessRpc)).Inc();
   bytes_sent_.Inc(static_cast<double>(bytes));
   points_returned_.Inc(static_cast<double>(points));
 }

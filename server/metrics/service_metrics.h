@@ -72,11 +72,20 @@ class ServiceMetrics : public AdmissionObserver {
   void JobProcessed(const PipelineReport& report);
 
  private:
-  metrics::Family<metrics::Counter>& started_;
-  metrics::Family<metrics::Counter>& handled_;
-  metrics::Family<metrics::Histogram>& handling_seconds_;
-  metrics::Family<metrics::Counter>& msg_received_;
-  metrics::Family<metrics::Counter>& msg_sent_;
+  // The grpc_server_* families, labelled by RpcMethod (handled also by grpc_code).
+  struct RpcFamilies {
+    metrics::Family<metrics::Counter>& started;
+    metrics::Family<metrics::Counter>& handled;
+    metrics::Family<metrics::Histogram>& handling_seconds;
+    metrics::Family<metrics::Counter>& msg_received;
+    metrics::Family<metrics::Counter>& msg_sent;
+  };
+  static RpcFamilies AddRpcFamilies(metrics::Registry& r);
+  // The series that exist before their first event, so rate() and absent() see them from the
+  // start.
+  void AddFirstSeries();
+
+  RpcFamilies rpc_;
   metrics::Family<metrics::Counter>& rejected_;
   metrics::Family<metrics::Counter>& overruns_;
   metrics::Family<metrics::Counter>& budget_outcomes_;
