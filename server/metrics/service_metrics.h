@@ -20,7 +20,8 @@
 
 namespace scanprep::server {
 
-// Why a call was refused; the `reason` label of scanprep_jobs_rejected_total.
+// Why a call was refused, by admission (AdmissionRefusal, which Refused maps) or by the service
+// (kLimit, kInvalid); the `reason` label of scanprep_jobs_rejected_total.
 enum class RejectReason { kQueueFull, kDeadline, kDraining, kLimit, kInvalid, kMemory };
 
 // The `phase` label of scanprep_phase_seconds: where a job's time on the line goes.
