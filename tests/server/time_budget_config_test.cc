@@ -11,7 +11,7 @@ namespace {
 
 using ::testing::HasSubstr;
 
-TEST(BudgetConfig, StageBudgetsFlag) {
+TEST(TimeBudgetConfig, StageBudgetsFlag) {
   TimeBudgetDefaults d;
   ASSERT_TRUE(ParseStageBudgets("outliers=0.2, smoothing = 0.5", d).ok());
   EXPECT_EQ(d.stage_seconds,
@@ -21,7 +21,7 @@ TEST(BudgetConfig, StageBudgetsFlag) {
   EXPECT_EQ(d.stage_seconds.size(), 2u);
 }
 
-TEST(BudgetConfig, FileLinesCommentsTotalAndFlagPrecedence) {
+TEST(TimeBudgetConfig, FileLinesCommentsTotalAndFlagPrecedence) {
   TimeBudgetDefaults d;
   ASSERT_TRUE(ParseBudgetConfig("# line 3 budgets\n"
                                 "total 2.5\n"
@@ -38,7 +38,7 @@ TEST(BudgetConfig, FileLinesCommentsTotalAndFlagPrecedence) {
   EXPECT_EQ(d.stage_seconds.at("outliers"), 0.1);
 }
 
-TEST(BudgetConfig, ErrorsNameTheSourceAndTheProblem) {
+TEST(TimeBudgetConfig, ErrorsNameTheSourceAndTheProblem) {
   TimeBudgetDefaults d;
   absl::Status s = ParseStageBudgets("outliers=0.2,smooth=1", d);
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
