@@ -11,6 +11,7 @@ RUN apt-get update \
 WORKDIR /src
 COPY CMakeLists.txt ./
 COPY proto proto
+COPY wire wire
 COPY core core
 COPY server server
 COPY client client

@@ -22,7 +22,7 @@
 #include "core/io/read_file.h"
 #include "core/io/scan_file.h"
 #include "core/stages/warning.h"
-#include "proto/warning_codes.h"
+#include "wire/warning_codes.h"
 
 namespace scanprep::client {
 namespace {

@@ -18,7 +18,7 @@
 #include "client/preview.h"
 #include "core/base/status_macros.h"
 #include "core/io/scan_file.h"
-#include "proto/convert/convert.h"
+#include "wire/convert.h"
 
 namespace scanprep::client {
 namespace {

@@ -9,7 +9,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "proto/warning_codes.h"
+#include "wire/warning_codes.h"
 
 namespace scanprep::client {
 

@@ -4,7 +4,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/base/status_macros.h"
-#include "proto/chunk_arrays.h"
+#include "wire/chunk_arrays.h"
 
 namespace scanprep::client {
 namespace {

@@ -7,8 +7,8 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "core/base/point_cloud.h"
-#include "proto/stream_checksum.h"
 #include "scanprep/v1/scanprep.pb.h"
+#include "wire/stream_checksum.h"
 
 namespace scanprep::client {
 

@@ -3,6 +3,8 @@
 #include <csignal>
 #include <cstdlib>
 #include <iostream>
+#include <memory>
+#include <string>
 #include <thread>
 
 #include <malloc.h>
@@ -25,14 +27,15 @@
 #include "absl/flags/usage.h"
 #include "absl/flags/usage_config.h"
 #include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
 #include "absl/synchronization/notification.h"
 #include "absl/time/time.h"
 #include "core/base/status_macros.h"
-#include "server/budget_config.h"
-#include "server/memory_budget.h"
-#include "server/presets_file.h"
+#include "server/admission/memory_reservation.h"
+#include "server/job/presets_file.h"
+#include "server/job/time_budget_config.h"
 #include "server/scanprep_server.h"
-#include "server/transport_security.h"
+#include "server/transport/transport_security.h"
 
 ABSL_FLAG(std::string, listen, "0.0.0.0:50051", "HOST:PORT to listen on (port 0 = any free port)");
 ABSL_FLAG(std::string, tls_cert, "", "PEM certificate chain of the gRPC port (TLS)");
@@ -44,7 +47,7 @@ ABSL_FLAG(bool, plaintext, false,
           "TLS flags and refuses to start");
 ABSL_FLAG(uint64_t, max_points_per_job, 0,
           "largest job in points; larger jobs end with RESOURCE_EXHAUSTED. 0 = 20,000,000 or the "
-          "largest job whose estimated memory fits --memory_budget, whichever is smaller; a "
+          "largest job whose estimated memory fits --memory_capacity, whichever is smaller; a "
           "larger explicit value than fits is refused at startup");
 ABSL_FLAG(uint64_t, max_chunk_points, 65'536,
           "largest request chunk in points; larger chunks end the call with RESOURCE_EXHAUSTED");
@@ -80,7 +83,7 @@ ABSL_FLAG(int, max_concurrent_jobs, 4,
 ABSL_FLAG(int, max_queued_jobs, 8,
           "calls that may wait for a slot; beyond that a call ends at once with "
           "RESOURCE_EXHAUSTED");
-ABSL_FLAG(uint64_t, memory_budget, 0,
+ABSL_FLAG(uint64_t, memory_capacity, 0,
           "bytes the running jobs' estimated memory may take together (docs/server.md, "
           "\"Admission control\"); a call waits until its job fits, a job that never can is "
           "refused. 0 = the container's memory limit (cgroup) minus 128 MiB for the server, else "
@@ -133,25 +136,32 @@ ABSL_FLAG(absl::Duration, keepalive_timeout, absl::Seconds(20),
 ABSL_FLAG(absl::Duration, grace_period, absl::Seconds(10),
           "on SIGINT/SIGTERM, how long in-flight calls may run before they are cancelled");
 
+namespace scanprep::server {
 namespace {
 
-// The config file first, then the flags, each overriding what came before.
-absl::StatusOr<scanprep::server::BudgetDefaults> BudgetsFromFlags() {
-  scanprep::server::BudgetDefaults budgets;
-  if (const std::string path = absl::GetFlag(FLAGS_budget_config); !path.empty()) {
-    SCANPREP_RETURN_IF_ERROR(scanprep::server::ReadBudgetConfig(path, budgets));
-  }
-  SCANPREP_RETURN_IF_ERROR(
-      scanprep::server::ParseStageBudgets(absl::GetFlag(FLAGS_stage_budgets), budgets));
-  const double total = absl::GetFlag(FLAGS_default_budget_seconds);
-  if (!(total >= 0)) return absl::InvalidArgumentError("--default_budget_seconds must be >= 0");
-  if (total > 0) budgets.total_seconds = total;
-  return budgets;
+// What scanprep-server starts: the server's options, and what its startup lines report besides
+// the ports.
+struct Startup {
+  ServerOptions options;
+  std::string transport;  // how the gRPC port is secured
+  MemoryLimits memory;
+};
+
+// Every startup error ends the process alike: one line on stderr and exit status 1.
+int Fail(const absl::Status& status) {
+  std::cerr << "scanprep-server: " << status.message() << "\n";
+  return 1;
 }
 
-}  // namespace
+// The error of `value` with the flag it came from before its message, for errors that do not
+// name it themselves.
+template <typename T>
+absl::StatusOr<T> NamingFlag(absl::string_view flag, absl::StatusOr<T> value) {
+  if (value.ok()) return value;
+  return absl::Status(value.status().code(), absl::StrCat(flag, ": ", value.status().message()));
+}
 
-int main(int argc, char** argv) {
+void ParseFlags(int argc, char** argv) {
   absl::FlagsUsageConfig usage;
   usage.version_string = [] { return std::string("scanprep-server " SCANPREP_VERSION "\n"); };
   // --help lists the flags of the file named like the program; ours live in server/main.cc.
@@ -167,62 +177,76 @@ int main(int argc, char** argv) {
       "scanprep-server (--tls_cert FILE --tls_key FILE [--tls_client_ca FILE] | --plaintext) "
       "[--listen HOST:PORT] [flags]");
   absl::ParseCommandLine(argc, argv);
+}
 
-  // A job's arrays (4-40 MB each at 1 M points) come and go stage by stage. By default glibc
-  // raises its mmap threshold to the size of each such block freed, so later ones come from the
-  // heap and the holes they leave stay resident: a 1 M job's peak RSS was 178-187 MiB against a
-  // live heap of about 150. A fixed threshold maps every block over 128 KiB on its own and hands
-  // it back when freed: 159-160 MiB, end to end 1-1.5 % slower (5faaf5c's docs/benchmarks.md).
-  mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+// A job's arrays (4-40 MB each at 1 M points) come and go stage by stage. By default glibc
+// raises its mmap threshold to the size of each such block freed, so later ones come from the
+// heap and the holes they leave stay resident: a 1 M job's peak RSS was 178-187 MiB against a
+// live heap of about 150. A fixed threshold maps every block over 128 KiB on its own and hands
+// it back when freed: 159-160 MiB, end to end 1-1.5 % slower (5faaf5c's docs/benchmarks.md).
+void UseFixedMmapThreshold() { mallopt(M_MMAP_THRESHOLD, 128 * 1024); }
 
-  // Block the stop signals in every thread (gRPC's and TBB's threads inherit this mask) and take
-  // them synchronously on one thread, where calling into gRPC is safe.
+// Blocks the stop signals in every thread (gRPC's and TBB's threads inherit this mask), so that
+// ServeUntilStopped takes them synchronously on one thread, where calling into gRPC is safe.
+sigset_t BlockStopSignals() {
   sigset_t stop_signals;
   sigemptyset(&stop_signals);
   sigaddset(&stop_signals, SIGINT);
   sigaddset(&stop_signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+  return stop_signals;
+}
 
-  auto budgets = BudgetsFromFlags();
-  if (!budgets.ok()) {
-    std::cerr << "scanprep-server: " << budgets.status().message() << "\n";
-    return 1;
+// The config file first, then the flags, each overriding what came before.
+absl::StatusOr<TimeBudgetDefaults> TimeBudgetsFromFlags() {
+  TimeBudgetDefaults budgets;
+  if (const std::string path = absl::GetFlag(FLAGS_budget_config); !path.empty()) {
+    SCANPREP_RETURN_IF_ERROR(ReadBudgetConfig(path, budgets));
   }
-  auto transport = scanprep::server::TransportFromFlags({
-      .tls_cert = absl::GetFlag(FLAGS_tls_cert),
-      .tls_key = absl::GetFlag(FLAGS_tls_key),
-      .tls_client_ca = absl::GetFlag(FLAGS_tls_client_ca),
-      .plaintext = absl::GetFlag(FLAGS_plaintext),
-  });
-  if (!transport.ok()) {
-    std::cerr << "scanprep-server: " << transport.status().message() << "\n";
-    return 1;
-  }
-  auto presets = scanprep::server::LoadPresets(absl::GetFlag(FLAGS_presets_file));
-  if (!presets.ok()) {
-    std::cerr << "scanprep-server: --presets_file: " << presets.status().message() << "\n";
-    return 1;
-  }
-  scanprep::server::ServerOptions options;
-  options.credentials = transport->credentials;
-  options.limits.presets =
-      std::make_shared<const std::vector<scanprep::Preset>>(*std::move(presets));
+  SCANPREP_RETURN_IF_ERROR(ParseStageBudgets(absl::GetFlag(FLAGS_stage_budgets), budgets));
+  const double total = absl::GetFlag(FLAGS_default_budget_seconds);
+  if (!(total >= 0)) return absl::InvalidArgumentError("--default_budget_seconds must be >= 0");
+  if (total > 0) budgets.total_seconds = total;
+  return budgets;
+}
+
+// What a job may send and what it defaults to, but its largest size (the memory limits').
+absl::StatusOr<JobLimits> JobLimitsFromFlags(const TimeBudgetDefaults& budgets) {
+  JobLimits limits;
+  SCANPREP_ASSIGN_OR_RETURN(
+      std::vector<Preset> presets,
+      NamingFlag("--presets_file", LoadPresets(absl::GetFlag(FLAGS_presets_file))));
+  limits.presets = std::make_shared<const std::vector<Preset>>(std::move(presets));
+  limits.max_chunk_points = absl::GetFlag(FLAGS_max_chunk_points);
+  limits.max_bytes_per_call = absl::GetFlag(FLAGS_max_bytes_per_call);
+  limits.max_scans_per_job = absl::GetFlag(FLAGS_max_scans_per_job);
+  limits.default_budget_seconds = budgets.total_seconds;
+  limits.default_stage_budget_seconds = budgets.stage_seconds;
+  return limits;
+}
+
+// Every flag, read and checked; the first error found ends the startup.
+absl::StatusOr<Startup> StartupFromFlags() {
+  SCANPREP_ASSIGN_OR_RETURN(const TimeBudgetDefaults budgets, TimeBudgetsFromFlags());
+  SCANPREP_ASSIGN_OR_RETURN(const Transport transport,
+                            TransportFromFlags({
+                                .tls_cert = absl::GetFlag(FLAGS_tls_cert),
+                                .tls_key = absl::GetFlag(FLAGS_tls_key),
+                                .tls_client_ca = absl::GetFlag(FLAGS_tls_client_ca),
+                                .plaintext = absl::GetFlag(FLAGS_plaintext),
+                            }));
+  Startup startup;
+  startup.transport = transport.description;
+  ServerOptions& options = startup.options;
+  options.credentials = transport.credentials;
+  SCANPREP_ASSIGN_OR_RETURN(options.limits, JobLimitsFromFlags(budgets));
+  SCANPREP_ASSIGN_OR_RETURN(
+      options.trusted_proxies,
+      NamingFlag("--trusted_proxies", ParseCidrList(absl::GetFlag(FLAGS_trusted_proxies))));
   options.log = &std::cerr;
   options.listen = absl::GetFlag(FLAGS_listen);
   options.metrics_listen = absl::GetFlag(FLAGS_metrics_listen);
-  options.limits.max_chunk_points = absl::GetFlag(FLAGS_max_chunk_points);
-  options.limits.max_bytes_per_call = absl::GetFlag(FLAGS_max_bytes_per_call);
-  options.limits.max_scans_per_job = absl::GetFlag(FLAGS_max_scans_per_job);
   options.max_calls_per_peer = absl::GetFlag(FLAGS_max_calls_per_peer);
-  if (auto proxies = scanprep::server::ParseCidrList(absl::GetFlag(FLAGS_trusted_proxies));
-      proxies.ok()) {
-    options.trusted_proxies = *std::move(proxies);
-  } else {
-    std::cerr << "scanprep-server: --trusted_proxies: " << proxies.status().message() << "\n";
-    return 1;
-  }
-  options.limits.default_budget_seconds = budgets->total_seconds;
-  options.limits.default_stage_budget_seconds = budgets->stage_seconds;
   options.max_concurrent_jobs = absl::GetFlag(FLAGS_max_concurrent_jobs);
   options.max_queued_jobs = absl::GetFlag(FLAGS_max_queued_jobs);
   options.threads = absl::GetFlag(FLAGS_threads);
@@ -234,79 +258,100 @@ int main(int argc, char** argv) {
                         .max_age_grace = absl::GetFlag(FLAGS_max_connection_age_grace),
                         .keepalive_time = absl::GetFlag(FLAGS_keepalive_time),
                         .keepalive_timeout = absl::GetFlag(FLAGS_keepalive_timeout)};
-  if (absl::Status s = scanprep::server::CheckConnectionOptions(options.connection); !s.ok()) {
-    std::cerr << "scanprep-server: " << s.message() << "\n";
-    return 1;
-  }
+  SCANPREP_RETURN_IF_ERROR(CheckConnectionOptions(options.connection));
   options.sensor_metrics = {
       .max_sensors = absl::GetFlag(FLAGS_max_sensors),
       .tolerance_mm = absl::GetFlag(FLAGS_sensor_tolerance_mm),
       .rotation_tolerance_deg = absl::GetFlag(FLAGS_sensor_rotation_tolerance_deg)};
-  if (absl::Status s = scanprep::server::CheckSensorMetricsOptions(options.sensor_metrics);
-      !s.ok()) {
-    std::cerr << "scanprep-server: " << s.message() << "\n";
-    return 1;
-  }
-  scanprep::server::SetBytesPerPointForTesting(absl::GetFlag(FLAGS_test_bytes_per_point));
-  auto memory = scanprep::server::ResolveMemoryLimits(absl::GetFlag(FLAGS_memory_budget),
-                                                      absl::GetFlag(FLAGS_max_points_per_job));
-  if (!memory.ok()) {
-    std::cerr << "scanprep-server: " << memory.status().message() << "\n";
-    return 1;
-  }
-  options.memory_budget_bytes = memory->budget.bytes;
+  SCANPREP_RETURN_IF_ERROR(CheckSensorMetricsOptions(options.sensor_metrics));
+  // Before the limits are resolved: the hook changes the estimates they are made of.
+  SetBytesPerPointForTesting(absl::GetFlag(FLAGS_test_bytes_per_point));
+  SCANPREP_ASSIGN_OR_RETURN(startup.memory,
+                            ResolveMemoryLimits(absl::GetFlag(FLAGS_memory_capacity),
+                                                absl::GetFlag(FLAGS_max_points_per_job)));
+  options.memory_capacity_bytes = startup.memory.capacity.bytes;
   options.memory_guard.enabled = absl::GetFlag(FLAGS_memory_guard);
-  options.limits.max_points_per_job = memory->max_points_per_job;
-  auto server = scanprep::server::ScanPrepServer::Start(options);
-  if (!server.ok()) {
-    std::cerr << "scanprep-server: " << server.status().message() << "\n";
-    return 1;
-  }
-  // The actual ports, for callers that asked for port 0.
-  std::cout << "scanprep-server " SCANPREP_VERSION " listening on port " << (*server)->port()
-            << " (" << transport->description << ")" << std::endl;
-  std::cout << "scanprep-server: memory budget " << memory->budget.bytes << " bytes ("
-            << memory->budget.source << "), " << scanprep::server::BaseBytesPerPoint()
-            << " B/point estimated, max_points_per_job " << memory->max_points_per_job << std::endl;
-  if ((*server)->metrics_port() != 0) {
-    std::cout << "scanprep-server: metrics on port " << (*server)->metrics_port() << std::endl;
-  }
+  options.limits.max_points_per_job = startup.memory.max_points_per_job;
+  return startup;
+}
 
+// The actual ports, for callers that asked for port 0, and the memory limits in force.
+void PrintStartup(const ScanPrepServer& server, const Startup& startup) {
+  std::cout << "scanprep-server " SCANPREP_VERSION " listening on port " << server.port() << " ("
+            << startup.transport << ")" << std::endl;
+  std::cout << "scanprep-server: memory capacity " << startup.memory.capacity.bytes << " bytes ("
+            << startup.memory.capacity.source << "), " << BaseBytesPerPoint()
+            << " B/point estimated, max_points_per_job " << startup.memory.max_points_per_job
+            << std::endl;
+  if (server.metrics_port() != 0) {
+    std::cout << "scanprep-server: metrics on port " << server.metrics_port() << std::endl;
+  }
+}
+
+// Jobs are cancelled at the end of the grace period and stop within 0.2 s; should one not, the
+// process still ends within a second of it rather than when the job is done. Should the exit
+// itself hang (a library's threads at teardown), it ends 5 s after the calls did: the watchdog
+// outlives main(), and so does the notification it waits on, which the caller gives once the
+// calls ended.
+absl::Notification* StartExitWatchdog(absl::Duration grace) {
+  auto* calls_ended = new absl::Notification;
+  std::thread([grace, calls_ended] {
+    if (!calls_ended->WaitForNotificationWithTimeout(grace + absl::Milliseconds(900))) {
+      std::cerr << "scanprep-server: calls still running 0.9 s after the grace period; exiting"
+                << std::endl;
+      std::_Exit(1);
+    }
+    absl::SleepFor(absl::Seconds(5));
+    std::cerr << "scanprep-server: still not exited 5 s after the calls ended; exiting"
+              << std::endl;
+    std::_Exit(1);
+  }).detach();
+  return calls_ended;
+}
+
+// Serves until one of `stop_signals` arrives, then shuts down within --grace_period.
+void ServeUntilStopped(ScanPrepServer& server, const sigset_t& stop_signals) {
   std::thread stopper([&] {
     int signal = 0;
     sigwait(&stop_signals, &signal);
     std::cout << "scanprep-server: signal " << signal << ", shutting down" << std::endl;
     const absl::Duration grace = absl::GetFlag(FLAGS_grace_period);
-    // Jobs are cancelled at the end of the grace period and stop within 0.2 s; should one not,
-    // the process still ends within a second of it rather than when the job is done. Should the
-    // exit itself hang (a library's threads at teardown), it ends 5 s after the calls did: the
-    // watchdog outlives main(), and so does what it waits on.
-    auto* calls_ended = new absl::Notification;
-    std::thread([grace, calls_ended] {
-      if (!calls_ended->WaitForNotificationWithTimeout(grace + absl::Milliseconds(900))) {
-        std::cerr << "scanprep-server: calls still running 0.9 s after the grace period; exiting"
-                  << std::endl;
-        std::_Exit(1);
-      }
-      absl::SleepFor(absl::Seconds(5));
-      std::cerr << "scanprep-server: still not exited 5 s after the calls ended; exiting"
-                << std::endl;
-      std::_Exit(1);
-    }).detach();
-    (*server)->Shutdown(grace);
+    absl::Notification* calls_ended = StartExitWatchdog(grace);
+    server.Shutdown(grace);
     calls_ended->Notify();
   });
-  (*server)->Wait();
+  server.Wait();
   stopper.join();
-  server->reset();  // the service's own threads, jobs and metrics endpoint end here
-  // What is left is gRPC's library teardown (grpc_shutdown, when the credentials go), which in
-  // Debian's gRPC 1.51 can wait in an executor thread's poll after a large job (measured here:
-  // 10 s after a 4 M-point job, none after small ones). Nothing of the service is left to tear
-  // down, so the process ends here, after the leak check a sanitizer build runs at exit.
+}
+
+// What is left once the server is gone is gRPC's library teardown (grpc_shutdown, when the
+// credentials go), which in Debian's gRPC 1.51 can wait in an executor thread's poll after a
+// large job (measured here: 10 s after a 4 M-point job, none after small ones). Nothing of the
+// service is left to tear down, so the process ends here, after the leak check a sanitizer build
+// runs at exit.
+[[noreturn]] void ExitWithoutLibraryTeardown() {
   std::cout.flush();
   std::cerr.flush();
 #ifdef SCANPREP_LEAK_CHECK_AT_EXIT
   __lsan_do_leak_check();
 #endif
   std::_Exit(0);
+}
+
+}  // namespace
+}  // namespace scanprep::server
+
+int main(int argc, char** argv) {
+  namespace server = scanprep::server;
+  server::ParseFlags(argc, argv);
+  server::UseFixedMmapThreshold();
+  const sigset_t stop_signals = server::BlockStopSignals();
+  const absl::StatusOr<server::Startup> startup = server::StartupFromFlags();
+  if (!startup.ok()) return server::Fail(startup.status());
+  auto running = server::ScanPrepServer::Start(startup->options);
+  if (!running.ok()) return server::Fail(running.status());
+  server::PrintStartup(**running, *startup);
+  server::ServeUntilStopped(**running, stop_signals);
+  running->reset();  // the service's own threads, jobs and metrics endpoint end here
+  server::ExitWithoutLibraryTeardown();
 }

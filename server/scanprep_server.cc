@@ -12,7 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/synchronization/notification.h"
 #include "core/base/status_macros.h"
-#include "server/memory_budget.h"
+#include "server/admission/memory_reservation.h"
 
 namespace scanprep::server {
 namespace {
@@ -64,13 +64,13 @@ ScanPrepServer::ScanPrepServer(const ServerOptions& options)
       peers_(options.max_calls_per_peer),
       admission_({.max_concurrent_jobs = options.max_concurrent_jobs,
                   .max_queued_jobs = options.max_queued_jobs,
-                  .memory_budget_bytes = options.memory_budget_bytes},
+                  .memory_capacity_bytes = options.memory_capacity_bytes},
                  metrics_),
       runner_(options.threads, options.on_progress),
       guard_(options.memory_guard, admission_, runner_, metrics_, log_),
       service_(options.limits, options.timeouts, options.trusted_proxies, admission_, runner_,
                metrics_, peers_, log_) {
-  metrics_.SetDefaultBudget(options.limits.default_budget_seconds);
+  metrics_.SetDefaultTimeBudget(options.limits.default_budget_seconds);
 }
 
 absl::Status CheckConnectionOptions(const ConnectionOptions& c) {
@@ -113,9 +113,9 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
     return absl::InvalidArgumentError("max_calls_per_peer must be at least 0 (0 = no cap)");
   }
   ServerOptions resolved = options;
-  if (resolved.memory_budget_bytes == 0) {
-    SCANPREP_ASSIGN_OR_RETURN(auto budget, DetectMemoryBudget());
-    resolved.memory_budget_bytes = budget.bytes;
+  if (resolved.memory_capacity_bytes == 0) {
+    SCANPREP_ASSIGN_OR_RETURN(auto capacity, DetectMemoryCapacity());
+    resolved.memory_capacity_bytes = capacity.bytes;
   }
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();

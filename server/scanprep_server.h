@@ -12,17 +12,17 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
-#include "server/admission.h"
-#include "server/call_log.h"
-#include "server/cidr.h"
-#include "server/job_assembler.h"
-#include "server/job_runner.h"
-#include "server/memory_guard.h"
+#include "server/admission/admission.h"
+#include "server/admission/memory_guard.h"
+#include "server/admission/peer_limiter.h"
+#include "server/job/job_assembler.h"
+#include "server/job/job_runner.h"
 #include "server/metrics/http_exporter.h"
 #include "server/metrics/registry.h"
-#include "server/peer_limiter.h"
+#include "server/metrics/service_metrics.h"
 #include "server/scanprep_service.h"
-#include "server/service_metrics.h"
+#include "server/transport/call_log.h"
+#include "server/transport/cidr.h"
 
 namespace scanprep::server {
 
@@ -47,8 +47,9 @@ struct ServerOptions {
   JobLimits limits;
   int max_concurrent_jobs = 4;
   int max_queued_jobs = 8;
-  // What the jobs holding a slot may reserve together (memory_budget.h); 0 = DetectMemoryBudget().
-  uint64_t memory_budget_bytes = 0;
+  // The memory capacity: what the jobs holding a slot may reserve together
+  // (memory_reservation.h); 0 = DetectMemoryCapacity().
+  uint64_t memory_capacity_bytes = 0;
   // Ends a job whose memory crosses its reservation (memory_guard.h); off unless enabled.
   MemoryGuardOptions memory_guard;
   int threads = 0;  // arena threads; 0 = hardware concurrency
@@ -86,7 +87,7 @@ class ScanPrepServer {
   void Wait() { server_->Wait(); }
 
  private:
-  // `options` with the memory budget resolved.
+  // `options` with the memory capacity resolved.
   explicit ScanPrepServer(const ServerOptions& options);
   void SetServing(bool serving);
 

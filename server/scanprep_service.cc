@@ -12,12 +12,12 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/stages/stage.h"
-#include "proto/chunk_arrays.h"
-#include "proto/convert/convert.h"
-#include "proto/convert/error_details.h"
-#include "proto/stream_checksum.h"
-#include "server/client_identity.h"
-#include "server/memory_budget.h"
+#include "server/admission/memory_reservation.h"
+#include "server/transport/client_identity.h"
+#include "wire/chunk_arrays.h"
+#include "wire/convert.h"
+#include "wire/error_details.h"
+#include "wire/stream_checksum.h"
 
 namespace scanprep::server {
 namespace {
@@ -41,7 +41,7 @@ using google::protobuf::util::TimeUtil;
 
 // glibc keeps freed memory resident in its per-thread arenas, and the next job's threads may
 // allocate from other arenas: without handing the pages back, a server running one job after
-// another grew past the sum of the jobs' estimates (303 MB against a 300 MB budget with 8 arena
+// another grew past the sum of the jobs' estimates (303 MB against a 300 MB capacity with 8 arena
 // threads, 8 jobs of 250,000 points two at a time). malloc_trim returns the free pages of every
 // arena, in milliseconds.
 //
@@ -377,7 +377,8 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
   limits->set_header_timeout_seconds(absl::ToDoubleSeconds(timeouts_.header));
   limits->set_idle_timeout_seconds(absl::ToDoubleSeconds(timeouts_.idle));
   limits->set_min_upload_bytes_per_second(timeouts_.min_upload_rate);
-  limits->set_memory_budget_bytes(admission_.memory_budget_bytes());
+  // The field keeps the name it had before the capacity was called one (a wire name).
+  limits->set_memory_budget_bytes(admission_.memory_capacity_bytes());
   limits->set_bytes_per_point(BaseBytesPerPoint());
   const std::vector<std::string> defaults = DefaultStages();
   for (const StageInfo& stage : StageRegistry()) {

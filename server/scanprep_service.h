@@ -9,14 +9,14 @@
 #include <grpcpp/grpcpp.h>
 
 #include "scanprep/v1/scanprep.grpc.pb.h"
-#include "server/admission.h"
-#include "server/call_log.h"
-#include "server/cidr.h"
-#include "server/idle_watch.h"
-#include "server/job_assembler.h"
-#include "server/job_runner.h"
-#include "server/peer_limiter.h"
-#include "server/service_metrics.h"
+#include "server/admission/admission.h"
+#include "server/admission/peer_limiter.h"
+#include "server/job/job_assembler.h"
+#include "server/job/job_runner.h"
+#include "server/metrics/service_metrics.h"
+#include "server/transport/call_log.h"
+#include "server/transport/cidr.h"
+#include "server/transport/idle_watch.h"
 
 namespace scanprep::server {
 

@@ -9,7 +9,7 @@ is an error, not a silently ignored field), then what must hold between them and
 
   - the Deployment's memory limit holds the formula of the server's admission control,
     128 MiB + max_concurrent_jobs x (16 MiB + kBytesPerPoint x max_points_per_job), for its own
-    flags (the constants read from server/memory_budget.h);
+    flags (the constants read from server/admission/memory_reservation.h);
   - no `replicas` beside an HPA; clients rebalance (--max_connection_age); the termination grace
     covers --grace_period plus the preStop sleep;
   - Pod Security Standard "restricted" with a read-only root;
@@ -52,18 +52,19 @@ SEVERITIES = {"critical", "warning"}
 RUNBOOK = re.compile(r"https://[^/]+/docs/deployment\.md#([\w-]+)")
 
 
-def budget_constant(name):
-    """A constant of the server's admission arithmetic, as server/memory_budget.h defines it."""
-    header = (ROOT / "server" / "memory_budget.h").read_text()
+def reservation_constant(name):
+    """A constant of the server's admission arithmetic, as server/admission/memory_reservation.h
+    defines it."""
+    header = (ROOT / "server" / "admission" / "memory_reservation.h").read_text()
     m = re.search(rf"constexpr uint64_t {name} = (?:uint64_t\{{(\d+)\}} << (\d+)|(\d+));", header)
     if not m:
-        sys.exit(f"check_manifests: {name} not found in server/memory_budget.h")
+        sys.exit(f"check_manifests: {name} not found in server/admission/memory_reservation.h")
     return int(m[1]) << int(m[2]) if m[1] else int(m[3])
 
 
-BYTES_PER_POINT = budget_constant("kBytesPerPoint")
-JOB_OVERHEAD = budget_constant("kJobOverheadBytes")
-SERVER_RESERVE = budget_constant("kServerReserveBytes")
+BYTES_PER_POINT = reservation_constant("kBytesPerPoint")
+JOB_OVERHEAD = reservation_constant("kJobOverheadBytes")
+SERVER_RESERVE = reservation_constant("kServerReserveBytes")
 
 # --- schemas ---------------------------------------------------------------------------------
 # A schema is a type (str, int, bool, float), "any", a list [schema] or a dict of keys, where a
@@ -544,9 +545,9 @@ def check_network_policy(by_kind, findings):
 
 
 def served_metrics():
-    """Metric names the server registers (server/*.cc), and those prometheus-adapter serves."""
+    """Metric names the server registers (server/**/*.cc), and those prometheus-adapter serves."""
     exported = set()
-    for source in (ROOT / "server").glob("*.cc"):
+    for source in (ROOT / "server").rglob("*.cc"):
         exported |= set(re.findall(r'Add(?:Gauge|Counter|Histogram)\(\s*"(\w+)"',
                                    source.read_text()))
     adapter = yaml.safe_load((KUBERNETES / "overlays" / "monitoring" /

@@ -14,7 +14,7 @@ packages=(
   libcli11-dev  # the CLI's flags (client/cli_args.cc)
   libexpat1-dev  # the XML section of E57 files (core/io/e57_xml.cc)
   libpng-dev  # preview pictures (client/preview.cc)
-  zlib1g-dev  # CRC-32 of the StreamEnd (proto/stream_checksum.cc)
+  zlib1g-dev  # CRC-32 of the StreamEnd (wire/stream_checksum.cc)
   prometheus  # prometheus and promtool: alert-rule and integration tests
   openssl     # tls_test makes its certificates at test time
   clang-format  # the clang_format test (tools/check-format.sh)

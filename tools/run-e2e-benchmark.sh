@@ -11,8 +11,8 @@
 # Usage: tools/run-e2e-benchmark.sh [--no-header] [POINTS...]   (default 1000000 4000000)
 # Environment: BUILD_DIR (default build), THREADS (default "1 2"), SKIP_BUILD=1 when the caller
 # has just built, PARAMS (space-separated name=value overrides for every job, e.g.
-# "correction.radius_scale=100", the worst case of server/memory_budget.h), PRESET (a preset for
-# every job, e.g. "paper").
+# "correction.radius_scale=100", the worst case of server/admission/memory_reservation.h), PRESET (a
+# preset for every job, e.g. "paper").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 header=1

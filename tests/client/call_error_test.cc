@@ -170,7 +170,7 @@ TEST(CallError, EveryReasonIsParsedByTheClient) {
   small.limits.max_chunk_points = 50;
   small.limits.max_bytes_per_call = 2000;
   InProcessServer limited(small);
-  InProcessServer tight_memory(server::ServerOptions{.memory_budget_bytes = 64 << 20});
+  InProcessServer tight_memory(server::ServerOptions{.memory_capacity_bytes = 64 << 20});
   InProcessServer draining;
   draining.server().Drain();
   auto busy_stub = busy.Stub();

@@ -17,10 +17,10 @@
 #include "client/latency_stats.h"
 #include "client/load_generator.h"
 #include "core/io/ply.h"
-#include "proto/convert/error_details.h"
 #include "tests/server/server_process.h"
 #include "tests/server/service_fixtures.h"
 #include "tests/support/run_command.h"
+#include "wire/error_details.h"
 
 namespace scanprep::testing {
 namespace {

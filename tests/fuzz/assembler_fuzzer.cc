@@ -15,7 +15,7 @@
 
 #include "core/base/cancel.h"
 #include "core/pipeline/pipeline.h"
-#include "server/job_assembler.h"
+#include "server/job/job_assembler.h"
 #include "tests/fuzz/fuzz_checks.h"
 
 namespace {

@@ -13,7 +13,7 @@
 #include <google/protobuf/stubs/logging.h>
 
 #include "client/job_builder.h"
-#include "server/job_assembler.h"
+#include "server/job/job_assembler.h"
 #include "tests/fuzz/fuzz_checks.h"
 
 namespace {

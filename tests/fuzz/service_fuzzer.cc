@@ -33,11 +33,11 @@
 #include "client/call_error.h"
 #include "core/stages/params.h"
 #include "core/stages/stage.h"
-#include "proto/chunk_arrays.h"
-#include "proto/stream_checksum.h"
 #include "scanprep/v1/scanprep.grpc.pb.h"
 #include "server/scanprep_server.h"
 #include "tests/fuzz/fuzz_checks.h"
+#include "wire/chunk_arrays.h"
+#include "wire/stream_checksum.h"
 
 namespace {
 

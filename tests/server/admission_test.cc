@@ -11,8 +11,8 @@
 #include <gtest/gtest.h>
 
 #include "absl/cleanup/cleanup.h"
-#include "server/admission.h"
-#include "server/cidr.h"
+#include "server/admission/admission.h"
+#include "server/transport/cidr.h"
 #include "tests/server/metrics_scrape.h"
 #include "tests/server/service_fixtures.h"
 
@@ -37,10 +37,10 @@ bool Eventually(Fn condition) {
 class QueueUnderTest {
  public:
   QueueUnderTest(int max_concurrent, int max_queued,
-                 uint64_t memory_budget = std::numeric_limits<uint64_t>::max())
+                 uint64_t memory_capacity = std::numeric_limits<uint64_t>::max())
       : queue_({.max_concurrent_jobs = max_concurrent,
                 .max_queued_jobs = max_queued,
-                .memory_budget_bytes = memory_budget,
+                .memory_capacity_bytes = memory_capacity,
                 .now = [this] { return now(); }},
                metrics_) {}
 
@@ -200,7 +200,7 @@ TEST(AdmissionQueue, OneHostAloneMayTakeEverySlotAndQueuePlace) {
 // A call whose turn came while a slot was free but not its memory keeps its turn: a host that
 // arrives later (never served, so otherwise first) does not take the memory it waits for.
 TEST(AdmissionQueue, ACallWaitingForMemoryKeepsItsTurnAgainstHostsThatArriveLater) {
-  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_capacity=*/1'000);
   auto a1 = q.AdmitNow(300, "A");
   auto a2 = q.AdmitNow(300, "A");
   auto c = q.AdmitNow(100, "C");
@@ -345,24 +345,24 @@ server::ServerOptions Options(int max_concurrent, int max_queued) {
   return options;
 }
 
-TEST(AdmissionQueue, AJobLargerThanTheWholeMemoryBudgetIsRefusedAtOnce) {
-  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
+TEST(AdmissionQueue, AJobLargerThanTheWholeMemoryCapacityIsRefusedAtOnce) {
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_capacity=*/1'000);
   // Refused even on an idle server: waiting could never make it fit.
   auto refused = q.AdmitNow(1'001);
   EXPECT_EQ(refused.status().code(), absl::StatusCode::kResourceExhausted);
   EXPECT_THAT(refused.status().message(),
               HasSubstr("estimated memory of 0 MiB (1001 bytes, from header.total_points) "
-                        "exceeds the server's whole memory budget of 0 MiB (1000 bytes, "
-                        "memory_budget)"));
-  EXPECT_THAT(refused.status().message(), HasSubstr("--memory_budget"));
+                        "exceeds the server's whole memory capacity of 0 MiB (1000 bytes, "
+                        "memory_capacity)"));
+  EXPECT_THAT(refused.status().message(), HasSubstr("--memory_capacity"));
   EXPECT_EQ(q.Metric("scanprep_jobs_rejected_total{reason=\"memory\"}"), 1);
   EXPECT_EQ(q.queue().in_flight(), 0);
-  // Exactly the budget fits.
+  // Exactly the capacity fits.
   EXPECT_TRUE(q.AdmitNow(1'000).ok());
 }
 
-TEST(AdmissionQueue, ACallWaitsUntilItsBytesAreFreeAndTheReservationsNeverExceedTheBudget) {
-  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
+TEST(AdmissionQueue, ACallWaitsUntilItsBytesAreFreeAndTheReservationsNeverExceedTheCapacity) {
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_capacity=*/1'000);
   EXPECT_EQ(q.Metric("scanprep_memory_budget_bytes"), 1'000);
   auto a = q.AdmitNow(600);
   auto b = q.AdmitNow(300);
@@ -392,7 +392,7 @@ TEST(AdmissionQueue, ACallWaitsUntilItsBytesAreFreeAndTheReservationsNeverExceed
 }
 
 TEST(AdmissionQueue, ALargeJobAtTheHeadIsNotOvertakenBySmallOnesThatWouldFit) {
-  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_capacity=*/1'000);
   auto running = q.AdmitNow(600);
   ASSERT_TRUE(running.ok());
   auto large = q.AdmitQueued(800);
@@ -403,8 +403,8 @@ TEST(AdmissionQueue, ALargeJobAtTheHeadIsNotOvertakenBySmallOnesThatWouldFit) {
   auto third = q.AdmitQueued(100);
   auto fourth = q.AdmitQueued(100);
   EXPECT_THAT(q.AdmitNow(100).status().message(),
-              HasSubstr("the server's 1 running jobs hold 0 MiB of its 0 MiB memory budget "
-                        "(memory_budget) and its queue of 4 waiting jobs (max_queued_jobs) is "
+              HasSubstr("the server's 1 running jobs hold 0 MiB of its 0 MiB memory capacity "
+                        "(memory_capacity) and its queue of 4 waiting jobs (max_queued_jobs) is "
                         "full"));
   EXPECT_EQ(q.queue().in_flight(), 1);
   EXPECT_FALSE(Ready(small));
@@ -420,7 +420,7 @@ TEST(AdmissionQueue, ALargeJobAtTheHeadIsNotOvertakenBySmallOnesThatWouldFit) {
 }
 
 TEST(AdmissionQueue, WhenTheHeadOfTheQueueLeavesTheCallsBehindItThatFitAreAdmitted) {
-  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_capacity=*/1'000);
   auto running = q.AdmitNow(600);
   ASSERT_TRUE(running.ok());
   std::atomic<bool> cancel_large{false};
@@ -435,7 +435,7 @@ TEST(AdmissionQueue, WhenTheHeadOfTheQueueLeavesTheCallsBehindItThatFitAreAdmitt
 }
 
 TEST(AdmissionQueue, AClaimIsReservedAsItsDataArrivesSoTheRestServesOtherCalls) {
-  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_capacity=*/1'000);
   // A call that claims 900 bytes but has reserved 100 of them (its data so far).
   auto large = q.queue().Admit("host", 900, 100, absl::InfiniteFuture(), [] { return false; });
   ASSERT_TRUE(large.ok()) << large.status();
@@ -464,12 +464,12 @@ TEST(AdmissionQueue, AClaimIsReservedAsItsDataArrivesSoTheRestServesOtherCalls) 
 }
 
 TEST(AdmissionQueue, AReservationThatCouldLeaveNoClaimAbleToFinishWaits) {
-  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_budget=*/1'000);
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_capacity=*/1'000);
   auto a = q.queue().Admit("host", 600, 300, absl::InfiniteFuture(), [] { return false; });
   auto c = q.queue().Admit("host", 600, 300, absl::InfiniteFuture(), [] { return false; });
   ASSERT_TRUE(a.ok() && c.ok());
   ASSERT_TRUE(a->Reserve(500, [] { return false; }).ok());  // a needs 100 more, 200 are free
-  // 200 more for c fit in the budget, but then a and c would each wait for the other's bytes
+  // 200 more for c fit in the capacity, but then a and c would each wait for the other's bytes
   // forever: c waits instead, a completes its claim and runs.
   auto c_grows =
       std::async(std::launch::async, [&] { return c->Reserve(500, [] { return false; }); });

@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "server/job_assembler.h"
+#include "server/job/job_assembler.h"
 
 namespace scanprep::server {
 namespace {

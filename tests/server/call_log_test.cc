@@ -9,7 +9,7 @@
 
 #include "absl/strings/str_split.h"
 #include "absl/time/time.h"
-#include "server/call_log.h"
+#include "server/transport/call_log.h"
 
 namespace scanprep::server {
 namespace {

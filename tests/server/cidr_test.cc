@@ -4,7 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "server/cidr.h"
+#include "server/transport/cidr.h"
 
 namespace scanprep::testing {
 namespace {

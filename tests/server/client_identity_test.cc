@@ -4,8 +4,8 @@
 // right). The expected values are worked out by hand from the addresses.
 #include <gtest/gtest.h>
 
-#include "server/cidr.h"
-#include "server/client_identity.h"
+#include "server/transport/cidr.h"
+#include "server/transport/client_identity.h"
 
 namespace scanprep::testing {
 namespace {

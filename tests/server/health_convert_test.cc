@@ -6,7 +6,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "proto/convert/convert.h"
+#include "wire/convert.h"
 
 namespace scanprep {
 namespace {

@@ -9,7 +9,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "server/memory_budget.h"
+#include "server/admission/memory_reservation.h"
 #include "tests/server/service_fixtures.h"
 
 namespace scanprep::testing {
@@ -133,13 +133,14 @@ TEST(HeldResources, AClientReadingUnderTheMinimumRateLosesItsSlot) {
                                    "(min_download_rate); the server ended the call\""));
 }
 
-// A budget that holds one job of a million points. One client declares that job and sends a few
-// points at a time, above the minimum upload rate; before the change the declaration reserved the
-// whole budget at its header, and another client's 100-point job waited into its deadline.
+// A memory capacity that holds one job of a million points. One client declares that job and
+// sends a few points at a time, above the minimum upload rate; before the change the declaration
+// reserved the whole capacity at its header, and another client's 100-point job waited into its
+// deadline.
 TEST(HeldResources, ALargeDeclarationSentSlowlyDoesNotStarveASmallJob) {
   constexpr uint64_t kDeclared = 1'000'000;
   server::ServerOptions options;
-  options.memory_budget_bytes = server::EstimateJobBytes(kDeclared, {});
+  options.memory_capacity_bytes = server::EstimateJobBytes(kDeclared, {});
   options.timeouts.idle = absl::Seconds(5);
   options.timeouts.min_upload_rate = 100;  // bytes/s; the trickle sends about 6 kB/s
   auto server = std::make_unique<InProcessServer>(options);

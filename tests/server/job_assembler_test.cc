@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "absl/strings/str_format.h"
-#include "server/job_assembler.h"
+#include "server/job/job_assembler.h"
 
 namespace scanprep::server {
 namespace {

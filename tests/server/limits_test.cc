@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "core/pipeline/pipeline.h"
-#include "server/cidr.h"
+#include "server/transport/cidr.h"
 #include "tests/server/service_fixtures.h"
 
 namespace scanprep::testing {

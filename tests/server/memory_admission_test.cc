@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // Memory-aware admission through the real service: a job whose estimated memory exceeds the
-// whole budget is refused at its header with the numbers a program needs (ErrorInfo metadata),
-// a larger neighbourhoods.k raises the estimate, and GetInfo reports the budget. The measured
-// test (peak RSS of a server under a small budget) is in subprocess_test.cc.
+// server's whole memory capacity is refused at its header with the numbers a program needs
+// (ErrorInfo metadata), a larger neighbourhoods.k raises the estimate, and GetInfo reports the
+// capacity. The measured test (peak RSS of a server of a small capacity) is in subprocess_test.cc.
 #include <map>
 #include <string>
 
@@ -12,7 +12,7 @@
 #include "client/call_error.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
-#include "server/memory_budget.h"
+#include "server/admission/memory_reservation.h"
 #include "tests/server/service_fixtures.h"
 
 namespace scanprep::testing {
@@ -20,7 +20,7 @@ namespace {
 
 using ::testing::HasSubstr;
 
-constexpr uint64_t kBudget = uint64_t{64} << 20;
+constexpr uint64_t kCapacity = uint64_t{64} << 20;
 
 struct ErrorInfo {
   std::string reason;
@@ -55,15 +55,15 @@ grpc::Status HeaderOnly(const InProcessServer& server, uint64_t points,
   return RawCall(*server.Stub(), {HeaderRequest(header, points)});
 }
 
-TEST(MemoryAdmission, AJobLargerThanTheBudgetIsRefusedAtItsHeaderWithTheNumbers) {
-  InProcessServer server({.memory_budget_bytes = kBudget});
-  // 200,000 points: 16 MiB + 200,000 x 416 B = 99,977,216 bytes, over the 67,108,864 budget.
+TEST(MemoryAdmission, AJobLargerThanTheCapacityIsRefusedAtItsHeaderWithTheNumbers) {
+  InProcessServer server({.memory_capacity_bytes = kCapacity});
+  // 200,000 points: 16 MiB + 200,000 x 416 B = 99,977,216 bytes, over the 67,108,864 capacity.
   const grpc::Status status = HeaderOnly(server, 200'000);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(status.error_message(),
               HasSubstr("estimated memory of 95 MiB (99977216 bytes, from header.total_points) "
-                        "exceeds the server's whole memory budget of 64 MiB (67108864 bytes, "
-                        "memory_budget)"));
+                        "exceeds the server's whole memory capacity of 64 MiB (67108864 bytes, "
+                        "memory_capacity)"));
   const ErrorInfo info = ParseErrorInfo(status);
   EXPECT_EQ(info.reason, "JOB_EXCEEDS_MEMORY");
   EXPECT_EQ(info.metadata.at("estimate_bytes"), "99977216");
@@ -78,7 +78,7 @@ TEST(MemoryAdmission, AJobLargerThanTheBudgetIsRefusedAtItsHeaderWithTheNumbers)
 }
 
 TEST(MemoryAdmission, ALargerNeighbourCountRaisesTheEstimate) {
-  InProcessServer server({.memory_budget_bytes = kBudget});
+  InProcessServer server({.memory_capacity_bytes = kCapacity});
   EXPECT_EQ(HeaderOnly(server, 80'000).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   // k = 64: 768 B/point, 80,000 points = 78,217,216 bytes.
   const grpc::Status status = HeaderOnly(server, 80'000, {{"neighbourhoods.k", "64"}});
@@ -86,11 +86,11 @@ TEST(MemoryAdmission, ALargerNeighbourCountRaisesTheEstimate) {
   EXPECT_EQ(ParseErrorInfo(status).metadata.at("estimate_bytes"), "78217216");
 }
 
-TEST(MemoryAdmission, GetInfoReportsTheBudgetAndTheBytesPerPoint) {
-  InProcessServer server({.memory_budget_bytes = kBudget});
+TEST(MemoryAdmission, GetInfoReportsTheCapacityAndTheBytesPerPoint) {
+  InProcessServer server({.memory_capacity_bytes = kCapacity});
   auto info = server.Client().GetInfo(absl::Seconds(10));
   ASSERT_TRUE(info.ok()) << info.status();
-  EXPECT_EQ(info->limits().memory_budget_bytes(), kBudget);
+  EXPECT_EQ(info->limits().memory_budget_bytes(), kCapacity);
   EXPECT_EQ(info->limits().bytes_per_point(), server::kBytesPerPoint);
 }
 

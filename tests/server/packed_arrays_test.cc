@@ -9,8 +9,8 @@
 #include <gtest/gtest.h>
 
 #include "absl/time/clock.h"
-#include "proto/chunk_arrays.h"
 #include "tests/server/service_fixtures.h"
+#include "wire/chunk_arrays.h"
 
 namespace scanprep::testing {
 namespace {

@@ -4,7 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "server/presets_file.h"
+#include "server/job/presets_file.h"
 
 namespace scanprep::server {
 namespace {

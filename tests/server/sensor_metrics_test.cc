@@ -9,7 +9,7 @@
 #include "client/cli_args.h"
 #include "client/job_builder.h"
 #include "core/sim/scan_simulator.h"
-#include "server/sensor_metrics.h"
+#include "server/metrics/sensor_metrics.h"
 #include "tests/server/metrics_scrape.h"
 #include "tests/server/service_fixtures.h"
 

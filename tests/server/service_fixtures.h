@@ -16,8 +16,8 @@
 #include "absl/strings/str_cat.h"
 #include "client/scanprep_client.h"
 #include "core/base/point_cloud.h"
-#include "proto/stream_checksum.h"
 #include "server/scanprep_server.h"
+#include "wire/stream_checksum.h"
 
 namespace scanprep::testing {
 

@@ -3,7 +3,7 @@
 // implementation (Python: zlib.crc32 over struct.pack('<...') of the arrays in field order).
 #include <gtest/gtest.h>
 
-#include "proto/stream_checksum.h"
+#include "wire/stream_checksum.h"
 
 namespace scanprep {
 namespace {

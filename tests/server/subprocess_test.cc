@@ -26,7 +26,7 @@
 #include "core/io/ply.h"
 #include "core/io/scan_file.h"
 #include "core/io/xyz.h"
-#include "server/memory_budget.h"
+#include "server/admission/memory_reservation.h"
 #include "tests/server/metrics_scrape.h"
 #include "tests/server/server_process.h"
 #include "tests/server/service_fixtures.h"
@@ -55,7 +55,7 @@ TEST(ServerBinary, ServesTheClientLibrary) {
     auto client = client::ScanPrepClient::Connect(server.target());
     auto info = client.GetInfo(absl::Seconds(10));
     ASSERT_TRUE(info.ok()) << info.status();
-    // 20 M points, or fewer when the memory budget (half the RAM here) cannot hold such a job.
+    // 20 M points, or fewer when the memory capacity (half the RAM here) cannot hold such a job.
     EXPECT_GT(info->limits().memory_budget_bytes(), 0u);
     EXPECT_EQ(info->limits().max_points_per_job(),
               std::min<uint64_t>(20'000'000,
@@ -933,11 +933,11 @@ uint64_t StatusBytes(pid_t pid, const std::string& key) {
 uint64_t PeakRss(pid_t pid) { return StatusBytes(pid, "VmHWM:"); }
 
 // The server's peak RSS over twelve 250,000-point jobs sent at once (`scanprep load`, twelve
-// workers) to a server with `memory_budget` and room for all twelve to run together: twelve
+// workers) to a server with `memory_capacity` and room for all twelve to run together: twelve
 // slots and twelve arena threads (with fewer threads the jobs would take turns in the arena and
 // their peaks would not add up).
-uint64_t PeakRssOfTwelveConcurrentJobs(uint64_t memory_budget) {
-  ServerProcess server({"--memory_budget=" + std::to_string(memory_budget),
+uint64_t PeakRssOfTwelveConcurrentJobs(uint64_t memory_capacity) {
+  ServerProcess server({"--memory_capacity=" + std::to_string(memory_capacity),
                         "--max_points_per_job=300000", "--max_concurrent_jobs=12",
                         "--max_queued_jobs=12", "--max_calls_per_peer=12", "--threads=12"});
   EXPECT_GT(server.port(), 0);
@@ -949,25 +949,25 @@ uint64_t PeakRssOfTwelveConcurrentJobs(uint64_t memory_budget) {
   return PeakRss(server.pid());
 }
 
-// Each job is estimated at 16 MiB + 250,051 x 416 B = 120.8 MB, so a 300 MB budget runs two at a
+// Each job is estimated at 16 MiB + 250,051 x 416 B = 120.8 MB, so a 300 MB capacity runs two at a
 // time and a 4 GB one all twelve (434 MB measured, 2026-11-25).
-TEST(ServerBinary, ConcurrentJobsStayWithinTheMemoryBudget) {
+TEST(ServerBinary, ConcurrentJobsStayWithinTheMemoryCapacity) {
 #ifdef SCANPREP_SANITIZED
   // ASan's shadow memory and its quarantine of freed blocks (up to 256 MB) are part of the RSS
   // and not of the estimate; the measured bytes per point hold for the Release build only.
   GTEST_SKIP() << "measures the Release server's memory; sanitizers add their own";
 #endif
-  constexpr uint64_t kBudget = 300'000'000;
-  // The control: with room for all twelve the same jobs overlap and take more than the budget,
+  constexpr uint64_t kCapacity = 300'000'000;
+  // The control: with room for all twelve the same jobs overlap and take more than the capacity,
   // so the bounded run cannot pass by accident.
   const uint64_t unbounded = PeakRssOfTwelveConcurrentJobs(4'000'000'000);
-  EXPECT_GT(unbounded, kBudget);
-  const uint64_t bounded = PeakRssOfTwelveConcurrentJobs(kBudget);
+  EXPECT_GT(unbounded, kCapacity);
+  const uint64_t bounded = PeakRssOfTwelveConcurrentJobs(kCapacity);
   EXPECT_GT(bounded, 0u);
-  EXPECT_LT(bounded, kBudget);
+  EXPECT_LT(bounded, kCapacity);
   std::cout << "peak RSS of 12 x 250,000-point jobs: " << unbounded / 1e6
-            << " MB with a 4 GB budget, " << bounded / 1e6 << " MB with a " << kBudget / 1e6
-            << " MB budget\n";
+            << " MB with a 4 GB capacity, " << bounded / 1e6 << " MB with a " << kCapacity / 1e6
+            << " MB capacity\n";
 }
 
 // One simulated 1 M-point job (two scans) processed by a server whose estimate is 1 B/point
@@ -981,7 +981,7 @@ struct UnderEstimatedJob {
   double trips = -1;
 };
 UnderEstimatedJob ProcessUnderEstimatedJob(const fs::path& dir, const std::string& guard_flag) {
-  ServerProcess server({"--memory_budget=300000000", "--test_bytes_per_point=1", guard_flag});
+  ServerProcess server({"--memory_capacity=300000000", "--test_bytes_per_point=1", guard_flag});
   EXPECT_GT(server.port(), 0);
   const uint64_t idle = StatusBytes(server.pid(), "VmRSS:");
   UnderEstimatedJob run;

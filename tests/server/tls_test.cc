@@ -10,7 +10,7 @@
 #include <unistd.h>
 
 #include "client/scanprep_client.h"
-#include "server/transport_security.h"
+#include "server/transport/transport_security.h"
 #include "tests/server/service_fixtures.h"
 #include "tests/support/run_command.h"
 

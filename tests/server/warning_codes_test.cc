@@ -13,10 +13,10 @@
 #include "client/call_error.h"
 #include "core/io/ply.h"
 #include "core/stages/warning.h"
-#include "proto/warning_codes.h"
 #include "tests/server/server_process.h"
 #include "tests/server/service_fixtures.h"
 #include "tests/support/run_command.h"
+#include "wire/warning_codes.h"
 
 namespace scanprep::testing {
 namespace {

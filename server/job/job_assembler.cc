@@ -1,0 +1,384 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "server/job/job_assembler.h"
+
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "core/base/status_macros.h"
+#include "wire/chunk_arrays.h"
+#include "wire/error_details.h"
+
+namespace scanprep::server {
+namespace {
+
+// INVALID_CHUNK "chunk <index>: <problem>", naming points[<index>].<array> (the index-th
+// PointChunk message; no array when the message as a whole is at fault).
+absl::Status BadChunk(uint64_t chunk, std::string_view array, std::string_view problem) {
+  return WithFieldViolation(
+      absl::InvalidArgumentError(absl::StrCat("chunk ", chunk, ": ", std::string(problem))),
+      "INVALID_CHUNK",
+      absl::StrCat("points[", chunk, "]", array.empty() ? "" : ".", std::string(array)));
+}
+
+// gRPC ends the server's stream at a request message that fails to parse exactly as at the
+// client's half-close, without saying which; protobuf refuses a proto3 string that is not UTF-8.
+// (absl::string_view: Debian's Abseil does not alias it to std::string_view.)
+constexpr absl::string_view kUnparsed =
+    "a message could not be parsed: a malformed encoding, or invalid UTF-8 in a string field "
+    "such as job_id or scan_id";
+
+absl::Status BadHeader(std::string_view field, std::string message) {
+  return WithFieldViolation(absl::InvalidArgumentError(std::move(message)), "INVALID_HEADER",
+                            field);
+}
+
+// A header string within kMaxHeaderStringBytes; `field` names it without echoing it.
+absl::Status CheckString(std::string_view field, std::string_view what, const std::string& text) {
+  if (text.size() <= kMaxHeaderStringBytes) return absl::OkStatus();
+  return BadHeader(field,
+                   absl::StrCat(std::string(field), ": ", std::string(what), " is ", text.size(),
+                                " bytes long; at most ", kMaxHeaderStringBytes, " are accepted"));
+}
+
+// Checks that an optional per-point array is absent or has one value per point.
+absl::Status CheckLength(uint64_t chunk, std::string_view name, int size, size_t n) {
+  if (size == 0 || static_cast<size_t>(size) == n) return absl::OkStatus();
+  return BadChunk(
+      chunk, name,
+      absl::StrCat(std::string(name), " has ", size, " values but xyz has ", n, " points"));
+}
+
+absl::Status CheckPresence(uint64_t chunk, std::string_view name, bool expected, bool present) {
+  if (expected == present) return absl::OkStatus();
+  return BadChunk(
+      chunk, name,
+      absl::StrCat(std::string(name), " is ", present ? "present" : "missing",
+                   " but earlier chunks ",
+                   expected ? "carried it" : "did not; an array must be in every chunk or none"));
+}
+
+}  // namespace
+
+absl::Status JobAssembler::Add(const v1::ProcessRequest& request) {
+  bytes_ += request.ByteSizeLong();
+  if (bytes_ > limits_.max_bytes_per_call) {
+    return WithReason(
+        absl::ResourceExhaustedError(absl::StrCat(
+            "the call's request messages total ", bytes_, " bytes, over the server's limit of ",
+            limits_.max_bytes_per_call, " bytes per call (max_bytes_per_call)")),
+        "CALL_TOO_LARGE");
+  }
+  if (ended_) {
+    return WithFieldViolation(
+        absl::InvalidArgumentError(
+            absl::StrCat("a message after the end message (which declared ", job_.points_received,
+                         " points); the end message must be the upload's last")),
+        "INVALID_CHUNK", "end");
+  }
+  switch (request.kind_case()) {
+    case v1::ProcessRequest::kHeader:
+      return AddHeader(request.header());
+    case v1::ProcessRequest::kPoints:
+      return AddChunk(request.points());
+    case v1::ProcessRequest::kEnd:
+      return AddEnd(request.end());
+    default:
+      return has_header_ ? BadChunk(chunks_, "", "empty request message")
+                         : BadHeader("header",
+                                     "first message must be a header (got an empty request "
+                                     "message)");
+  }
+}
+
+absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
+  if (has_header_) {
+    return BadHeader("header", absl::StrCat("a second header after ", chunks_,
+                                            " chunks; a job has exactly one header"));
+  }
+  has_header_ = true;
+  SCANPREP_RETURN_IF_ERROR(CheckHeaderSize(header));
+  SCANPREP_ASSIGN_OR_RETURN(const double mm, MillimetresPerUnit(header.unit()));
+  if (header.scans().empty()) {
+    return BadHeader("header.scans", "header.scans: a job needs at least one scan");
+  }
+  job_.job_id = header.job_id();
+  job_.mm_per_unit = mm;
+  job_.include_removed = header.options().include_removed();
+  job_.labels.insert(header.labels().begin(), header.labels().end());
+  job_.packed_results = header.result_arrays() == v1::ARRAY_ENCODING_PACKED;
+  job_.options = OptionsFromHeader(header, limits_.default_budget_seconds,
+                                   limits_.default_stage_budget_seconds);
+  // The preset is resolved first, so that its values are validated, estimated and reported like
+  // the job's own.
+  auto params = ResolvePreset(*limits_.presets, header.options().preset(), job_.options.params);
+  if (!params.ok()) return OptionsError(params.status());
+  job_.options.params = *std::move(params);
+  job_.preset = header.options().preset();
+  auto fail_on = FailOnFromProto(header.options());
+  if (!fail_on.ok()) return OptionsError(fail_on.status());
+  job_.options.fail_on = *std::move(fail_on);
+  if (absl::Status s = ValidateOptions(job_.options); !s.ok()) return OptionsError(s);
+
+  SCANPREP_ASSIGN_OR_RETURN(const Eigen::Vector3d origin_mm, OriginFromProto(header, mm));
+  for (int s = 0; s < header.scans_size(); ++s) {
+    const std::string field = absl::StrCat("header.scans[", s, "]");
+    SCANPREP_ASSIGN_OR_RETURN(const ScanFrame frame,
+                              FrameFromProto(header.scans(s), mm, origin_mm, field));
+    SCANPREP_ASSIGN_OR_RETURN(ScanMeta meta, ScanMetaFromProto(header.scans(s), frame, field));
+    if (meta.id.empty()) meta.id = absl::StrCat("scan", s);
+    frames_.push_back(frame);
+    job_.cloud.scans.push_back(std::move(meta));
+  }
+  job_.cloud.kind = KindFromHeader(header);
+
+  total_points_ = header.total_points();
+  if (total_points_ == 0) {
+    return BadHeader("header.total_points",
+                     "header.total_points = 0: the number of points the upload will send must be "
+                     "declared, so that a truncated upload is refused instead of processed");
+  }
+  if (total_points_ > limits_.max_points_per_job) {
+    return WithReason(
+        absl::ResourceExhaustedError(
+            absl::StrCat("header.total_points = ", total_points_, " exceeds the server's limit of ",
+                         limits_.max_points_per_job, " points per job (max_points_per_job)")),
+        "JOB_TOO_LARGE");
+  }
+  return absl::OkStatus();
+}
+
+absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {
+  if (static_cast<uint64_t>(header.scans_size()) > limits_.max_scans_per_job) {
+    return WithReason(
+        absl::ResourceExhaustedError(absl::StrCat(
+            "header.scans has ", header.scans_size(), " scans, over the server's limit of ",
+            limits_.max_scans_per_job, " scans per job (max_scans_per_job)")),
+        "TOO_MANY_SCANS");
+  }
+  const std::tuple<std::string_view, int, int> lists[] = {
+      {"header.options.stages", header.options().stages_size(), kMaxHeaderListEntries},
+      {"header.options.params", header.options().params_size(), kMaxHeaderListEntries},
+      {"header.budget.stage_seconds", header.budget().stage_seconds_size(), kMaxHeaderListEntries},
+      {"header.labels", header.labels_size(), kMaxLabels}};
+  for (const auto& [field, size, most] : lists) {
+    if (size > most) {
+      return BadHeader(field, absl::StrCat(std::string(field), " has ", size, " entries; at most ",
+                                           most, " are accepted"));
+    }
+  }
+  SCANPREP_RETURN_IF_ERROR(CheckString("header.job_id", "the job id", header.job_id()));
+  SCANPREP_RETURN_IF_ERROR(
+      CheckString("header.options.preset", "the preset name", header.options().preset()));
+  for (int i = 0; i < header.scans_size(); ++i) {
+    SCANPREP_RETURN_IF_ERROR(CheckString(absl::StrCat("header.scans[", i, "].scan_id"),
+                                         "the scan id", header.scans(i).scan_id()));
+  }
+  for (int i = 0; i < header.options().stages_size(); ++i) {
+    SCANPREP_RETURN_IF_ERROR(CheckString(absl::StrCat("header.options.stages[", i, "]"),
+                                         "the stage name", header.options().stages(i)));
+  }
+  // A long name is refused without naming its entry, which would echo it.
+  for (const auto& [name, value] : header.options().params()) {
+    SCANPREP_RETURN_IF_ERROR(CheckString("header.options.params", "a parameter name", name));
+    SCANPREP_RETURN_IF_ERROR(
+        CheckString(absl::StrCat("header.options.params['", name, "']"), "the value", value));
+  }
+  for (const auto& [name, seconds] : header.budget().stage_seconds()) {
+    SCANPREP_RETURN_IF_ERROR(CheckString("header.budget.stage_seconds", "a stage name", name));
+  }
+  for (const auto& [key, value] : header.labels()) {
+    SCANPREP_RETURN_IF_ERROR(CheckString("header.labels", "a label key", key));
+    SCANPREP_RETURN_IF_ERROR(
+        CheckString(absl::StrCat("header.labels['", key, "']"), "the value", value));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status JobAssembler::CheckChunk(const v1::PointChunk& chunk, size_t n) const {
+  const uint64_t id = chunks_;
+  SCANPREP_RETURN_IF_ERROR(CheckLength(id, "scan_index", chunk.scan_index_size(), n));
+  SCANPREP_RETURN_IF_ERROR(CheckLength(id, "scanline", chunk.scanline_size(), n));
+  SCANPREP_RETURN_IF_ERROR(CheckLength(id, "quality", chunk.quality_size(), n));
+  SCANPREP_RETURN_IF_ERROR(CheckLength(id, "intensity", chunk.intensity_size(), n));
+  if (chunk.normal_size() > 0 || !chunk.flags().empty()) {
+    return BadChunk(id, chunk.normal_size() > 0 ? "normal" : "flags",
+                    "normal and flags are result-only fields");
+  }
+  const size_t scans = job_.cloud.scans.size();
+  if (n > 0 && chunk.scan_index_size() == 0 && scans > 1) {
+    return BadChunk(
+        id, "scan_index",
+        absl::StrCat("scan_index is required because the header declares ", scans, " scans"));
+  }
+  for (int i = 0; i < chunk.scan_index_size(); ++i) {
+    if (chunk.scan_index(i) >= scans) {
+      return BadChunk(id, absl::StrCat("scan_index[", i, "]"),
+                      absl::StrCat("scan_index[", i, "] = ", chunk.scan_index(i),
+                                   " is not a scan declared in the header (", scans, " scans)"));
+    }
+  }
+  for (int i = 0; i < chunk.quality_size(); ++i) {
+    if (!(chunk.quality(i) >= 0.f && chunk.quality(i) <= 1.f)) {
+      return BadChunk(id, absl::StrCat("quality[", i, "]"),
+                      absl::StrCat("quality[", i, "] = ", chunk.quality(i), " is outside [0, 1]"));
+    }
+  }
+  if (n > 0 && layout_known_) {
+    SCANPREP_RETURN_IF_ERROR(
+        CheckPresence(id, "scanline", has_scanline_, chunk.scanline_size() > 0));
+    SCANPREP_RETURN_IF_ERROR(CheckPresence(id, "quality", has_quality_, chunk.quality_size() > 0));
+    SCANPREP_RETURN_IF_ERROR(
+        CheckPresence(id, "intensity", has_intensity_, chunk.intensity_size() > 0));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
+  if (!has_header_) {
+    return BadHeader("header", "first message must be a header (got points)");
+  }
+  if (HasPackedArrays(chunk)) {  // checked and read in the repeated form: one copy of ≤ 1 chunk
+    v1::PointChunk unpacked = chunk;
+    std::string bad_array;
+    if (absl::Status s = UnpackArrays(unpacked, bad_array); !s.ok()) {
+      return BadChunk(chunks_, bad_array, std::string(s.message()));
+    }
+    return AddChunk(unpacked);
+  }
+  if (chunk.xyz_size() % 3 != 0) {
+    return BadChunk(chunks_, "xyz",
+                    absl::StrCat("xyz has ", chunk.xyz_size(), " floats, not a multiple of 3"));
+  }
+  const size_t n = chunk.xyz_size() / 3;
+  if (n > limits_.max_chunk_points) {
+    return WithReason(absl::ResourceExhaustedError(absl::StrCat(
+                          "chunk ", chunks_, ": ", n, " points exceed the limit of ",
+                          limits_.max_chunk_points, " points per chunk (max_chunk_points)")),
+                      "CHUNK_TOO_LARGE");
+  }
+  // The header's total is within max_points_per_job, so this also bounds the job.
+  if (job_.points_received + n > total_points_) {
+    return BadChunk(chunks_, "xyz",
+                    absl::StrCat("more points than header.total_points = ", total_points_));
+  }
+  SCANPREP_RETURN_IF_ERROR(CheckChunk(chunk, n));
+  checksum_.Add(chunk);
+  ++chunks_;
+  if (n == 0) return absl::OkStatus();
+  if (!layout_known_) {
+    layout_known_ = true;
+    has_scanline_ = chunk.scanline_size() > 0;
+    has_quality_ = chunk.quality_size() > 0;
+    has_intensity_ = chunk.intensity_size() > 0;
+  }
+
+  PointCloud& cloud = job_.cloud;
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d p(chunk.xyz(3 * i), chunk.xyz(3 * i + 1), chunk.xyz(3 * i + 2));
+    const uint32_t scan = chunk.scan_index_size() > 0 ? chunk.scan_index(i) : 0;
+    const Eigen::Vector3d q = frames_[scan].ChunkPoint(p);
+    // Finite in the request's unit can still overflow float once in millimetres.
+    if (!(q.array().abs() <= kMaxCoordinateMm).all()) {
+      ++job_.points_invalid;
+      ++cloud.scans[scan].points_invalid;
+      continue;
+    }
+    SCANPREP_RETURN_IF_ERROR(CheckPrecision(q, i, cloud.scans[scan].uncertainty));
+    cloud.x.push_back(static_cast<float>(q.x()));
+    cloud.y.push_back(static_cast<float>(q.y()));
+    cloud.z.push_back(static_cast<float>(q.z()));
+    cloud.scan.push_back(scan);
+    if (has_scanline_) cloud.scanline.push_back(chunk.scanline(i));
+    if (has_quality_) cloud.quality.push_back(chunk.quality(i));
+    if (has_intensity_) cloud.intensity.push_back(chunk.intensity(i));
+  }
+  job_.points_received += n;
+  return absl::OkStatus();
+}
+
+absl::Status JobAssembler::CheckPrecision(const Eigen::Vector3d& local_mm, size_t point,
+                                          double uncertainty_mm) const {
+  for (int k = 0; k < 3; ++k) {
+    const double spacing = FloatSpacingAt(local_mm[k]);
+    if (spacing <= kMaxFloatSpacingPerUncertainty * uncertainty_mm) continue;
+    absl::Status status = BadChunk(
+        chunks_ - 1, "xyz",
+        absl::StrFormat("point %d: its %c = %.17g mm from header.origin cannot be held as a float "
+                        "to its scan's uncertainty %g mm (floats are %g mm apart there, more than "
+                        "u/4): set header.origin near the data, and send the points relative to "
+                        "their scan's points_offset",
+                        point, "xyz"[k], local_mm[k], uncertainty_mm, spacing));
+    status = WithMetadata(std::move(status), "point", absl::StrCat(point));
+    status = WithMetadata(std::move(status), "local_coordinate_mm", absl::StrCat(local_mm[k]));
+    return WithMetadata(std::move(status), "float_spacing_mm", absl::StrCat(spacing));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status JobAssembler::AddEnd(const v1::StreamEnd& end) {
+  if (!has_header_) {
+    return BadHeader("header", "first message must be a header (got the end message)");
+  }
+  if (end.points() != job_.points_received || end.points() != total_points_) {
+    return WithFieldViolation(absl::InvalidArgumentError(absl::StrCat(
+                                  "end.points = ", end.points(), " but ", job_.points_received,
+                                  " points were received and header.total_points = ", total_points_,
+                                  "; the three must agree")),
+                              "POINT_COUNT_MISMATCH", "end.points");
+  }
+  if (end.crc32() != checksum_.crc32()) {
+    // Corrupted on the way: the same upload can succeed again.
+    return WithReason(absl::DataLossError(absl::StrFormat(
+                          "end.crc32 = 0x%08x but the %d points received have CRC-32 0x%08x: "
+                          "the upload was corrupted in transfer",
+                          end.crc32(), job_.points_received, checksum_.crc32())),
+                      "CHECKSUM_MISMATCH", absl::ZeroDuration());
+  }
+  ended_ = true;
+  return absl::OkStatus();
+}
+
+absl::StatusOr<AssembledJob> JobAssembler::Finish() {
+  if (!has_header_) {
+    return WithFieldViolation(
+        absl::InvalidArgumentError(absl::StrCat(
+            "first message must be a header (the stream ended before one arrived: none was sent, "
+            "or ",
+            kUnparsed, ")")),
+        "INCOMPLETE_UPLOAD", "header");
+  }
+  // gRPC ends a stream at a message that fails to parse just as at the client's half-close, so
+  // only the end message tells a cut upload from a complete one.
+  if (!ended_) {
+    return WithFieldViolation(absl::InvalidArgumentError(absl::StrCat(
+                                  "the upload ended without its end message after ",
+                                  job_.points_received, " of header.total_points = ", total_points_,
+                                  " points: the stream was cut (the client "
+                                  "half-closed early, or ",
+                                  kUnparsed, ")")),
+                              "INCOMPLETE_UPLOAD", "end");
+  }
+  if (job_.points_invalid == job_.points_received) {
+    return WithFieldViolation(
+        absl::InvalidArgumentError(absl::StrCat(
+            "the job has no valid points: all ", job_.points_received,
+            " have NaN, infinite or out-of-range (> ", kMaxCoordinateMm, " mm) coordinates")),
+        "INVALID_CHUNK", "points");
+  }
+  if (job_.points_invalid > 0) {
+    job_.warnings.push_back({WarningCode::kPointsInvalid,
+                             absl::StrCat(job_.points_invalid, " of ", job_.points_received,
+                                          " points had NaN, infinite or out-of-range (> ",
+                                          kMaxCoordinateMm, " mm) coordinates and were excluded"),
+                             {{"points_invalid", absl::StrCat(job_.points_invalid)},
+                              {"points_received", absl::StrCat(job_.points_received)}}});
+  }
+  // The upload's warnings fail a job that fails on them before any stage runs.
+  SCANPREP_RETURN_IF_ERROR(
+      FailedOnWarningError(FailOnWarnings(job_.warnings, job_.options.fail_on)));
+  job_.cloud.FinishLoading();
+  return std::move(job_);
+}
+
+}  // namespace scanprep::server

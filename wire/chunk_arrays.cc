@@ -1,0 +1,84 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "wire/chunk_arrays.h"
+
+#include <bit>
+#include <cstring>
+#include <string>
+
+#include "absl/strings/str_cat.h"
+
+namespace scanprep {
+namespace {
+
+// The packed form is the values' own memory on these hosts (as the checksum assumes).
+static_assert(std::endian::native == std::endian::little);
+
+// One array in its two forms, as member accessors of the generated message.
+template <class T>
+struct ArrayPair {
+  const char* name;
+  google::protobuf::RepeatedField<T>* (v1::PointChunk::*repeated)();
+  std::string* (v1::PointChunk::*packed)();
+};
+
+// Calls visit(pair) for each of the six arrays, in field order.
+template <class Visit>
+void ForEachArray(Visit&& visit) {
+  using C = v1::PointChunk;
+  visit(ArrayPair<float>{"xyz", &C::mutable_xyz, &C::mutable_xyz_packed});
+  visit(ArrayPair<uint32_t>{"scan_index", &C::mutable_scan_index, &C::mutable_scan_index_packed});
+  visit(ArrayPair<uint32_t>{"scanline", &C::mutable_scanline, &C::mutable_scanline_packed});
+  visit(ArrayPair<float>{"quality", &C::mutable_quality, &C::mutable_quality_packed});
+  visit(ArrayPair<float>{"intensity", &C::mutable_intensity, &C::mutable_intensity_packed});
+  visit(ArrayPair<float>{"normal", &C::mutable_normal, &C::mutable_normal_packed});
+}
+
+}  // namespace
+
+absl::Status UnpackArrays(v1::PointChunk& chunk, std::string& bad_array) {
+  absl::Status status;
+  ForEachArray([&](auto pair) {
+    std::string& packed = *(chunk.*pair.packed)();
+    if (!status.ok() || packed.empty()) return;
+    auto& repeated = *(chunk.*pair.repeated)();
+    if (!repeated.empty() || packed.size() % 4 != 0) {
+      bad_array = absl::StrCat(pair.name, "_packed");
+    }
+    if (!repeated.empty()) {
+      status = absl::InvalidArgumentError(absl::StrCat(
+          pair.name, " and ", pair.name, "_packed are both set; send an array in one form"));
+      return;
+    }
+    if (packed.size() % 4 != 0) {
+      status = absl::InvalidArgumentError(
+          absl::StrCat(pair.name, "_packed has ", packed.size(), " bytes, not a multiple of 4"));
+      return;
+    }
+    repeated.Resize(static_cast<int>(packed.size() / 4), {});
+    std::memcpy(repeated.mutable_data(), packed.data(), packed.size());
+    packed.clear();
+  });
+  return status;
+}
+
+void PackArrays(v1::PointChunk& chunk) {
+  ForEachArray([&](auto pair) {
+    auto& repeated = *(chunk.*pair.repeated)();
+    if (repeated.empty()) return;
+    std::string& packed = *(chunk.*pair.packed)();
+    packed.assign(reinterpret_cast<const char*>(repeated.data()), repeated.size() * 4);
+    repeated.Clear();
+  });
+}
+
+uint64_t ChunkPoints(const v1::PointChunk& chunk) {
+  return (chunk.xyz_size() + chunk.xyz_packed().size() / 4) / 3;
+}
+
+bool HasPackedArrays(const v1::PointChunk& chunk) {
+  return !chunk.xyz_packed().empty() || !chunk.scan_index_packed().empty() ||
+         !chunk.scanline_packed().empty() || !chunk.quality_packed().empty() ||
+         !chunk.intensity_packed().empty() || !chunk.normal_packed().empty();
+}
+
+}  // namespace scanprep
