@@ -113,11 +113,10 @@ class MeasuresStage : public Stage {
     return absl::OkStatus();
   }
 
-  static absl::Status Curvature(StageContext& ctx) {
-    PointCloud& cloud = ctx.cloud();
-    const size_t n = cloud.size();
-    const MeasuresSettings settings = ctx.Settings(MeasuresParams());
-
+  // The scanline curvature window h per scan (recorded with the spacing it comes from).
+  static absl::StatusOr<std::vector<double>> Windows(StageContext& ctx,
+                                                     const MeasuresSettings& settings) {
+    const PointCloud& cloud = ctx.cloud();
     SCANPREP_ASSIGN_OR_RETURN(
         const std::vector<double> spacing,
         ScanPointSpacing(cloud, ctx.neighbourhoods().value_or(nullptr), ctx.cancel()));
@@ -129,6 +128,14 @@ class MeasuresStage : public Stage {
       ctx.RecordForScan("measures.point_spacing_mm", s, spacing[s]);
       ctx.RecordForScan(settings.window.name, s, window[s]);
     }
+    return window;
+  }
+
+  static absl::Status Curvature(StageContext& ctx) {
+    PointCloud& cloud = ctx.cloud();
+    const size_t n = cloud.size();
+    const MeasuresSettings settings = ctx.Settings(MeasuresParams());
+    SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> window, Windows(ctx, settings));
 
     std::vector<float> kappa;
     const bool lines = cloud.kind == ScannerKind::kLine && cloud.has_scanlines();

@@ -121,7 +121,7 @@ TEST(CallError, AJobFailedOnAWarningMeansFixTheInput) {
 }
 
 // The reasons the server can send: every UPPER_SNAKE_CASE string literal in server/ and in the
-// conversion it links (proto/convert/) that is not a gRPC code's name (they are tagged where they
+// conversion it links (wire/) that is not a gRPC code's name (they are tagged where they
 // arise, with WithReason or WithFieldViolation).
 std::set<std::string> ReasonsInServerSources() {
   std::set<std::string> codes;
