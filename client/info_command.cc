@@ -67,7 +67,7 @@ int RunInfo(const ParsedArgs& args) {
                    limits.header_timeout_seconds(), limits.idle_timeout_seconds(),
                    limits.min_upload_bytes_per_second())
             << absl::StrFormat(
-                   "        memory budget %.0f MiB for the running jobs, a job "
+                   "        memory capacity %.0f MiB for the running jobs, a job "
                    "estimated at %d B/point\n",
                    limits.memory_budget_bytes() / 1048576.0, limits.bytes_per_point())
             << "default budget: "

@@ -77,7 +77,7 @@ std::string UnitName(v1::LengthUnit unit) {
 
 // The input and the result side by side, with how far smoothing moved each kept point. What was
 // sent is moved into the result's frame (local: relative to the job's origin) by each scan's
-// to_common exactly as the server moves it (server/convert.h, which works in millimetres; the
+// to_common exactly as the server moves it (wire/convert.h, which works in millimetres; the
 // result is in job units), and so is the first scan's sensor, which sets the view.
 absl::Status WritePreview(const std::string& path, const PointCloud& sent,
                           const v1::JobHeader& header, const PointCloud& result) {
