@@ -124,11 +124,9 @@ TEST(Health, LargeMisregistrationIsRecoveredWithinFivePercent) {
 }
 
 // A misregistration of several times the pair's combined noise along the axis most of the overlap
-// constrains (z, the top face): the robust cut of both passes is centred on the median residual,
-// which then lies several σ from zero, so it keeps the true matches and reads the shift within
-// the documented 20 % (across it, within 1 µm or 1 % of the shift). Centred on zero, the cut would
-// keep only the tail of matches that happen to read near zero. The control, a shift of one σ,
-// lies within the cut either way.
+// constrains (z, the top face): read within the documented 20 % along its axis (across it, within
+// 1 µm or 1 % of the shift). The control, a shift of one σ, lies within the robust cut of both
+// passes wherever that cut is centred.
 TEST(Health, ShiftOfSeveralNoiseSigmasAlongAConstrainedAxisIsRecovered) {
   const std::vector<sim::SimSensor> sensors = sim::TwoOverlappingSensors(Part::kBoxWithBore);
   const double sigma = std::hypot(sensors[0].noise_sigma, sensors[1].noise_sigma);
