@@ -68,182 +68,183 @@ bool ShouldGo(const PointCloud& cloud, const std::vector<float>& quality, const 
 // The report's count of the points the merge removed, whichever way the stage ends.
 constexpr std::string_view kRemoved = "correction.removed";
 
+// r_c per scan, scaled; recorded per scan when there are several.
+absl::StatusOr<std::vector<float>> Radii(const PointCloud& cloud,
+                                         const CorrectionSettings& settings,
+                                         const Neighbourhoods& nb, StageReporter& out) {
+  const double scale = settings.radius_scale;
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing,
+                            ScanPointSpacing(cloud, &nb, out.cancel()));
+  std::vector<float> radius;
+  for (size_t s = 0; s < cloud.scans.size(); ++s) {
+    const ScanMeta& scan = cloud.scans[s];
+    const double ds = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
+    const double r_c = std::sqrt(ds * ds + scan.uncertainty * scan.uncertainty +
+                                 spacing[s] * spacing[s]);  // Eq. (11)
+    radius.push_back(static_cast<float>(out.CapRadius(
+        absl::StrCat("the merge radius r_c (Eq. 11) of scan '", scan.id, "'"),
+        settings.radius.Or(scale * r_c), kMaxMergeRadiusPerGlobalRadius * nb.global_radius())));
+    out.RecordForScan(settings.radius.name, s, radius.back());
+  }
+  return radius;
+}
+
+// touched[i] = 1 for every centre i whose ball N_{r_c}(i) held a point that `gone` marks: the
+// balls of radius max r_c around the gone points hold every such centre. When one of those
+// balls is capped it may miss some, and every centre is judged again.
+absl::Status TouchBallsThatLost(const PointCloud& cloud, const Neighbourhoods& nb,
+                                const std::vector<float>& radius, const std::vector<uint8_t>& gone,
+                                std::vector<uint8_t>& touched, const CancelToken& cancel) {
+  const float reach = *std::max_element(radius.begin(), radius.end());
+  const std::span<const uint32_t> order = nb.order();
+  std::fill(touched.begin(), touched.end(), 0);
+  std::atomic<bool> capped{false};
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(order.size(), cancel, [&](size_t begin, size_t end) {
+    RadiusMatches matches;
+    for (size_t at = begin; at < end; ++at) {
+      const uint32_t j = order[at];
+      if (!gone[j]) continue;
+      nb.Within(cloud, j, reach, matches);
+      if (matches.size() >= nb.max_ball_points()) capped.store(true, std::memory_order_relaxed);
+      for (const auto& [i, d2] : matches) {
+        const float r = radius[cloud.scan[i]];
+        if (d2 < r * r) std::atomic_ref<uint8_t>(touched[i]).store(1, std::memory_order_relaxed);
+      }
+    }
+  }));
+  if (capped.load()) std::fill(touched.begin(), touched.end(), 1);
+  return absl::OkStatus();
+}
+
+// Rounds of the gather rule, each from the previous round's labels, until nothing changes.
+// One round thins every layer of a multi-scan overlap by about half; later rounds see the
+// raised mean of what is left and strip the worse layers completely, as the scatter form does.
+absl::StatusOr<size_t> Gather(PointCloud& cloud, const Neighbourhoods& nb,
+                              const std::vector<float>& quality, const std::vector<float>& radius,
+                              int max_rounds, StageReporter& out) {
+  const size_t n = cloud.size();
+  std::vector<uint8_t> go(n, 0);
+  // Balls only lose points from round to round, so a ball that holds one scan never spans two
+  // again: its centre is settled for good.
+  std::vector<uint8_t> settled(n, 0);
+  // A verdict changes only when its ball lost a point: after the first round only the
+  // centres within r_c of a point the last round removed are judged again.
+  std::vector<uint8_t> touched(n, 1);
+  // Grid order: consecutive balls read the same cells.
+  const std::span<const uint32_t> order = nb.order();
+  size_t removed = 0;
+  int round = 0;
+  // At most: a round that removes nothing ends it. Each round passes over the points twice
+  // (judging, then finding the centres near its removals).
+  out.ExpectWork(2.0 * max_rounds * double(n));
+  while (round < max_rounds) {
+    SCANPREP_RETURN_IF_ERROR(ParallelFor(n, out.cancel(), [&](size_t begin, size_t end) {
+      RadiusMatches matches;
+      for (size_t at = begin; at < end; ++at) {
+        const uint32_t i = order[at];
+        go[i] = 0;
+        if (cloud.removed(i) || settled[i] || !touched[i]) continue;
+        nb.Within(cloud, i, radius[cloud.scan[i]], matches);
+        const Verdict v = Judge(cloud, quality, matches);
+        settled[i] = !v.overlap;
+        go[i] = ShouldGo(cloud, quality, v, i);
+      }
+    }));
+    ++round;
+    size_t now = 0;
+    for (size_t i = 0; i < n; ++i) {
+      if (!go[i]) continue;
+      cloud.flags[i] |= kRemovedMerge;
+      ++now;
+    }
+    removed += now;
+    out.Progress(double(round) / max_rounds);
+    if (now == 0 || round == max_rounds) break;
+    SCANPREP_RETURN_IF_ERROR(TouchBallsThatLost(cloud, nb, radius, go, touched, out.cancel()));
+  }
+  out.Record("correction.rounds_run", round);
+  return removed;
+}
+
+absl::StatusOr<size_t> Scatter(PointCloud& cloud, const Neighbourhoods& nb,
+                               const std::vector<float>& quality, const std::vector<float>& radius,
+                               StageReporter& out) {
+  std::vector<uint64_t> keys(cloud.size());
+  for (uint32_t i = 0; i < cloud.size(); ++i) keys[i] = DescendingQualityKey(quality[i], i);
+  SCANPREP_RETURN_IF_ERROR(CancellableSort(keys, out.cancel()));
+  std::vector<uint32_t> order(keys.size());
+  for (size_t v = 0; v < keys.size(); ++v) order[v] = static_cast<uint32_t>(keys[v]);
+  RadiusMatches matches;
+  size_t removed = 0;
+  for (size_t visited = 0; visited < order.size(); ++visited) {
+    // Before the skip of removed centres: a run of them must not skip the check too.
+    if (out.cancel().CancelledAt(visited)) return out.cancel().Check();
+    if ((visited & 0xffff) == 0) out.Progress(double(visited) / order.size());
+    const uint32_t i = order[visited];
+    if (cloud.removed(i)) continue;
+    nb.Within(cloud, i, radius[cloud.scan[i]], matches);
+    if (matches.size() < 2) continue;
+    const Verdict v = Judge(cloud, quality, matches);
+    for (const auto& [j, d2] : matches) {
+      if (!ShouldGo(cloud, quality, v, j)) continue;
+      cloud.flags[j] |= kRemovedMerge;
+      ++removed;
+    }
+  }
+  return removed;
+}
+
 class CorrectionStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
-    PointCloud& cloud = ctx.cloud();
-    ctx.Record("correction.single_scan", cloud.scans.size() < 2 ? 1 : 0);
-    if (cloud.scans.size() < 2) {  // nothing can overlap
-      ctx.Record(kRemoved, 0);
-      ctx.Warn(WarningCode::kSingleScanNoMerge,
-               "correction: the job has one scan, so there is no overlap to merge and nothing "
-               "was changed; send each scan as its own scan (one file per scan, or a per-point "
-               "scan column)");
-      return absl::OkStatus();
-    }
-    const std::vector<float>& quality = ctx.measures().quality;
-    if (quality.size() != cloud.size()) {
-      return absl::InternalError("correction: the measures stage left no viewing quality");
-    }
-    // Without sensor poses or a scanner quality every q̂ is the same, no point is below its
-    // neighbourhood's mean, and the merge would run to no effect: say so instead.
-    const bool uniform = UniformQuality(cloud, quality);
-    ctx.Record("correction.without_quality", uniform ? 1 : 0);
-    if (uniform) {
-      ctx.Record(kRemoved, 0);
-      ctx.Warn(WarningCode::kUniformQualityNoMerge,
-               "correction: every point has the same viewing quality (no scan has sensor poses "
-               "or a per-point quality), so overlapping scans cannot be told apart and were not "
-               "merged; give view or camera/projector directions, or quality per point");
-      return absl::OkStatus();
-    }
-    SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
-    const Neighbourhoods& nb = *shared;
-
-    // Read (and recorded) only when there is an overlap to merge.
-    const CorrectionSettings settings = ctx.Settings(CorrectionParams());
-    SCANPREP_ASSIGN_OR_RETURN(const std::vector<float> radius, Radii(ctx, settings, nb));
-    SCANPREP_ASSIGN_OR_RETURN(const size_t removed,
-                              settings.mode == CorrectionMode::kScatter
-                                  ? Scatter(ctx, nb, quality, radius)
-                                  : Gather(ctx, nb, quality, radius, settings.rounds));
-    ctx.Record(kRemoved, static_cast<double>(removed));
+    SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* nb, ctx.neighbourhoods());
+    // Read here, recorded only when there was an overlap to merge (the parameters were used).
+    const CorrectionSettings settings = CorrectionParams().Read(ctx.overrides());
+    SCANPREP_ASSIGN_OR_RETURN(
+        const bool merged, CorrectOverlaps(ctx.cloud(), ctx.measures(), *nb, settings, ctx.out()));
+    if (merged) ctx.RecordSettings(CorrectionParams(), settings);
     return absl::OkStatus();
-  }
-
- private:
-  // r_c per scan, scaled; recorded per scan when there are several.
-  static absl::StatusOr<std::vector<float>> Radii(StageContext& ctx,
-                                                  const CorrectionSettings& settings,
-                                                  const Neighbourhoods& nb) {
-    const PointCloud& cloud = ctx.cloud();
-    const double scale = settings.radius_scale;
-    SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing,
-                              ScanPointSpacing(cloud, &nb, ctx.cancel()));
-    std::vector<float> radius;
-    for (size_t s = 0; s < cloud.scans.size(); ++s) {
-      const ScanMeta& scan = cloud.scans[s];
-      const double ds = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
-      const double r_c = std::sqrt(ds * ds + scan.uncertainty * scan.uncertainty +
-                                   spacing[s] * spacing[s]);  // Eq. (11)
-      radius.push_back(static_cast<float>(ctx.CapRadius(
-          absl::StrCat("the merge radius r_c (Eq. 11) of scan '", scan.id, "'"),
-          settings.radius.Or(scale * r_c), kMaxMergeRadiusPerGlobalRadius * nb.global_radius())));
-      ctx.RecordForScan(settings.radius.name, s, radius.back());
-    }
-    return radius;
-  }
-
-  // Rounds of the gather rule, each from the previous round's labels, until nothing changes.
-  // One round thins every layer of a multi-scan overlap by about half; later rounds see the
-  // raised mean of what is left and strip the worse layers completely, as the scatter form does.
-  static absl::StatusOr<size_t> Gather(StageContext& ctx, const Neighbourhoods& nb,
-                                       const std::vector<float>& quality,
-                                       const std::vector<float>& radius, int max_rounds) {
-    PointCloud& cloud = ctx.cloud();
-    const size_t n = cloud.size();
-    std::vector<uint8_t> go(n, 0);
-    // Balls only lose points from round to round, so a ball that holds one scan never spans two
-    // again: its centre is settled for good.
-    std::vector<uint8_t> settled(n, 0);
-    // A verdict changes only when its ball lost a point: after the first round only the
-    // centres within r_c of a point the last round removed are judged again.
-    std::vector<uint8_t> touched(n, 1);
-    // Grid order: consecutive balls read the same cells.
-    const std::span<const uint32_t> order = nb.order();
-    size_t removed = 0;
-    int round = 0;
-    // At most: a round that removes nothing ends it. Each round passes over the points twice
-    // (judging, then finding the centres near its removals).
-    ctx.ExpectWork(2.0 * max_rounds * double(n));
-    while (round < max_rounds) {
-      SCANPREP_RETURN_IF_ERROR(ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
-        RadiusMatches matches;
-        for (size_t at = begin; at < end; ++at) {
-          const uint32_t i = order[at];
-          go[i] = 0;
-          if (cloud.removed(i) || settled[i] || !touched[i]) continue;
-          nb.Within(cloud, i, radius[cloud.scan[i]], matches);
-          const Verdict v = Judge(cloud, quality, matches);
-          settled[i] = !v.overlap;
-          go[i] = ShouldGo(cloud, quality, v, i);
-        }
-      }));
-      ++round;
-      size_t now = 0;
-      for (size_t i = 0; i < n; ++i) {
-        if (!go[i]) continue;
-        cloud.flags[i] |= kRemovedMerge;
-        ++now;
-      }
-      removed += now;
-      ctx.Progress(double(round) / max_rounds);
-      if (now == 0 || round == max_rounds) break;
-      SCANPREP_RETURN_IF_ERROR(TouchBallsThatLost(cloud, nb, radius, go, touched, ctx.cancel()));
-    }
-    ctx.Record("correction.rounds_run", round);
-    return removed;
-  }
-
-  // touched[i] = 1 for every centre i whose ball N_{r_c}(i) held a point that `gone` marks: the
-  // balls of radius max r_c around the gone points hold every such centre. When one of those
-  // balls is capped it may miss some, and every centre is judged again.
-  static absl::Status TouchBallsThatLost(const PointCloud& cloud, const Neighbourhoods& nb,
-                                         const std::vector<float>& radius,
-                                         const std::vector<uint8_t>& gone,
-                                         std::vector<uint8_t>& touched, const CancelToken& cancel) {
-    const float reach = *std::max_element(radius.begin(), radius.end());
-    const std::span<const uint32_t> order = nb.order();
-    std::fill(touched.begin(), touched.end(), 0);
-    std::atomic<bool> capped{false};
-    SCANPREP_RETURN_IF_ERROR(ParallelFor(order.size(), cancel, [&](size_t begin, size_t end) {
-      RadiusMatches matches;
-      for (size_t at = begin; at < end; ++at) {
-        const uint32_t j = order[at];
-        if (!gone[j]) continue;
-        nb.Within(cloud, j, reach, matches);
-        if (matches.size() >= nb.max_ball_points()) capped.store(true, std::memory_order_relaxed);
-        for (const auto& [i, d2] : matches) {
-          const float r = radius[cloud.scan[i]];
-          if (d2 < r * r) std::atomic_ref<uint8_t>(touched[i]).store(1, std::memory_order_relaxed);
-        }
-      }
-    }));
-    if (capped.load()) std::fill(touched.begin(), touched.end(), 1);
-    return absl::OkStatus();
-  }
-
-  static absl::StatusOr<size_t> Scatter(StageContext& ctx, const Neighbourhoods& nb,
-                                        const std::vector<float>& quality,
-                                        const std::vector<float>& radius) {
-    PointCloud& cloud = ctx.cloud();
-    std::vector<uint64_t> keys(cloud.size());
-    for (uint32_t i = 0; i < cloud.size(); ++i) keys[i] = DescendingQualityKey(quality[i], i);
-    SCANPREP_RETURN_IF_ERROR(CancellableSort(keys, ctx.cancel()));
-    std::vector<uint32_t> order(keys.size());
-    for (size_t v = 0; v < keys.size(); ++v) order[v] = static_cast<uint32_t>(keys[v]);
-    RadiusMatches matches;
-    size_t removed = 0;
-    for (size_t visited = 0; visited < order.size(); ++visited) {
-      // Before the skip of removed centres: a run of them must not skip the check too.
-      if (ctx.cancel().CancelledAt(visited)) return ctx.cancel().Check();
-      if ((visited & 0xffff) == 0) ctx.Progress(double(visited) / order.size());
-      const uint32_t i = order[visited];
-      if (cloud.removed(i)) continue;
-      nb.Within(cloud, i, radius[cloud.scan[i]], matches);
-      if (matches.size() < 2) continue;
-      const Verdict v = Judge(cloud, quality, matches);
-      for (const auto& [j, d2] : matches) {
-        if (!ShouldGo(cloud, quality, v, j)) continue;
-        cloud.flags[j] |= kRemovedMerge;
-        ++removed;
-      }
-    }
-    return removed;
   }
 };
 
 }  // namespace
+
+absl::StatusOr<bool> CorrectOverlaps(PointCloud& cloud, const PointMeasures& m,
+                                     const Neighbourhoods& nb, const CorrectionSettings& settings,
+                                     StageReporter& out) {
+  out.Record("correction.single_scan", cloud.scans.size() < 2 ? 1 : 0);
+  if (cloud.scans.size() < 2) {  // nothing can overlap
+    out.Record(kRemoved, 0);
+    out.Warn(WarningCode::kSingleScanNoMerge,
+             "correction: the job has one scan, so there is no overlap to merge and nothing "
+             "was changed; send each scan as its own scan (one file per scan, or a per-point "
+             "scan column)");
+    return false;
+  }
+  const std::vector<float>& quality = m.quality;
+  if (quality.size() != cloud.size()) {
+    return absl::InternalError("correction: the measures stage left no viewing quality");
+  }
+  // Without sensor poses or a scanner quality every q̂ is the same, no point is below its
+  // neighbourhood's mean, and the merge would run to no effect: say so instead.
+  const bool uniform = UniformQuality(cloud, quality);
+  out.Record("correction.without_quality", uniform ? 1 : 0);
+  if (uniform) {
+    out.Record(kRemoved, 0);
+    out.Warn(WarningCode::kUniformQualityNoMerge,
+             "correction: every point has the same viewing quality (no scan has sensor poses "
+             "or a per-point quality), so overlapping scans cannot be told apart and were not "
+             "merged; give view or camera/projector directions, or quality per point");
+    return false;
+  }
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<float> radius, Radii(cloud, settings, nb, out));
+  SCANPREP_ASSIGN_OR_RETURN(const size_t removed,
+                            settings.mode == CorrectionMode::kScatter
+                                ? Scatter(cloud, nb, quality, radius, out)
+                                : Gather(cloud, nb, quality, radius, settings.rounds, out));
+  out.Record(kRemoved, static_cast<double>(removed));
+  return true;
+}
 
 const ParamTable<CorrectionSettings>& CorrectionParams() {
   using S = CorrectionSettings;

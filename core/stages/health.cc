@@ -47,14 +47,14 @@ std::optional<double> ShareOf(uint64_t count, uint64_t points, bool known) {
   return Fraction(double(count), double(points));
 }
 
-absl::StatusOr<std::vector<ScanHealth>> ScanHealths(StageContext& ctx) {
-  const PointCloud& cloud = ctx.cloud();
+absl::StatusOr<std::vector<ScanHealth>> ScanHealths(const PointCloud& cloud, const PointMeasures& m,
+                                                    const RemovalStagesRun& ran,
+                                                    const CancelToken& cancel) {
   const size_t scans = cloud.scans.size();
   // The sensor's noise over every point it measured well: the merged-away ones included (a scan
   // another sees better may lose most of its points to the merge).
-  SCANPREP_ASSIGN_OR_RETURN(
-      const std::vector<std::optional<double>> noise,
-      MeasuredScanNoise(cloud, ctx.measures(), scans, ctx.cancel(), kRemovedOutlier));
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<std::optional<double>> noise,
+                            MeasuredScanNoise(cloud, m, scans, cancel, kRemovedOutlier));
   std::vector<uint64_t> points(scans), outliers(scans), merged(scans);
   for (size_t i = 0; i < cloud.size(); ++i) {
     const uint32_t s = cloud.scan[i];
@@ -66,7 +66,7 @@ absl::StatusOr<std::vector<ScanHealth>> ScanHealths(StageContext& ctx) {
   // scan in any order, as only their deciles are reported.
   SCANPREP_ASSIGN_OR_RETURN(
       std::vector<std::vector<float>> angles,
-      ValuesPerScan(cloud, cloud.size(), ctx.cancel(), [&](size_t i, const auto& add) {
+      ValuesPerScan(cloud, cloud.size(), cancel, [&](size_t i, const auto& add) {
         if (cloud.flags[i] & (kRemovedOutlier | kNormalInvalid)) return;
         const uint32_t s = cloud.scan[i];
         const Eigen::Vector3d p = cloud.point(i).cast<double>();
@@ -76,8 +76,6 @@ absl::StatusOr<std::vector<ScanHealth>> ScanHealths(StageContext& ctx) {
         }
       }));
   std::vector<ScanHealth> out(scans);
-  const bool outliers_ran = ctx.Ran(stage_names::kOutliers),
-             correction_ran = ctx.Ran(stage_names::kCorrection);
   for (size_t s = 0; s < scans; ++s) {
     ScanHealth& h = out[s];
     const ScanMeta& meta = cloud.scans[s];
@@ -89,8 +87,8 @@ absl::StatusOr<std::vector<ScanHealth>> ScanHealths(StageContext& ctx) {
     if (noise[s] && meta.uncertainty_stated && meta.uncertainty > 0) {
       h.noise_to_uncertainty = *noise[s] / meta.uncertainty;
     }
-    h.outlier_share = ShareOf(outliers[s], h.points, outliers_ran);
-    h.merged_share = ShareOf(merged[s], h.points, correction_ran);
+    h.outlier_share = ShareOf(outliers[s], h.points, ran.outliers);
+    h.merged_share = ShareOf(merged[s], h.points, ran.correction);
     // Of every point the sensor delivered: the unmeasured ones never entered the pipeline.
     const double invalid = double(meta.points_invalid);
     h.invalid_share = Fraction(invalid, double(h.points) + invalid);
@@ -149,13 +147,12 @@ Plane LocalPlane(const PointCloud& cloud, const Neighbourhoods& nb, uint32_t j) 
 // plane, the one nearest along its tangent plane. In point order (blocks kept by their start, so
 // the sums do not depend on the threads).
 absl::StatusOr<std::map<uint32_t, std::vector<Correspondence>>> FindCorrespondences(
-    StageContext& ctx, const Neighbourhoods& nb, const std::vector<float>& reach,
-    std::span<const uint32_t> points) {
-  const PointCloud& cloud = ctx.cloud();
-  const std::vector<float>& fit_rms = ctx.measures().fit_rms;
+    const PointCloud& cloud, const PointMeasures& m, const Neighbourhoods& nb,
+    const std::vector<float>& reach, std::span<const uint32_t> points, const CancelToken& cancel) {
+  const std::vector<float>& fit_rms = m.fit_rms;
   std::mutex mu;
   std::map<size_t, std::vector<Correspondence>> blocks;
-  SCANPREP_RETURN_IF_ERROR(ParallelFor(points.size(), ctx.cancel(), [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(points.size(), cancel, [&](size_t begin, size_t end) {
     std::vector<Correspondence> found;
     std::vector<std::pair<uint32_t, float>> best;  // per lower scan met: (point, tangential)
     for (size_t at = begin; at < end; ++at) {
@@ -210,18 +207,18 @@ std::vector<std::vector<uint32_t>> PointsPerScan(const PointCloud& cloud) {
   return points;
 }
 
-absl::StatusOr<std::vector<PairHealth>> PairHealths(StageContext& ctx) {
-  const PointCloud& cloud = ctx.cloud();
-  const HealthSettings params = ctx.Settings(HealthParams());
+absl::StatusOr<std::vector<PairHealth>> PairHealths(const PointCloud& cloud, const PointMeasures& m,
+                                                    const Neighbourhoods& nb,
+                                                    const HealthSettings& params,
+                                                    const CancelToken& cancel) {
   const MisalignmentSettings settings{.min_points = params.min_overlap_points,
                                       .flat_ratio = params.flat_ratio};
   const double spacings = params.max_pair_distance;
   std::vector<PairHealth> out;
   if (cloud.scans.size() < 2) return out;
-  SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* nb, ctx.neighbourhoods());
   // A scan's spacing: the coarser of Δp and, for a line scanner, Δs.
   SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing,
-                            ScanPointSpacing(cloud, nb, ctx.cancel()));
+                            ScanPointSpacing(cloud, &nb, cancel));
   std::vector<float> reach(cloud.scans.size());
   for (size_t s = 0; s < reach.size(); ++s) {
     const double ds = cloud.kind == ScannerKind::kLine ? cloud.scans[s].scanline_spacing : 0.0;
@@ -231,11 +228,12 @@ absl::StatusOr<std::vector<PairHealth>> PairHealths(StageContext& ctx) {
   // where k scans overlap), not the job's.
   const std::vector<std::vector<uint32_t>> points = PointsPerScan(cloud);
   for (uint32_t moving = 1; moving < points.size(); ++moving) {
-    SCANPREP_ASSIGN_OR_RETURN(auto by_fixed, FindCorrespondences(ctx, *nb, reach, points[moving]));
+    SCANPREP_ASSIGN_OR_RETURN(auto by_fixed,
+                              FindCorrespondences(cloud, m, nb, reach, points[moving], cancel));
     for (const auto& [fixed, matches] : by_fixed) {
-      SCANPREP_RETURN_IF_ERROR(ctx.cancel().Check());
-      SCANPREP_ASSIGN_OR_RETURN(PairHealth pair, EstimatePairHealth(cloud, fixed, moving, matches,
-                                                                    settings, ctx.cancel()));
+      SCANPREP_RETURN_IF_ERROR(cancel.Check());
+      SCANPREP_ASSIGN_OR_RETURN(
+          PairHealth pair, EstimatePairHealth(cloud, fixed, moving, matches, settings, cancel));
       out.push_back(std::move(pair));
     }
   }
@@ -248,19 +246,31 @@ absl::StatusOr<std::vector<PairHealth>> PairHealths(StageContext& ctx) {
 class HealthStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
-    if (ctx.measures().fit_rms.size() != ctx.cloud().size()) {
-      return absl::InternalError("health: the normals stage left no fit residuals");
-    }
-    HealthReport health;
-    SCANPREP_ASSIGN_OR_RETURN(health.pairs, PairHealths(ctx));
-    SCANPREP_ASSIGN_OR_RETURN(health.scans, ScanHealths(ctx));
-    ctx.Record("health.pairs", static_cast<double>(health.pairs.size()));
+    SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* nb, ctx.neighbourhoods());
+    const RemovalStagesRun ran{.outliers = ctx.Ran(stage_names::kOutliers),
+                               .correction = ctx.Ran(stage_names::kCorrection)};
+    SCANPREP_ASSIGN_OR_RETURN(HealthReport health,
+                              MeasureHealth(ctx.cloud(), ctx.measures(), *nb,
+                                            ctx.Settings(HealthParams()), ran, ctx.out()));
     ctx.SetHealth(std::move(health));
     return absl::OkStatus();
   }
 };
 
 }  // namespace
+
+absl::StatusOr<HealthReport> MeasureHealth(const PointCloud& cloud, const PointMeasures& m,
+                                           const Neighbourhoods& nb, const HealthSettings& settings,
+                                           const RemovalStagesRun& ran, StageReporter& out) {
+  if (m.fit_rms.size() != cloud.size()) {
+    return absl::InternalError("health: the normals stage left no fit residuals");
+  }
+  HealthReport health;
+  SCANPREP_ASSIGN_OR_RETURN(health.pairs, PairHealths(cloud, m, nb, settings, out.cancel()));
+  SCANPREP_ASSIGN_OR_RETURN(health.scans, ScanHealths(cloud, m, ran, out.cancel()));
+  out.Record("health.pairs", static_cast<double>(health.pairs.size()));
+  return health;
+}
 
 const ParamTable<HealthSettings>& HealthParams() {
   using S = HealthSettings;

@@ -3,8 +3,15 @@
 
 #include <cstddef>
 
+#include "absl/status/statusor.h"
+#include "core/base/point_cloud.h"
+#include "core/base/point_measures.h"
+#include "core/spatial/neighbourhoods.h"
+#include "core/stages/health_report.h"
 #include "core/stages/param_table.h"
 #include "core/stages/stage.h"
+#include "core/stages/stage_reporter.h"
+
 namespace scanprep {
 // Scanner health (docs/health.md): per scan its noise σ̂, shares removed and viewing angles; per
 // overlapping pair of scans the point-to-plane residuals and the rigid misalignment they imply.
@@ -18,4 +25,15 @@ struct HealthSettings {
   double max_pair_distance = 0;   // farthest partner, in the fixed scan's spacings
 };
 const ParamTable<HealthSettings>& HealthParams();
+
+// Which removing stages ran before health: a share they could not have removed reads as unknown.
+struct RemovalStagesRun {
+  bool outliers = false;
+  bool correction = false;
+};
+
+// The stage: every scan's figures and every overlapping pair's, from `m`'s normal fits.
+absl::StatusOr<HealthReport> MeasureHealth(const PointCloud& cloud, const PointMeasures& m,
+                                           const Neighbourhoods& nb, const HealthSettings& settings,
+                                           const RemovalStagesRun& ran, StageReporter& out);
 }  // namespace scanprep

@@ -56,154 +56,154 @@ void AssignScanMedians(const PointCloud& cloud, Unknown unknown, std::vector<flo
   }
 }
 
+absl::Status Quality(const PointCloud& cloud, PointMeasures& m, StageReporter& out) {
+  const size_t n = cloud.size();
+  std::vector<float>& quality = m.quality;
+  quality.assign(n, 1.f);
+  if (cloud.quality.size() == n) {
+    out.Record("measures.quality_from_scanner", 1);
+    return ParallelFor(n, out.cancel(), [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i) {
+        quality[i] = std::isfinite(cloud.quality[i]) ? std::clamp(cloud.quality[i], 0.f, 1.f) : 0.f;
+      }
+    });
+  }
+  out.Record("measures.quality_from_scanner", 0);
+  size_t without_pose = 0;
+  for (size_t s = 0; s < cloud.scans.size(); ++s) {
+    const ScanMeta& scan = cloud.scans[s];
+    if (!TowardCamera(scan, Eigen::Vector3d::Zero()) &&
+        !TowardProjector(scan, Eigen::Vector3d::Zero())) {
+      ++without_pose;
+      out.Warn(WarningCode::kNoPose,
+               absl::StrCat("measures: scan '", scan.id,
+                            "' has neither sensor poses nor a "
+                            "per-point quality; its viewing quality is set to 1"));
+    }
+  }
+  out.Record("measures.scans_without_pose", static_cast<double>(without_pose));
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, out.cancel(), [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      if (!HasNormal(cloud, i)) continue;
+      const ScanMeta& scan = cloud.scans[cloud.scan[i]];
+      const Eigen::Vector3d p = cloud.point(i).cast<double>();
+      const Eigen::Vector3d normal = cloud.normal(i).cast<double>();
+      const auto camera = TowardCamera(scan, p);
+      const auto projector = TowardProjector(scan, p);
+      if (!camera && !projector) continue;
+      const double alpha = camera ? ViewAngle(normal, *camera) : 0.0;
+      const double beta = projector ? ViewAngle(normal, *projector) : alpha;
+      const double q = std::max(alpha, beta);
+      quality[i] = static_cast<float>(1.0 - q / (std::numbers::pi / 2));  // Eq. (7)
+    }
+  }));
+  // Points without a valid normal have no viewing angle.
+  const auto no_normal = [&](size_t i) { return !HasNormal(cloud, i); };
+  AssignScanMedians(cloud, no_normal, quality);
+  return absl::OkStatus();
+}
+
+// The scanline curvature window h per scan (recorded with the spacing it comes from).
+absl::StatusOr<std::vector<double>> Windows(const PointCloud& cloud, const Neighbourhoods* nb,
+                                            const MeasuresSettings& settings, StageReporter& out) {
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing,
+                            ScanPointSpacing(cloud, nb, out.cancel()));
+  std::vector<double> window(cloud.scans.size(), 0.0);
+  for (size_t s = 0; s < cloud.scans.size(); ++s) {
+    const double u = cloud.scans[s].uncertainty;
+    window[s] = settings.window.Or(
+        std::max({3 * spacing[s], 2 * u, NoiseWindow(u, spacing[s], settings.scale)}));
+    out.RecordForScan("measures.point_spacing_mm", s, spacing[s]);
+    out.RecordForScan(settings.window.name, s, window[s]);
+  }
+  return window;
+}
+
+absl::Status Curvature(PointCloud& cloud, PointMeasures& m, const Neighbourhoods* nb,
+                       const MeasuresSettings& settings, StageReporter& out) {
+  const size_t n = cloud.size();
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> window, Windows(cloud, nb, settings, out));
+
+  std::vector<float> kappa;
+  const bool lines = cloud.kind == ScannerKind::kLine && cloud.has_scanlines();
+  // A line scanner's κ̂ comes from its scanlines (Eq. 11); without them every point falls back
+  // to surface variation (Eq. 12), which blurs edges over the whole ball. Flexible scanners
+  // have no scanlines by design, so only a line scan that lost them is warned about.
+  const bool line_scan_without_scanlines = cloud.kind == ScannerKind::kLine && !lines;
+  out.Record("measures.line_scan_without_scanlines", line_scan_without_scanlines ? 1 : 0);
+  if (line_scan_without_scanlines) {
+    out.Warn(WarningCode::kNoScanlines,
+             "measures: the line scans came without scanline indices, so curvature κ̂ is "
+             "surface variation (Eq. 12) everywhere instead of scanline curvature (Eq. 11); "
+             "send the scanline of every point");
+  }
+  if (lines) {
+    ScanlineCurvatureCounts counts;
+    SCANPREP_RETURN_IF_ERROR(ScanlineCurvature(cloud, window, out.cancel(), kappa, counts));
+    out.Record("measures.windows_capped", static_cast<double>(counts.windows_capped));
+    if (counts.windows_capped > 0) {
+      out.Warn(WarningCode::kWindowsCapped,
+               absl::StrCat("measures: ", counts.windows_capped,
+                            " scanline windows held more "
+                            "than ",
+                            kMaxWindowSide,
+                            " points on a side and were cut to that; "
+                            "measures.window_mm may be far too large for the point spacing "
+                            "(or given in the wrong unit)"));
+    }
+  }
+  std::vector<float>& curvature = m.curvature;
+  curvature.assign(n, 0.f);
+  const std::vector<float>& variation = m.surface_variation;
+  std::atomic<size_t> fallback{0};
+  // Neither a scanline window nor a normal fit: no curvature at all.
+  auto unknown = [&](size_t i) {
+    return !(lines && std::isfinite(kappa[i])) && !HasNormal(cloud, i);
+  };
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, out.cancel(), [&](size_t begin, size_t end) {
+    size_t local_fallback = 0;
+    for (size_t i = begin; i < end; ++i) {
+      if (cloud.removed(i)) continue;
+      double value;
+      if (lines && std::isfinite(kappa[i])) {
+        value = kappa[i] / settings.scale;
+      } else {
+        value = variation[i] / settings.variation_scale;  // Eq. (12) fallback
+        ++local_fallback;
+      }
+      curvature[i] = static_cast<float>(std::min(value, 1.0));  // Eq. (7)
+    }
+    fallback += local_fallback;
+  }));
+  AssignScanMedians(cloud, unknown, curvature);
+  size_t edges = 0;
+  for (size_t i = 0; i < n; ++i) {
+    cloud.flags[i] &= static_cast<uint8_t>(~kEdge);
+    if (!cloud.removed(i) && curvature[i] >= settings.edge_threshold) {
+      cloud.flags[i] |= kEdge;
+      ++edges;
+    }
+  }
+  out.Record("measures.edges", static_cast<double>(edges));
+  out.Record("measures.curvature_from_variation", static_cast<double>(fallback));
+  return absl::OkStatus();
+}
+
 class MeasuresStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
-    SCANPREP_RETURN_IF_ERROR(Quality(ctx));
-    return Curvature(ctx);
-  }
-
- private:
-  static absl::Status Quality(StageContext& ctx) {
-    const PointCloud& cloud = ctx.cloud();
-    const size_t n = cloud.size();
-    std::vector<float>& quality = ctx.measures().quality;
-    quality.assign(n, 1.f);
-    if (cloud.quality.size() == n) {
-      ctx.Record("measures.quality_from_scanner", 1);
-      return ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
-        for (size_t i = begin; i < end; ++i) {
-          quality[i] =
-              std::isfinite(cloud.quality[i]) ? std::clamp(cloud.quality[i], 0.f, 1.f) : 0.f;
-        }
-      });
-    }
-    ctx.Record("measures.quality_from_scanner", 0);
-    size_t without_pose = 0;
-    for (size_t s = 0; s < cloud.scans.size(); ++s) {
-      const ScanMeta& scan = cloud.scans[s];
-      if (!TowardCamera(scan, Eigen::Vector3d::Zero()) &&
-          !TowardProjector(scan, Eigen::Vector3d::Zero())) {
-        ++without_pose;
-        ctx.Warn(WarningCode::kNoPose,
-                 absl::StrCat("measures: scan '", scan.id,
-                              "' has neither sensor poses nor a "
-                              "per-point quality; its viewing quality is set to 1"));
-      }
-    }
-    ctx.Record("measures.scans_without_pose", static_cast<double>(without_pose));
-    SCANPREP_RETURN_IF_ERROR(ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
-      for (size_t i = begin; i < end; ++i) {
-        if (!HasNormal(cloud, i)) continue;
-        const ScanMeta& scan = cloud.scans[cloud.scan[i]];
-        const Eigen::Vector3d p = cloud.point(i).cast<double>();
-        const Eigen::Vector3d normal = cloud.normal(i).cast<double>();
-        const auto camera = TowardCamera(scan, p);
-        const auto projector = TowardProjector(scan, p);
-        if (!camera && !projector) continue;
-        const double alpha = camera ? ViewAngle(normal, *camera) : 0.0;
-        const double beta = projector ? ViewAngle(normal, *projector) : alpha;
-        const double q = std::max(alpha, beta);
-        quality[i] = static_cast<float>(1.0 - q / (std::numbers::pi / 2));  // Eq. (7)
-      }
-    }));
-    // Points without a valid normal have no viewing angle.
-    const auto no_normal = [&](size_t i) { return !HasNormal(cloud, i); };
-    AssignScanMedians(cloud, no_normal, quality);
-    return absl::OkStatus();
-  }
-
-  // The scanline curvature window h per scan (recorded with the spacing it comes from).
-  static absl::StatusOr<std::vector<double>> Windows(StageContext& ctx,
-                                                     const MeasuresSettings& settings) {
-    const PointCloud& cloud = ctx.cloud();
-    SCANPREP_ASSIGN_OR_RETURN(
-        const std::vector<double> spacing,
-        ScanPointSpacing(cloud, ctx.neighbourhoods().value_or(nullptr), ctx.cancel()));
-    std::vector<double> window(cloud.scans.size(), 0.0);
-    for (size_t s = 0; s < cloud.scans.size(); ++s) {
-      const double u = cloud.scans[s].uncertainty;
-      window[s] = settings.window.Or(
-          std::max({3 * spacing[s], 2 * u, NoiseWindow(u, spacing[s], settings.scale)}));
-      ctx.RecordForScan("measures.point_spacing_mm", s, spacing[s]);
-      ctx.RecordForScan(settings.window.name, s, window[s]);
-    }
-    return window;
-  }
-
-  static absl::Status Curvature(StageContext& ctx) {
-    PointCloud& cloud = ctx.cloud();
-    const size_t n = cloud.size();
-    const MeasuresSettings settings = ctx.Settings(MeasuresParams());
-    SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> window, Windows(ctx, settings));
-
-    std::vector<float> kappa;
-    const bool lines = cloud.kind == ScannerKind::kLine && cloud.has_scanlines();
-    // A line scanner's κ̂ comes from its scanlines (Eq. 11); without them every point falls back
-    // to surface variation (Eq. 12), which blurs edges over the whole ball. Flexible scanners
-    // have no scanlines by design, so only a line scan that lost them is warned about.
-    const bool line_scan_without_scanlines = cloud.kind == ScannerKind::kLine && !lines;
-    ctx.Record("measures.line_scan_without_scanlines", line_scan_without_scanlines ? 1 : 0);
-    if (line_scan_without_scanlines) {
-      ctx.Warn(WarningCode::kNoScanlines,
-               "measures: the line scans came without scanline indices, so curvature κ̂ is "
-               "surface variation (Eq. 12) everywhere instead of scanline curvature (Eq. 11); "
-               "send the scanline of every point");
-    }
-    if (lines) {
-      ScanlineCurvatureCounts counts;
-      SCANPREP_RETURN_IF_ERROR(ScanlineCurvature(cloud, window, ctx.cancel(), kappa, counts));
-      ctx.Record("measures.windows_capped", static_cast<double>(counts.windows_capped));
-      if (counts.windows_capped > 0) {
-        ctx.Warn(WarningCode::kWindowsCapped,
-                 absl::StrCat("measures: ", counts.windows_capped,
-                              " scanline windows held more "
-                              "than ",
-                              kMaxWindowSide,
-                              " points on a side and were cut to that; "
-                              "measures.window_mm may be far too large for the point spacing "
-                              "(or given in the wrong unit)"));
-      }
-    }
-    std::vector<float>& curvature = ctx.measures().curvature;
-    curvature.assign(n, 0.f);
-    const std::vector<float>& variation = ctx.measures().surface_variation;
-    std::atomic<size_t> fallback{0};
-    // Neither a scanline window nor a normal fit: no curvature at all.
-    auto unknown = [&](size_t i) {
-      return !(lines && std::isfinite(kappa[i])) && !HasNormal(cloud, i);
-    };
-    SCANPREP_RETURN_IF_ERROR(ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
-      size_t local_fallback = 0;
-      for (size_t i = begin; i < end; ++i) {
-        if (cloud.removed(i)) continue;
-        double value;
-        if (lines && std::isfinite(kappa[i])) {
-          value = kappa[i] / settings.scale;
-        } else {
-          value = variation[i] / settings.variation_scale;  // Eq. (12) fallback
-          ++local_fallback;
-        }
-        curvature[i] = static_cast<float>(std::min(value, 1.0));  // Eq. (7)
-      }
-      fallback += local_fallback;
-    }));
-    AssignScanMedians(cloud, unknown, curvature);
-    size_t edges = 0;
-    for (size_t i = 0; i < n; ++i) {
-      cloud.flags[i] &= static_cast<uint8_t>(~kEdge);
-      if (!cloud.removed(i) && curvature[i] >= settings.edge_threshold) {
-        cloud.flags[i] |= kEdge;
-        ++edges;
-      }
-    }
-    ctx.Record("measures.edges", static_cast<double>(edges));
-    ctx.Record("measures.curvature_from_variation", static_cast<double>(fallback));
-    return absl::OkStatus();
+    return ComputeMeasures(ctx.cloud(), ctx.measures(), ctx.neighbourhoods().value_or(nullptr),
+                           ctx.Settings(MeasuresParams()), ctx.out());
   }
 };
 
 }  // namespace
+
+absl::Status ComputeMeasures(PointCloud& cloud, PointMeasures& m, const Neighbourhoods* nb,
+                             const MeasuresSettings& settings, StageReporter& out) {
+  SCANPREP_RETURN_IF_ERROR(Quality(cloud, m, out));
+  return Curvature(cloud, m, nb, settings, out);
+}
 
 const ParamTable<MeasuresSettings>& MeasuresParams() {
   using S = MeasuresSettings;

@@ -40,25 +40,24 @@ std::string ScanList(const PointCloud& cloud, const std::vector<size_t>& scans) 
 // A line scanner without Δs loses Eq. 2's √3·Δs term (r_min = ε_u only, so the balls at the
 // scanline gaps may hold one line); a scan without u runs on the 0.1 mm default for ε_u, the
 // curvature window and the smoothing limit δ. Both are counted and warned about, not assumed.
-void WarnAboutMissingMetadata(StageContext& ctx, bool radius_forced) {
-  const PointCloud& cloud = ctx.cloud();
+void WarnAboutMissingMetadata(const PointCloud& cloud, bool radius_forced, StageReporter& out) {
   std::vector<size_t> no_spacing, no_uncertainty;
   for (size_t s = 0; s < cloud.scans.size(); ++s) {
     const ScanMeta& scan = cloud.scans[s];
     if (cloud.kind == ScannerKind::kLine && !(scan.scanline_spacing > 0)) no_spacing.push_back(s);
     if (!scan.uncertainty_stated) no_uncertainty.push_back(s);
   }
-  ctx.Record("neighbourhoods.scans_without_spacing", static_cast<double>(no_spacing.size()));
-  ctx.Record("neighbourhoods.scans_default_uncertainty",
+  out.Record("neighbourhoods.scans_without_spacing", static_cast<double>(no_spacing.size()));
+  out.Record("neighbourhoods.scans_default_uncertainty",
              static_cast<double>(no_uncertainty.size()));
   if (!no_spacing.empty() && !radius_forced) {
-    ctx.Warn(WarningCode::kNoScanlineSpacing,
+    out.Warn(WarningCode::kNoScanlineSpacing,
              absl::StrCat("neighbourhoods: line scan(s) ", ScanList(cloud, no_spacing),
                           " state no scanline spacing, so r_min (Eq. 2) is ε_u alone; give "
                           "scanline_spacing, or neighbourhoods.min_radius_mm"));
   }
   if (!no_uncertainty.empty()) {
-    ctx.Warn(WarningCode::kNoUncertainty,
+    out.Warn(WarningCode::kNoUncertainty,
              absl::StrCat("neighbourhoods: scan(s) ", ScanList(cloud, no_uncertainty),
                           " state no measuring uncertainty u; the default ", ScanMeta{}.uncertainty,
                           " mm is used for ε_u, the curvature window and the smoothing limit; "
@@ -69,63 +68,69 @@ void WarnAboutMissingMetadata(StageContext& ctx, bool radius_forced) {
 class NeighbourhoodsStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
-    const PointCloud& cloud = ctx.cloud();
-    const NeighbourhoodsSettings settings = ctx.Settings(NeighbourhoodsParams());
-    NeighbourhoodOptions options;
-    options.k = settings.k;
-    // Per scan: a job mixing sensors would otherwise give the finer one the coarser one's r_min.
-    for (size_t s = 0; s < cloud.scans.size(); ++s) {
-      const ScanMeta& scan = cloud.scans[s];
-      const double spacing = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
-      const double epsilon_u = settings.epsilon_u.Or(scan.uncertainty);
-      // Flexible scanners have no fixed spacing: r_min = ε_u and r_p = max(r_min, d_k) grows
-      // the ball until it holds k points (docs/algorithms.md §4).
-      options.min_radius.push_back(
-          settings.min_radius.Or(MinRadiusFromScanlineSpacing(spacing, epsilon_u)));
-      ctx.RecordForScan(settings.epsilon_u.name, s, epsilon_u);
-      ctx.RecordForScan(settings.min_radius.name, s, options.min_radius.back());
-    }
-    WarnAboutMissingMetadata(ctx, settings.min_radius.forced.has_value());
-    const std::vector<double> requested = options.min_radius;
     SCANPREP_ASSIGN_OR_RETURN(std::unique_ptr<Neighbourhoods> nb,
-                              Neighbourhoods::Build(cloud, options, ctx.cancel()));
-    // r_g is known only once the graph is built, and the graph does not depend on r_min: a job
-    // whose r_min exceeds the limit builds once more with it held there (the same r_g; one more
-    // k-NN pass, about an eighth of a default job, instead of every ball many times too full).
-    const double limit = kMinRadiusPerGlobalRadius * nb->global_radius();
-    if (std::any_of(requested.begin(), requested.end(), [&](double r) { return r > limit; })) {
-      for (double& r : options.min_radius) r = std::min(r, limit);
-      nb.reset();  // before the second graph: never two at once
-      SCANPREP_ASSIGN_OR_RETURN(nb, Neighbourhoods::Build(cloud, options, ctx.cancel()));
-    }
-    for (size_t s = 0; s < cloud.scans.size(); ++s) {
-      ctx.CapRadius(absl::StrCat("the minimum radius r_min (Eq. 2, from scanline spacing and "
-                                 "uncertainty) of scan '",
-                                 cloud.scans[s].id, "'"),
-                    requested[s], nb->scan_min_radius(s));
-      ctx.RecordForScan("neighbourhoods.min_radius_used_mm", s, nb->scan_min_radius(s));
-    }
-    if (const size_t collapsed = ctx.duplicates_collapsed(); collapsed > 0) {
-      ctx.Warn(WarningCode::kDuplicatesCollapsed,
-               absl::StrCat("neighbourhoods: ", collapsed,
-                            " points lie within a hundredth of the uncertainty u (one cube of "
-                            "edge u/100) of another point of their scan: exact repeats or a "
-                            "cluster of near-identical returns; each group was processed once "
-                            "and every point of it returned with that result"));
-    }
-    ctx.Record("neighbourhoods.duplicates_collapsed",
-               static_cast<double>(ctx.duplicates_collapsed()));
-    ctx.Record("neighbourhoods.global_radius_mm", nb->global_radius());
-    ctx.Record("neighbourhoods.density_per_mm2", nb->density());
-    // Lists kept as 32-bit indices because a neighbour lies too far away in the grid's order:
-    // each costs 4·k bytes instead of 2·k.
-    ctx.Record("neighbourhoods.wide_lists", static_cast<double>(nb->wide_lists()));
+                              BuildNeighbourhoods(ctx.cloud(), ctx.Settings(NeighbourhoodsParams()),
+                                                  ctx.duplicates_collapsed(), ctx.out()));
     ctx.SetNeighbourhoods(std::move(nb));
     return absl::OkStatus();
   }
 };
 
 }  // namespace
+
+absl::StatusOr<std::unique_ptr<Neighbourhoods>> BuildNeighbourhoods(
+    const PointCloud& cloud, const NeighbourhoodsSettings& settings, size_t duplicates_collapsed,
+    StageReporter& out) {
+  NeighbourhoodOptions options;
+  options.k = settings.k;
+  // Per scan: a job mixing sensors would otherwise give the finer one the coarser one's r_min.
+  for (size_t s = 0; s < cloud.scans.size(); ++s) {
+    const ScanMeta& scan = cloud.scans[s];
+    const double spacing = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
+    const double epsilon_u = settings.epsilon_u.Or(scan.uncertainty);
+    // Flexible scanners have no fixed spacing: r_min = ε_u and r_p = max(r_min, d_k) grows
+    // the ball until it holds k points (docs/algorithms.md §4).
+    options.min_radius.push_back(
+        settings.min_radius.Or(MinRadiusFromScanlineSpacing(spacing, epsilon_u)));
+    out.RecordForScan(settings.epsilon_u.name, s, epsilon_u);
+    out.RecordForScan(settings.min_radius.name, s, options.min_radius.back());
+  }
+  WarnAboutMissingMetadata(cloud, settings.min_radius.forced.has_value(), out);
+  const std::vector<double> requested = options.min_radius;
+  SCANPREP_ASSIGN_OR_RETURN(std::unique_ptr<Neighbourhoods> nb,
+                            Neighbourhoods::Build(cloud, options, out.cancel()));
+  // r_g is known only once the graph is built, and the graph does not depend on r_min: a job
+  // whose r_min exceeds the limit builds once more with it held there (the same r_g; one more
+  // k-NN pass, about an eighth of a default job, instead of every ball many times too full).
+  const double limit = kMinRadiusPerGlobalRadius * nb->global_radius();
+  if (std::any_of(requested.begin(), requested.end(), [&](double r) { return r > limit; })) {
+    for (double& r : options.min_radius) r = std::min(r, limit);
+    nb.reset();  // before the second graph: never two at once
+    SCANPREP_ASSIGN_OR_RETURN(nb, Neighbourhoods::Build(cloud, options, out.cancel()));
+  }
+  for (size_t s = 0; s < cloud.scans.size(); ++s) {
+    out.CapRadius(absl::StrCat("the minimum radius r_min (Eq. 2, from scanline spacing and "
+                               "uncertainty) of scan '",
+                               cloud.scans[s].id, "'"),
+                  requested[s], nb->scan_min_radius(s));
+    out.RecordForScan("neighbourhoods.min_radius_used_mm", s, nb->scan_min_radius(s));
+  }
+  if (duplicates_collapsed > 0) {
+    out.Warn(WarningCode::kDuplicatesCollapsed,
+             absl::StrCat("neighbourhoods: ", duplicates_collapsed,
+                          " points lie within a hundredth of the uncertainty u (one cube of "
+                          "edge u/100) of another point of their scan: exact repeats or a "
+                          "cluster of near-identical returns; each group was processed once "
+                          "and every point of it returned with that result"));
+  }
+  out.Record("neighbourhoods.duplicates_collapsed", static_cast<double>(duplicates_collapsed));
+  out.Record("neighbourhoods.global_radius_mm", nb->global_radius());
+  out.Record("neighbourhoods.density_per_mm2", nb->density());
+  // Lists kept as 32-bit indices because a neighbour lies too far away in the grid's order:
+  // each costs 4·k bytes instead of 2·k.
+  out.Record("neighbourhoods.wide_lists", static_cast<double>(nb->wide_lists()));
+  return nb;
+}
 
 const ParamTable<NeighbourhoodsSettings>& NeighbourhoodsParams() {
   using S = NeighbourhoodsSettings;

@@ -39,180 +39,181 @@ struct Scratch {
   RadiusMatches mitra;
 };
 
+// The unremoved points within `radius` of i, of i's own scan when `per_scan`.
+void Gather(const PointCloud& cloud, const Neighbourhoods& nb, size_t i, float radius,
+            bool per_scan, RadiusMatches& matches) {
+  nb.Within(cloud, i, radius, matches);
+  if (per_scan) {
+    std::erase_if(matches, [&](const auto& m) { return cloud.scan[m.first] != cloud.scan[i]; });
+  }
+}
+
+// Eq. (4): weights exp(−‖p_j − p‖²/(2h²)), h = factor·r, moments relative to p.
+LocalFrame Fit(const PointCloud& cloud, size_t i, float r, double h_factor,
+               const RadiusMatches& matches) {
+  const double h = h_factor * r;
+  const double inv_two_h2 = h > 0 ? 1.0 / (2 * h * h) : 0.0;
+  const Eigen::Vector3d p = cloud.point(i).cast<double>();
+  MomentAccumulator moments;
+  for (const auto& [j, d2] : matches) {
+    // A weight needs no more than float precision, and expf is several times cheaper.
+    const float w = std::exp(static_cast<float>(-d2 * inv_two_h2));
+    moments.Add(cloud.point(j).cast<double>() - p, w);
+  }
+  return moments.Solve();
+}
+
+// Every unremoved point's normal, surface variation and fit residual, and the ball radius it
+// was fitted in (`radius`); flags the points without one. Returns how many fits failed.
+absl::StatusOr<size_t> FitNormals(PointCloud& cloud, PointMeasures& m, const Neighbourhoods& nb,
+                                  const Resolved& settings, const CancelToken& cancel,
+                                  std::vector<float>& radius) {
+  const size_t n = cloud.size();
+  const bool per_scan = cloud.scans.size() > 1;
+  cloud.nx.assign(n, 0.f);
+  cloud.ny.assign(n, 0.f);
+  cloud.nz.assign(n, 0.f);
+  std::vector<float>& variation = m.surface_variation;
+  variation.assign(n, 0.f);
+  std::vector<float>& fit_rms = m.fit_rms;
+  fit_rms.assign(n, 0.f);
+  std::atomic<size_t> invalid{0};
+  // Flags are applied after the loop: other blocks read flags[j] of their neighbours
+  // (removed()) while this one would write flags[i] of the same byte.
+  std::vector<uint8_t> no_normal(n, 0);
+
+  const std::span<const uint32_t> order = nb.order();
+  // A Mitra radius costs up to 5 balls of up to 5·r_g (25·k points) with a quadric fit each:
+  // smaller blocks, so that a cancel does not wait for 1024 of them.
+  const size_t grain = settings.params.mitra() ? 128 : 1024;
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(
+      n, cancel,
+      [&](size_t begin, size_t end) {
+        Scratch scratch;
+        size_t local_invalid = 0;
+        for (size_t v = begin; v < end; ++v) {
+          const size_t i = order[v];
+          // Removed points get no normal; the flag tells clients that asked for them too.
+          if (cloud.removed(i)) {
+            no_normal[i] = 1;
+            continue;
+          }
+          float r = settings.params.radius_mode == NormalsRadiusMode::kKnn ? nb.dk(i)
+                                                                           : nb.adaptive_radius(i);
+          if (settings.params.mitra()) {
+            const double sigma =
+                settings.params.mitra_sigma_mm.Or(cloud.scans[cloud.scan[i]].uncertainty);
+            r = MitraRadius(cloud, nb, i, sigma, settings.mitra, scratch.mitra);
+          }
+          // In an overlap part of the k-NN ball belongs to other scans: widen it once
+          // (OwnScanWidening). Only the widened ball is fitted. (One query reaching past r_p for
+          // both balls costs more than two: a radius search grows faster than the ball.) The
+          // knn mode fits the list's own-scan half as it is, and widens only below that.
+          Gather(cloud, nb, i, r, per_scan, scratch.matches);
+          const size_t own = scratch.matches.size();
+          if (per_scan && own < settings.min_own_points) {
+            r *= OwnScanWidening(own, nb.k());
+            Gather(cloud, nb, i, r, per_scan, scratch.matches);
+          }
+          const LocalFrame frame = Fit(cloud, i, r, settings.params.h_factor, scratch.matches);
+          radius[i] = r;
+          if (!frame.valid) {
+            no_normal[i] = 1;
+            ++local_invalid;
+            continue;
+          }
+          const Eigen::Vector3d normal = frame.normal();
+          cloud.nx[i] = static_cast<float>(normal.x());
+          cloud.ny[i] = static_cast<float>(normal.y());
+          cloud.nz[i] = static_cast<float>(normal.z());
+          variation[i] = static_cast<float>(frame.surface_variation());
+          fit_rms[i] = static_cast<float>(std::sqrt(frame.eigenvalues[0]));
+        }
+        invalid += local_invalid;
+      },
+      grain));
+  for (size_t i = 0; i < n; ++i) {
+    cloud.flags[i] = no_normal[i] ? cloud.flags[i] | kNormalInvalid
+                                  : cloud.flags[i] & static_cast<uint8_t>(~kNormalInvalid);
+  }
+
+  return invalid.load();
+}
+
+// The fits' figures and the orientation's counts into the report.
+void Report(const PointCloud& cloud, const std::vector<float>& radius, size_t invalid,
+            const OrientationCounts& counts, StageReporter& out) {
+  const size_t n = cloud.size();
+  std::vector<float> kept;
+  for (size_t i = 0; i < n; ++i) {
+    if (!cloud.removed(i)) kept.push_back(radius[i]);
+  }
+  if (!kept.empty()) {
+    std::nth_element(kept.begin(), kept.begin() + kept.size() / 2, kept.end());
+    out.Record("normals.median_radius_mm", kept[kept.size() / 2]);
+  }
+  out.Record("normals.invalid", static_cast<double>(invalid));
+  out.Record("normals.oriented_toward_sensor", static_cast<double>(counts.toward_sensor));
+  out.Record("normals.oriented_by_tree", static_cast<double>(counts.propagated));
+  out.Record("normals.tree_bridges", static_cast<double>(counts.bridges));
+  out.Record("normals.bridge_work", static_cast<double>(counts.bridge_work));
+  if (counts.propagated > 0) {
+    out.Warn(WarningCode::kNormalsPropagated,
+             absl::StrCat("normals: ", counts.propagated,
+                          " normals oriented by spanning-tree propagation (no sensor pose); "
+                          "their sign is consistent but may be globally inverted"));
+  }
+}
+
+// The stage's parameters with their derived defaults (from the neighbourhoods), recorded.
+Resolved Resolve(const NormalsSettings& settings, const PointCloud& cloud, const Neighbourhoods& nb,
+                 StageReporter& out) {
+  Resolved s{.params = settings};
+  const NormalsSettings& p = s.params;
+  s.min_own_points = p.radius_mode == NormalsRadiusMode::kKnn ? nb.k() / 2 : nb.k() + 1;
+  // At most neighbourhoods.k (ValidateOverrides): orientation walks the shared graph.
+  s.orientation_k = p.orientation_k.Or(std::min(kOrientationK, nb.k()));
+  out.Record(p.orientation_k.name, s.orientation_k);
+  if (!p.mitra()) return s;
+  s.mitra.c1 = p.mitra_c1;
+  s.mitra.c2 = p.mitra_c2;
+  s.mitra.epsilon = p.mitra_epsilon;
+  const double r_max_limit = kMaxRadiusPerGlobalRadius * nb.global_radius();
+  s.mitra.r_max =
+      out.CapRadius(p.mitra_max_radius_mm.name, p.mitra_max_radius_mm.Or(r_max_limit), r_max_limit);
+  out.Record(p.mitra_max_radius_mm.name, s.mitra.r_max);  // the value used
+  for (size_t scan = 0; scan < cloud.scans.size(); ++scan) {
+    out.RecordForScan(p.mitra_sigma_mm.name, scan,
+                      p.mitra_sigma_mm.Or(cloud.scans[scan].uncertainty));
+  }
+  return s;
+}
+
 class NormalsStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
-    SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
-    const Neighbourhoods& nb = *shared;
-    const Resolved settings = ReadSettings(ctx, nb);
-    std::vector<float> radius(ctx.cloud().size(), 0.f);
-    SCANPREP_ASSIGN_OR_RETURN(const size_t invalid, FitNormals(ctx, nb, settings, radius));
-    ctx.Progress(0.5);  // the normals are fitted; orientation follows
-    OrientationCounts counts;
-    SCANPREP_RETURN_IF_ERROR(
-        OrientNormals(ctx.cloud(), nb, settings.orientation_k, ctx.cancel(), counts));
-    Report(ctx, radius, invalid, counts);
-    // Here because the fits measure the noise σ̂ that the unit is judged by, and with a fail_on
-    // the job then stops before any stage works in a wrong unit.
-    return WarnIfUnitSuspect(ctx);
-  }
-
- private:
-  // Every unremoved point's normal, surface variation and fit residual, and the ball radius it
-  // was fitted in (`radius`); flags the points without one. Returns how many fits failed.
-  static absl::StatusOr<size_t> FitNormals(StageContext& ctx, const Neighbourhoods& nb,
-                                           const Resolved& settings, std::vector<float>& radius) {
-    PointCloud& cloud = ctx.cloud();
-    const size_t n = cloud.size();
-    const bool per_scan = cloud.scans.size() > 1;
-    cloud.nx.assign(n, 0.f);
-    cloud.ny.assign(n, 0.f);
-    cloud.nz.assign(n, 0.f);
-    std::vector<float>& variation = ctx.measures().surface_variation;
-    variation.assign(n, 0.f);
-    std::vector<float>& fit_rms = ctx.measures().fit_rms;
-    fit_rms.assign(n, 0.f);
-    std::atomic<size_t> invalid{0};
-    // Flags are applied after the loop: other blocks read flags[j] of their neighbours
-    // (removed()) while this one would write flags[i] of the same byte.
-    std::vector<uint8_t> no_normal(n, 0);
-
-    const std::span<const uint32_t> order = nb.order();
-    // A Mitra radius costs up to 5 balls of up to 5·r_g (25·k points) with a quadric fit each:
-    // smaller blocks, so that a cancel does not wait for 1024 of them.
-    const size_t grain = settings.params.mitra() ? 128 : 1024;
-    SCANPREP_RETURN_IF_ERROR(ParallelFor(
-        n, ctx.cancel(),
-        [&](size_t begin, size_t end) {
-          Scratch scratch;
-          size_t local_invalid = 0;
-          for (size_t v = begin; v < end; ++v) {
-            const size_t i = order[v];
-            // Removed points get no normal; the flag tells clients that asked for them too.
-            if (cloud.removed(i)) {
-              no_normal[i] = 1;
-              continue;
-            }
-            float r = settings.params.radius_mode == NormalsRadiusMode::kKnn
-                          ? nb.dk(i)
-                          : nb.adaptive_radius(i);
-            if (settings.params.mitra()) {
-              const double sigma =
-                  settings.params.mitra_sigma_mm.Or(cloud.scans[cloud.scan[i]].uncertainty);
-              r = MitraRadius(cloud, nb, i, sigma, settings.mitra, scratch.mitra);
-            }
-            // In an overlap part of the k-NN ball belongs to other scans: widen it once
-            // (OwnScanWidening). Only the widened ball is fitted. (One query reaching past r_p for
-            // both balls costs more than two: a radius search grows faster than the ball.) The
-            // knn mode fits the list's own-scan half as it is, and widens only below that.
-            Gather(cloud, nb, i, r, per_scan, scratch.matches);
-            const size_t own = scratch.matches.size();
-            if (per_scan && own < settings.min_own_points) {
-              r *= OwnScanWidening(own, nb.k());
-              Gather(cloud, nb, i, r, per_scan, scratch.matches);
-            }
-            const LocalFrame frame = Fit(cloud, i, r, settings.params.h_factor, scratch.matches);
-            radius[i] = r;
-            if (!frame.valid) {
-              no_normal[i] = 1;
-              ++local_invalid;
-              continue;
-            }
-            const Eigen::Vector3d normal = frame.normal();
-            cloud.nx[i] = static_cast<float>(normal.x());
-            cloud.ny[i] = static_cast<float>(normal.y());
-            cloud.nz[i] = static_cast<float>(normal.z());
-            variation[i] = static_cast<float>(frame.surface_variation());
-            fit_rms[i] = static_cast<float>(std::sqrt(frame.eigenvalues[0]));
-          }
-          invalid += local_invalid;
-        },
-        grain));
-    for (size_t i = 0; i < n; ++i) {
-      cloud.flags[i] = no_normal[i] ? cloud.flags[i] | kNormalInvalid
-                                    : cloud.flags[i] & static_cast<uint8_t>(~kNormalInvalid);
-    }
-
-    return invalid.load();
-  }
-
-  // The fits' figures and the orientation's counts into the report.
-  static void Report(StageContext& ctx, const std::vector<float>& radius, size_t invalid,
-                     const OrientationCounts& counts) {
-    const PointCloud& cloud = ctx.cloud();
-    const size_t n = cloud.size();
-    std::vector<float> kept;
-    for (size_t i = 0; i < n; ++i) {
-      if (!cloud.removed(i)) kept.push_back(radius[i]);
-    }
-    if (!kept.empty()) {
-      std::nth_element(kept.begin(), kept.begin() + kept.size() / 2, kept.end());
-      ctx.Record("normals.median_radius_mm", kept[kept.size() / 2]);
-    }
-    ctx.Record("normals.invalid", static_cast<double>(invalid));
-    ctx.Record("normals.oriented_toward_sensor", static_cast<double>(counts.toward_sensor));
-    ctx.Record("normals.oriented_by_tree", static_cast<double>(counts.propagated));
-    ctx.Record("normals.tree_bridges", static_cast<double>(counts.bridges));
-    ctx.Record("normals.bridge_work", static_cast<double>(counts.bridge_work));
-    if (counts.propagated > 0) {
-      ctx.Warn(WarningCode::kNormalsPropagated,
-               absl::StrCat("normals: ", counts.propagated,
-                            " normals oriented by spanning-tree propagation (no sensor pose); "
-                            "their sign is consistent but may be globally inverted"));
-    }
-  }
-
-  // The stage's parameters, read (and recorded) once; the derived defaults from the shared
-  // neighbourhoods.
-  static Resolved ReadSettings(StageContext& ctx, const Neighbourhoods& nb) {
-    Resolved s{.params = ctx.Settings(NormalsParams())};
-    const NormalsSettings& p = s.params;
-    s.min_own_points = p.radius_mode == NormalsRadiusMode::kKnn ? nb.k() / 2 : nb.k() + 1;
-    // At most neighbourhoods.k (ValidateOverrides): orientation walks the shared graph.
-    s.orientation_k = p.orientation_k.Or(std::min(kOrientationK, nb.k()));
-    ctx.Record(p.orientation_k.name, s.orientation_k);
-    if (!p.mitra()) return s;
-    s.mitra.c1 = p.mitra_c1;
-    s.mitra.c2 = p.mitra_c2;
-    s.mitra.epsilon = p.mitra_epsilon;
-    const double r_max_limit = kMaxRadiusPerGlobalRadius * nb.global_radius();
-    s.mitra.r_max = ctx.CapRadius(p.mitra_max_radius_mm.name, p.mitra_max_radius_mm.Or(r_max_limit),
-                                  r_max_limit);
-    ctx.Record(p.mitra_max_radius_mm.name, s.mitra.r_max);  // the value used
-    const PointCloud& cloud = ctx.cloud();
-    for (size_t scan = 0; scan < cloud.scans.size(); ++scan) {
-      ctx.RecordForScan(p.mitra_sigma_mm.name, scan,
-                        p.mitra_sigma_mm.Or(cloud.scans[scan].uncertainty));
-    }
-    return s;
-  }
-
-  // The unremoved points within `radius` of i, of i's own scan when `per_scan`.
-  static void Gather(const PointCloud& cloud, const Neighbourhoods& nb, size_t i, float radius,
-                     bool per_scan, RadiusMatches& matches) {
-    nb.Within(cloud, i, radius, matches);
-    if (per_scan) {
-      std::erase_if(matches, [&](const auto& m) { return cloud.scan[m.first] != cloud.scan[i]; });
-    }
-  }
-
-  // Eq. (4): weights exp(−‖p_j − p‖²/(2h²)), h = factor·r, moments relative to p.
-  static LocalFrame Fit(const PointCloud& cloud, size_t i, float r, double h_factor,
-                        const RadiusMatches& matches) {
-    const double h = h_factor * r;
-    const double inv_two_h2 = h > 0 ? 1.0 / (2 * h * h) : 0.0;
-    const Eigen::Vector3d p = cloud.point(i).cast<double>();
-    MomentAccumulator moments;
-    for (const auto& [j, d2] : matches) {
-      // A weight needs no more than float precision, and expf is several times cheaper.
-      const float w = std::exp(static_cast<float>(-d2 * inv_two_h2));
-      moments.Add(cloud.point(j).cast<double>() - p, w);
-    }
-    return moments.Solve();
+    SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* nb, ctx.neighbourhoods());
+    return EstimateNormals(ctx.cloud(), ctx.measures(), *nb, ctx.Settings(NormalsParams()),
+                           ctx.out());
   }
 };
 
 }  // namespace
+
+absl::Status EstimateNormals(PointCloud& cloud, PointMeasures& m, const Neighbourhoods& nb,
+                             const NormalsSettings& params, StageReporter& out) {
+  const Resolved settings = Resolve(params, cloud, nb, out);
+  std::vector<float> radius(cloud.size(), 0.f);
+  SCANPREP_ASSIGN_OR_RETURN(const size_t invalid,
+                            FitNormals(cloud, m, nb, settings, out.cancel(), radius));
+  out.Progress(0.5);  // the normals are fitted; orientation follows
+  OrientationCounts counts;
+  SCANPREP_RETURN_IF_ERROR(OrientNormals(cloud, nb, settings.orientation_k, out.cancel(), counts));
+  Report(cloud, radius, invalid, counts, out);
+  // Here because the fits measure the noise σ̂ that the unit is judged by, and with a fail_on
+  // the job then stops before any stage works in a wrong unit.
+  return WarnIfUnitSuspect(cloud, m, nb, out);
+}
 
 const ParamTable<NormalsSettings>& NormalsParams() {
   using S = NormalsSettings;

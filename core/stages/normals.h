@@ -3,12 +3,18 @@
 
 #include <cstdint>
 
+#include "absl/status/status.h"
+#include "core/base/point_cloud.h"
+#include "core/base/point_measures.h"
+#include "core/spatial/neighbourhoods.h"
 #include "core/stages/param_table.h"
 #include "core/stages/stage.h"
+#include "core/stages/stage_reporter.h"
+
 namespace scanprep {
 // Gaussian-weighted PCA normals (paper §2.2, Eq. 4; docs/algorithms.md §6) oriented by Eq. (3) or,
 // without sensor poses, along a minimum spanning tree (Eq. 5, §7). Also fills the surface
-// variation σ of every point into StageContext::measures().
+// variation σ and fit residual of every point into the job's PointMeasures.
 StageInfo NormalsStageInfo();
 
 // adaptive: r_p = max(r_min, d_k), the paper's ball; knn: r = d_k, the k-NN list alone (no ball
@@ -28,4 +34,9 @@ struct NormalsSettings {
   bool mitra() const { return radius_mode == NormalsRadiusMode::kMitra; }
 };
 const ParamTable<NormalsSettings>& NormalsParams();
+
+// The stage: every unremoved point's normal (kNormalInvalid where the fit fails), oriented;
+// m.surface_variation and m.fit_rms; then the unit check (WarnIfUnitSuspect), which needs the fits.
+absl::Status EstimateNormals(PointCloud& cloud, PointMeasures& m, const Neighbourhoods& nb,
+                             const NormalsSettings& params, StageReporter& out);
 }  // namespace scanprep

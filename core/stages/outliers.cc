@@ -37,16 +37,16 @@ struct ScanStats {
 };
 
 // The paper's rule: d (d_1, or a k_o-mean) above max(μ + m·σ, floor·median) of its scan.
-absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
-                                  const OutliersSettings& rule, std::vector<uint8_t>& far) {
-  PointCloud& cloud = ctx.cloud();
+absl::Status FindDistanceOutliers(const PointCloud& cloud, const Neighbourhoods& nb,
+                                  const OutliersSettings& rule, StageReporter& out,
+                                  std::vector<uint8_t>& far) {
   const size_t n = cloud.size();
 
   // At most neighbourhoods.k (ValidateOverrides); only a cloud of n ≤ k points has fewer.
   const int64_t k_asked = rule.k;
   const uint32_t k_o = static_cast<uint32_t>(std::min<int64_t>(k_asked, nb.k()));
   if (k_o < k_asked) {
-    ctx.Warn(WarningCode::kOutliersKReduced,
+    out.Warn(WarningCode::kOutliersKReduced,
              absl::StrCat("outliers: outliers.k = ", k_asked, " but the cloud has ", n,
                           " points; d is averaged over ", k_o, " neighbours"));
   }
@@ -57,7 +57,7 @@ absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
   // only keep a point (one surrounded by another scan's denser surface).
   std::vector<float> d(n);
   std::atomic<size_t> beyond_list{0};
-  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, out.cancel(), [&](size_t begin, size_t end) {
     size_t beyond = 0;
     for (size_t i = begin; i < end; ++i) {
       const KnnList list = nb.knn(i);
@@ -76,7 +76,7 @@ absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
     }
     beyond_list += beyond;
   }));
-  ctx.Record("outliers.own_scan_beyond_knn", static_cast<double>(beyond_list.load()));
+  out.Record("outliers.own_scan_beyond_knn", static_cast<double>(beyond_list.load()));
 
   std::vector<ScanStats> stats(std::max<size_t>(cloud.scans.size(), 1));
   for (size_t i = 0; i < n; ++i) {
@@ -101,10 +101,10 @@ absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
     std::nth_element(st.values.begin(), mid, st.values.end());
     // A regular scan grid has σ ≈ 0; the median floor keeps its slightly wider gaps.
     threshold[s] = std::max(mean + rule.multiplier * sigma, rule.median_floor * *mid);
-    ctx.RecordForScan("outliers.mean_d_mm", s, mean);
-    ctx.RecordForScan("outliers.sigma_d_mm", s, sigma);
+    out.RecordForScan("outliers.mean_d_mm", s, mean);
+    out.RecordForScan("outliers.sigma_d_mm", s, sigma);
     threshold[s] = rule.threshold_mm.Or(threshold[s]);
-    ctx.RecordForScan(rule.threshold_mm.name, s, threshold[s]);
+    out.RecordForScan(rule.threshold_mm.name, s, threshold[s]);
   }
 
   for (size_t i = 0; i < n; ++i) {
@@ -118,9 +118,9 @@ absl::Status FindDistanceOutliers(StageContext& ctx, const Neighbourhoods& nb,
 // outlier), and every point farther than
 // outliers.surface_sigmas local σ off such planes. The normals are fitted first, with the far
 // candidates still in: a point far off the surface lies in no other point's ball.
-absl::Status RemoveOutliers(StageContext& ctx, const OutliersSettings& settings,
-                            const Neighbourhoods& nb, const std::vector<uint8_t>& far) {
-  PointCloud& cloud = ctx.cloud();
+absl::Status RemoveFarAndOffSurface(PointCloud& cloud, const PointMeasures& m,
+                                    const Neighbourhoods& nb, const OutliersSettings& settings,
+                                    const std::vector<uint8_t>& far, StageReporter& out) {
   const size_t n = cloud.size();
   const double sigmas = settings.surface_sigmas;
   std::vector<uint8_t> verdict(n, kNotJudged);
@@ -129,20 +129,20 @@ absl::Status RemoveOutliers(StageContext& ctx, const OutliersSettings& settings,
     // after LoOP's removals for loop (the surface stage's prerequisite).
     const size_t scans = std::max<size_t>(cloud.scans.size(), 1);
     SCANPREP_ASSIGN_OR_RETURN(const std::vector<std::optional<double>> noise,
-                              MeasuredScanNoise(cloud, ctx.measures(), scans, ctx.cancel()));
+                              MeasuredScanNoise(cloud, m, scans, out.cancel()));
     for (size_t s = 0; s < scans; ++s) {
       if (noise[s]) {
-        ctx.RecordForScan("outliers.surface_noise_mm", s, *noise[s]);
+        out.RecordForScan("outliers.surface_noise_mm", s, *noise[s]);
       } else {
-        ctx.Warn(WarningCode::kSurfaceSpikesSkipped,
+        out.Warn(WarningCode::kSurfaceSpikesSkipped,
                  absl::StrCat("outliers: scan ", s, " has fewer than ", kMinNoiseSamples,
                               " normal fits; it is not searched for surface spikes"));
       }
     }
     SurfaceSpikeCounts counts;
     SCANPREP_RETURN_IF_ERROR(
-        JudgeBySurface(cloud, nb, ctx.measures(), noise, sigmas, ctx.cancel(), verdict, counts));
-    ctx.Record("outliers.surface_not_judged", static_cast<double>(counts.not_judged));
+        JudgeBySurface(cloud, nb, m, noise, sigmas, out.cancel(), verdict, counts));
+    out.Record("outliers.surface_not_judged", static_cast<double>(counts.not_judged));
   }
   // Without the surface test nothing is judged and the paper's threshold decides alone.
   size_t removed_far = 0, kept_on_surface = 0, spikes = 0;
@@ -157,45 +157,32 @@ absl::Status RemoveOutliers(StageContext& ctx, const OutliersSettings& settings,
     }
   }
   if (!settings.loop()) {  // LoOP recorded its own removals
-    ctx.Record(kOutliersRemoved, static_cast<double>(removed_far + spikes));
-    ctx.Record("outliers.far_removed", static_cast<double>(removed_far));
-    ctx.Record("outliers.far_on_surface_kept", static_cast<double>(kept_on_surface));
+    out.Record(kOutliersRemoved, static_cast<double>(removed_far + spikes));
+    out.Record("outliers.far_removed", static_cast<double>(removed_far));
+    out.Record("outliers.far_on_surface_kept", static_cast<double>(kept_on_surface));
   }
-  ctx.Record("outliers.surface_spikes", static_cast<double>(spikes));
+  out.Record("outliers.surface_spikes", static_cast<double>(spikes));
   return absl::OkStatus();
 }
 
 class OutliersStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
-    SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
-    const Neighbourhoods& nb = *shared;
-    if (nb.k() == 0) return absl::OkStatus();
-    const OutliersSettings settings = ctx.Settings(OutliersParams());
-    std::vector<uint8_t> far(ctx.cloud().size(), 0);
-    if (settings.loop()) {
-      // LoOP removes its outliers itself; the surface test looks for spikes among the rest, with
-      // normals fitted without them: the plan's next stages (SurfaceTestFollowsLoop).
-      SCANPREP_RETURN_IF_ERROR(RemoveLoopOutliers(ctx, nb, settings));
-      if (settings.surface_sigmas > 0) return absl::OkStatus();
-    } else if (absl::Status s = FindDistanceOutliers(ctx, nb, settings, far); !s.ok()) {
-      return s;
-    }
-    return RemoveOutliers(ctx, settings, nb, far);
+    SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* nb, ctx.neighbourhoods());
+    return RemoveOutliers(ctx.cloud(), ctx.measures(), *nb, ctx.Settings(OutliersParams()),
+                          ctx.out());
   }
 };
 
-// The surface test after LoOP's removals (the outlier stage's internal stage, planned after
-// "normals").
 class SurfaceSpikesStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
-    SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* shared, ctx.neighbourhoods());
-    if (shared->k() == 0) return absl::OkStatus();
-    // LoOP removed its own far points: only the surface decides here.
-    const OutliersSettings settings = ctx.SettingsUsing(OutliersParams(), &OutliersSettings::method,
-                                                        &OutliersSettings::surface_sigmas);
-    return RemoveOutliers(ctx, settings, *shared, std::vector<uint8_t>(ctx.cloud().size(), 0));
+    SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* nb, ctx.neighbourhoods());
+    // Only the parameters the surface test reads are recorded: the rest are the outlier stage's.
+    return RemoveSurfaceSpikes(ctx.cloud(), ctx.measures(), *nb,
+                               ctx.SettingsUsing(OutliersParams(), &OutliersSettings::method,
+                                                 &OutliersSettings::surface_sigmas),
+                               ctx.out());
   }
 };
 
@@ -206,6 +193,29 @@ bool SurfaceTestFollowsLoop(const ParamOverrides& params) {
 }
 
 }  // namespace
+
+absl::Status RemoveOutliers(PointCloud& cloud, const PointMeasures& m, const Neighbourhoods& nb,
+                            const OutliersSettings& settings, StageReporter& out) {
+  if (nb.k() == 0) return absl::OkStatus();
+  std::vector<uint8_t> far(cloud.size(), 0);
+  if (settings.loop()) {
+    // LoOP removes its outliers itself; the surface test looks for spikes among the rest, with
+    // normals fitted without them: the plan's next stages (SurfaceTestFollowsLoop).
+    SCANPREP_RETURN_IF_ERROR(RemoveLoopOutliers(cloud, nb, settings, out));
+    if (settings.surface_sigmas > 0) return absl::OkStatus();
+  } else {
+    SCANPREP_RETURN_IF_ERROR(FindDistanceOutliers(cloud, nb, settings, out, far));
+  }
+  return RemoveFarAndOffSurface(cloud, m, nb, settings, far, out);
+}
+
+absl::Status RemoveSurfaceSpikes(PointCloud& cloud, const PointMeasures& m,
+                                 const Neighbourhoods& nb, const OutliersSettings& settings,
+                                 StageReporter& out) {
+  if (nb.k() == 0) return absl::OkStatus();
+  // LoOP removed its own far points: only the surface decides here.
+  return RemoveFarAndOffSurface(cloud, m, nb, settings, std::vector<uint8_t>(cloud.size(), 0), out);
+}
 
 const ParamTable<OutliersSettings>& OutliersParams() {
   using S = OutliersSettings;

@@ -11,17 +11,15 @@
 
 #include "core/base/parallel.h"
 #include "core/base/status_macros.h"
-#include "core/stages/stage_context.h"
 
 namespace scanprep {
 
-absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb,
-                                const OutliersSettings& settings) {
-  PointCloud& cloud = ctx.cloud();
+absl::Status RemoveLoopOutliers(PointCloud& cloud, const Neighbourhoods& nb,
+                                const OutliersSettings& settings, StageReporter& out) {
   const size_t n = cloud.size();
   // At most neighbourhoods.k (ValidateOverrides); for_neighbours() takes what the graph holds.
   const uint32_t k = settings.loop_k.Or(nb.k());
-  ctx.Record(settings.loop_k.name, k);
+  out.Record(settings.loop_k.name, k);
   const double lambda = settings.loop_lambda;
 
   // Visits the first k unremoved neighbours of i.
@@ -37,7 +35,7 @@ absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb,
   };
 
   std::vector<double> pdist(n, 0.0);
-  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, out.cancel(), [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       if (cloud.removed(i)) continue;
       double sum_sq = 0;
@@ -49,7 +47,7 @@ absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb,
   std::vector<double> plof(n, 0.0);
   std::atomic<double> total_sq{0.0};
   std::atomic<size_t> count{0};
-  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(n, out.cancel(), [&](size_t begin, size_t end) {
     double local_sq = 0;
     size_t local_count = 0;
     for (size_t i = begin; i < end; ++i) {
@@ -65,9 +63,9 @@ absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb,
     count += local_count;
   }));
   const double nplof = count ? lambda * std::sqrt(total_sq / count) : 0.0;
-  ctx.Record("outliers.loop_nplof", nplof);
+  out.Record("outliers.loop_nplof", nplof);
   if (!(nplof > 0)) {
-    ctx.Record(kOutliersRemoved, 0);
+    out.Record(kOutliersRemoved, 0);
     return absl::OkStatus();
   }
 
@@ -80,7 +78,7 @@ absl::Status RemoveLoopOutliers(StageContext& ctx, const Neighbourhoods& nb,
       ++removed;
     }
   }
-  ctx.Record(kOutliersRemoved, static_cast<double>(removed));
+  out.Record(kOutliersRemoved, static_cast<double>(removed));
   return absl::OkStatus();
 }
 

@@ -148,14 +148,13 @@ absl::StatusOr<std::vector<uint32_t>> VisitOrder(const PointCloud& cloud, const 
 // near-identical points: thousands in every one of its centres' balls), is not kept but queried
 // again when its turn comes, so the batch holds at most four times its share wherever the points
 // are and a full ball is always a fresh one.
-absl::Status RunSequential(StageContext& ctx, Thinner& thinner,
-                           const std::vector<uint32_t>& order) {
+absl::Status RunSequential(const PointCloud& cloud, Thinner& thinner,
+                           const std::vector<uint32_t>& order, StageReporter& out) {
   constexpr double kGatheredPoints = 1 << 18;
   const size_t batch = std::min(
       order.size(),
       static_cast<size_t>(std::clamp(kGatheredPoints / thinner.ExpectedBallSize(), 16.0, 4096.0)));
   const size_t most_kept = 4 * std::max<size_t>(64, static_cast<size_t>(kGatheredPoints) / batch);
-  const PointCloud& cloud = ctx.cloud();
   std::vector<RadiusMatches> balls(batch);
   std::vector<uint8_t> again(batch);
   RadiusMatches fresh;
@@ -167,7 +166,7 @@ absl::Status RunSequential(StageContext& ctx, Thinner& thinner,
       if (!cloud.removed(order[next])) centres.push_back(order[next]);
     }
     SCANPREP_RETURN_IF_ERROR(ParallelFor(
-        centres.size(), ctx.cancel(),
+        centres.size(), out.cancel(),
         [&](size_t begin, size_t end) {
           for (size_t b = begin; b < end; ++b) {
             thinner.Gather(centres[b], balls[b]);
@@ -184,16 +183,15 @@ absl::Status RunSequential(StageContext& ctx, Thinner& thinner,
       }
     }
     FreeMemory(fresh);  // one ball of a cluster: not held into the next batch
-    ctx.Progress(double(next) / order.size());
+    out.Progress(double(next) / order.size());
   }
   return absl::OkStatus();
 }
 
 // The 8-colour tiling: (phase, colour, cell) groups run phase by phase, colour by colour, the
 // cells of one colour in parallel, each cell's centres in the sequential order.
-absl::Status RunTiled(StageContext& ctx, Thinner& thinner, std::vector<uint32_t> order,
-                      float cell_edge) {
-  const PointCloud& cloud = ctx.cloud();
+absl::Status RunTiled(const PointCloud& cloud, Thinner& thinner, std::vector<uint32_t> order,
+                      float cell_edge, StageReporter& out) {
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
   for (uint32_t i : order) lo = lo.cwiseMin(cloud.point(i));
   // 20 bits per axis in the key; a cloud too wide for that gets larger cells (still ≥ 2·r_s).
@@ -211,7 +209,7 @@ absl::Status RunTiled(StageContext& ctx, Thinner& thinner, std::vector<uint32_t>
   // live only here, not per point of the cloud: the stage's peak is this sort.
   std::vector<std::pair<uint64_t, uint32_t>> ranked(order.size());
   for (size_t v = 0; v < order.size(); ++v) ranked[v] = {key(order[v]), static_cast<uint32_t>(v)};
-  SCANPREP_RETURN_IF_ERROR(CancellableSort(ranked, ctx.cancel()));
+  SCANPREP_RETURN_IF_ERROR(CancellableSort(ranked, out.cancel()));
   // Each cell's start in the new order, with its key's phase and colour (the top 4 bits).
   std::vector<size_t> cell_start;
   std::vector<uint8_t> cell_group;
@@ -233,7 +231,7 @@ absl::Status RunTiled(StageContext& ctx, Thinner& thinner, std::vector<uint32_t>
     size_t last = first;
     while (last < cells && cell_group[last] == group) ++last;
     SCANPREP_RETURN_IF_ERROR(ParallelFor(
-        last - first, ctx.cancel(),
+        last - first, out.cancel(),
         [&](size_t begin, size_t end) {
           RadiusMatches matches;
           std::vector<uint32_t> candidates;
@@ -244,7 +242,7 @@ absl::Status RunTiled(StageContext& ctx, Thinner& thinner, std::vector<uint32_t>
           }
         },
         /*grain=*/16));
-    ctx.Progress(double(last) / cells);
+    out.Progress(double(last) / cells);
     first = last;
   }
   return absl::OkStatus();
@@ -270,34 +268,34 @@ std::optional<double> SpacingFromPitch(const PointCloud& cloud,
 }
 
 // The default r_s: from the pitch, else (recorded and warned) 2/√ρ_g of the global density.
-absl::StatusOr<double> DefaultSpacing(StageContext& ctx, const Neighbourhoods& nb,
-                                      const SimplificationSettings& settings) {
+absl::StatusOr<double> DefaultSpacing(const PointCloud& cloud, const Neighbourhoods& nb,
+                                      const SimplificationSettings& settings, StageReporter& out) {
   SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing,
-                            ScanPointSpacing(ctx.cloud(), &nb, ctx.cancel()));
-  const std::optional<double> pitch = SpacingFromPitch(ctx.cloud(), spacing);
-  ctx.Record("simplification.spacing_from_density", pitch ? 0 : 1);
+                            ScanPointSpacing(cloud, &nb, out.cancel()));
+  const std::optional<double> pitch = SpacingFromPitch(cloud, spacing);
+  out.Record("simplification.spacing_from_density", pitch ? 0 : 1);
   if (pitch) return *pitch;
   if (!settings.spacing.forced) {
-    ctx.Warn(WarningCode::kSpacingFromDensity,
+    out.Warn(WarningCode::kSpacingFromDensity,
              "simplification: no scan states a scanline spacing, so the thinning spacing is "
              "derived from the cloud's density (2/√ρ) rather than the scanner's pitch");
   }
   return nb.density() > 0 ? 2.0 / std::sqrt(nb.density()) : 0.0;
 }
 
-// The stage's parameters, read (and recorded) once; r_s derived from the data unless given.
-absl::StatusOr<Plan> ReadPlan(StageContext& ctx, const Neighbourhoods& nb) {
-  const SimplificationSettings settings = ctx.Settings(SimplificationParams());
+// The stage's plan from its parameters; r_s derived from the data unless given, and recorded.
+absl::StatusOr<Plan> MakePlan(const PointCloud& cloud, const Neighbourhoods& nb,
+                              const SimplificationSettings& settings, StageReporter& out) {
   Plan plan;
   plan.adaptive = settings.mode == SimplificationMode::kAdaptive;
   // r_s is held to kMaxSpacingPerGlobalRadius·r_g: a derived one beyond it comes from spacings
   // in the wrong unit, and where κ̂ keeps most points every centre's ball would be a large
   // part of the cloud. The report shows the spacing used.
-  SCANPREP_ASSIGN_OR_RETURN(const double derived, DefaultSpacing(ctx, nb, settings));
+  SCANPREP_ASSIGN_OR_RETURN(const double derived, DefaultSpacing(cloud, nb, settings, out));
   const double spacing = settings.spacing.Or(derived);
-  plan.spacing = static_cast<float>(ctx.CapRadius("the thinning spacing r_s", spacing,
+  plan.spacing = static_cast<float>(out.CapRadius("the thinning spacing r_s", spacing,
                                                   kMaxSpacingPerGlobalRadius * nb.global_radius()));
-  ctx.Record(settings.spacing.name, plan.spacing);
+  out.Record(settings.spacing.name, plan.spacing);
   if (!(plan.spacing > 0)) {
     return FieldError(absl::StrCat("options.params['", settings.spacing.name, "']"),
                       "must be > 0 (no spacing could be derived from the data)");
@@ -312,30 +310,34 @@ absl::StatusOr<Plan> ReadPlan(StageContext& ctx, const Neighbourhoods& nb) {
 class SimplificationStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
-    PointCloud& cloud = ctx.cloud();
-    const PointMeasures& m = ctx.measures();
-    if (m.quality.size() != cloud.size() || m.curvature.size() != cloud.size()) {
-      return absl::InternalError("simplification: the measures stage left no quality/curvature");
-    }
     SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* nb, ctx.neighbourhoods());
-    const size_t before = cloud.CountKept();
-    if (before < 2) {  // already as thin as it gets; one point gives no spacing to derive
-      ctx.Record("simplification.removed", 0);
-      return absl::OkStatus();
-    }
-
-    SCANPREP_ASSIGN_OR_RETURN(const Plan plan, ReadPlan(ctx, *nb));
-    Thinner thinner(cloud, *nb, m, plan);
-    SCANPREP_ASSIGN_OR_RETURN(std::vector<uint32_t> order,
-                              VisitOrder(cloud, m, thinner, ctx.cancel()));
-    SCANPREP_RETURN_IF_ERROR(plan.tiled ? RunTiled(ctx, thinner, std::move(order), 2 * plan.spacing)
-                                        : RunSequential(ctx, thinner, order));
-    ctx.Record("simplification.removed", static_cast<double>(before - cloud.CountKept()));
-    return absl::OkStatus();
+    return Simplify(ctx.cloud(), ctx.measures(), *nb, ctx.Settings(SimplificationParams()),
+                    ctx.out());
   }
 };
 
 }  // namespace
+
+absl::Status Simplify(PointCloud& cloud, const PointMeasures& m, const Neighbourhoods& nb,
+                      const SimplificationSettings& settings, StageReporter& out) {
+  if (m.quality.size() != cloud.size() || m.curvature.size() != cloud.size()) {
+    return absl::InternalError("simplification: the measures stage left no quality/curvature");
+  }
+  const size_t before = cloud.CountKept();
+  if (before < 2) {  // already as thin as it gets; one point gives no spacing to derive
+    out.Record("simplification.removed", 0);
+    return absl::OkStatus();
+  }
+  SCANPREP_ASSIGN_OR_RETURN(const Plan plan, MakePlan(cloud, nb, settings, out));
+  Thinner thinner(cloud, nb, m, plan);
+  SCANPREP_ASSIGN_OR_RETURN(std::vector<uint32_t> order,
+                            VisitOrder(cloud, m, thinner, out.cancel()));
+  SCANPREP_RETURN_IF_ERROR(plan.tiled
+                               ? RunTiled(cloud, thinner, std::move(order), 2 * plan.spacing, out)
+                               : RunSequential(cloud, thinner, order, out));
+  out.Record("simplification.removed", static_cast<double>(before - cloud.CountKept()));
+  return absl::OkStatus();
+}
 
 const ParamTable<SimplificationSettings>& SimplificationParams() {
   using S = SimplificationSettings;

@@ -1,8 +1,14 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 
+#include "absl/status/status.h"
+#include "core/base/point_cloud.h"
+#include "core/base/point_measures.h"
+#include "core/spatial/neighbourhoods.h"
 #include "core/stages/param_table.h"
 #include "core/stages/stage.h"
+#include "core/stages/stage_reporter.h"
+
 namespace scanprep {
 // Curvature-adaptive or uniform thinning to a target spacing (paper §3.3, Eq. 13;
 // docs/algorithms.md §12).
@@ -22,4 +28,8 @@ struct SimplificationSettings {
   SimplificationOrder order = SimplificationOrder::kSequential;
 };
 const ParamTable<SimplificationSettings>& SimplificationParams();
+
+// The stage: marks kRemovedSimplify on the points thinned away, by `m`'s curvature and quality.
+absl::Status Simplify(PointCloud& cloud, const PointMeasures& m, const Neighbourhoods& nb,
+                      const SimplificationSettings& settings, StageReporter& out);
 }  // namespace scanprep

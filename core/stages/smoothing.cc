@@ -29,125 +29,126 @@ namespace {
 // neighbourhoods rebuilt for the points it moved), measured on the simulated scans.
 constexpr double kLoopItemsPerIteration = 4;
 
+// σ̂ and δ per scan (SmoothingSettings::noise, tolerance), recorded with their warnings.
+absl::Status DeriveTolerances(const PointCloud& cloud, const PointMeasures& m, SmoothingSettings& s,
+                              StageReporter& out) {
+  const size_t scans = std::max<size_t>(cloud.scans.size(), 1);
+  const std::optional<double> forced = s.tolerance_mm.forced;
+  const std::optional<double> forced_noise = s.noise_mm.forced;
+  s.fixed_tolerance = forced.has_value() || !s.own_side();
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<std::optional<double>> measured,
+                            MeasuredScanNoise(cloud, m, scans, out.cancel()));
+  size_t tolerance_from_default = 0;
+  for (size_t scan = 0; scan < scans; ++scan) {
+    const double u = scan < cloud.scans.size() ? cloud.scans[scan].uncertainty : 0.1;
+    double noise = forced_noise.value_or(measured[scan].value_or(u));
+    if (s.own_side() && !forced_noise && !measured[scan]) {
+      out.Warn(WarningCode::kNoiseUnmeasured,
+               absl::StrCat("smoothing: scan ", scan,
+                            " has too few normal fits to measure its "
+                            "noise; its stated uncertainty u = ",
+                            u, " mm stands in"));
+    }
+    if (s.own_side() && !forced_noise && measured[scan] && noise > 3 * u) {
+      out.Warn(WarningCode::kNoiseAboveUncertainty,
+               absl::StrCat("smoothing: scan ", scan, " is noisier (σ̂ = ", noise,
+                            " mm) than three times its stated uncertainty u = ", u,
+                            " mm: is the unit or u right?"),
+               {{"scan", absl::StrCat(scan)},
+                {"noise_mm", absl::StrCat(noise)},
+                {"uncertainty_mm", absl::StrCat(u)}});
+    }
+    s.noise.push_back(static_cast<float>(noise));
+    // δ = u (the paper), or kMoveSigmas·σ̂ at the scan's typical noise (own side).
+    s.tolerance.push_back(
+        static_cast<float>(forced.value_or(s.own_side() ? kMoveSigmas * noise : u)));
+    if (s.own_side()) out.RecordForScan(s.noise_mm.name, scan, noise);
+    const bool default_u = scan < cloud.scans.size() && !cloud.scans[scan].uncertainty_stated;
+    if (!forced && s.fixed_tolerance && default_u) {
+      ++tolerance_from_default;
+      out.Warn(WarningCode::kToleranceFromDefaultUncertainty,
+               absl::StrCat("smoothing: scan ", scan,
+                            " states no uncertainty; δ is the default "
+                            "u = ",
+                            u, " mm (smoothing.method = own_side measures the noise)"));
+    }
+    out.RecordForScan(s.tolerance_mm.name, scan, s.tolerance.back());
+  }
+  out.Record("smoothing.tolerance_from_default_u", static_cast<double>(tolerance_from_default));
+  return absl::OkStatus();
+}
+
 class SmoothingStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
-    PointCloud& cloud = ctx.cloud();
-    const PointMeasures& m = ctx.measures();
-    const size_t n = cloud.size();
-    if (m.quality.size() != n || m.curvature.size() != n || m.fit_rms.size() != n) {
-      return absl::InternalError("smoothing: the measures stage left no quality/curvature/fit");
-    }
-    SCANPREP_ASSIGN_OR_RETURN(const SmoothingSettings settings, ReadSettings(ctx));
-    // Without poses every q̂ is the same and Eq. (6) weighs by flatness alone.
-    const bool uniform = UniformQuality(cloud, m.quality);
-    ctx.Record("smoothing.without_quality", uniform ? 1 : 0);
-    if (uniform && settings.lambda > 0) {
-      ctx.Warn(WarningCode::kSmoothingWithoutQuality,
-               "smoothing: every point has the same viewing quality (no sensor poses), so the "
-               "weights of Eq. (6) tell points apart by flatness alone");
-    }
-    const int iterations = settings.iterations;
-    ctx.ExpectWork(kLoopItemsPerIteration * iterations * double(n));
-
-    std::vector<uint8_t> outcome(n);
-    std::vector<uint8_t> moved_ever(n, 0);
-    size_t counts[5] = {};
-    double shift_sum = 0;
-    for (int it = 0; it < iterations; ++it) {
-      SCANPREP_ASSIGN_OR_RETURN(const Neighbourhoods* nb, ctx.neighbourhoods());
-      const SmoothingInputs in{cloud, *nb, m, settings};
-      const std::span<const uint32_t> order = nb->order();
-      std::vector<Eigen::Vector3f> next(n);
-      SCANPREP_RETURN_IF_ERROR(ParallelFor(n, ctx.cancel(), [&](size_t begin, size_t end) {
-        SmoothingScratch scratch;
-        for (size_t v = begin; v < end; ++v) {
-          const size_t i = order[v];
-          outcome[i] = SmoothPoint(in, i, scratch, next[i]);
-        }
-      }));
-      float max_shift = 0;
-      for (size_t i = 0; i < n; ++i) {
-        ++counts[outcome[i]];
-        if (outcome[i] != kMoved && outcome[i] != kClamped) continue;
-        moved_ever[i] = 1;
-        const float shift = (cloud.point(i) - next[i]).norm();
-        shift_sum += shift;
-        max_shift = std::max(max_shift, shift);
-      }
-      // Jacobi update: every new position came from the pre-pass positions.
-      for (size_t i = 0; i < n; ++i) {
-        cloud.x[i] = next[i].x(), cloud.y[i] = next[i].y(), cloud.z[i] = next[i].z();
-      }
-      FreeMemory(next);  // before the grid is rebuilt on the new positions
-      SCANPREP_RETURN_IF_ERROR(ctx.PointsMoved(max_shift));
-      ctx.Progress((it + 1.0) / iterations);
-    }
-    for (size_t i = 0; i < n; ++i) {
-      if (moved_ever[i]) cloud.flags[i] |= kSmoothed;
-    }
-    const size_t shifted = counts[kMoved] + counts[kClamped];
-    ctx.Record("smoothing.moved", static_cast<double>(counts[kMoved]));
-    ctx.Record("smoothing.clamped", static_cast<double>(counts[kClamped]));
-    ctx.Record("smoothing.rejected", static_cast<double>(counts[kRejected]));
-    ctx.Record("smoothing.unfitted", static_cast<double>(counts[kUnfitted]));
-    ctx.Record("smoothing.mean_shift_mm", shifted > 0 ? shift_sum / double(shifted) : 0.0);
-    return absl::OkStatus();
-  }
-
- private:
-  // The table's settings, with σ̂ and δ derived per scan.
-  static absl::StatusOr<SmoothingSettings> ReadSettings(StageContext& ctx) {
-    SmoothingSettings s = ctx.Settings(SmoothingParams());
-    const PointCloud& cloud = ctx.cloud();
-    const size_t scans = std::max<size_t>(cloud.scans.size(), 1);
-    const std::optional<double> forced = s.tolerance_mm.forced;
-    const std::optional<double> forced_noise = s.noise_mm.forced;
-    s.fixed_tolerance = forced.has_value() || !s.own_side();
-    SCANPREP_ASSIGN_OR_RETURN(const std::vector<std::optional<double>> measured,
-                              MeasuredScanNoise(cloud, ctx.measures(), scans, ctx.cancel()));
-    size_t tolerance_from_default = 0;
-    for (size_t scan = 0; scan < scans; ++scan) {
-      const double u = scan < cloud.scans.size() ? cloud.scans[scan].uncertainty : 0.1;
-      double noise = forced_noise.value_or(measured[scan].value_or(u));
-      if (s.own_side() && !forced_noise && !measured[scan]) {
-        ctx.Warn(WarningCode::kNoiseUnmeasured,
-                 absl::StrCat("smoothing: scan ", scan,
-                              " has too few normal fits to measure its "
-                              "noise; its stated uncertainty u = ",
-                              u, " mm stands in"));
-      }
-      if (s.own_side() && !forced_noise && measured[scan] && noise > 3 * u) {
-        ctx.Warn(WarningCode::kNoiseAboveUncertainty,
-                 absl::StrCat("smoothing: scan ", scan, " is noisier (σ̂ = ", noise,
-                              " mm) than three times its stated uncertainty u = ", u,
-                              " mm: is the unit or u right?"),
-                 {{"scan", absl::StrCat(scan)},
-                  {"noise_mm", absl::StrCat(noise)},
-                  {"uncertainty_mm", absl::StrCat(u)}});
-      }
-      s.noise.push_back(static_cast<float>(noise));
-      // δ = u (the paper), or kMoveSigmas·σ̂ at the scan's typical noise (own side).
-      s.tolerance.push_back(
-          static_cast<float>(forced.value_or(s.own_side() ? kMoveSigmas * noise : u)));
-      if (s.own_side()) ctx.RecordForScan(s.noise_mm.name, scan, noise);
-      const bool default_u = scan < cloud.scans.size() && !cloud.scans[scan].uncertainty_stated;
-      if (!forced && s.fixed_tolerance && default_u) {
-        ++tolerance_from_default;
-        ctx.Warn(WarningCode::kToleranceFromDefaultUncertainty,
-                 absl::StrCat("smoothing: scan ", scan,
-                              " states no uncertainty; δ is the default "
-                              "u = ",
-                              u, " mm (smoothing.method = own_side measures the noise)"));
-      }
-      ctx.RecordForScan(s.tolerance_mm.name, scan, s.tolerance.back());
-    }
-    ctx.Record("smoothing.tolerance_from_default_u", static_cast<double>(tolerance_from_default));
-    return s;
+    SCANPREP_ASSIGN_OR_RETURN(Neighbourhoods * nb, ctx.neighbourhoods());
+    return Smooth(ctx.cloud(), ctx.measures(), *nb, ctx.Settings(SmoothingParams()), ctx.out());
   }
 };
 
 }  // namespace
+
+absl::Status Smooth(PointCloud& cloud, const PointMeasures& m, Neighbourhoods& nb,
+                    SmoothingSettings settings, StageReporter& out) {
+  const size_t n = cloud.size();
+  if (m.quality.size() != n || m.curvature.size() != n || m.fit_rms.size() != n) {
+    return absl::InternalError("smoothing: the measures stage left no quality/curvature/fit");
+  }
+  SCANPREP_RETURN_IF_ERROR(DeriveTolerances(cloud, m, settings, out));
+  // Without poses every q̂ is the same and Eq. (6) weighs by flatness alone.
+  const bool uniform = UniformQuality(cloud, m.quality);
+  out.Record("smoothing.without_quality", uniform ? 1 : 0);
+  if (uniform && settings.lambda > 0) {
+    out.Warn(WarningCode::kSmoothingWithoutQuality,
+             "smoothing: every point has the same viewing quality (no sensor poses), so the "
+             "weights of Eq. (6) tell points apart by flatness alone");
+  }
+  const int iterations = settings.iterations;
+  out.ExpectWork(kLoopItemsPerIteration * iterations * double(n));
+
+  std::vector<uint8_t> outcome(n);
+  std::vector<uint8_t> moved_ever(n, 0);
+  size_t counts[5] = {};
+  double shift_sum = 0;
+  for (int it = 0; it < iterations; ++it) {
+    const SmoothingInputs in{cloud, nb, m, settings};
+    const std::span<const uint32_t> order = nb.order();
+    std::vector<Eigen::Vector3f> next(n);
+    SCANPREP_RETURN_IF_ERROR(ParallelFor(n, out.cancel(), [&](size_t begin, size_t end) {
+      SmoothingScratch scratch;
+      for (size_t v = begin; v < end; ++v) {
+        const size_t i = order[v];
+        outcome[i] = SmoothPoint(in, i, scratch, next[i]);
+      }
+    }));
+    float max_shift = 0;
+    for (size_t i = 0; i < n; ++i) {
+      ++counts[outcome[i]];
+      if (outcome[i] != kMoved && outcome[i] != kClamped) continue;
+      moved_ever[i] = 1;
+      const float shift = (cloud.point(i) - next[i]).norm();
+      shift_sum += shift;
+      max_shift = std::max(max_shift, shift);
+    }
+    // Jacobi update: every new position came from the pre-pass positions.
+    for (size_t i = 0; i < n; ++i) {
+      cloud.x[i] = next[i].x(), cloud.y[i] = next[i].y(), cloud.z[i] = next[i].z();
+    }
+    FreeMemory(next);  // before the grid is rebuilt on the new positions
+    SCANPREP_RETURN_IF_ERROR(nb.PointsMoved(cloud, max_shift, out.cancel()));
+    out.Progress((it + 1.0) / iterations);
+  }
+  for (size_t i = 0; i < n; ++i) {
+    if (moved_ever[i]) cloud.flags[i] |= kSmoothed;
+  }
+  const size_t shifted = counts[kMoved] + counts[kClamped];
+  out.Record("smoothing.moved", static_cast<double>(counts[kMoved]));
+  out.Record("smoothing.clamped", static_cast<double>(counts[kClamped]));
+  out.Record("smoothing.rejected", static_cast<double>(counts[kRejected]));
+  out.Record("smoothing.unfitted", static_cast<double>(counts[kUnfitted]));
+  out.Record("smoothing.mean_shift_mm", shifted > 0 ? shift_sum / double(shifted) : 0.0);
+  return absl::OkStatus();
+}
 
 const ParamTable<SmoothingSettings>& SmoothingParams() {
   using S = SmoothingSettings;

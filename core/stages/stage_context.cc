@@ -4,39 +4,9 @@
 #include <algorithm>
 
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_format.h"
 
 namespace scanprep {
-void StageContext::Record(std::string_view name, double value) {
-  report_.parameters[std::string(name)] = value;
-}
-
-void StageContext::RecordForScan(std::string_view name, size_t scan, double value) {
-  const std::string base(name);
-  Record(cloud_.scans.size() > 1 ? absl::StrCat(base, ".scan", scan) : base, value);
-}
-
-void StageContext::Warn(WarningCode code, std::string message,
-                        std::map<std::string, std::string> params) {
-  warnings_.push_back({code, std::move(message), std::move(params)});
-}
-
-double StageContext::CapRadius(std::string_view what, double radius, double limit) {
-  if (!(radius > limit)) return radius;
-  const std::string& stage = report_.name;
-  // One warning per stage (a job of 1,000 scans would otherwise say it 1,000 times); the
-  // counter has them all.
-  if (report_.parameters[absl::StrCat(stage, ".radii_capped")]++ > 0) return limit;
-  Warn(WarningCode::kRadiusCapped,
-       absl::StrFormat("%s: %s of %g mm is more than the data's own scale allows (%g mm, a "
-                       "multiple of the global radius r_g); capped at %g mm. Check the job's "
-                       "unit, the scanner metadata (spacing, uncertainty) and radius overrides",
-                       stage, what, radius, limit, limit),
-       {{"radius_mm", absl::StrCat(radius)}, {"limit_mm", absl::StrCat(limit)}});
-  return limit;
-}
-
-absl::StatusOr<const Neighbourhoods*> StageContext::neighbourhoods() const {
+absl::StatusOr<Neighbourhoods*> StageContext::neighbourhoods() const {
   if (!shared_.neighbourhoods) {
     return absl::FailedPreconditionError(
         absl::StrCat("stage '", report_.name,
@@ -48,11 +18,6 @@ absl::StatusOr<const Neighbourhoods*> StageContext::neighbourhoods() const {
 bool StageContext::Ran(std::string_view name) const {
   return std::find(shared_.stages_run.begin(), shared_.stages_run.end(), name) !=
          shared_.stages_run.end();
-}
-
-absl::Status StageContext::PointsMoved(float max_shift) {
-  if (!shared_.neighbourhoods) return absl::OkStatus();
-  return shared_.neighbourhoods->PointsMoved(cloud_, max_shift, cancel_);
 }
 
 }  // namespace scanprep

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
-// What a stage works with, and nothing more: the job's cloud, the shared neighbourhoods and
-// measures, the cancel token, its settings (each parameter used recorded in its report entry),
-// warnings and progress. It cannot run another stage: the plan orders them and the runner runs
-// them.
+// What the runner hands a stage's adapter (the Stage::Run that calls the stage function): the
+// job's cloud, the shared neighbourhoods and measures, its settings (each parameter used recorded
+// in its report entry) and its reporter. It cannot run another stage: the plan orders them and the
+// runner runs them.
 #pragma once
 
 #include <cstdint>
@@ -22,6 +22,7 @@
 #include "core/spatial/neighbourhoods.h"
 #include "core/stages/param_table.h"
 #include "core/stages/report.h"
+#include "core/stages/stage_reporter.h"
 #include "core/stages/warning.h"
 
 namespace scanprep {
@@ -41,14 +42,6 @@ struct SharedState {
   std::optional<HealthReport> health;
 };
 
-// The running stage's progress, kept by the runner.
-class StageMeter {
- public:
-  virtual ~StageMeter() = default;
-  virtual void Progress(double fraction) = 0;
-  virtual void ExpectWork(double items) = 0;
-};
-
 class StageContext {
  public:
   StageContext(PointCloud& cloud, SharedState& shared, const ParamOverrides& overrides,
@@ -57,14 +50,12 @@ class StageContext {
       : cloud_(cloud),
         shared_(shared),
         overrides_(overrides),
-        cancel_(cancel),
-        meter_(meter),
         report_(report),
-        warnings_(warnings) {}
+        out_(report, warnings, cancel, cloud.scans.size(), &meter) {}
 
   PointCloud& cloud() { return cloud_; }
-  // The job's token, which also meters the stages' loops for progress.
-  const CancelToken& cancel() const { return cancel_; }
+  // What the stage records, warns and meters through, with the job's cancel token.
+  StageReporter& out() { return out_; }
   PointMeasures& measures() { return shared_.measures; }
 
   // The stage's settings from its table: each parameter's override, else its default, recorded
@@ -72,9 +63,16 @@ class StageContext {
   template <typename S>
   S Settings(const ParamTable<S>& table) {
     S settings = table.Read(overrides_);
-    table.Record(overrides_, settings, report_);
+    RecordSettings(table, settings);
     return settings;
   }
+  // Records `settings`, read from `table`, in the stage's report: for a stage that records its
+  // parameters only when it used them.
+  template <typename S>
+  void RecordSettings(const ParamTable<S>& table, const S& settings) {
+    table.Record(overrides_, settings, report_);
+  }
+  const ParamOverrides& overrides() const { return overrides_; }
   // The same, recording only `fields`: for an internal stage that carries on its offered stage's
   // work with some of its parameters.
   template <typename S, typename... T>
@@ -83,31 +81,9 @@ class StageContext {
     table.Record(overrides_, settings, report_, {table.Name(fields)...});
     return settings;
   }
-  // Records a derived value that cannot be overridden (e.g. a count or a measured statistic).
-  void Record(std::string_view name, double value);
-  // Records a value derived for scan `scan` as `name.scanN`, or as `name` when the job has one
-  // scan.
-  void RecordForScan(std::string_view name, size_t scan, double value);
-  // A warning with its code and the numbers behind it (docs/api.md lists the codes).
-  void Warn(WarningCode code, std::string message, std::map<std::string, std::string> params = {});
-  // A radius from scanner metadata or an override (`what` names it), held to at most `limit`, a
-  // multiple of the data's own scale r_g: a radius far beyond it makes every ball hold a large
-  // part of the cloud. A cap is counted in the stage's report as <stage>.radii_capped; the
-  // stage's first is warned about, naming the likely causes.
-  double CapRadius(std::string_view what, double radius, double limit);
-  // The stage has done at least `fraction` of its work (loops are metered anyway; this is for
-  // stages whose work the meter cannot see, e.g. sequential passes).
-  void Progress(double fraction) { meter_.Progress(fraction); }
-  // The stage will work through `items` loop items instead of work_per_point × n (for work that
-  // depends on parameters, e.g. iterations).
-  void ExpectWork(double items) { meter_.ExpectWork(items); }
-
   // The shared neighbourhoods. The plan puts the "neighbourhoods" stage before every stage that
   // asks (Plan refuses one that does not), so the error is a programming error's backstop.
-  absl::StatusOr<const Neighbourhoods*> neighbourhoods() const;
-  // A stage that moved points by at most `max_shift` each calls this so the shared
-  // neighbourhoods follow them (Neighbourhoods::PointsMoved) instead of being rebuilt.
-  absl::Status PointsMoved(float max_shift);
+  absl::StatusOr<Neighbourhoods*> neighbourhoods() const;
   // Used by the "neighbourhoods" stage only.
   void SetNeighbourhoods(std::unique_ptr<Neighbourhoods> nb) {
     shared_.neighbourhoods = std::move(nb);
@@ -124,10 +100,8 @@ class StageContext {
   PointCloud& cloud_;
   SharedState& shared_;
   const ParamOverrides& overrides_;
-  const CancelToken& cancel_;
-  StageMeter& meter_;
   StageReport& report_;
-  std::vector<Warning>& warnings_;
+  StageReporter out_;
 };
 
 }  // namespace scanprep

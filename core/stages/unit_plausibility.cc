@@ -34,15 +34,13 @@ int Disagreement(double measured, double stated) {
 
 }  // namespace
 
-absl::Status WarnIfUnitSuspect(StageContext& ctx) {
-  auto nb = ctx.neighbourhoods();
-  if (!nb.ok() || (*nb)->k() == 0) return absl::OkStatus();
-  const PointCloud& cloud = ctx.cloud();
+absl::Status WarnIfUnitSuspect(const PointCloud& cloud, const PointMeasures& m,
+                               const Neighbourhoods& nb, StageReporter& out) {
+  if (nb.k() == 0) return absl::OkStatus();
   SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing,
-                            MedianNearestDistance(cloud, **nb, ctx.cancel()));
-  SCANPREP_ASSIGN_OR_RETURN(
-      const std::vector<std::optional<double>> noise,
-      MeasuredScanNoise(cloud, ctx.measures(), cloud.scans.size(), ctx.cancel()));
+                            MedianNearestDistance(cloud, nb, out.cancel()));
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<std::optional<double>> noise,
+                            MeasuredScanNoise(cloud, m, cloud.scans.size(), out.cancel()));
   for (size_t s = 0; s < cloud.scans.size(); ++s) {
     const ScanMeta& scan = cloud.scans[s];
     std::vector<int> verdicts;
@@ -66,7 +64,7 @@ absl::Status WarnIfUnitSuspect(StageContext& ctx) {
         std::any_of(verdicts.begin(), verdicts.end(), [&](int v) { return v != verdicts[0]; })) {
       continue;
     }
-    ctx.Warn(WarningCode::kUnitSuspect,
+    out.Warn(WarningCode::kUnitSuspect,
              absl::StrCat("scan '", scan.id, "': ", evidence, ", more than ", kUnitSuspectFactor,
                           "x ", verdicts.front() < 0 ? "smaller" : "larger",
                           " than stated: is the job's unit right (a file in metres sent as "

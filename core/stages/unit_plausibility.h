@@ -5,7 +5,10 @@
 #pragma once
 
 #include "absl/status/status.h"
-#include "core/stages/stage_context.h"
+#include "core/base/point_cloud.h"
+#include "core/base/point_measures.h"
+#include "core/spatial/neighbourhoods.h"
+#include "core/stages/stage_reporter.h"
 
 namespace scanprep {
 
@@ -17,8 +20,9 @@ inline constexpr double kUnitSuspectFactor = 20;
 // Warns UNIT_SUSPECT for each scan whose every stated scale that can be checked (a stated
 // scanline or point spacing; a stated u when σ̂ is measured) disagrees with the data by more than
 // kUnitSuspectFactor in the same direction. A scan that states nothing is not judged. Needs the
-// shared neighbourhoods and the normal fits (run at the end of the normals stage). CANCELLED
+// neighbourhoods and `m`'s normal fits (run at the end of the normals stage). CANCELLED
 // when the job's token fires.
-absl::Status WarnIfUnitSuspect(StageContext& ctx);
+absl::Status WarnIfUnitSuspect(const PointCloud& cloud, const PointMeasures& m,
+                               const Neighbourhoods& nb, StageReporter& out);
 
 }  // namespace scanprep
