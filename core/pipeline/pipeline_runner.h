@@ -37,8 +37,9 @@ class PipelineRunner : private WorkMeter, private StageMeter {
   absl::Status RunThrough(std::string_view stage);
 
   PipelineReport& report() { return report_; }
-  // What the stages built (for tests that check a stage's inputs).
-  const SharedState& shared() const { return shared_; }
+  // What the stages built (for tests that check a stage's inputs, or call a stage function with
+  // them).
+  SharedState& shared() { return shared_; }
 
  private:
   absl::Status RunStage(size_t index);

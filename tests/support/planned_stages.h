@@ -34,9 +34,19 @@ class PlannedStages {
     return plan_.ok() ? runner_->RunThrough(step) : plan_.status();
   }
 
+  // Runs the plan's stages before `stage` (none when it is the first).
+  absl::Status RunBefore(std::string_view stage) {
+    if (!plan_.ok()) return plan_.status();
+    const auto& stages = plan_->stages();
+    for (size_t i = 1; i < stages.size(); ++i) {
+      if (stages[i]->name == stage) return runner_->RunThrough(stages[i - 1]->name);
+    }
+    return absl::OkStatus();
+  }
+
   // Only after a run that built them.
-  const PointMeasures& measures() const { return runner_->shared().measures; }
-  const Neighbourhoods& neighbourhoods() const { return *runner_->shared().neighbourhoods; }
+  PointMeasures& measures() { return runner_->shared().measures; }
+  Neighbourhoods& neighbourhoods() { return *runner_->shared().neighbourhoods; }
   PipelineReport& report() { return runner_->report(); }
 
  private:

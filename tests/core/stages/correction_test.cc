@@ -4,6 +4,7 @@
 // worse, and where the other scan does not reach at all.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <random>
 
@@ -11,8 +12,10 @@
 
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "core/stages/correction.h"
 #include "tests/support/kdtree.h"
 #include "tests/support/planned_stages.h"
+#include "tests/support/stage_call.h"
 
 namespace scanprep {
 namespace {
@@ -73,12 +76,26 @@ Outcome Evaluate(const sim::SimulatedCloud& sim, const PointCloud& original) {
   return o;
 }
 
+// The stage function, called on the quality its plan's earlier stages measured; `before` sees
+// its inputs first, and `capped_after` receives the neighbourhoods' capped-ball count after it.
+absl::StatusOr<PipelineReport> RunCorrection(
+    PointCloud& cloud, const ParamOverrides& params = {},
+    const std::function<void(const testing::StageInputs&)>& before = {},
+    uint64_t* capped_after = nullptr) {
+  return testing::CallStage(cloud, "correction", params, [&](testing::StageInputs& in) {
+    if (before) before(in);
+    absl::Status done = CorrectOverlaps(in.cloud, in.measures, in.neighbourhoods,
+                                        in.Settings(CorrectionParams()), in.out)
+                            .status();
+    if (capped_after) *capped_after = in.neighbourhoods.capped_balls();
+    return done;
+  });
+}
+
 void ExpectMergesOverlap(const std::string& mode) {
   auto sim = sim::Simulate(Part::kSphere, sim::TwoOverlappingSensors(Part::kSphere), 21);
   const PointCloud original = sim.cloud;
-  CancelToken cancel;
-  auto report = RunPipeline(
-      sim.cloud, {.stages = {"correction"}, .params = {{"correction.mode", mode}}}, cancel);
+  auto report = RunCorrection(sim.cloud, {{"correction.mode", mode}});
   ASSERT_TRUE(report.ok()) << report.status();
   const Outcome o = Evaluate(sim, original);
   std::printf(
@@ -112,9 +129,8 @@ TEST(Correction, GatherIgnoresPointOrder) {
   auto flip = [&](auto& v) { std::reverse(v.begin(), v.end()); };
   flip(reversed.x), flip(reversed.y), flip(reversed.z), flip(reversed.scan),
       flip(reversed.scanline);
-  CancelToken cancel;
-  ASSERT_TRUE(RunPipeline(sim.cloud, {.stages = {"correction"}}, cancel).ok());
-  ASSERT_TRUE(RunPipeline(reversed, {.stages = {"correction"}}, cancel).ok());
+  ASSERT_TRUE(RunCorrection(sim.cloud).ok());
+  ASSERT_TRUE(RunCorrection(reversed).ok());
   size_t differ = 0, removed = 0;
   for (size_t i = 0; i < n; ++i) {
     removed += sim.cloud.removed(i);
@@ -129,8 +145,7 @@ TEST(Correction, GatherIgnoresPointOrder) {
 // client that sent two scans as one would otherwise never learn why nothing merged).
 TEST(Correction, SingleScanIsUntouchedAndSaysSo) {
   auto sim = sim::Simulate(Part::kSphere, sim::FrontalSensor(Part::kSphere), 22);
-  CancelToken cancel;
-  auto report = RunPipeline(sim.cloud, {.stages = {"correction"}}, cancel);
+  auto report = RunCorrection(sim.cloud);
   ASSERT_TRUE(report.ok()) << report.status();
   EXPECT_EQ(sim.cloud.CountKept(), sim.cloud.size());
   EXPECT_EQ(report->stages.back().parameters.at("correction.single_scan"), 1);
@@ -153,8 +168,7 @@ TEST(Correction, WithoutQualityTheMergeSaysItDidNothing) {
     scan.view_direction.reset();
     scan.projector_position.reset();
   }
-  CancelToken cancel;
-  auto report = RunPipeline(sim.cloud, {.stages = {"correction"}}, cancel);
+  auto report = RunCorrection(sim.cloud);
   ASSERT_TRUE(report.ok()) << report.status();
   EXPECT_EQ(report->stages.back().parameters.at("correction.without_quality"), 1);
   EXPECT_EQ(sim.cloud.CountKept(), sim.cloud.size());
@@ -164,7 +178,7 @@ TEST(Correction, WithoutQualityTheMergeSaysItDidNothing) {
   }
   EXPECT_TRUE(warned);
 
-  auto control = RunPipeline(posed, {.stages = {"correction"}}, cancel);
+  auto control = RunCorrection(posed);
   ASSERT_TRUE(control.ok()) << control.status();
   EXPECT_EQ(control->stages.back().parameters.at("correction.without_quality"), 0);
   EXPECT_LT(posed.CountKept(), posed.size());
@@ -231,22 +245,28 @@ TEST(Correction, GatherJudgesAgainOnlyWhereABallLostAPoint) {
       }
       cloud.FinishLoading();
     }
-    testing::PlannedStages job(cloud, {"correction"});
-    ASSERT_TRUE(job.RunThrough("measures").ok());
-    const std::vector<float> quality = job.measures().quality;
-    const std::vector<uint8_t> flags = cloud.flags;
-    const Neighbourhoods* nb = &job.neighbourhoods();
-    const size_t cap = nb->max_ball_points();
-    const uint64_t capped_before = nb->capped_balls();
-    ASSERT_TRUE(job.Run().ok());
-    const StageReport& stage = job.report().stages.back();
+    std::vector<float> quality;
+    std::vector<uint8_t> flags;
+    size_t cap = 0;
+    uint64_t capped_before = 0, capped_after = 0;
+    auto report = RunCorrection(
+        cloud, {},
+        [&](const testing::StageInputs& in) {
+          quality = in.measures.quality;
+          flags = in.cloud.flags;
+          cap = in.neighbourhoods.max_ball_points();
+          capped_before = in.neighbourhoods.capped_balls();
+        },
+        &capped_after);
+    ASSERT_TRUE(report.ok()) << report.status();
+    const StageReport& stage = report->stages.back();
     ASSERT_EQ(stage.name, "correction");
     const std::vector<float> radius = {
         static_cast<float>(stage.parameters.at("correction.radius_mm.scan0")),
         static_cast<float>(stage.parameters.at("correction.radius_mm.scan1"))};
     EXPECT_GT(std::abs(radius[1] - radius[0]), 0.02f * radius[0]);
     EXPECT_GT(stage.parameters.at("correction.rounds_run"), 2);
-    EXPECT_EQ(nb->capped_balls() > capped_before, cluster);
+    EXPECT_EQ(capped_after > capped_before, cluster);
 
     const std::vector<uint8_t> expected = ReferenceGather(cloud, flags, quality, radius, cap);
     size_t removed = 0, differ = 0;
@@ -264,21 +284,15 @@ TEST(Correction, GatherJudgesAgainOnlyWhereABallLostAPoint) {
 
 TEST(Correction, RadiusScaleWidensTheMergeRadius) {
   auto sim = sim::Simulate(Part::kPlane, sim::TwoOverlappingSensors(Part::kPlane), 23);
-  CancelToken cancel;
-  auto report = RunPipeline(
-      sim.cloud, {.stages = {"correction"}, .params = {{"correction.radius_scale", "2"}}}, cancel);
+  auto report = RunCorrection(sim.cloud, {{"correction.radius_scale", "2"}});
   ASSERT_TRUE(report.ok()) << report.status();
   const ScanMeta& s1 = sim.cloud.scans[1];
   EXPECT_NEAR(report->stages.back().parameters.at("correction.radius_mm.scan1"),
               2 * std::sqrt(s1.scanline_spacing * s1.scanline_spacing +
                             s1.uncertainty * s1.uncertainty + s1.point_spacing * s1.point_spacing),
               0.02);
-  EXPECT_EQ(
-      RunPipeline(sim.cloud,
-                  {.stages = {"correction"}, .params = {{"correction.radius_scale", "-1"}}}, cancel)
-          .status()
-          .code(),
-      absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(RunCorrection(sim.cloud, {{"correction.radius_scale", "-1"}}).status().code(),
+            absl::StatusCode::kInvalidArgument);
 }
 
 }  // namespace

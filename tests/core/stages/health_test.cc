@@ -14,6 +14,8 @@
 
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "core/stages/health.h"
+#include "tests/support/stage_call.h"
 
 namespace scanprep {
 namespace {
@@ -33,12 +35,25 @@ sim::SimulatedCloud TwoScans(Part part, const Eigen::Isometry3d& misregistration
   return sim::SimulateWithPointCount(part, sensors, kPoints, 0, 7);
 }
 
-HealthReport Health(PointCloud& cloud, std::vector<std::string> stages = {"health"}) {
-  CancelToken cancel;
-  absl::StatusOr<PipelineReport> report = RunPipeline(cloud, {.stages = std::move(stages)}, cancel);
+// The health function, called after `stages` (which end with "health") have run; outliers and
+// correction count as run when listed.
+HealthReport Health(PointCloud& cloud, std::vector<std::string> stages = {"health"},
+                    const ParamOverrides& params = {}) {
+  const auto listed = [&](std::string_view name) {
+    return std::find(stages.begin(), stages.end(), name) != stages.end();
+  };
+  const RemovalStagesRun ran{.outliers = listed("outliers"), .correction = listed("correction")};
+  HealthReport health;
+  auto report = testing::CallStage(
+      cloud, "health", params,
+      [&](testing::StageInputs& in) -> absl::Status {
+        SCANPREP_ASSIGN_OR_RETURN(health, MeasureHealth(in.cloud, in.measures, in.neighbourhoods,
+                                                        in.Settings(HealthParams()), ran, in.out));
+        return absl::OkStatus();
+      },
+      stages);
   EXPECT_TRUE(report.ok()) << report.status();
-  EXPECT_TRUE(report->health.has_value());
-  return report->health.value_or(HealthReport{});
+  return health;
 }
 
 PairHealth OnlyPair(const HealthReport& health) {
@@ -100,7 +115,7 @@ TEST(Health, AlignedScansReportNoMisalignment) {
 TEST(Health, ShiftAlongEachAxisIsRecoveredWithItsSign) {
   for (double microns : {5.0, 20.0}) {
     for (int axis = 0; axis < 3; ++axis) {
-      SCOPED_TRACE(testing::Message() << microns << " µm along " << kMisalignmentAxes[axis]);
+      SCOPED_TRACE(::testing::Message() << microns << " µm along " << kMisalignmentAxes[axis]);
       ExpectRecovered(Shift(Eigen::Vector3d::Unit(axis) * microns * 1e-3));
     }
   }
@@ -109,7 +124,7 @@ TEST(Health, ShiftAlongEachAxisIsRecoveredWithItsSign) {
 TEST(Health, RotationAboutEachAxisIsRecoveredAtTheReportedCentre) {
   for (double degrees : {0.02, 0.05}) {
     for (int axis = 0; axis < 3; ++axis) {
-      SCOPED_TRACE(testing::Message() << degrees << "° about " << kMisalignmentAxes[axis + 3]);
+      SCOPED_TRACE(::testing::Message() << degrees << "° about " << kMisalignmentAxes[axis + 3]);
       ExpectRecovered(Turn(degrees, Eigen::Vector3d::Unit(axis)));
     }
   }
@@ -131,7 +146,8 @@ TEST(Health, ShiftOfSeveralNoiseSigmasAlongAConstrainedAxisIsRecovered) {
   const std::vector<sim::SimSensor> sensors = sim::TwoOverlappingSensors(Part::kBoxWithBore);
   const double sigma = std::hypot(sensors[0].noise_sigma, sensors[1].noise_sigma);
   for (double sigmas : {1.0, 3.0, 5.0, 10.0}) {
-    SCOPED_TRACE(testing::Message() << sigmas << " σ = " << sigmas * sigma * 1e3 << " µm along z");
+    SCOPED_TRACE(::testing::Message()
+                 << sigmas << " σ = " << sigmas * sigma * 1e3 << " µm along z");
     ExpectRecovered(Shift({0, 0, sigmas * sigma}), 0.2, std::max(1e-3, 0.01 * sigmas * sigma));
   }
 }
@@ -171,12 +187,8 @@ TEST(Health, TooSmallAnOverlapConstrainsNothing) {
   std::vector<sim::SimSensor> sensors = sim::TwoOverlappingSensors(Part::kBoxWithBore);
   sensors[1].misregistration = Shift({0, 0, 0.02});
   sim::SimulatedCloud sim = sim::SimulateWithPointCount(Part::kBoxWithBore, sensors, 20'000, 0, 7);
-  CancelToken cancel;
-  auto report = RunPipeline(
-      sim.cloud, {.stages = {"health"}, .params = {{"health.min_overlap_points", "10000"}}},
-      cancel);
-  ASSERT_TRUE(report.ok()) << report.status();
-  const PairHealth pair = OnlyPair(*report->health);
+  const PairHealth pair =
+      OnlyPair(Health(sim.cloud, {"health"}, {{"health.min_overlap_points", "10000"}}));
   ASSERT_GT(pair.overlap_points, 0u);
   ASSERT_LT(pair.overlap_points, 10'000u);
   EXPECT_EQ(pair.constrained, (std::array<bool, 6>{}));

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Viewing quality and curvature against the simulator's ground truth.
 #include <cstdio>
+#include <functional>
 #include <numbers>
 
 #include <gtest/gtest.h>
@@ -8,21 +9,28 @@
 #include "core/base/status_macros.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "core/stages/measures.h"
 #include "core/stages/scanline_curvature.h"
 #include "tests/support/planned_stages.h"
 #include "tests/support/sim_checks.h"
+#include "tests/support/stage_call.h"
 
 namespace scanprep::testing {
 using namespace scanprep::sim;
 namespace {
 
-absl::StatusOr<PipelineReport> RunMeasures(PointCloud& cloud, PointMeasures* out) {
-  // The measures live in the runner's shared state; the pipeline copies nothing out, so re-derive
-  // them by running the stage's plan with a runner the test owns.
-  PlannedStages job(cloud, {"measures"});
-  SCANPREP_RETURN_IF_ERROR(job.Run());
-  *out = job.measures();
-  return std::move(job.report());
+// The stage function, called on the normals its plan's earlier stages fitted, after `before` has
+// seen the cloud; its measures copied into `result`.
+absl::StatusOr<PipelineReport> RunMeasures(PointCloud& cloud, PointMeasures* result,
+                                           const ParamOverrides& params = {},
+                                           const std::function<void(PointCloud&)>& before = {}) {
+  return CallStage(cloud, "measures", params, [&](StageInputs& in) {
+    if (before) before(in.cloud);
+    SCANPREP_RETURN_IF_ERROR(ComputeMeasures(in.cloud, in.measures, &in.neighbourhoods,
+                                             in.Settings(MeasuresParams()), in.out));
+    *result = in.measures;
+    return absl::OkStatus();
+  });
 }
 
 double Angle(const Eigen::Vector3d& n, const Eigen::Vector3d& toward) {
@@ -89,15 +97,14 @@ TEST(Measures, PointsWithoutANormalGetTheirScansMedianNotTheBestWeight) {
   SimulatedCloud sim = Simulate(Part::kPlane, sensors, 23);
   PointCloud& cloud = sim.cloud;
   cloud.scanline.clear();
-  PlannedStages job(cloud, {"measures"});
-  ASSERT_TRUE(job.RunThrough("normals").ok());
   std::vector<size_t> lost;
-  for (size_t i = 0; i < cloud.size(); i += 97) {
-    cloud.flags[i] |= kNormalInvalid;
-    lost.push_back(i);
-  }
-  ASSERT_TRUE(job.Run().ok());
-  const PointMeasures& m = job.measures();
+  PointMeasures m;
+  ASSERT_TRUE(RunMeasures(cloud, &m, {}, [&](PointCloud& fitted) {
+                for (size_t i = 0; i < fitted.size(); i += 97) {
+                  fitted.flags[i] |= kNormalInvalid;
+                  lost.push_back(i);
+                }
+              }).ok());
   std::vector<double> quality, curvature;
   for (size_t i = 0; i < cloud.size(); ++i) {
     if (cloud.flags[i] & kNormalInvalid) continue;
@@ -288,10 +295,8 @@ TEST(Measures, ScanlinesAreSplitAtGaps) {
 
 TEST(Measures, CappedScanlineWindowsAreReported) {
   PointCloud cloud = Rings();
-  CancelToken cancel;
-  auto report =
-      RunPipeline(cloud, {.stages = {"measures"}, .params = {{"measures.window_mm", "10000"}}},
-                  cancel);  // the most admitted
+  PointMeasures m;
+  auto report = RunMeasures(cloud, &m, {{"measures.window_mm", "10000"}});  // the most admitted
   ASSERT_TRUE(report.ok()) << report.status();
   EXPECT_GT(report->stages.back().parameters.at("measures.windows_capped"), 0);
   bool warned = false;

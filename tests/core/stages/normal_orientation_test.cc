@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
 
-#include "core/pipeline/pipeline.h"
+#include "tests/support/normals_call.h"
 
 namespace scanprep {
 namespace {
@@ -93,8 +93,7 @@ TEST(NormalOrientation, ClutteredTableWithoutPoseIsConsistentInLinearWork) {
   Scene scene = TableTop(7);
   PointCloud& cloud = scene.cloud;
   const size_t n = cloud.size();
-  CancelToken cancel;
-  auto report = RunPipeline(cloud, {.stages = {"normals"}}, cancel);
+  auto report = testing::RunNormalsFunction(cloud);
   ASSERT_TRUE(report.ok()) << report.status();
   const auto& parameters = report->stages.back().parameters;
   const double bridges = parameters.at("normals.tree_bridges");
@@ -161,8 +160,7 @@ TEST(NormalOrientation, ThousandsOfSmallComponentsAreJoinedInLinearWork) {
   cloud.scans.push_back(ScanMeta{.id = "patches", .uncertainty = 0.01});
   cloud.FinishLoading();
   const size_t n = cloud.size();
-  CancelToken cancel;
-  auto report = RunPipeline(cloud, {.stages = {"normals"}}, cancel);
+  auto report = testing::RunNormalsFunction(cloud);
   ASSERT_TRUE(report.ok()) << report.status();
   const auto& parameters = report->stages.back().parameters;
   const double work = parameters.at("normals.bridge_work");
@@ -189,8 +187,7 @@ TEST(NormalOrientation, AThousandOnePointScansNeedNoBridges) {
     cloud.scans.push_back(ScanMeta{.id = "s" + std::to_string(s)});
   }
   cloud.FinishLoading();
-  CancelToken cancel;
-  auto report = RunPipeline(cloud, {.stages = {"normals"}}, cancel);
+  auto report = testing::RunNormalsFunction(cloud);
   ASSERT_TRUE(report.ok()) << report.status();
   const auto& parameters = report->stages.back().parameters;
   EXPECT_EQ(parameters.at("normals.invalid"), 1000);

@@ -9,7 +9,9 @@
 #include "core/io/ply.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "core/stages/normals.h"
 #include "tests/support/sim_checks.h"
+#include "tests/support/stage_call.h"
 #include "tests/support/test_data.h"
 
 namespace scanprep::testing {
@@ -46,14 +48,9 @@ NormalCheck Check(const SimulatedCloud& sim, Use use) {
   return c;
 }
 
-absl::StatusOr<PipelineReport> RunNormals(PointCloud& cloud, ParamOverrides params = {}) {
-  CancelToken cancel;
-  return RunPipeline(cloud, {.stages = {"normals"}, .params = std::move(params)}, cancel);
-}
-
 TEST(Normals, PlaneWithinTwoDegreesAndFacingTheSensor) {
   SimulatedCloud sim = Simulate(Part::kPlane, FrontalSensor(Part::kPlane), 11);
-  auto report = RunNormals(sim.cloud);
+  auto report = testing::RunNormalsFunction(sim.cloud);
   ASSERT_TRUE(report.ok()) << report.status();
   const NormalCheck c = Check(sim, [](size_t) { return true; });
   std::printf("plane: %zu normals, median %.3f°, p95 %.3f°, invalid %zu, away %zu\n", c.checked,
@@ -70,7 +67,7 @@ TEST(Normals, PlaneWithinTwoDegreesAndFacingTheSensor) {
 
 TEST(Normals, BoxFacesAwayFromEdges) {
   SimulatedCloud sim = Simulate(Part::kBoxWithBore, FrontalSensor(Part::kBoxWithBore), 12);
-  ASSERT_TRUE(RunNormals(sim.cloud).ok());
+  ASSERT_TRUE(testing::RunNormalsFunction(sim.cloud).ok());
   const NormalCheck faces = Check(sim, [&](size_t i) { return sim.edge_distance[i] > 1.0f; });
   const NormalCheck all = Check(sim, [](size_t) { return true; });
   std::printf(
@@ -85,7 +82,7 @@ TEST(Normals, BoxFacesAwayFromEdges) {
 
 TEST(Normals, CylinderNormalsFollowTheCurvedSurface) {
   SimulatedCloud sim = Simulate(Part::kCylinder, FrontalSensor(Part::kCylinder), 13);
-  ASSERT_TRUE(RunNormals(sim.cloud).ok());
+  ASSERT_TRUE(testing::RunNormalsFunction(sim.cloud).ok());
   const NormalCheck c = Check(sim, [](size_t) { return true; });
   std::printf("cylinder R=10: %zu normals, median %.3f°, p95 %.3f°, away %zu\n", c.checked,
               c.median_deg, c.p95_deg, c.away_from_sensor);
@@ -95,7 +92,7 @@ TEST(Normals, CylinderNormalsFollowTheCurvedSurface) {
 
 TEST(Normals, MitraRadiusModeIsAccurateToo) {
   SimulatedCloud sim = Simulate(Part::kCylinder, FrontalSensor(Part::kCylinder), 14);
-  auto report = RunNormals(sim.cloud, {{"normals.radius_mode", "mitra"}});
+  auto report = testing::RunNormalsFunction(sim.cloud, {{"normals.radius_mode", "mitra"}});
   ASSERT_TRUE(report.ok()) << report.status();
   const NormalCheck c = Check(sim, [](size_t) { return true; });
   const double r = report->stages.back().parameters.at("normals.median_radius_mm");
@@ -115,7 +112,7 @@ TEST(Normals, MitraRadiusGrowsAsTheCubeRootOfC1) {
   double radius[2];
   for (const int c1 : {1, 10}) {
     SimulatedCloud sim = Simulate(Part::kCylinder, FrontalSensor(Part::kCylinder), 14);
-    auto report = RunNormals(
+    auto report = testing::RunNormalsFunction(
         sim.cloud, {{"normals.radius_mode", "mitra"}, {"normals.mitra_c1", std::to_string(c1)}});
     ASSERT_TRUE(report.ok()) << report.status();
     radius[c1 == 10] = report->stages.back().parameters.at("normals.median_radius_mm");
@@ -142,7 +139,7 @@ TEST(Normals, OverlappingScansUseTheirOwnPoints) {
     if (sim.cloud.scan[i] != 1) continue;
     sim.true_normal[i] = (tilt * sim.true_normal[i].cast<double>()).cast<float>();
   }
-  ASSERT_TRUE(RunNormals(sim.cloud).ok());
+  ASSERT_TRUE(testing::RunNormalsFunction(sim.cloud).ok());
   for (uint32_t s = 0; s < 2; ++s) {
     const NormalCheck c = Check(sim, [&](size_t i) { return sim.cloud.scan[i] == s; });
     std::printf("overlap, scan %u: %zu normals, median %.3f°, p95 %.3f°, away %zu\n", s, c.checked,
@@ -161,7 +158,7 @@ TEST(Normals, SpanningTreeOrientsAClosedSphereConsistently) {
     scan.camera_position.reset();
     scan.projector_direction.reset();
   }
-  auto report = RunNormals(sim.cloud);
+  auto report = testing::RunNormalsFunction(sim.cloud);
   ASSERT_TRUE(report.ok()) << report.status();
   size_t outward = 0, valid = 0;
   for (size_t i = 0; i < sim.cloud.size(); ++i) {
@@ -191,7 +188,7 @@ TEST(Normals, CollinearAndTinyNeighbourhoodsAreInvalid) {
     cloud.z.push_back(0);
   }
   cloud.FinishLoading();
-  ASSERT_TRUE(RunNormals(cloud).ok());
+  ASSERT_TRUE(testing::RunNormalsFunction(cloud).ok());
   for (size_t i = 0; i < cloud.size(); ++i) EXPECT_TRUE(cloud.flags[i] & kNormalInvalid);
 }
 
@@ -206,7 +203,7 @@ TEST(Normals, StanfordBunnyScanFacesTheScanner) {
   for (float* v : {cloud->x.data(), cloud->y.data(), cloud->z.data()}) {
     for (size_t i = 0; i < cloud->size(); ++i) v[i] *= 1000.f;  // metres → mm
   }
-  auto report = RunNormals(*cloud);
+  auto report = testing::RunNormalsFunction(*cloud);
   ASSERT_TRUE(report.ok()) << report.status();
   size_t valid = 0, facing = 0;
   for (size_t i = 0; i < cloud->size(); ++i) {
@@ -247,7 +244,7 @@ TEST(Normals, GaussianWeightsKeepNormalsNearAnEdgeOnTheirFace) {
     }
   }
   cloud.FinishLoading();
-  auto report = RunNormals(cloud);
+  auto report = testing::RunNormalsFunction(cloud);
   ASSERT_TRUE(report.ok()) << report.status();
   const double r = report->stages.back().parameters.at("normals.median_radius_mm");
   std::vector<std::vector<double>> bands(6);

@@ -8,6 +8,7 @@
 
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "tests/support/outliers_call.h"
 
 namespace scanprep::testing {
 using namespace scanprep::sim;
@@ -29,12 +30,8 @@ Score Evaluate(const PointCloud& cloud, const std::vector<uint8_t>& is_outlier) 
 // The distance rule of `method` alone (no surface test), or with the surface test.
 Score RunOutliers(PointCloud& cloud, const std::vector<uint8_t>& truth, const std::string& method,
                   const std::string& surface_sigmas = "0") {
-  CancelToken cancel;
-  auto report = RunPipeline(
-      cloud,
-      {.stages = {"outliers"},
-       .params = {{"outliers.method", method}, {"outliers.surface_sigmas", surface_sigmas}}},
-      cancel);
+  auto report = testing::RunOutlierFunctions(
+      cloud, {{"outliers.method", method}, {"outliers.surface_sigmas", surface_sigmas}});
   EXPECT_TRUE(report.ok()) << report.status();
   return Evaluate(cloud, truth);
 }
@@ -117,15 +114,11 @@ TEST(OutliersOnScans, LoopScoresAreCalibratedProbabilities) {
     cloud.x.push_back(side(rng)), cloud.y.push_back(side(rng)), cloud.z.push_back(0.f);
   }
   cloud.FinishLoading();
-  CancelToken cancel;
   const double t = 0.8;
-  auto report = RunPipeline(cloud,
-                            {.stages = {"outliers"},
-                             .params = {{"outliers.method", "loop"},
-                                        {"outliers.surface_sigmas", "0"},
-                                        {"outliers.loop_lambda", "1"},
-                                        {"outliers.loop_threshold", "0.8"}}},
-                            cancel);
+  auto report = testing::RunOutlierFunctions(cloud, {{"outliers.method", "loop"},
+                                                     {"outliers.surface_sigmas", "0"},
+                                                     {"outliers.loop_lambda", "1"},
+                                                     {"outliers.loop_threshold", "0.8"}});
   ASSERT_TRUE(report.ok()) << report.status();
   size_t scored_above = 0;
   for (const uint8_t flags : cloud.flags) scored_above += (flags & kRemovedOutlier) != 0;

@@ -8,6 +8,7 @@
 
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "tests/support/outliers_call.h"
 #include "tests/support/test_data.h"
 
 namespace scanprep {
@@ -40,8 +41,7 @@ TEST(Outliers, RemovesSpikesAndKeepsTheGrid) {
   }
   cloud.FinishLoading();
 
-  CancelToken cancel;
-  auto report = RunPipeline(cloud, {.stages = {"outliers"}}, cancel);
+  auto report = testing::RunOutlierFunctions(cloud);
   ASSERT_TRUE(report.ok()) << report.status();
 
   size_t true_pos = 0, false_pos = 0, spikes = 0;
@@ -93,6 +93,8 @@ TEST(Outliers, DuplicatedSpikesAreCaught) {
     add(x, y, z, 1, true);
   }
   cloud.FinishLoading();
+  // The job's path: the exact repeats are collapsed before the first stage (RunPipeline), which
+  // is what lets a repeated spike be judged as one point.
   CancelToken cancel;
   auto report = RunPipeline(cloud, {.stages = {"outliers"}}, cancel);
   ASSERT_TRUE(report.ok()) << report.status();
@@ -125,18 +127,15 @@ TEST(Outliers, SlightlyWiderScanlinesAreNoOutliers) {
     }
   }
   cloud.FinishLoading();
-  CancelToken cancel;
   // The paper's rule alone: the surface test would vouch for the wider rows whatever the floor.
-  auto report = RunPipeline(
-      cloud, {.stages = {"outliers"}, .params = {{"outliers.surface_sigmas", "0"}}}, cancel);
+  auto report = testing::RunOutlierFunctions(cloud, {{"outliers.surface_sigmas", "0"}});
   ASSERT_TRUE(report.ok()) << report.status();
   EXPECT_EQ(cloud.CountKept(), cloud.size());
 }
 
 // Share of the points the outlier stage removes from `cloud`.
 double RemovedShare(PointCloud cloud, ParamOverrides params = {}) {
-  CancelToken cancel;
-  auto report = RunPipeline(cloud, {.stages = {"outliers"}, .params = std::move(params)}, cancel);
+  auto report = testing::RunOutlierFunctions(cloud, std::move(params));
   EXPECT_TRUE(report.ok()) << report.status();
   size_t removed = 0;
   for (size_t i = 0; i < cloud.size(); ++i) removed += (cloud.flags[i] & kRemovedOutlier) != 0;
@@ -180,8 +179,7 @@ struct Score {
 // Precision and recall of the outlier stage against the simulator's spike labels.
 Score ScoreOutliers(const sim::SimulatedCloud& sim, ParamOverrides params) {
   PointCloud cloud = sim.cloud;
-  CancelToken cancel;
-  auto report = RunPipeline(cloud, {.stages = {"outliers"}, .params = std::move(params)}, cancel);
+  auto report = testing::RunOutlierFunctions(cloud, std::move(params));
   EXPECT_TRUE(report.ok()) << report.status();
   size_t true_pos = 0, removed = 0, spikes = 0;
   for (size_t i = 0; i < cloud.size(); ++i) {

@@ -3,6 +3,7 @@
 // density kept at the sharp edges of a box, and no holes (every true sample keeps a point near).
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <numeric>
 #include <string>
 
@@ -10,8 +11,10 @@
 
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "core/stages/simplification.h"
 #include "tests/support/kdtree.h"
 #include "tests/support/planned_stages.h"
+#include "tests/support/stage_call.h"
 
 namespace scanprep {
 namespace {
@@ -60,19 +63,26 @@ double LargestHole(const sim::SimulatedCloud& sim, const KdTree& kept_tree) {
   return worst;
 }
 
-absl::StatusOr<PipelineReport> Simplify(PointCloud& cloud, ParamOverrides params) {
-  CancelToken cancel;
-  return RunPipeline(cloud, {.stages = {"simplification"}, .params = std::move(params)}, cancel);
+// The stage function, called on the inputs its plan's earlier stages built. `before` sees them
+// first.
+absl::StatusOr<PipelineReport> RunSimplification(
+    PointCloud& cloud, const ParamOverrides& params,
+    const std::function<void(const PointMeasures&)>& before = {}) {
+  return testing::CallStage(cloud, "simplification", params, [&](testing::StageInputs& in) {
+    if (before) before(in.measures);
+    return Simplify(in.cloud, in.measures, in.neighbourhoods, in.Settings(SimplificationParams()),
+                    in.out);
+  });
 }
 
 void ExpectPlaneSpacing(const std::string& order, const std::string& mode,
                         const std::string& floor = "0") {
   auto sim = sim::Simulate(Part::kPlane, sim::FrontalSensor(Part::kPlane), 31);
   const double target = 0.5;
-  auto report = Simplify(sim.cloud, {{"simplification.spacing_mm", "0.5"},
-                                     {"simplification.order", order},
-                                     {"simplification.mode", mode},
-                                     {"simplification.curvature_floor", floor}});
+  auto report = RunSimplification(sim.cloud, {{"simplification.spacing_mm", "0.5"},
+                                              {"simplification.order", order},
+                                              {"simplification.mode", mode},
+                                              {"simplification.curvature_floor", floor}});
   ASSERT_TRUE(report.ok()) << report.status();
   const PointCloud kept = KeptPoints(sim.cloud);
   const KdTree tree(kept);
@@ -113,7 +123,7 @@ double KeptDensity(const PointCloud& cloud, const KdTree& tree, Select select, f
 TEST(Simplification, KeepsEdgesDenseAndLeavesNoHoles) {
   auto sim = sim::Simulate(Part::kBoxWithBore, sim::FrontalSensor(Part::kBoxWithBore), 32);
   const double target = 0.5;
-  auto report = Simplify(sim.cloud, {{"simplification.spacing_mm", "0.5"}});
+  auto report = RunSimplification(sim.cloud, {{"simplification.spacing_mm", "0.5"}});
   ASSERT_TRUE(report.ok()) << report.status();
   const PointCloud kept = KeptPoints(sim.cloud);
   const KdTree tree(kept);
@@ -180,10 +190,10 @@ TEST(Simplification, BatchedVisitsRemoveExactlyWhatOneAtATimeRemoves) {
     // The paper's order, whose batches this test checks against one centre at a time.
     const ParamOverrides params = {{"simplification.spacing_mm", std::to_string(spacing)},
                                    {"simplification.order", "sequential"}};
-    testing::PlannedStages job(cloud, {"simplification"}, params);
-    ASSERT_TRUE(job.RunThrough("measures").ok());
-    const std::vector<bool> expected = RemovedOneCentreAtATime(cloud, job.measures(), spacing);
-    ASSERT_TRUE(job.Run().ok());
+    std::vector<bool> expected;
+    ASSERT_TRUE(RunSimplification(cloud, params, [&](const PointMeasures& m) {
+                  expected = RemovedOneCentreAtATime(cloud, m, spacing);
+                }).ok());
     size_t removed = 0, differ = 0;
     for (size_t i = 0; i < cloud.size(); ++i) {
       removed += cloud.removed(i);
@@ -198,7 +208,7 @@ TEST(Simplification, BatchedVisitsRemoveExactlyWhatOneAtATimeRemoves) {
 
 TEST(Simplification, UniformModeIgnoresEdges) {
   auto sim = sim::Simulate(Part::kBoxWithBore, sim::FrontalSensor(Part::kBoxWithBore), 33);
-  auto report = Simplify(
+  auto report = RunSimplification(
       sim.cloud, {{"simplification.spacing_mm", "0.5"}, {"simplification.mode", "uniform"}});
   ASSERT_TRUE(report.ok()) << report.status();
   const PointCloud kept = KeptPoints(sim.cloud);
@@ -213,12 +223,12 @@ TEST(Simplification, UniformModeIgnoresEdges) {
 
 TEST(Simplification, DerivesTheSpacingFromTheScanPitch) {
   auto sim = sim::Simulate(Part::kPlane, sim::FrontalSensor(Part::kPlane), 34);
-  auto report = Simplify(sim.cloud, {});
+  auto report = RunSimplification(sim.cloud, {});
   ASSERT_TRUE(report.ok()) << report.status();
   const ScanMeta& scan = sim.cloud.scans[0];
   EXPECT_NEAR(report->stages.back().parameters.at("simplification.spacing_mm"),
               2 * std::sqrt(scan.scanline_spacing * scan.point_spacing), 0.02);
-  EXPECT_EQ(Simplify(sim.cloud, {{"simplification.spacing_mm", "0"}}).status().code(),
+  EXPECT_EQ(RunSimplification(sim.cloud, {{"simplification.spacing_mm", "0"}}).status().code(),
             absl::StatusCode::kInvalidArgument);
 }
 

@@ -9,6 +9,8 @@
 
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "core/stages/smoothing.h"
+#include "tests/support/stage_call.h"
 
 namespace scanprep {
 namespace {
@@ -30,9 +32,11 @@ double RmsToSurface(Part part, const PointCloud& cloud, Select select) {
   return std::sqrt(sum / std::max<size_t>(count, 1));
 }
 
-absl::StatusOr<PipelineReport> Smooth(PointCloud& cloud, ParamOverrides params = {}) {
-  CancelToken cancel;
-  return RunPipeline(cloud, {.stages = {"smoothing"}, .params = std::move(params)}, cancel);
+// The stage function, called on the inputs its plan's earlier stages built.
+absl::StatusOr<PipelineReport> RunSmoothing(PointCloud& cloud, const ParamOverrides& params = {}) {
+  return testing::CallStage(cloud, "smoothing", params, [](testing::StageInputs& in) {
+    return Smooth(in.cloud, in.measures, in.neighbourhoods, in.Settings(SmoothingParams()), in.out);
+  });
 }
 
 float LongestMove(const PointCloud& before, const PointCloud& after) {
@@ -76,7 +80,7 @@ TEST(Smoothing, LowersNoiseOnAPlaneAndMeasuresIt) {
     return std::abs(sim.truth[i].x()) < 9 && std::abs(sim.truth[i].y()) < 9;
   };
   const double before = RmsToSurface(Part::kPlane, cloud, interior);
-  auto report = Smooth(cloud);
+  auto report = RunSmoothing(cloud);
   ASSERT_TRUE(report.ok()) << report.status();
   const double after = RmsToSurface(Part::kPlane, cloud, interior);
   std::printf("plane RMS to true surface: before %.4f mm, after %.4f mm (%.0f %% lower)\n", before,
@@ -99,7 +103,7 @@ TEST(Smoothing, SharpensTheEdgesOfABox) {
   const PointCloud original = cloud;
   const double edge_before = box.Rms(cloud, box.NearEdge());
   const double flat_before = box.Rms(cloud, box.Flat());
-  auto report = Smooth(cloud);
+  auto report = RunSmoothing(cloud);
   ASSERT_TRUE(report.ok()) << report.status();
   const double edge_after = box.Rms(cloud, box.NearEdge());
   const double flat_after = box.Rms(cloud, box.Flat());
@@ -114,9 +118,9 @@ TEST(Smoothing, SharpensTheEdgesOfABox) {
   // It is the own-side plane, not δ, that keeps the edge: with δ far above any move it still
   // sharpens, where the paper's mean (control) rounds the edge off.
   PointCloud own_unguarded = original, mean_unguarded = original;
-  ASSERT_TRUE(Smooth(own_unguarded, {{"smoothing.tolerance_mm", "10"}}).ok());
+  ASSERT_TRUE(RunSmoothing(own_unguarded, {{"smoothing.tolerance_mm", "10"}}).ok());
   ASSERT_TRUE(
-      Smooth(mean_unguarded, {{"smoothing.method", "mean"}, {"smoothing.tolerance_mm", "10"}})
+      RunSmoothing(mean_unguarded, {{"smoothing.method", "mean"}, {"smoothing.tolerance_mm", "10"}})
           .ok());
   const double own_edge = box.Rms(own_unguarded, box.NearEdge());
   const double mean_edge = box.Rms(mean_unguarded, box.NearEdge());
@@ -131,7 +135,7 @@ TEST(Smoothing, PaperMeanKeepsEdgesByRejectingMovesLongerThanU) {
   const PointCloud original = cloud;
   const double edge_before = box.Rms(cloud, box.NearEdge());
   const double flat_before = box.Rms(cloud, box.Flat());
-  auto report = Smooth(cloud, {{"smoothing.method", "mean"}});
+  auto report = RunSmoothing(cloud, {{"smoothing.method", "mean"}});
   ASSERT_TRUE(report.ok()) << report.status();
   const double u = cloud.scans[0].uncertainty;
   const auto& params = report->stages.back().parameters;
@@ -151,9 +155,9 @@ TEST(Smoothing, FlatnessWeightKeepsEdgePointsOnTheEdge) {
   const double before = box.Rms(box.sim.cloud, near);
   auto mean_with_lambda = [&](const char* lambda) {
     PointCloud cloud = box.sim.cloud;
-    EXPECT_TRUE(Smooth(cloud, {{"smoothing.method", "mean"},
-                               {"smoothing.tolerance_mm", "10"},
-                               {"smoothing.lambda", lambda}})
+    EXPECT_TRUE(RunSmoothing(cloud, {{"smoothing.method", "mean"},
+                                     {"smoothing.tolerance_mm", "10"},
+                                     {"smoothing.lambda", lambda}})
                     .ok());
     return box.Rms(cloud, near);
   };
@@ -168,9 +172,9 @@ TEST(Smoothing, FallOffSetsHowFarAMeanCutsIntoACurvedSurface) {
   const auto sim = sim::Simulate(Part::kSphere, sim::FrontalSensor(Part::kSphere), 16);
   auto shrinkage = [&](const char* influence) {
     PointCloud cloud = sim.cloud;
-    EXPECT_TRUE(Smooth(cloud, {{"smoothing.method", "mean"},
-                               {"smoothing.tolerance_mm", "10"},
-                               {"smoothing.influence", influence}})
+    EXPECT_TRUE(RunSmoothing(cloud, {{"smoothing.method", "mean"},
+                                     {"smoothing.tolerance_mm", "10"},
+                                     {"smoothing.influence", influence}})
                     .ok());
     double sum = 0;
     for (size_t i = 0; i < cloud.size(); ++i) {
@@ -195,7 +199,7 @@ TEST(Smoothing, QualityWeightFavoursTheBetterViewedScan) {
   };
   auto own_side_with_lambda = [&](const char* lambda) {
     PointCloud cloud = sim.cloud;
-    EXPECT_TRUE(Smooth(cloud, {{"smoothing.lambda", lambda}}).ok());
+    EXPECT_TRUE(RunSmoothing(cloud, {{"smoothing.lambda", lambda}}).ok());
     return RmsToSurface(Part::kPlane, cloud, interior);
   };
   const double quality = own_side_with_lambda("1"), flatness = own_side_with_lambda("0");
@@ -208,10 +212,10 @@ TEST(Smoothing, WarnsWhenTheDataIsFarNoisierThanItsStatedUncertainty) {
   auto sim = sim::Simulate(Part::kPlane, sim::FrontalSensor(Part::kPlane), 18);
   PointCloud control = sim.cloud;
   sim.cloud.scans[0].uncertainty = 0.001;  // 1 µm stated, 10 µm measured: a unit or u slip
-  auto report = Smooth(sim.cloud);
+  auto report = RunSmoothing(sim.cloud);
   ASSERT_TRUE(report.ok()) << report.status();
   EXPECT_TRUE(HasWarning(*report, "noisier"));
-  auto control_report = Smooth(control);
+  auto control_report = RunSmoothing(control);
   ASSERT_TRUE(control_report.ok()) << control_report.status();
   EXPECT_FALSE(HasWarning(*control_report, "noisier"));
 }
@@ -219,7 +223,7 @@ TEST(Smoothing, WarnsWhenTheDataIsFarNoisierThanItsStatedUncertainty) {
 TEST(Smoothing, AFixedNoiseSetsTheGatesAndTheMoveLimit) {
   auto sim = sim::Simulate(Part::kPlane, sim::FrontalSensor(Part::kPlane), 19);
   const PointCloud original = sim.cloud;
-  auto report = Smooth(sim.cloud, {{"smoothing.noise_mm", "0.001"}});
+  auto report = RunSmoothing(sim.cloud, {{"smoothing.noise_mm", "0.001"}});
   ASSERT_TRUE(report.ok()) << report.status();
   const auto& params = report->stages.back().parameters;
   EXPECT_DOUBLE_EQ(params.at("smoothing.noise_mm"), 0.001);
@@ -234,9 +238,9 @@ TEST(Smoothing, ClampModeNeverMovesFartherThanTheTolerance) {
   BoxScan box(14);
   PointCloud& cloud = box.sim.cloud;
   const PointCloud original = cloud;
-  auto report = Smooth(cloud, {{"smoothing.tolerance", "clamp"},
-                               {"smoothing.tolerance_mm", "0.005"},
-                               {"smoothing.iterations", "2"}});
+  auto report = RunSmoothing(cloud, {{"smoothing.tolerance", "clamp"},
+                                     {"smoothing.tolerance_mm", "0.005"},
+                                     {"smoothing.iterations", "2"}});
   ASSERT_TRUE(report.ok()) << report.status();
   size_t flagged = 0;
   for (size_t i = 0; i < cloud.size(); ++i) flagged += (cloud.flags[i] & kSmoothed) != 0;
@@ -251,7 +255,7 @@ TEST(Smoothing, ClampModeNeverMovesFartherThanTheTolerance) {
 
 TEST(Smoothing, RejectsALambdaOutsideTheUnitInterval) {
   auto sim = sim::Simulate(Part::kPlane, sim::FrontalSensor(Part::kPlane), 14);
-  auto report = Smooth(sim.cloud, {{"smoothing.lambda", "1.5"}});
+  auto report = RunSmoothing(sim.cloud, {{"smoothing.lambda", "1.5"}});
   EXPECT_EQ(report.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(report.status().message().find("smoothing.lambda"), std::string::npos);
 }

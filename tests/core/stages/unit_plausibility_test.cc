@@ -12,6 +12,7 @@
 #include "core/pipeline/pipeline.h"
 #include "core/stages/warning.h"
 #include "tests/support/metrology_job.h"
+#include "tests/support/normals_call.h"
 #include "tests/support/test_data.h"
 
 namespace scanprep {
@@ -27,10 +28,10 @@ PointCloud Scaled(PointCloud cloud, float factor) {
   return cloud;
 }
 
+// The UNIT_SUSPECT warnings of the normals stage's function, which judges the unit once its fits
+// have measured the noise.
 std::vector<Warning> UnitWarnings(PointCloud cloud) {
-  PipelineOptions options;
-  options.stages = {"normals"};
-  auto report = RunPipeline(cloud, options, CancelToken());
+  auto report = testing::RunNormalsFunction(cloud);
   EXPECT_TRUE(report.ok()) << report.status();
   std::vector<Warning> found;
   if (!report.ok()) return found;
