@@ -58,6 +58,18 @@ absl::StatusOr<PipelineReport> RunStages(const Plan& plan, PointCloud& cloud,
   return std::move(runner.report());
 }
 
+// Each stage's time, and the job's, against the budgets the job set (0: none).
+void JudgeTimeBudgets(const PipelineOptions& options, PipelineReport& report) {
+  for (StageReport& stage : report.stages) {
+    auto it = options.stage_budget_seconds.find(stage.name);
+    if (it == options.stage_budget_seconds.end() || it->second <= 0) continue;
+    stage.budget_seconds = it->second;
+    stage.budget_met = stage.seconds <= it->second;
+  }
+  report.budget_seconds = options.budget_seconds;
+  report.budget_met = options.budget_seconds <= 0 || report.total_seconds <= options.budget_seconds;
+}
+
 }  // namespace
 
 absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOptions& options,
@@ -97,14 +109,7 @@ absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOpti
   report.warnings.insert(report.warnings.end(), before_stages.begin(), before_stages.end());
   report.total_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  for (StageReport& stage : report.stages) {
-    auto it = options.stage_budget_seconds.find(stage.name);
-    if (it == options.stage_budget_seconds.end() || it->second <= 0) continue;
-    stage.budget_seconds = it->second;
-    stage.budget_met = stage.seconds <= it->second;
-  }
-  report.budget_seconds = options.budget_seconds;
-  report.budget_met = options.budget_seconds <= 0 || report.total_seconds <= options.budget_seconds;
+  JudgeTimeBudgets(options, report);
   return report;
 }
 

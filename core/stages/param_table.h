@@ -75,24 +75,16 @@ class ParamTable {
   // does not bind: a programming error, caught by any test that runs the caller.
   template <typename T>
   const std::string& Name(T Settings::*field) const {
-    static const Settings probe{};
-    for (const Param<Settings>& p : params_) {
-      if (p.field(probe) == &(probe.*field)) return p.spec.name;
-    }
-    std::abort();
+    return LineOf(field).spec.name;
   }
 
   // The override that sets `field` to `value`, as a preset or a request would write it.
   template <typename T>
   std::pair<const std::string, std::string> Override(T Settings::*field, T value) const {
-    const std::string& name = Name(field);
-    for (const Param<Settings>& p : params_) {
-      if (p.spec.name != name) continue;
-      if (p.spec.kind == ParamKind::kChoice)
-        return {name, p.spec.choices[static_cast<size_t>(value)]};
-      return {name, FormatNumber(static_cast<double>(value))};
-    }
-    std::abort();
+    const ParamSpec& spec = LineOf(field).spec;
+    if (spec.kind == ParamKind::kChoice)
+      return {spec.name, spec.choices[static_cast<size_t>(value)]};
+    return {spec.name, FormatNumber(static_cast<double>(value))};
   }
 
   // The settings of a job with these (validated) overrides; records nothing, so planning can
@@ -122,6 +114,16 @@ class ParamTable {
   }
 
  private:
+  // The line that binds `field`; aborts for one the table does not bind (see Name).
+  template <typename T>
+  const Param<Settings>& LineOf(T Settings::*field) const {
+    static const Settings probe{};
+    for (const Param<Settings>& p : params_) {
+      if (p.field(probe) == &(probe.*field)) return p;
+    }
+    std::abort();
+  }
+
   static size_t ChoiceIndex(const ParamSpec& spec, const ParamOverrides& overrides) {
     const auto it = overrides.find(spec.name);
     if (it == overrides.end()) return 0;

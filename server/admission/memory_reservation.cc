@@ -72,16 +72,16 @@ absl::StatusOr<MemoryCapacity> AutoMemoryCapacity(std::optional<uint64_t> contai
   // cgroup v1 writes "no limit" as a huge page-aligned number; any limit not below the RAM is
   // no limit either.
   if (container_limit.has_value() && (mem_total == 0 || *container_limit < mem_total)) {
-    if (*container_limit <= kServerReserveBytes) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          "the container's memory limit of ", FormatMiB(*container_limit),
-          " leaves nothing for jobs after the server's own ", FormatMiB(kServerReserveBytes),
-          "; raise the limit or set --memory_capacity"));
+    if (*container_limit <= kServerOwnBytes) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("the container's memory limit of ", FormatMiB(*container_limit),
+                       " leaves nothing for jobs after the server's own ",
+                       FormatMiB(kServerOwnBytes), "; raise the limit or set --memory_capacity"));
     }
     return MemoryCapacity{
-        .bytes = *container_limit - kServerReserveBytes,
+        .bytes = *container_limit - kServerOwnBytes,
         .source = absl::StrCat("the container's memory limit ", FormatMiB(*container_limit),
-                               " minus ", FormatMiB(kServerReserveBytes), " for the server")};
+                               " minus ", FormatMiB(kServerOwnBytes), " for the server")};
   }
   if (mem_total == 0) {
     return absl::FailedPreconditionError(

@@ -50,7 +50,7 @@ inline constexpr int kDefaultNeighbours = static_cast<int>(kDefaultNeighbourK);
 inline constexpr uint64_t kJobOverheadBytes = uint64_t{16} << 20;
 // The server's own memory outside any job: the idle process (19.6 MiB), gRPC's buffers of the
 // queued calls' headers (4 MiB each at most) and the metrics endpoint.
-inline constexpr uint64_t kServerReserveBytes = uint64_t{128} << 20;
+inline constexpr uint64_t kServerOwnBytes = uint64_t{128} << 20;
 // Without a container limit, the share of the machine's RAM the jobs may take.
 inline constexpr double kShareOfRam = 0.5;
 
@@ -66,7 +66,7 @@ inline constexpr double kShareOfRam = 0.5;
 // (MemoryGuardHoldsAJobToItsReservation, a 1 M-point job reserving 17.8 MB that needs about
 // 150): the server peaked 45-49 MB above idle, 28-31 MB over the reservation, six runs on two
 // cores shared with compilers, 2026-11-26 (at a trip of half the margin, the largest step after
-// the crossing was 33 MiB); without the guard 149-156 MB. With the 128 MiB kServerReserveBytes over
+// the crossing was 33 MiB); without the guard 149-156 MB. With the 128 MiB kServerOwnBytes over
 // the capacity, the margin and the idle server (20 MiB) fit under the container's limit.
 inline constexpr uint64_t kMemoryGuardMarginBytes = uint64_t{64} << 20;
 inline constexpr uint64_t kMemoryGuardTripBytes = kMemoryGuardMarginBytes / 4;
@@ -93,7 +93,7 @@ struct MemoryCapacity {
   std::string source;  // how it was derived, for the startup log
 };
 
-// The automatic capacity: the container's memory limit minus kServerReserveBytes, or without one
+// The automatic capacity: the container's memory limit minus kServerOwnBytes, or without one
 // (absent, "max", or not below MemTotal) kShareOfRam of `mem_total`. Fails when the limit leaves
 // nothing after the reserve.
 absl::StatusOr<MemoryCapacity> AutoMemoryCapacity(std::optional<uint64_t> container_limit,

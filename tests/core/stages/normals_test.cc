@@ -7,11 +7,9 @@
 #include <gtest/gtest.h>
 
 #include "core/io/ply.h"
-#include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
-#include "core/stages/normals.h"
+#include "tests/support/normals_call.h"
 #include "tests/support/sim_checks.h"
-#include "tests/support/stage_call.h"
 #include "tests/support/test_data.h"
 
 namespace scanprep::testing {
