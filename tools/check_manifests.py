@@ -64,7 +64,7 @@ def reservation_constant(name):
 
 BYTES_PER_POINT = reservation_constant("kBytesPerPoint")
 JOB_OVERHEAD = reservation_constant("kJobOverheadBytes")
-SERVER_RESERVE = reservation_constant("kServerReserveBytes")
+SERVER_RESERVE = reservation_constant("kServerOwnBytes")
 
 # --- schemas ---------------------------------------------------------------------------------
 # A schema is a type (str, int, bool, float), "any", a list [schema] or a dict of keys, where a

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // Stages run outside RunPipeline, as a job plans them (prerequisites first, each once), for tests
-// that look at what the steps built (measures, neighbourhoods) or at a step's inputs.
+// that look at what the stages built (measures, neighbourhoods) or call a stage function with them.
 #pragma once
 
 #include <memory>
@@ -29,9 +29,9 @@ class PlannedStages {
 
   // Runs the rest of the plan (PipelineRunner::Run).
   absl::Status Run() { return plan_.ok() ? runner_->Run() : plan_.status(); }
-  // Runs the plan up to and including `step` (PipelineRunner::RunThrough).
-  absl::Status RunThrough(std::string_view step) {
-    return plan_.ok() ? runner_->RunThrough(step) : plan_.status();
+  // Runs the plan up to and including `stage` (PipelineRunner::RunThrough).
+  absl::Status RunThrough(std::string_view stage) {
+    return plan_.ok() ? runner_->RunThrough(stage) : plan_.status();
   }
 
   // Runs the plan's stages before `stage` (none when it is the first).
