@@ -203,11 +203,13 @@ bool Neighbourhoods::Encode(size_t i, const uint32_t* idx) {
   return true;
 }
 
-void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
+bool Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
                             uint8_t skip, size_t cap) const {
   out.clear();
   if (cap == 0) cap = max_ball_points();
-  if (k_ > 0 && !moved_ && radius <= dk(i) && cap > k_) {  // at most k + 1 points: not capped
+  const bool stand_in = k_ > 0 && cap == max_ball_points() && radius >= kStandInRadiusPerDk * dk(i);
+  if (k_ > 0 && ((!moved_ && radius <= dk(i) && cap > k_) || stand_in)) {
+    // At most k + 1 points: not capped, unless the list stands in for a far fuller ball.
     auto skipped = [&](size_t j) { return (cloud.flags[j] & skip) != 0; };
     if (!skipped(i)) out.emplace_back(static_cast<uint32_t>(i), 0.f);
     for (const uint32_t j : knn(i)) {
@@ -215,15 +217,18 @@ void Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius, Rad
       if (!(d2 < radius * radius)) break;  // the list is nearest first
       if (!skipped(j)) out.emplace_back(j, d2);
     }
-    return;
+    if (!stand_in) return true;
+    capped_balls_.fetch_add(1, std::memory_order_relaxed);
+    return false;
   }
   const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
   const size_t left_out = grid_.Ball(
       q, {.limit_sq = radius * radius, .count = cap, .flags = cloud.flags.data(), .skip = skip},
       radius, out);
-  if (left_out == 0) return;
+  if (left_out == 0) return true;
   capped_balls_.fetch_add(1, std::memory_order_relaxed);
   capped_points_.fetch_add(left_out, std::memory_order_relaxed);
+  return false;
 }
 
 }  // namespace scanprep

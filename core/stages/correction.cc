@@ -104,8 +104,7 @@ absl::Status TouchBallsThatLost(const PointCloud& cloud, const Neighbourhoods& n
     for (size_t at = begin; at < end; ++at) {
       const uint32_t j = order[at];
       if (!gone[j]) continue;
-      nb.Within(cloud, j, reach, matches);
-      if (matches.size() >= nb.max_ball_points()) capped.store(true, std::memory_order_relaxed);
+      if (!nb.Within(cloud, j, reach, matches)) capped.store(true, std::memory_order_relaxed);
       for (const auto& [i, d2] : matches) {
         const float r = radius[cloud.scan[i]];
         if (d2 < r * r) std::atomic_ref<uint8_t>(touched[i]).store(1, std::memory_order_relaxed);

@@ -42,6 +42,8 @@ bool RegisterHostileCases() {
       {"far_point_1e8", FarPoint1e8Cloud},
       {"coincident_10pct", Coincident10PctCloud},
       {"coincident_50pct", Coincident50PctCloud},
+      {"dense_spot_25pct", DenseSpot25PctCloud},
+      {"dense_spot_50pct", DenseSpot50PctCloud},
       {"line", LineCloud},
       {"plane", PlaneCloud},
       {"metre_data_as_mm", MetreDataAsMmCloud},

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <random>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -56,6 +57,29 @@ PointCloud Coincident(size_t points, size_t every) {
   return cloud;
 }
 
+// A glint: every `every`-th point moved to a uniform random spot in a ball of radius u/2 around
+// its scan's first point (seeded), so one spot holds that share of the points, spread between the
+// duplicate collapse's u/100 and u, where every ball around it is full.
+PointCloud DenseSpot(size_t points, size_t every) {
+  PointCloud cloud = ReferenceCloud(points);
+  std::map<uint32_t, size_t> first;  // scan → its first point
+  for (size_t i = 0; i < cloud.size(); ++i) first.try_emplace(cloud.scan[i], i);
+  std::mt19937 random(20261128);
+  std::uniform_real_distribution<float> unit(-1.f, 1.f);
+  for (size_t i = 1; i < cloud.size(); i += every) {
+    const size_t to = first[cloud.scan[i]];
+    const float half_u = static_cast<float>(cloud.scans[cloud.scan[i]].uncertainty / 2);
+    float d[3];
+    do {
+      for (float& v : d) v = unit(random);
+    } while (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 1.f);
+    cloud.x[i] = cloud.x[to] + half_u * d[0];
+    cloud.y[i] = cloud.y[to] + half_u * d[1];
+    cloud.z[i] = cloud.z[to] + half_u * d[2];
+  }
+  return cloud;
+}
+
 // Points and every length of the scan metadata times `factor`: the same scanner in another unit.
 PointCloud Scaled(size_t points, double factor) {
   PointCloud cloud = ReferenceCloud(points);
@@ -77,6 +101,8 @@ PointCloud MakeFarPoint1e6(size_t points) { return FarPoint(points, 1e6f); }
 PointCloud MakeFarPoint1e8(size_t points) { return FarPoint(points, 1e8f); }
 PointCloud MakeCoincident10Pct(size_t points) { return Coincident(points, 10); }
 PointCloud MakeCoincident50Pct(size_t points) { return Coincident(points, 2); }
+PointCloud MakeDenseSpot25Pct(size_t points) { return DenseSpot(points, 4); }
+PointCloud MakeDenseSpot50Pct(size_t points) { return DenseSpot(points, 2); }
 PointCloud MakeMetreDataAsMm(size_t points) { return Scaled(points, 1e-3); }
 PointCloud MakeMmDataAsMetres(size_t points) { return Scaled(points, 1e3); }
 
@@ -162,6 +188,8 @@ const PointCloud& Coincident10PctCloud(size_t points) {
 const PointCloud& Coincident50PctCloud(size_t points) {
   return Cached(MakeCoincident50Pct, points);
 }
+const PointCloud& DenseSpot25PctCloud(size_t points) { return Cached(MakeDenseSpot25Pct, points); }
+const PointCloud& DenseSpot50PctCloud(size_t points) { return Cached(MakeDenseSpot50Pct, points); }
 const PointCloud& LineCloud(size_t points) { return Cached(MakeLine, points); }
 const PointCloud& PlaneCloud(size_t points) { return Cached(MakePlane, points); }
 const PointCloud& MetreDataAsMmCloud(size_t points) { return Cached(MakeMetreDataAsMm, points); }

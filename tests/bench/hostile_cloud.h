@@ -17,6 +17,10 @@ const PointCloud& FarPoint1e8Cloud(size_t points);
 // 50 % of the points.
 const PointCloud& Coincident10PctCloud(size_t points);
 const PointCloud& Coincident50PctCloud(size_t points);
+// A glint: every 4th / every 2nd point moved to a seeded uniform spot within u/2 of its scan's
+// first point, 25 % / 50 % of the points in one ball (docs/hostile-inputs.md, issue 38).
+const PointCloud& DenseSpot25PctCloud(size_t points);
+const PointCloud& DenseSpot50PctCloud(size_t points);
 // Every point on the x axis, the first scan's point spacing apart, in array order.
 const PointCloud& LineCloud(size_t points);
 // The generator's plane part, scanned by its two overlapping sensors.

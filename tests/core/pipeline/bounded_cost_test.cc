@@ -7,6 +7,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <oneapi/tbb/task_arena.h>
 
 #include "core/pipeline/pipeline.h"
 #include "core/spatial/neighbourhoods.h"
@@ -111,7 +112,7 @@ TEST(BoundedCost, CoincidentPointsAreCollapsedAndExpanded) {
 
 // A blob of 2,000 points within 0.02 mm (far denser than the surface, yet coarser than the
 // scan's resolution cubes of u/100, which would make it one measurement: duplicates.h) inside
-// the r_min balls of its neighbours: every such ball keeps its nearest 32·k points; the control
+// the r_min balls of its neighbours: every such ball keeps its nearest 4·k points; the control
 // without the blob caps none.
 TEST(BoundedCost, BallsInADenseClusterKeepTheirNearest) {
   for (const bool blob : {false, true}) {
@@ -137,6 +138,69 @@ TEST(BoundedCost, BallsInADenseClusterKeepTheirNearest) {
       EXPECT_GT(stage.parameters.at(stage.name + ".ball_points_left_out"), 0) << stage.name;
     }
     EXPECT_EQ(report->warnings.empty(), !blob);
+  }
+}
+
+// Candidates the default pipeline's index queries read per point of `cloud`, counted on one
+// thread (a one-thread arena runs every parallel loop on the caller, whose counter sums them).
+double CandidatesPerPoint(PointCloud cloud) {
+  cloud.FinishLoading();
+  const uint64_t before = candidates_examined_by_this_thread;
+  absl::StatusOr<PipelineReport> report;
+  tbb::task_arena(1).execute(
+      [&] { report = RunPipeline(cloud, PipelineOptions(), CancelToken()); });
+  EXPECT_TRUE(report.ok()) << report.status();
+  return double(candidates_examined_by_this_thread - before) / double(cloud.size());
+}
+
+// A glint: a fifth of the points of a 0.1 mm-pitch plane piled within u/2 of one spot, far
+// denser than the surface yet coarser than the duplicate collapse (u/100). Every ball around it
+// is full; a ball keeps its nearest max_ball_points() = 4·k, so the work a point does stays of the
+// order of its k-NN list: per point within 2.5× of the control, the same plane with those points
+// spread over more of it. At the former cap of 32·k the pile read 9× the control.
+TEST(BoundedCost, WorkPerPointIsFlatOnADenseSpot) {
+  constexpr int kSide = 120;
+  const int extra = kSide * kSide / 4;
+  PointCloud dense = Plane(kSide);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> unit(-1.f, 1.f);
+  for (int b = 0; b < extra;) {
+    const float d[3] = {unit(rng), unit(rng), unit(rng)};
+    if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 1.f) continue;
+    const float half_u = 0.005f;
+    AddPoint(dense, 6.f + half_u * d[0], 6.f + half_u * d[1], half_u * d[2]);
+    ++b;
+  }
+  PointCloud control = Plane(kSide + 1);  // about as many points, all on the surface
+  for (int r = 0; control.size() < dense.size(); ++r) {
+    for (int c = 0; c < kSide && control.size() < dense.size(); ++c) {
+      AddPoint(control, c * 0.1f, (kSide + 1 + r) * 0.1f, 0.f);
+      control.scanline.back() = kSide + 1 + r;
+    }
+  }
+  const double ordinary = CandidatesPerPoint(std::move(control));
+  const double glint = CandidatesPerPoint(std::move(dense));
+  std::printf("candidates per point: ordinary %.0f, dense spot %.0f (%.2fx)\n", ordinary, glint,
+              glint / ordinary);
+  EXPECT_LE(glint, 2.5 * ordinary);
+}
+
+// The same part sampled 4× and 16× as densely (pitch and stated scanline spacing shrunk alike):
+// the work per point stays flat, within 1.5× of the sparsest.
+TEST(BoundedCost, WorkPerPointIsFlatAsDensityGrows) {
+  double sparsest = 0;
+  for (const int factor : {1, 2, 4}) {
+    PointCloud cloud = Plane(60 * factor);
+    const float pitch = 0.1f / float(factor);
+    for (size_t i = 0; i < cloud.size(); ++i) {
+      cloud.x[i] /= float(factor);
+      cloud.y[i] /= float(factor);
+    }
+    cloud.scans[0].scanline_spacing = pitch;
+    const double per_point = CandidatesPerPoint(std::move(cloud));
+    std::printf("%dx density: %.0f candidates per point\n", factor * factor, per_point);
+    if (factor == 1) sparsest = per_point;
+    EXPECT_LE(per_point, 1.5 * sparsest) << factor * factor << "x the density";
   }
 }
 
