@@ -25,7 +25,7 @@ for line in open(os.path.join(out, "jobs.txt")):
     phases = report["phases"]
     points = int(report["points_received"])
     density = next((v for s in report.get("stages", []) for k, v in s.get("parameters", {}).items()
-                    if k.endswith(".density")), float("nan"))
+                    if k.endswith(".density_per_mm2")), float("nan"))
     print(f"| {points:,} | {threads} | {density:,.0f} | {phases['processing_seconds']:.1f} | "
           f"{phases['total_seconds']:.1f} | {(int(peak_kb) - int(idle_kb)) * 1024 / points:.0f} | "
           f"{int(report['points_returned']):,} |")

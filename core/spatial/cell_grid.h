@@ -61,7 +61,7 @@ class CellGrid {
   // the capped balls read 64-1,023 candidates and none more than 2,047; every uncapped ball and
   // k-NN query fewer than 256; a point off the surface (1 M points) reaches 8 cells (289
   // columns) for its k nearest. A ball in a cluster of thousands of points reads them all to
-  // keep its nearest 4·k: the kd-tree finds those reading a few hundred more.
+  // keep its nearest 32·k: the kd-tree finds those reading a few hundred more.
   static constexpr size_t kMaxColumns = 1024;
   static constexpr size_t kMinGridCandidates = 2048;
   // The candidates a query that wants `wanted` points (k, a ball's cap; 0 = all) may read from

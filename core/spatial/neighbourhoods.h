@@ -34,21 +34,23 @@ struct NeighbourhoodOptions {
 
 // The minimum radius is capped at this multiple of the global radius r_g.
 inline constexpr double kMaxRadiusPerGlobalRadius = 5.0;
-// A ball keeps at most this many times k points, the nearest: the work a point's fit does stays
-// of the order of its k-NN list at any density (issue 38). A fuller ball is a dense spot (a
-// glint, a cluster between the duplicate collapse's u/100 and u), a radius far off the data's
-// scale (a unit slip, an override) or a surface sampled far more densely than its fit needs:
-// its nearest 4·k stand for it. On the metrology bench (1 M points) every zone's RMS, P, R and
-// coverage are those of a 32·k cap to the third digit (docs/metrology.md), and a 25 % glint
-// costs 3× the ordinary job instead of 8.6× (docs/hostile-inputs.md).
-inline constexpr uint32_t kMaxBallPointsPerK = 4;
+// A ball keeps at most this many times k points, the nearest: on a surface a ball of
+// kMaxRadiusPerGlobalRadius·r_g holds about 25·k, and the per-scan widening of normals in an
+// overlap up to about twice that; beyond it lie only radii far off the data's scale (a unit slip,
+// an override) and clusters far denser than the rest. It bounds every stage at O(n·k) work.
+inline constexpr uint32_t kMaxBallPointsPerK = 32;
 
-// A ball of the default cap at least this many times d_k(i) wide is stood in for by i's k-NN
-// list (Neighbourhoods::Within): on a locally even surface it holds (4²)·k = 4·max_ball_points()
-// points or more, so it would be capped anyway, and the k nearest are the part of it a capped
-// ball keeps, found without a query. Ordinary balls stay below it: r_p = max(r_min, d_k) with
-// r_min ≤ 3·r_g, the merge radius ≤ 2·r_g.
-inline constexpr float kStandInRadiusPerDk = 4.f;
+// A ball of the default cap whose radius is at least this many times d_k(i) is stood in for by
+// i's k-NN list (Neighbourhoods::Within), without a query: on an even surface it would hold 64·k
+// points, twice the cap, so it would be capped anyway, and i sits in a spot far denser than the
+// radius the stage derived (from the scan's metadata or the cloud's r_g) was meant for: a glint,
+// a cluster between the duplicate collapse's u/100 and u. Its k nearest stand for the ball, and
+// the work of such a point stays of the order of its k-NN list at any local density (issue 38):
+// a 25 % glint costs 1.3× the ordinary job instead of 8.6× (docs/hostile-inputs.md). Ordinary
+// balls stay below it: every radius a stage derives is held to a few r_g, and d_k is about r_g
+// outside dense spots; on the metrology bench and on tools/hash-outputs.sh's ten jobs (the real
+// scans, the default, `paper`, LoOP with Mitra radii) no result changes.
+inline constexpr float kStandInRadiusPerDk = 8.f;
 
 // Where scans overlap, a ball of one scan's points is widened once so that it holds about k + 1
 // of them, as r_p = d_k would on that scan alone: by √((k+1)/own) for `own` found, at most 2×
@@ -148,10 +150,9 @@ class Neighbourhoods {
   // distance), at most `cap` of them (0: max_ball_points()): a fuller ball keeps its nearest
   // (ties to the lower index) and is counted in capped_balls(). Answers from the k-NN list when
   // the radius fits inside it and no point has moved since the build, else asks the grid.
-  // A ball of the default cap whose radius is kStandInRadiusPerDk·d_k(i) or more would hold at
-  // least (kStandInRadiusPerDk)²·k ≥ 4·cap points on a locally even surface (a dense spot, a
-  // radius off the data's scale): i's k-NN list stands for it, without a query (O(k) at any
-  // density), and it is counted as capped. `skip`: the removal flags that leave a point out
+  // A ball of the default cap whose radius is kStandInRadiusPerDk·d_k(i) or more (twice the cap on
+  // an even surface: a dense spot) is answered by i's k-NN list, without a query (O(k) at any
+  // density), and counted as capped. `skip`: the removal flags that leave a point out
   // (smoothing still fits to the points merging took out). Returns false when the ball was capped
   // or stood in for: it may miss points within `radius`.
   bool Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,

@@ -12,6 +12,7 @@
 
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
+#include "core/spatial/neighbourhoods.h"
 #include "core/stages/correction.h"
 #include "tests/support/kdtree.h"
 #include "tests/support/planned_stages.h"
@@ -186,7 +187,8 @@ TEST(Correction, WithoutQualityTheMergeSaysItDidNothing) {
 
 // The gather rule as docs/algorithms.md §10 states it, from scratch on kd-tree balls: every round
 // judges every unremoved point whose ball spanned two scans last time, on the labels of the
-// round before; a ball fuller than `cap` keeps its nearest (ties to the lower index).
+// round before; a ball fuller than `cap` keeps its nearest (ties to the lower index), and a ball
+// kStandInRadiusPerDk·d_k or wider is the point and its k nearest others (the k-NN list stands in).
 std::vector<uint8_t> ReferenceGather(const PointCloud& cloud, const std::vector<uint8_t>& flags,
                                      const std::vector<float>& quality,
                                      const std::vector<float>& radius, size_t cap) {
@@ -194,12 +196,22 @@ std::vector<uint8_t> ReferenceGather(const PointCloud& cloud, const std::vector<
   std::vector<uint8_t> gone(cloud.size(), 0), settled(cloud.size(), 0);
   for (size_t i = 0; i < cloud.size(); ++i) gone[i] = (flags[i] & kRemovedMask) != 0;
   RadiusMatches ball;
+  constexpr uint32_t kK = kDefaultNeighbourK;
+  std::vector<uint32_t> idx(kK + 1);
+  std::vector<float> d2(kK + 1);
   for (int round = 0; round < 10; ++round) {
     std::vector<uint8_t> next = gone;
     for (size_t i = 0; i < cloud.size(); ++i) {
       if (gone[i] || settled[i]) continue;
       const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-      tree.Radius(q, radius[cloud.scan[i]], ball);
+      const float r = radius[cloud.scan[i]];
+      tree.Knn(q, kK + 1, idx.data(), d2.data());  // i itself first, then its k nearest others
+      if (r >= kStandInRadiusPerDk * std::sqrt(d2[kK])) {
+        ball.clear();
+        for (uint32_t m = 0; m <= kK; ++m) ball.emplace_back(idx[m], d2[m]);
+      } else {
+        tree.Radius(q, r, ball);
+      }
       std::erase_if(ball, [&](const auto& m) { return gone[m.first] != 0; });
       std::sort(ball.begin(), ball.end(), [](const auto& a, const auto& b) {
         return a.second < b.second || (a.second == b.second && a.first < b.first);
