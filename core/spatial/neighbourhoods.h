@@ -133,7 +133,8 @@ class Neighbourhoods {
   // d_k(i): distance to the k-th nearest other point.
   float dk(size_t i) const { return k_ ? dk_[i] : 0.f; }
 
-  // r_g: median d_k over a seeded 1 % sample (at least min(n, 500) points).
+  // r_g: the median d_k over a seeded 1 % sample (at least min(n, 500) points), or half its
+  // upper quartile where that is larger (a dense spot holding up to half the points).
   double global_radius() const { return global_radius_; }
   // ρ_g = k / (π r_g²), points per mm² assuming a locally planar surface.
   double density() const { return density_; }
