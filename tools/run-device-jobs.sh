@@ -42,6 +42,9 @@ sizes=("$@")
 bundle=${BUNDLE:-.bundle}
 threads=${THREADS:-$(nproc)}
 run() { bash "$bundle/run" "$@"; }
+# The bundle's launcher execs the server, so $! is the server's pid.
+server_cmd=(bash "$bundle/run" scanprep-server)
+source tools/lib/local-server.sh
 status_kb() {
   local key value _
   while read -r key value _; do
@@ -56,17 +59,8 @@ mkdir -p "$out"
 for n in "${sizes[@]}"; do
   echo "simulating $n points" >&2
   run scanprep simulate --points "$n" --scans 2 --seed 7 -o "$work/sim.ply" >/dev/null
-  # Started directly, not through run(): the bundle's launcher execs the server, so $! is its pid.
-  bash "$bundle/run" scanprep-server --plaintext --listen=127.0.0.1:0 --metrics_listen= --threads "$threads" \
-    --max_points_per_job=$((n + n / 10)) >"$work/server.log" 2>&1 &
-  server_pid=$!
-  port=
-  for _ in $(seq 300); do
-    port=$(sed -n 's/.*listening on port \([0-9]*\).*/\1/p' "$work/server.log")
-    [[ -n $port ]] && break
-    sleep 0.1
-  done
-  [[ -n $port ]] || { cat "$work/server.log" >&2; exit 1; }
+  start_local_server "$work/server.log" --metrics_listen= --threads "$threads" \
+    --max_points_per_job=$((n + n / 10))
   sleep 1
   idle_kb=$(status_kb "$server_pid" VmRSS)
   start_ms=$(($(date +%s%N) / 1000000))
@@ -76,8 +70,7 @@ for n in "${sizes[@]}"; do
   ms=$(($(date +%s%N) / 1000000 - start_ms))
   seconds=$((ms / 1000)).$(printf '%03d' $((ms % 1000)))
   peak_kb=$(status_kb "$server_pid" VmHWM)
-  kill -TERM "$server_pid"
-  wait "$server_pid" || true
+  stop_local_server || true
   server_pid=
   echo "$n $threads $seconds $peak_kb $idle_kb" | tee -a "$out/jobs.txt" >&2
   rm -f "$work"/sim* "$work/out.ply"

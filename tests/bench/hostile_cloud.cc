@@ -37,6 +37,13 @@ void AppendPoint(const PointCloud& from, size_t i, uint32_t scan, PointCloud& to
   to.flags.push_back(from.flags[i]);
 }
 
+// Scan index → the index of its first point.
+std::map<uint32_t, size_t> FirstPointOfEachScan(const PointCloud& cloud) {
+  std::map<uint32_t, size_t> first;
+  for (size_t i = 0; i < cloud.size(); ++i) first.try_emplace(cloud.scan[i], i);
+  return first;
+}
+
 PointCloud FarPoint(size_t points, float x) {
   PointCloud cloud = ReferenceCloud(points);
   AppendPoint(cloud, 0, cloud.scan[0], cloud);
@@ -46,10 +53,9 @@ PointCloud FarPoint(size_t points, float x) {
 
 PointCloud Coincident(size_t points, size_t every) {
   PointCloud cloud = ReferenceCloud(points);
-  std::map<uint32_t, size_t> first;  // scan → its first point
-  for (size_t i = 0; i < cloud.size(); ++i) first.try_emplace(cloud.scan[i], i);
+  const std::map<uint32_t, size_t> first = FirstPointOfEachScan(cloud);
   for (size_t i = 0; i < cloud.size(); i += every) {
-    const size_t to = first[cloud.scan[i]];
+    const size_t to = first.at(cloud.scan[i]);
     cloud.x[i] = cloud.x[to];
     cloud.y[i] = cloud.y[to];
     cloud.z[i] = cloud.z[to];
@@ -62,12 +68,11 @@ PointCloud Coincident(size_t points, size_t every) {
 // duplicate collapse's u/100 and u, where every ball around it is full.
 PointCloud DenseSpot(size_t points, size_t every) {
   PointCloud cloud = ReferenceCloud(points);
-  std::map<uint32_t, size_t> first;  // scan → its first point
-  for (size_t i = 0; i < cloud.size(); ++i) first.try_emplace(cloud.scan[i], i);
+  const std::map<uint32_t, size_t> first = FirstPointOfEachScan(cloud);
   std::mt19937 random(20261128);
   std::uniform_real_distribution<float> unit(-1.f, 1.f);
   for (size_t i = 1; i < cloud.size(); i += every) {
-    const size_t to = first[cloud.scan[i]];
+    const size_t to = first.at(cloud.scan[i]);
     const float half_u = static_cast<float>(cloud.scans[cloud.scan[i]].uncertainty / 2);
     float d[3];
     do {
