@@ -219,7 +219,10 @@ bool Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius, Rad
                             uint8_t skip, size_t cap) const {
   out.clear();
   if (cap == 0) cap = max_ball_points();
-  const bool stand_in = k_ > 0 && cap == max_ball_points() && radius >= kStandInRadiusPerDk * dk(i);
+  // Twice the cap on an even surface: r ≥ kStandInRadiusPerDk·d_k·√(cap / max_ball_points()).
+  const float per_dk = kStandInRadiusPerDk * dk(i);
+  const bool stand_in =
+      k_ > 0 && double(radius) * radius * max_ball_points() >= double(per_dk) * per_dk * cap;
   if (k_ > 0 && ((!moved_ && radius <= dk(i) && cap > k_) || stand_in)) {
     // At most k + 1 points: not capped, unless the list stands in for a far fuller ball.
     auto skipped = [&](size_t j) { return (cloud.flags[j] & skip) != 0; };

@@ -42,10 +42,11 @@ inline constexpr uint32_t kMaxBallPointsPerK = 32;
 
 // A ball of the default cap whose radius is at least this many times d_k(i) is stood in for by
 // i's k-NN list (Neighbourhoods::Within), without a query: on an even surface it would hold 64·k
-// points, twice the cap, so it would be capped anyway, and i sits in a spot far denser than the
-// radius the stage derived (from the scan's metadata or the cloud's r_g) was meant for: a glint,
-// a cluster between the duplicate collapse's u/100 and u. Its k nearest stand for the ball, and
-// the work of such a point stays of the order of its k-NN list at any local density (issue 38):
+// points, twice the cap, so it would be capped anyway (a larger cap c, simplification's for a wide
+// r_s, moves the radius out by √(c / 32·k), to twice that cap), and i sits in a spot far denser
+// than the radius the stage derived (from the scan's metadata or the cloud's r_g) was meant for: a
+// glint, a cluster between the duplicate collapse's u/100 and u. Its k nearest stand for the ball,
+// and the work of such a point stays of the order of its k-NN list at any local density (issue 38):
 // a 25 % glint costs 1.3× the ordinary job instead of 8.6× (docs/hostile-inputs.md). Ordinary
 // balls stay below it: every radius a stage derives is held to a few r_g, and d_k is about r_g
 // outside dense spots; on the metrology bench and on tools/hash-outputs.sh's ten jobs (the real
@@ -151,9 +152,9 @@ class Neighbourhoods {
   // distance), at most `cap` of them (0: max_ball_points()): a fuller ball keeps its nearest
   // (ties to the lower index) and is counted in capped_balls(). Answers from the k-NN list when
   // the radius fits inside it and no point has moved since the build, else asks the grid.
-  // A ball of the default cap whose radius is kStandInRadiusPerDk·d_k(i) or more (twice the cap on
-  // an even surface: a dense spot) is answered by i's k-NN list, without a query (O(k) at any
-  // density), and counted as capped. `skip`: the removal flags that leave a point out
+  // A ball whose radius would hold twice `cap` on an even surface (kStandInRadiusPerDk·d_k(i) or
+  // more at the default cap: a dense spot) is answered by i's k-NN list, without a query (O(k) at
+  // any density), and counted as capped. `skip`: the removal flags that leave a point out
   // (smoothing still fits to the points merging took out). Returns false when the ball was capped
   // or stood in for: it may miss points within `radius`.
   bool Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,

@@ -48,7 +48,9 @@ class Thinner {
   // A centre thins at most its nearest BallCap() points: eight times what a ball of r_s holds on
   // a surface of the cloud's global density, at least the stages' max_ball_points(). Only a
   // cluster far denser than the cloud fills it (r_s is held to 10·r_g), where every point still
-  // lies in the balls of a bounded number of centres.
+  // lies in the balls of a bounded number of centres; a centre inside such a cluster thins its
+  // k-NN list instead (Neighbourhoods::Within's stand-in, scaled to this cap), so its visit
+  // never reads the cluster's removed points again.
   size_t BallCap() const {
     return std::max<size_t>(nb_.max_ball_points(),
                             static_cast<size_t>(std::min(8 * ExpectedBallSize(), 1e9)));
@@ -144,8 +146,8 @@ absl::StatusOr<std::vector<uint32_t>> VisitOrder(const PointCloud& cloud, const 
 // another's points: little gathered work is wasted, and Apply makes the result identical to one
 // query per visit. A batch holds about 2^18 gathered points (2 MiB) on the cloud's global
 // density, so a large r_s means fewer centres a batch rather than more memory (and fewer centres
-// a batch-mate removes). A ball far fuller than that density says, or full (a cluster of
-// near-identical points: thousands in every one of its centres' balls), is not kept but queried
+// a batch-mate removes). A ball far fuller than that density says, or full (beside a cluster of
+// near-identical points: thousands in the ball of every centre near it), is not kept but queried
 // again when its turn comes, so the batch holds at most four times its share wherever the points
 // are and a full ball is always a fresh one.
 absl::Status RunSequential(const PointCloud& cloud, Thinner& thinner,

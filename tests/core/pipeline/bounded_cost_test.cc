@@ -143,12 +143,12 @@ TEST(BoundedCost, BallsInADenseClusterKeepTheirNearest) {
 
 // Candidates the default pipeline's index queries read per point of `cloud`, counted on one
 // thread (a one-thread arena runs every parallel loop on the caller, whose counter sums them).
-double CandidatesPerPoint(PointCloud cloud) {
+double CandidatesPerPoint(PointCloud cloud, ParamOverrides params = {}) {
   cloud.FinishLoading();
   const uint64_t before = candidates_examined_by_this_thread;
   absl::StatusOr<PipelineReport> report;
   tbb::task_arena(1).execute(
-      [&] { report = RunPipeline(cloud, PipelineOptions(), CancelToken()); });
+      [&] { report = RunPipeline(cloud, {.params = std::move(params)}, CancelToken()); });
   EXPECT_TRUE(report.ok()) << report.status();
   return double(candidates_examined_by_this_thread - before) / double(cloud.size());
 }
@@ -159,7 +159,10 @@ double CandidatesPerPoint(PointCloud cloud) {
 // grid's cells stay sized for the surface (a median d_k would be the spot's at half the points):
 // the work a point does stays of the order of its k-NN list, per point within 1.5× of the
 // control, the same plane with those points spread over more of it. Without the stand-in the
-// fifth reads 8× the control; with cells sized by the median d_k, the half 3×.
+// fifth reads 8× the control; with cells sized by the median d_k, the half 3×. Again at r_s =
+// 1 mm, where simplification's cap is 8x a ball of r_s (2,500, not 640) and the stand-in's
+// radius grows with it: with the stand-in for the default cap only, every centre near the spot
+// read its removed points again (3.3× and 6.8×).
 TEST(BoundedCost, WorkPerPointIsFlatOnADenseSpot) {
   constexpr int kSide = 120;
   for (const int piled : {kSide * kSide / 4, kSide * kSide}) {
@@ -180,11 +183,17 @@ TEST(BoundedCost, WorkPerPointIsFlatOnADenseSpot) {
         control.scanline.back() = kSide + 1 + r;
       }
     }
-    const double ordinary = CandidatesPerPoint(std::move(control));
-    const double glint = CandidatesPerPoint(std::move(dense));
+    const double ordinary = CandidatesPerPoint(control);
+    const double glint = CandidatesPerPoint(dense);
     std::printf("%d piled: candidates per point: ordinary %.0f, dense spot %.0f (%.2fx)\n", piled,
                 ordinary, glint, glint / ordinary);
     EXPECT_LE(glint, 1.5 * ordinary) << piled << " piled";
+    const ParamOverrides wide = {{"simplification.spacing_mm", "1"}};
+    const double wide_ordinary = CandidatesPerPoint(std::move(control), wide);
+    const double wide_glint = CandidatesPerPoint(std::move(dense), wide);
+    std::printf("%d piled, r_s 1 mm: ordinary %.0f, dense spot %.0f (%.2fx)\n", piled,
+                wide_ordinary, wide_glint, wide_glint / wide_ordinary);
+    EXPECT_LE(wide_glint, 1.5 * wide_ordinary) << piled << " piled, r_s 1 mm";
   }
 }
 

@@ -116,19 +116,19 @@ long PipelinePeak(PointCloud cloud, ParamOverrides params = {}) {
 TEST(MemoryPeak, HostileCloudsPeakWithinTwoAndAHalfTimesTheOrdinary) {
   constexpr size_t kPoints = 50'000;
   const long ordinary = PipelinePeak(testing::DrawHostileMix(kPoints, 1, {.none = true}).cloud);
-  // The control, every run: a fixed draw (seed 2: three clusters of 10 k points and nothing
-  // else) spread 5 µm wide, fifty times the cubes the duplicates pass joins (u/100), so their
-  // points stay apart. At the default r_s their balls are their k-NN lists (a dense spot's
-  // stand-in); at r_s = 3 mm simplification caps them at 8x a ball of the global density
-  // instead, so every one is full. Clusters alone stay within 1.6x (1.19x, and 0.93x at 3 mm;
-  // 3.44x at 3 mm with full balls kept in the batch). The other draws afresh, any mix, within 2.5x.
+  // The controls, every run: two fixed draws. Seed 2, three clusters of 10 k points and nothing
+  // else, spread 5 µm wide, fifty times the cubes the duplicates pass joins (u/100), so their
+  // points stay apart (their balls are their k-NN lists, a dense spot's stand-in): within 1.6x
+  // (1.19x). Seed 1203272827, a far part of 11.7 %, two clusters and a line, whose simplification
+  // balls are full (14 k capped, 28 k points left out): within 2.5x (1.1x; 5.9x with full balls
+  // kept in the batch). The other draws afresh, any mix, within 2.5x.
   const uint64_t seed = std::random_device()();
   for (uint64_t draw = 0; draw < 4; ++draw) {
     const bool control = draw == 0;
-    const testing::HostileMix mix =
-        testing::DrawHostileMix(kPoints, control ? 2 : seed + draw,
-                                {.clusters = control, .cluster_spread = control ? 5e-3 : 0});
-    SCOPED_TRACE(mix.description + "seed " + std::to_string(control ? 2 : seed + draw));
+    const uint64_t drawn = control ? 2 : draw == 1 ? 1203272827 : seed + draw;
+    const testing::HostileMix mix = testing::DrawHostileMix(
+        kPoints, drawn, {.clusters = control, .cluster_spread = control ? 5e-3 : 0});
+    SCOPED_TRACE(mix.description + "seed " + std::to_string(drawn));
     const long peak = PipelinePeak(mix.cloud);
     std::printf("%.2fx the ordinary peak: %s\n", double(peak) / ordinary, mix.description.c_str());
     EXPECT_LE(peak, control ? 8 * ordinary / 5 : 5 * ordinary / 2) << "ordinary " << ordinary;
@@ -137,13 +137,6 @@ TEST(MemoryPeak, HostileCloudsPeakWithinTwoAndAHalfTimesTheOrdinary) {
     const long tiled = PipelinePeak(mix.cloud, {{"simplification.order", "tiled"}});
     std::printf("%.2fx the ordinary peak, tiled simplification\n", double(tiled) / ordinary);
     EXPECT_LE(tiled, 8 * ordinary / 5) << "tiled; ordinary " << ordinary;
-    // Full balls: a wide r_s, against the ordinary sheet at the same r_s.
-    const ParamOverrides wide = {{"simplification.spacing_mm", "3"}};
-    const long wide_ordinary =
-        PipelinePeak(testing::DrawHostileMix(kPoints, 1, {.none = true}).cloud, wide);
-    const long full = PipelinePeak(mix.cloud, wide);
-    std::printf("%.2fx the ordinary peak at r_s 3 mm, full balls\n", double(full) / wide_ordinary);
-    EXPECT_LE(full, 8 * wide_ordinary / 5) << "r_s 3 mm; ordinary " << wide_ordinary;
   }
 }
 
