@@ -6,7 +6,10 @@
 # with one thing wrong (tools/lib/hostile_cases.py): far points at 1e6 and 1e8 mm, 10 % and 50 %
 # coincident points, all points on one line, one plane, metre data sent as mm and mm data sent as
 # metres, a no-pose unorganized scene (a floor and separated spheres, no camera, no scanlines),
-# 1,000 scans of one point (alone, and the ordinary cloud in 1,000 scans); DRAWN cases (default
+# 1,000 scans of one point (alone, and the ordinary cloud in 1,000 scans); issue 38's dense spots
+# (a quarter and a half of the points in a 0.05 mm ball, a quarter jittered within 0.002, 0.01 and
+# 0.05 mm, every point at log-uniform radii 1e-3-1e4 mm, one scan in inches or metres sent as mm
+# without its u) and every costly parameter at its edge together; DRAWN cases (default
 # 200) drawn from SEED (default random, printed) by tools/lib/hostile_cases.py: far parts in a
 # random direction at 1e3-1e9 mm holding 0.5-30 % of the points, clusters of 1-50 k
 # near-identical points within 0-1e-3 mm, lines at 1e-4 mm, offsets of the whole job up to

@@ -158,6 +158,87 @@ class Cases:
         self.emit(f"ordinary_in_{scans}_scans", {**ordinary, **extra}, ordinary_job)
 
 
+    def dense_spots(self):
+        """Issue 38's dense spots: the work of a ball grows with the points in it, so these cost
+        what a scanner 16x denser would. Deterministic (seeded per case)."""
+        first = self.job["scans"][0]["scan_id"]
+
+        def centre():
+            names, _, rows = self.scans[first]
+            return [rows[0][names.index(a)] for a in "xyz"]
+
+        def in_ball(rng, radius):
+            while True:
+                d = [rng.uniform(-1, 1) for _ in range(3)]
+                if sum(a * a for a in d) <= 1:
+                    return [radius * a for a in d]
+
+        # A glint: every 4th / 2nd point moved into a uniform ball of radius 0.05 mm, between the
+        # duplicate collapse's cubes (u/100) and u.
+        for percent in (25, 50):
+            rng = random.Random(percent)
+            at = centre()
+
+            def glint(rows, names):
+                xyz = [names.index(a) for a in "xyz"]
+                for k in range(0, len(rows), 100 // percent):
+                    for axis, d in zip(xyz, in_ball(rng, 0.05)):
+                        rows[k][axis] = at[xyz.index(axis)] + d
+            self.emit(f"dense_ball_{percent}pct_0.05mm", self.mapped(glint), self.job)
+        # A cluster: a quarter of the points (a contiguous stretch of each scan) jittered within
+        # ±spread of the stretch's middle point.
+        for spread in (0.002, 0.01, 0.05):
+            rng = random.Random(int(spread * 1e4))
+
+            def cluster(rows, names):
+                xyz = [names.index(a) for a in "xyz"]
+                start, end = len(rows) // 3, len(rows) // 3 + len(rows) // 4
+                at = [rows[(start + end) // 2][a] for a in xyz]
+                for row in rows[start:end]:
+                    for axis, a in enumerate(xyz):
+                        row[a] = at[axis] + rng.uniform(-spread, spread)
+            self.emit(f"cluster_25pct_within_{spread}mm", self.mapped(cluster), self.job)
+        # Every point at a log-uniform distance 1e-3-1e4 mm from the first, in a random
+        # direction: a density spanning fourteen decades (1e4 mm: within what float resolves to
+        # u/4 at the ordinary job's u = 0.03 mm; farther is refused, as it must be).
+        rng = random.Random(38)
+        at = centre()
+
+        def log_radii(rows, names):
+            xyz = [names.index(a) for a in "xyz"]
+            for row in rows:
+                d = [rng.gauss(0, 1) for _ in range(3)]
+                norm = math.sqrt(sum(a * a for a in d)) or 1.0
+                r = 10 ** rng.uniform(-3, 4)
+                for axis, a in enumerate(xyz):
+                    row[a] = at[axis] + r * d[axis] / norm
+        self.emit("log_radii_1e-3_to_1e4mm", self.mapped(log_radii), self.job)
+        # One of the two scans written in inches (or metres) but sent as mm, its job entry in
+        # the same unit and without an uncertainty: that scan is 25.4x (1000x) denser.
+        for unit, factor in (("inches", 1 / 25.4), ("metres", 1e-3)):
+            second = self.job["scans"][1]["scan_id"]
+            scans = dict(self.scans)
+            names, fmt, rows = scans[second]
+            xyz = [names.index(a) for a in "xyz"]
+            scans[second] = (names, fmt, [[v * factor if i in xyz else v for i, v in enumerate(r)]
+                                          for r in rows])
+            job = json.loads(json.dumps(self.job))
+            slipped = scale_job({"scans": [job["scans"][1]]}, factor)["scans"][0]
+            slipped.pop("uncertainty", None)
+            job["scans"][1] = slipped
+            self.emit(f"one_scan_in_{unit}", scans, job)
+
+    def parameters_at_their_edges(self):
+        """Every costly parameter at its edge together (each alone is a swept case)."""
+        edges = {"neighbourhoods.k": 64, "outliers.k": 64, "outliers.method": "loop",
+                 "outliers.loop_k": 64, "normals.orientation_k": 64,
+                 "normals.radius_mode": "mitra", "normals.mitra_c1": 1000,
+                 "normals.mitra_c2": 1000, "neighbourhoods.min_radius_mm": 10000,
+                 "correction.radius_scale": 100, "correction.rounds": 1000,
+                 "smoothing.iterations": 7}
+        extra = [a for name, value in edges.items() for a in ("--param", f"{name}={value}")]
+        self.emit("parameters_at_their_edges", self.scans, self.job, extra=extra)
+
     def drawn(self, rng, number):
         """A case drawn from the hostile classes, each present with probability 1/2 (at least
         one): a far part (a contiguous stretch of 0.5-30 % of a scan's points moved 1e3-1e9 mm in
@@ -276,6 +357,8 @@ def main():
     cases.unit_slips()
     no_pose_scene(scene_dir, cases, sum(len(r) for _, _, r in cases.scans.values()))
     cases.one_point_scans(1000)
+    cases.dense_spots()
+    cases.parameters_at_their_edges()
     if len(sys.argv) > 6:
         drawn, seed = int(sys.argv[5]), int(sys.argv[6])
         rng = random.Random(seed)
