@@ -123,7 +123,10 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> Neighbourhoods::Build(
   // r_g only sets defaults, r_max = 5·r_g among them (docs/algorithms.md §2). A minimum radius far
   // beyond it — a scanline spacing stated in the wrong unit, or a cluster of coincident points
   // with d_k = 0 — would make every ball hold most of the cloud and each stage quadratic.
-  for (double& r : nb->min_radius_) r = std::min(r, kMaxRadiusPerGlobalRadius * nb->global_radius_);
+  if (!options.min_radius_held) {
+    for (double& r : nb->min_radius_)
+      r = std::min(r, kMaxRadiusPerGlobalRadius * nb->global_radius_);
+  }
   return nb;
 }
 
@@ -222,7 +225,8 @@ bool Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius, Rad
   // Twice the cap on an even surface: r ≥ kStandInRadiusPerDk·d_k·√(cap / max_ball_points()).
   const float per_dk = kStandInRadiusPerDk * dk(i);
   const bool stand_in =
-      k_ > 0 && double(radius) * radius * max_ball_points() >= double(per_dk) * per_dk * cap;
+      k_ > 0 && double(radius) * radius * max_ball_points() >= double(per_dk) * per_dk * cap &&
+      dk(i) <= kStandInMostDkPerGlobalRadius * global_radius_;
   if (k_ > 0 && ((!moved_ && radius <= dk(i) && cap > k_) || stand_in)) {
     // At most k + 1 points: not capped, unless the list stands in for a far fuller ball.
     auto skipped = [&](size_t j) { return (cloud.flags[j] & skip) != 0; };

@@ -30,6 +30,10 @@ struct NeighbourhoodOptions {
   // r_min of Eq. (2) per scan, indexed like cloud.scans (a mixed job's finer sensor gets its own
   // smaller one); missing entries and 0 = no lower bound.
   std::vector<double> min_radius;
+  // The caller holds each r_min to the data's own scale itself (the neighbourhoods stage, with
+  // the scans' measured scanline gaps): Build's backstop at kMaxRadiusPerGlobalRadius·r_g is not
+  // applied.
+  bool min_radius_held = false;
 };
 
 // The minimum radius is capped at this multiple of the global radius r_g.
@@ -52,6 +56,12 @@ inline constexpr uint32_t kMaxBallPointsPerK = 32;
 // outside dense spots; on the metrology bench and on tools/hash-outputs.sh's ten jobs (the real
 // scans, the default, `paper`, LoOP with Mitra radii) no result changes.
 inline constexpr float kStandInRadiusPerDk = 8.f;
+// ... and only where i's k nearest lie closer than the cloud's own: d_k(i) at most this times
+// r_g. A radius 8·d_k beyond a d_k of the cloud's typical size is not a dense spot but points
+// far closer along a scanline than across it (a laser line with profiles 100 point spacings
+// apart, r_min reaching the next profile): there the k-NN list is one line, and the capped ball
+// of the radius is what spans the profiles.
+inline constexpr float kStandInMostDkPerGlobalRadius = 0.5f;
 
 // Where scans overlap, a ball of one scan's points is widened once so that it holds about k + 1
 // of them, as r_p = d_k would on that scan alone: by √((k+1)/own) for `own` found, at most 2×

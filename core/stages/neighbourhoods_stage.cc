@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "core/base/status_macros.h"
+#include "core/spatial/scanline_gap.h"
 #include "core/stages/stage_context.h"
 #include "core/stages/stage_names.h"
 
@@ -22,7 +23,7 @@ namespace {
 // and with r_min at 5·r_g they held about 17 times an ordinary ball's points, a job 3.5× its
 // default's time (100 k points through the service); at 3·r_g 1.8×. 3·r_g still reaches the
 // neighbouring scanlines (√3·Δs) of a sensor whose scanlines lie up to about 20 point spacings
-// apart.
+// apart; beyond that, a spacing the data bears out is kept (MinRadiusLimits).
 constexpr double kMinRadiusPerGlobalRadius = 3.0;
 
 // Names the scans (the first few, then a count) for a warning.
@@ -65,6 +66,32 @@ void WarnAboutMissingMetadata(const PointCloud& cloud, bool radius_forced, Stage
   }
 }
 
+// The most r_min of each scan may be: kMinRadiusPerGlobalRadius·r_g, or for a line scan whose
+// requested r_min is beyond that, Eq. 2 on its own measured scanline gap with a quarter's margin
+// (ScanlineGaps). A stated spacing the data bears out is kept however far it lies beyond r_g:
+// a sensor whose profiles lie 100 point spacings apart has r_g at a tenth of the gap, and held
+// to 3·r_g every ball held one profile, a line whose fitted "plane" stands on edge (every normal
+// wrong, none invalid). A spacing in the wrong unit is not borne out and is held to 3·r_g.
+std::vector<double> MinRadiusLimits(const PointCloud& cloud, const Neighbourhoods& nb,
+                                    const std::vector<double>& requested,
+                                    const std::vector<double>& epsilon_u) {
+  const double limit = kMinRadiusPerGlobalRadius * nb.global_radius();
+  std::vector<double> reach(requested.size(), 0.0);
+  for (size_t s = 0; s < requested.size(); ++s) {
+    if (cloud.kind == ScannerKind::kLine && requested[s] > limit) reach[s] = requested[s];
+  }
+  std::vector<double> held(requested.size(), limit);
+  const std::vector<double> gap = ScanlineGaps(cloud, nb, reach);
+  for (size_t s = 0; s < held.size(); ++s) {
+    if (gap[s] > 0) {
+      // ε_u held to r_g: a u in the wrong unit is not borne out by the gap.
+      const double margin = std::min(epsilon_u[s], nb.global_radius());
+      held[s] = std::max(limit, MinRadiusFromScanlineSpacing(1.25 * gap[s], margin));
+    }
+  }
+  return held;
+}
+
 class NeighbourhoodsStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
@@ -83,16 +110,18 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> BuildNeighbourhoods(
     StageReporter& out) {
   NeighbourhoodOptions options;
   options.k = settings.k;
+  options.min_radius_held = true;  // below, by MinRadiusLimits
   // Per scan: a job mixing sensors would otherwise give the finer one the coarser one's r_min.
+  std::vector<double> epsilon_u;
   for (size_t s = 0; s < cloud.scans.size(); ++s) {
     const ScanMeta& scan = cloud.scans[s];
     const double spacing = cloud.kind == ScannerKind::kLine ? scan.scanline_spacing : 0.0;
-    const double epsilon_u = settings.epsilon_u.Or(scan.uncertainty);
+    epsilon_u.push_back(settings.epsilon_u.Or(scan.uncertainty));
     // Flexible scanners have no fixed spacing: r_min = ε_u and r_p = max(r_min, d_k) grows
     // the ball until it holds k points (docs/algorithms.md §4).
     options.min_radius.push_back(
-        settings.min_radius.Or(MinRadiusFromScanlineSpacing(spacing, epsilon_u)));
-    out.RecordForScan(settings.epsilon_u.name, s, epsilon_u);
+        settings.min_radius.Or(MinRadiusFromScanlineSpacing(spacing, epsilon_u.back())));
+    out.RecordForScan(settings.epsilon_u.name, s, epsilon_u.back());
     out.RecordForScan(settings.min_radius.name, s, options.min_radius.back());
   }
   WarnAboutMissingMetadata(cloud, settings.min_radius.forced.has_value(), out);
@@ -102,9 +131,13 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> BuildNeighbourhoods(
   // r_g is known only once the graph is built, and the graph does not depend on r_min: a job
   // whose r_min exceeds the limit builds once more with it held there (the same r_g; one more
   // k-NN pass, about an eighth of a default job, instead of every ball many times too full).
-  const double limit = kMinRadiusPerGlobalRadius * nb->global_radius();
-  if (std::any_of(requested.begin(), requested.end(), [&](double r) { return r > limit; })) {
-    for (double& r : options.min_radius) r = std::min(r, limit);
+  const std::vector<double> held = MinRadiusLimits(cloud, *nb, requested, epsilon_u);
+  bool capped = false;
+  for (size_t s = 0; s < held.size(); ++s) capped |= requested[s] > held[s];
+  if (capped) {
+    for (size_t s = 0; s < held.size(); ++s) {
+      options.min_radius[s] = std::min(options.min_radius[s], held[s]);
+    }
     nb.reset();  // before the second graph: never two at once
     SCANPREP_ASSIGN_OR_RETURN(nb, Neighbourhoods::Build(cloud, options, out.cancel()));
   }

@@ -63,6 +63,33 @@ TEST(Normals, PlaneWithinTwoDegreesAndFacingTheSensor) {
   EXPECT_EQ(report->stages.back().name, "normals");
 }
 
+// A laser-line sensor whose profiles lie far apart next to its point pitch (conveyor speed against
+// camera resolution): at 0.01 mm along a line and 1 mm between lines, d_k and r_g are 0.1 mm, all
+// k nearest on the point's own line, so only r_min (Eq. 2, √3·Δs + ε_u) reaches the next
+// profile. Held to 3·r_g every ball held one profile, whose noisy line fits as a "plane" standing
+// on edge: every normal 90° off, none invalid. The stated spacing is borne out by the data (its
+// measured scanline gap) and kept; the ball is the capped nearest of r_min, not the one-line k-NN
+// list. Control: the same sensor at 0.1 mm between lines, where 3·r_g reaches the next line.
+TEST(Normals, ProfilesAHundredPointSpacingsApartGiveTheSurfaceNormal) {
+  for (const double scanline_spacing : {0.1, 1.0}) {
+    std::vector<SimSensor> sensors = FrontalSensor(Part::kPlane);
+    sensors[0].scanline_spacing = scanline_spacing;
+    sensors[0].point_spacing = 0.01;
+    sensors[0].noise_sigma = 0.003;
+    SimulatedCloud sim = Simulate(Part::kPlane, sensors, 12);
+    auto report = testing::RunNormalsFunction(sim.cloud);
+    ASSERT_TRUE(report.ok()) << report.status();
+    const NormalCheck c = Check(sim, [](size_t) { return true; });
+    std::printf(
+        "profiles %.1f mm apart, points 0.01 mm: %zu normals, median %.3f°, p95 %.3f°, "
+        "invalid %zu\n",
+        scanline_spacing, c.checked, c.median_deg, c.p95_deg, c.invalid);
+    EXPECT_LT(c.median_deg, 2.0) << "Δs " << scanline_spacing;
+    EXPECT_LT(c.p95_deg, 5.0) << "Δs " << scanline_spacing;
+    EXPECT_EQ(c.invalid, 0u) << "Δs " << scanline_spacing;
+  }
+}
+
 TEST(Normals, BoxFacesAwayFromEdges) {
   SimulatedCloud sim = Simulate(Part::kBoxWithBore, FrontalSensor(Part::kBoxWithBore), 12);
   ASSERT_TRUE(testing::RunNormalsFunction(sim.cloud).ok());
