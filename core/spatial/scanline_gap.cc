@@ -4,10 +4,13 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/base/parallel.h"
+#include "core/base/status_macros.h"
+
 namespace scanprep {
 namespace {
 
-constexpr size_t kPointsPerSample = 16;
+constexpr size_t kPointsPerSample = 64;
 constexpr size_t kMostSamples = 256;
 
 // The distance from point i to the nearest point of its scan on another scanline among the
@@ -25,31 +28,54 @@ float NearestOtherScanline(const PointCloud& cloud, const Neighbourhoods& nb, ui
   return std::sqrt(nearest);
 }
 
-}  // namespace
-
-std::vector<double> ScanlineGaps(const PointCloud& cloud, const Neighbourhoods& nb,
-                                 const std::vector<double>& reach) {
+// The sampled points of the scans with reach > 0: evenly over each scan, in index order.
+std::vector<uint32_t> Samples(const PointCloud& cloud, const std::vector<double>& reach) {
   const size_t scans = reach.size();
-  std::vector<double> gap(scans, 0.0);
-  if (!cloud.has_scanlines()) return gap;
-  std::vector<size_t> count(scans, 0), seen(scans, 0), taken(scans, 0), samples(scans, 0);
+  std::vector<size_t> count(scans, 0), seen(scans, 0), taken(scans, 0), wanted(scans, 0);
   for (uint32_t i = 0; i < cloud.size(); ++i) ++count[cloud.scan[i]];
   for (size_t s = 0; s < scans; ++s) {
-    if (reach[s] > 0) samples[s] = std::min(kMostSamples, count[s] / kPointsPerSample + 1);
+    if (reach[s] > 0) wanted[s] = std::min(kMostSamples, count[s] / kPointsPerSample + 1);
   }
-  std::vector<std::vector<float>> gaps(scans);
-  RadiusMatches ball;
+  std::vector<uint32_t> samples;
   for (uint32_t i = 0; i < cloud.size(); ++i) {
     const size_t s = cloud.scan[i];
-    if (taken[s] == samples[s] || seen[s]++ != taken[s] * count[s] / samples[s]) continue;
+    if (taken[s] == wanted[s] || seen[s]++ != taken[s] * count[s] / wanted[s]) continue;
     ++taken[s];
-    const float d = NearestOtherScanline(cloud, nb, i, static_cast<float>(reach[s]),
-                                         4 * size_t{nb.max_ball_points()}, ball);
-    if (d < HUGE_VALF) gaps[s].push_back(d);
+    samples.push_back(i);
   }
-  for (size_t s = 0; s < scans; ++s) {
+  return samples;
+}
+
+}  // namespace
+
+absl::StatusOr<std::vector<double>> ScanlineGaps(const PointCloud& cloud, const Neighbourhoods& nb,
+                                                 const std::vector<double>& reach,
+                                                 const CancelToken& cancel) {
+  std::vector<double> gap(reach.size(), 0.0);
+  if (!cloud.has_scanlines()) return gap;
+  const std::vector<uint32_t> samples = Samples(cloud, reach);
+  std::vector<float> found(samples.size());
+  SCANPREP_RETURN_IF_ERROR(ParallelFor(
+      samples.size(), cancel,
+      [&](size_t begin, size_t end) {
+        RadiusMatches ball;
+        for (size_t m = begin; m < end; ++m) {
+          const uint32_t i = samples[m];
+          found[m] = NearestOtherScanline(cloud, nb, i, static_cast<float>(reach[cloud.scan[i]]),
+                                          4 * size_t{nb.max_ball_points()}, ball);
+        }
+      },
+      /*grain=*/8));
+  std::vector<std::vector<float>> gaps(reach.size());
+  std::vector<size_t> sampled(reach.size(), 0);
+  for (size_t m = 0; m < samples.size(); ++m) {
+    const size_t s = cloud.scan[samples[m]];
+    ++sampled[s];
+    if (found[m] < HUGE_VALF) gaps[s].push_back(found[m]);
+  }
+  for (size_t s = 0; s < reach.size(); ++s) {
     std::vector<float>& g = gaps[s];
-    if (samples[s] == 0 || 2 * g.size() < samples[s]) continue;
+    if (sampled[s] == 0 || 2 * g.size() < sampled[s]) continue;
     std::nth_element(g.begin(), g.begin() + g.size() / 2, g.end());
     gap[s] = g[g.size() / 2];
   }

@@ -8,18 +8,22 @@
 
 #include <vector>
 
+#include "absl/status/statusor.h"
+#include "core/base/cancel.h"
 #include "core/base/point_cloud.h"
 #include "core/spatial/neighbourhoods.h"
 
 namespace scanprep {
 
-// Per scan s with reach[s] > 0: the median, over a sample of its points (one in 16, at most
+// Per scan s with reach[s] > 0: the median, over a sample of its points (one in 64, at most
 // 256, evenly over the scan), of the distance to the nearest point of the same scan on another
 // scanline, sought among the nearest 4·max_ball_points() within reach[s]. 0 for the other scans,
 // when the cloud has no scanline indices, or when fewer than half the sampled points find one
 // (a gap beyond reach, or points so dense along a line that its nearest are all its own).
-// Bounded: at most 4·max_ball_points()/16 candidates read per point of a measured scan.
-std::vector<double> ScanlineGaps(const PointCloud& cloud, const Neighbourhoods& nb,
-                                 const std::vector<double>& reach);
+// Bounded: at most 2·4·max_ball_points()/64 candidates read per point of a measured scan, in
+// parallel; CANCELLED when `cancel` fires.
+absl::StatusOr<std::vector<double>> ScanlineGaps(const PointCloud& cloud, const Neighbourhoods& nb,
+                                                 const std::vector<double>& reach,
+                                                 const CancelToken& cancel);
 
 }  // namespace scanprep

@@ -72,16 +72,18 @@ void WarnAboutMissingMetadata(const PointCloud& cloud, bool radius_forced, Stage
 // a sensor whose profiles lie 100 point spacings apart has r_g at a tenth of the gap, and held
 // to 3·r_g every ball held one profile, a line whose fitted "plane" stands on edge (every normal
 // wrong, none invalid). A spacing in the wrong unit is not borne out and is held to 3·r_g.
-std::vector<double> MinRadiusLimits(const PointCloud& cloud, const Neighbourhoods& nb,
-                                    const std::vector<double>& requested,
-                                    const std::vector<double>& epsilon_u) {
+absl::StatusOr<std::vector<double>> MinRadiusLimits(const PointCloud& cloud,
+                                                    const Neighbourhoods& nb,
+                                                    const std::vector<double>& requested,
+                                                    const std::vector<double>& epsilon_u,
+                                                    const CancelToken& cancel) {
   const double limit = kMinRadiusPerGlobalRadius * nb.global_radius();
   std::vector<double> reach(requested.size(), 0.0);
   for (size_t s = 0; s < requested.size(); ++s) {
     if (cloud.kind == ScannerKind::kLine && requested[s] > limit) reach[s] = requested[s];
   }
   std::vector<double> held(requested.size(), limit);
-  const std::vector<double> gap = ScanlineGaps(cloud, nb, reach);
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> gap, ScanlineGaps(cloud, nb, reach, cancel));
   for (size_t s = 0; s < held.size(); ++s) {
     if (gap[s] > 0) {
       // ε_u held to r_g: a u in the wrong unit is not borne out by the gap.
@@ -131,7 +133,8 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> BuildNeighbourhoods(
   // r_g is known only once the graph is built, and the graph does not depend on r_min: a job
   // whose r_min exceeds the limit builds once more with it held there (the same r_g; one more
   // k-NN pass, about an eighth of a default job, instead of every ball many times too full).
-  const std::vector<double> held = MinRadiusLimits(cloud, *nb, requested, epsilon_u);
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> held,
+                            MinRadiusLimits(cloud, *nb, requested, epsilon_u, out.cancel()));
   bool capped = false;
   for (size_t s = 0; s < held.size(); ++s) capped |= requested[s] > held[s];
   if (capped) {
