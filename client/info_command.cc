@@ -68,8 +68,12 @@ int RunInfo(const ParsedArgs& args) {
                    limits.min_upload_bytes_per_second())
             << absl::StrFormat(
                    "        memory capacity %.0f MiB for the running jobs, a job "
-                   "estimated at %d B/point\n",
-                   limits.memory_budget_bytes() / 1048576.0, limits.bytes_per_point())
+                   "estimated at %d B/point; %s\n",
+                   limits.memory_budget_bytes() / 1048576.0, limits.bytes_per_point(),
+                   limits.max_plan_cost() > 0
+                       ? absl::StrFormat("a plan's work at most %g× the default's",
+                                         limits.max_plan_cost())
+                       : std::string("no limit on a plan's work"))
             << "default budget: "
             << (info->default_budget_seconds() > 0
                     ? absl::StrCat(info->default_budget_seconds(), " s")

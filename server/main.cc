@@ -31,6 +31,7 @@
 #include "absl/synchronization/notification.h"
 #include "absl/time/time.h"
 #include "core/base/status_macros.h"
+#include "core/pipeline/plan_cost.h"
 #include "server/admission/memory_reservation.h"
 #include "server/job/presets_file.h"
 #include "server/job/time_budget_config.h"
@@ -49,6 +50,10 @@ ABSL_FLAG(uint64_t, max_points_per_job, 0,
           "largest job in points; larger jobs end with RESOURCE_EXHAUSTED. 0 = 20,000,000 or the "
           "largest job whose estimated memory fits --memory_capacity, whichever is smaller; a "
           "larger explicit value than fits is refused at startup");
+ABSL_FLAG(double, max_plan_cost, 3,
+          "the most work a job's stages and parameters may ask for, as a multiple of the default "
+          "plan's (estimated at the header); costlier jobs, and presets, are refused. Each costly "
+          "parameter alone at the edge of its range is within 3. 0 = no limit");
 ABSL_FLAG(uint64_t, max_chunk_points, 65'536,
           "largest request chunk in points; larger chunks end the call with RESOURCE_EXHAUSTED");
 ABSL_FLAG(uint64_t, max_bytes_per_call, uint64_t{1} << 30,
@@ -216,6 +221,17 @@ absl::StatusOr<JobLimits> JobLimitsFromFlags(const TimeBudgetDefaults& budgets) 
   SCANPREP_ASSIGN_OR_RETURN(
       std::vector<Preset> presets,
       NamingFlag("--presets_file", LoadPresets(absl::GetFlag(FLAGS_presets_file))));
+  limits.max_plan_cost = absl::GetFlag(FLAGS_max_plan_cost);
+  if (!(limits.max_plan_cost >= 0))
+    return absl::InvalidArgumentError("--max_plan_cost must be >= 0");
+  // A preset no job could run is refused at startup, not at every job that names it.
+  for (const Preset& preset : presets) {
+    SCANPREP_ASSIGN_OR_RETURN(const PlanCost cost, EstimatePlanCost({.params = preset.params}));
+    if (absl::Status s = CheckPlanCost(cost, limits.max_plan_cost); !s.ok()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--presets_file: preset '", preset.name, "': ", s.message()));
+    }
+  }
   limits.presets = std::make_shared<const std::vector<Preset>>(std::move(presets));
   limits.max_chunk_points = absl::GetFlag(FLAGS_max_chunk_points);
   limits.max_bytes_per_call = absl::GetFlag(FLAGS_max_bytes_per_call);

@@ -371,6 +371,7 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
   limits->set_max_bytes_per_call(limits_.max_bytes_per_call);
   limits->set_max_calls_per_peer(peers_.max_calls_per_peer());
   limits->set_max_scans_per_job(limits_.max_scans_per_job);
+  limits->set_max_plan_cost(limits_.max_plan_cost);
   limits->set_max_message_bytes(kMaxMessageBytes);
   limits->set_max_labels(kMaxLabels);
   limits->set_max_header_string_bytes(kMaxHeaderStringBytes);

@@ -18,8 +18,9 @@
 # NaN. Each case runs `scanprep process` (the default pipeline) against a fresh scanprep-server
 # on loopback, timed end to end, with the server's peak resident memory (/proc VmHWM) taken when
 # the call returns.
-# A case passes when it ends, with a result or INVALID_ARGUMENT (for a parameter, a message that
-# names it and its value), within 3x the ordinary cloud's seconds and 2x its peak server memory.
+# A case passes when it ends, with a result, INVALID_ARGUMENT (for a parameter, a message that
+# names it and its value) or JOB_TOO_COSTLY (the plan's cost named, before the upload), within 3x
+# the ordinary cloud's seconds and 2x its peak server memory.
 # A case still running after CASE_TIMEOUT seconds is FAIL-timeout, one whose server grows past
 # MEMORY_CAP_MIB is FAIL-memory-cap (both end the server and go on with a fresh one).
 # Prints a markdown table (case, points, seconds, peak server memory, time and memory ratio,
@@ -178,6 +179,8 @@ for case, points, s, peak, outcome, message in cases:
         verdict = outcome
     elif refused and precise(message, case):
         verdict = "INVALID_ARGUMENT"
+    elif outcome == "error" and "(reason JOB_TOO_COSTLY)" in message:
+        verdict = "JOB_TOO_COSTLY"  # refused at the header, its cost named
     elif outcome == "error":
         verdict = "FAIL (" + ("imprecise " if refused else "") + message.split(":")[0] + ")"
     else:

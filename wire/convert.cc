@@ -290,6 +290,7 @@ void ReportToProto(const PipelineReport& report, v1::Report* out) {
   out->set_budget_met(report.budget_met);
   out->set_budget_outcome(Outcome(report.budget_seconds, report.budget_met));
   out->set_points_coincident_across_scans(report.points_coincident_across_scans);
+  out->set_estimated_plan_cost(report.estimated_plan_cost);
   for (const Warning& w : report.warnings) AddWarning(w, out);
   if (report.health) HealthToProto(*report.health, out->mutable_health());
 }

@@ -12,6 +12,7 @@
 #include "core/base/status_macros.h"
 #include "core/pipeline/pipeline_runner.h"
 #include "core/pipeline/plan.h"
+#include "core/pipeline/plan_cost.h"
 #include "core/spatial/duplicates.h"
 #include "core/stages/stage_names.h"
 
@@ -106,6 +107,7 @@ absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOpti
     ExpandDuplicates(compact, duplicates, cloud);
   }
   report.points_coincident_across_scans = coincident_across_scans;
+  report.estimated_plan_cost = EstimatePlanCost(plan).ratio;
   report.warnings.insert(report.warnings.end(), before_stages.begin(), before_stages.end());
   report.total_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

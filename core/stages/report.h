@@ -37,6 +37,8 @@ struct PipelineReport {
   std::vector<Warning> warnings;
   // Scanner health, when the plan ran the "health" stage.
   std::optional<HealthReport> health;
+  // The plan's estimated work over the default plan's (core/pipeline/plan_cost.h).
+  double estimated_plan_cost = 1;
 };
 
 }  // namespace scanprep

@@ -6,6 +6,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/base/status_macros.h"
+#include "core/pipeline/plan_cost.h"
 #include "wire/chunk_arrays.h"
 #include "wire/error_details.h"
 
@@ -119,6 +120,7 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
   if (!fail_on.ok()) return OptionsError(fail_on.status());
   job_.options.fail_on = *std::move(fail_on);
   if (absl::Status s = ValidateOptions(job_.options); !s.ok()) return OptionsError(s);
+  SCANPREP_RETURN_IF_ERROR(CheckCost());
 
   SCANPREP_ASSIGN_OR_RETURN(const Eigen::Vector3d origin_mm, OriginFromProto(header, mm));
   for (int s = 0; s < header.scans_size(); ++s) {
@@ -146,6 +148,18 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
         "JOB_TOO_LARGE");
   }
   return absl::OkStatus();
+}
+
+absl::Status JobAssembler::CheckCost() const {
+  auto cost = EstimatePlanCost(job_.options);
+  if (!cost.ok()) return OptionsError(cost.status());
+  absl::Status refused = CheckPlanCost(*cost, limits_.max_plan_cost);
+  if (refused.ok()) return refused;
+  refused =
+      WithMetadata(std::move(refused), "estimated_cost", absl::StrFormat("%.3g", cost->ratio));
+  refused = WithMetadata(std::move(refused), "max_plan_cost",
+                         absl::StrFormat("%.3g", limits_.max_plan_cost));
+  return WithReason(std::move(refused), "JOB_TOO_COSTLY");
 }
 
 absl::Status JobAssembler::CheckHeaderSize(const v1::JobHeader& header) const {

@@ -40,6 +40,10 @@ struct JobLimits {
   uint64_t max_bytes_per_call = uint64_t{1} << 30;
   // Scans declared in one header; each costs a frame and metadata before any point arrives.
   uint32_t max_scans_per_job = 1'000;
+  // The most work a job's plan may ask for, as a multiple of the default plan's
+  // (core/pipeline/plan_cost.h); 0 = no limit. Each costly parameter alone at the edge of its
+  // range is within 3x.
+  double max_plan_cost = 3;
   double default_budget_seconds = 0;
   std::map<std::string, double> default_stage_budget_seconds;
   // What JobHeader.options.preset may name (presets_file.h); shared, not copied, by every call.
@@ -82,6 +86,8 @@ class JobAssembler {
   absl::Status AddHeader(const v1::JobHeader& header);
   // The header's list and string lengths against the limits, before anything is copied from it.
   absl::Status CheckHeaderSize(const v1::JobHeader& header) const;
+  // The resolved plan's estimated work within max_plan_cost (JOB_TOO_COSTLY).
+  absl::Status CheckCost() const;
   absl::Status AddChunk(const v1::PointChunk& chunk);
   absl::Status CheckChunk(const v1::PointChunk& chunk, size_t n) const;
   // INVALID_CHUNK naming the point of the chunk just counted when float cannot carry one of its

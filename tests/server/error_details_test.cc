@@ -147,6 +147,32 @@ TEST(ErrorDetails, JobsTooLargeAreNeverRetryable) {
   EXPECT_FALSE(d->retry_delay.has_value());
 }
 
+// A plan whose parameters multiply its work past --max_plan_cost is refused at its header, with
+// the estimate and the limit as numbers; one costly parameter alone is admitted.
+TEST(ErrorDetails, CostlyPlansAreRefusedAtTheHeaderWithTheirCost) {
+  InProcessServer server;
+  auto stub = server.Stub();
+  v1::JobHeader costly = SimpleHeader();
+  auto& params = *costly.mutable_options()->mutable_params();
+  params["smoothing.iterations"] = "7";
+  params["neighbourhoods.min_radius_mm"] = "10000";
+  const grpc::Status status = RawCall(*stub, {HeaderRequest(costly)});
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(status.error_message(),
+              ::testing::AllOf(::testing::HasSubstr("smoothing.iterations=7"),
+                               ::testing::HasSubstr("neighbourhoods.min_radius_mm=10000")));
+  const auto d = Parse(status);
+  ASSERT_TRUE(d.has_value());
+  EXPECT_EQ(d->reason, "JOB_TOO_COSTLY");
+  EXPECT_FALSE(d->retry_delay.has_value());
+  EXPECT_EQ(d->metadata.at("max_plan_cost"), "3");
+  EXPECT_GT(std::stod(d->metadata.at("estimated_cost")), 3);
+
+  params.erase("neighbourhoods.min_radius_mm");
+  EXPECT_NE(Parse(RawCall(*stub, {HeaderRequest(costly)})).value_or(Details{}).reason,
+            "JOB_TOO_COSTLY");
+}
+
 // Each invalid input names its field as a path in the request: the header's fields by name, the
 // PointChunk messages by their index in the upload.
 TEST(ErrorDetails, InvalidInputNamesTheFieldAtFault) {

@@ -51,6 +51,27 @@ TEST_F(PresetsBinary, ABadFileStopsTheServerNamingFileLinePresetAndKey) {
                                                "parameter (did you mean 'smoothing.lambda'?)")));
 }
 
+// A preset whose parameters multiply the work past --max_plan_cost could run no job: refused at
+// startup naming it and what each parameter costs; with a larger limit, the same file loads.
+TEST_F(PresetsBinary, ACostlyPresetStopsTheServerNamingItsCost) {
+  const fs::path costly = WriteFile(dir_ / "costly.conf",
+                                    "[slow]\n"
+                                    "smoothing.iterations = 7\n"
+                                    "neighbourhoods.min_radius_mm = 10000\n");
+  const std::string server = absl::StrCat(SCANPREP_SERVER_BINARY,
+                                          " --plaintext --listen=127.0.0.1:0 --metrics_listen= "
+                                          "--presets_file=",
+                                          costly.string());
+  const CommandResult r = RunCommand(server);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("--presets_file: preset 'slow': the plan's estimated work is"));
+  EXPECT_THAT(r.output, HasSubstr("smoothing ×7 (smoothing.iterations=7)"));
+  EXPECT_THAT(r.output, HasSubstr("(neighbourhoods.min_radius_mm=10000)"));
+
+  ServerProcess allowed({"--presets_file=" + costly.string(), "--max_plan_cost=0"});
+  EXPECT_GT(allowed.port(), 0) << allowed.Log();
+}
+
 // Control: the same preset without the typo loads and is used.
 TEST_F(PresetsBinary, AGoodFileIsListedAndRunByTheCli) {
   const fs::path good = WriteFile(dir_ / "good.conf",

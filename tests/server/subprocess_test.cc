@@ -916,6 +916,7 @@ TEST(Cli, InfoPrintsStagesAndLimits) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("1000000 points per job"));
   EXPECT_THAT(r.output, HasSubstr("a job estimated at 416 B/point"));
+  EXPECT_THAT(r.output, HasSubstr("a plan's work at most 3× the default's"));
   EXPECT_THAT(r.output, HasSubstr("outliers"));
   EXPECT_THAT(r.output, HasSubstr("outliers.multiplier"));
 }
