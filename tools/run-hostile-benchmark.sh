@@ -13,7 +13,8 @@
 # 200) drawn from SEED (default random, printed) by tools/lib/hostile_cases.py: far parts in a
 # random direction at 1e3-1e9 mm holding 0.5-30 % of the points, clusters of 1-50 k
 # near-identical points within 0-1e-3 mm, lines at 1e-4 mm, offsets of the whole job up to
-# 5e8 mm, and their mixes; then every numeric
+# 5e8 mm, and their mixes, each also with a density spike (1-50 % of a scan's points in a ball of
+# 1e-5-0.1 mm) and costly parameters drawn together (2-4 of them) with probability 1/2; then every numeric
 # parameter `scanprep info` lists, one at a time, set to each of -1, 0, 1e-30, 1e30, 2^32 and
 # NaN. Each case runs `scanprep process` (the default pipeline) against a fresh scanprep-server
 # on loopback, timed end to end, with the server's peak resident memory (/proc VmHWM) taken when

@@ -189,6 +189,9 @@ TEST(CallError, EveryReasonIsParsedByTheClient) {
   (*bad_param.mutable_options()->mutable_params())["outliers.k"] = "0";
   v1::JobHeader no_unit = SimpleHeader();
   no_unit.clear_unit();
+  v1::JobHeader costly = SimpleHeader();
+  (*costly.mutable_options()->mutable_params())["smoothing.iterations"] = "7";
+  (*costly.mutable_options()->mutable_params())["neighbourhoods.k"] = "64";
   std::vector<v1::ProcessRequest> miscounted = small_job, corrupted = small_job;
   miscounted.push_back(EndRequest(small_job));
   miscounted.back().mutable_end()->set_points(9);
@@ -211,6 +214,7 @@ TEST(CallError, EveryReasonIsParsedByTheClient) {
        RawCall(*tight_memory.Stub(), {HeaderRequest(SimpleHeader(), 200'000)}), ""},
       {"MEMORY_RESERVATION_EXCEEDED", RawCall(*guarded.Stub(), small_job), ""},
       {"TOO_MANY_SCANS", RawCall(*stub, {HeaderRequest(two_scans, 10)}), ""},
+      {"JOB_TOO_COSTLY", RawCall(*stub, {HeaderRequest(costly, 10)}), ""},
       {"CHUNK_TOO_LARGE",
        RawCall(*stub, {HeaderRequest(SimpleHeader(), 100), ChunkRequest(LineChunk(100))}), ""},
       {"CALL_TOO_LARGE", RawCall(*stub, call_too_large), ""},

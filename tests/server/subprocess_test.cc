@@ -232,7 +232,8 @@ TEST(ServerBinary, SigtermLetsTheInFlightCallFinishThenExitsZero) {
 }
 
 TEST(ServerBinary, SigtermDuringALongStageExitsWithinTheGracePeriodPlusOneSecond) {
-  ServerProcess server({"--grace_period=1s"});
+  // No plan-cost limit: the job is meant to be long.
+  ServerProcess server({"--grace_period=1s", "--max_plan_cost=0"});
   ASSERT_GT(server.port(), 0);
   auto stub = v1::ScanPrep::NewStub(
       grpc::CreateChannel(server.target(), grpc::InsecureChannelCredentials()));

@@ -239,9 +239,12 @@ class Cases:
         extra = [a for name, value in edges.items() for a in ("--param", f"{name}={value}")]
         self.emit("parameters_at_their_edges", self.scans, self.job, extra=extra)
 
-    def drawn(self, rng, number):
+    def drawn(self, rng, number, mix_rng):
         """A case drawn from the hostile classes, each present with probability 1/2 (at least
-        one): a far part (a contiguous stretch of 0.5-30 % of a scan's points moved 1e3-1e9 mm in
+        one), then, drawn from `mix_rng` (so that a seed draws the same geometry as before these
+        two), each with probability 1/2: a density spike (1-50 % of a scan's points uniform in a
+        ball of radius 1e-5-0.1 mm, log-uniform: a glint) and a parameter mix (2-4 of the costly
+        parameters at values drawn within their ranges; docs/plan-cost.md): a far part (a contiguous stretch of 0.5-30 % of a scan's points moved 1e3-1e9 mm in
         a random direction: a fixture or sphere beside the part); 1-3 clusters of near-identical
         points (1 k-50 k points each, at most a fifth of the cloud, within 1e-7-1e-2 mm,
         log-uniform: some inside a scan's duplicate cubes, some just beyond); a line (a tenth of
@@ -261,14 +264,14 @@ class Cases:
         parts = []
         used = {stem: [] for stem in stems}  # (start, end) of the rows each class took
 
-        def region(count):
+        def region(count, draw=rng):
             """A scan and a stretch of `count` of its rows no other class took (shorter when the
-            scan has no such stretch)."""
+            scan has no such stretch), placed by `draw`."""
             for _ in range(100):
-                stem = rng.choice(stems)
+                stem = draw.choice(stems)
                 rows = scans[stem][2]
                 size = min(count, len(rows))
-                start = rng.randrange(0, len(rows) - size + 1)
+                start = draw.randrange(0, len(rows) - size + 1)
                 if all(start + size <= a or b <= start for a, b in used[stem]):
                     used[stem].append((start, start + size))
                     return scans[stem][0], rows[start:start + size]
@@ -324,8 +327,36 @@ class Cases:
                         scan[key] = {axis: v + shift["xyz".index(axis)]
                                      for axis, v in scan[key].items()}
             parts.append(f"offset {distance:.2g}mm")
+        extra = []
+        if mix_rng.random() < 0.5:
+            names, taken = region(int(mix_rng.uniform(0.01, 0.5) * total), mix_rng)
+            radius = 10 ** mix_rng.uniform(-5, -1)
+            xyz = [names.index(c) for c in "xyz"]
+            at = [taken[0][a] for a in xyz] if taken else []
+            for row in taken:
+                while True:  # uniform in the ball: rejection from its cube
+                    d = [mix_rng.uniform(-1, 1) for _ in range(3)]
+                    if sum(a * a for a in d) <= 1:
+                        break
+                for axis, a in enumerate(xyz):
+                    row[a] = at[axis] + radius * d[axis]
+            parts.append(f"spike {len(taken)} in {radius:.1g}mm")
+        if mix_rng.random() < 0.5:
+            draws = {"neighbourhoods.k": lambda: str(mix_rng.randint(20, 64)),
+                     "neighbourhoods.min_radius_mm": lambda: f"{10 ** mix_rng.uniform(-1, 4):.3g}",
+                     "normals.radius_mode=mitra normals.mitra_c2":
+                         lambda: f"{10 ** mix_rng.uniform(0, 3):.3g}",
+                     "correction.radius_scale": lambda: f"{10 ** mix_rng.uniform(0, 2):.3g}",
+                     "smoothing.iterations": lambda: str(mix_rng.randint(1, 7))}
+            chosen = mix_rng.sample(sorted(draws), mix_rng.randint(2, 4))
+            for name in chosen:
+                value = draws[name]()
+                *fixed, last = name.split()
+                for setting in [*fixed, f"{last}={value}"]:
+                    extra += ["--param", setting]
+                parts.append(f"{last.split('.')[-1]}={value}")
         self.emit(f"drawn_{number:03d}:" + ",".join(p.replace(" ", "_") for p in parts),
-                  scans, job)
+                  scans, job, extra=extra)
 
 
 def no_pose_scene(scene_dir, cases, points):
@@ -361,9 +392,9 @@ def main():
     cases.parameters_at_their_edges()
     if len(sys.argv) > 6:
         drawn, seed = int(sys.argv[5]), int(sys.argv[6])
-        rng = random.Random(seed)
+        rng, mix_rng = random.Random(seed), random.Random(seed + 1)
         for number in range(drawn):
-            cases.drawn(rng, number)
+            cases.drawn(rng, number, mix_rng)
 
 
 if __name__ == "__main__":
