@@ -168,12 +168,20 @@ absl::StatusOr<PlanCost> EstimatePlanCost(const PipelineOptions& options) {
 
 absl::Status CheckPlanCost(PlanCost cost, double limit) {
   if (limit <= 0 || cost.ratio <= limit) return absl::OkStatus();
+  // By cause, each with the stages it multiplies, the costliest first.
   std::stable_sort(cost.terms.begin(), cost.terms.end(), [](const CostTerm& a, const CostTerm& b) {
     return a.multiplier > b.multiplier;
   });
-  std::vector<std::string> named;
+  std::vector<std::pair<std::string, std::vector<std::string>>> causes;
   for (const CostTerm& t : cost.terms) {
-    named.push_back(absl::StrFormat("%s ×%.3g (%s)", t.stage, t.multiplier, t.cause));
+    auto it = std::find_if(causes.begin(), causes.end(),
+                           [&](const auto& c) { return c.first == t.cause; });
+    if (it == causes.end()) it = causes.insert(causes.end(), {t.cause, {}});
+    it->second.push_back(absl::StrFormat("%s ×%.3g", t.stage, t.multiplier));
+  }
+  std::vector<std::string> named;
+  for (const auto& [cause, stages] : causes) {
+    named.push_back(absl::StrCat(cause, ": ", absl::StrJoin(stages, ", ")));
   }
   return absl::ResourceExhaustedError(absl::StrFormat(
       "the plan's estimated work is %.3g× the default plan's, over the server's limit of %.3g× "

@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cmath>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
@@ -33,10 +34,36 @@ const ParamSpec* Find(const std::vector<ParamSpec>& specs, std::string_view name
 
 std::string Field(const std::string& name) { return absl::StrCat("options.params['", name, "']"); }
 
-// A numeric override against its own spec: finite, whole for an integer, in range.
+// Decimal notation only: [+-] digits [. digits] [e [+-] digits]. The parser underneath also takes
+// hexadecimal ("0x7"), "inf", "nan" and surrounding blanks, which no one writes for a parameter on
+// purpose and which read back differently elsewhere (Python's float() refuses "0x7").
+bool IsDecimal(std::string_view text) {
+  size_t i = 0;
+  const auto digits = [&] {
+    const size_t start = i;
+    while (i < text.size() && absl::ascii_isdigit(static_cast<unsigned char>(text[i]))) ++i;
+    return i - start;
+  };
+  if (i < text.size() && (text[i] == '+' || text[i] == '-')) ++i;
+  size_t mantissa = digits();
+  if (i < text.size() && text[i] == '.') {
+    ++i;
+    mantissa += digits();
+  }
+  if (mantissa == 0) return false;
+  if (i < text.size() && (text[i] == 'e' || text[i] == 'E')) {
+    ++i;
+    if (i < text.size() && (text[i] == '+' || text[i] == '-')) ++i;
+    if (digits() == 0) return false;
+  }
+  return i == text.size();
+}
+
+// A numeric override against its own spec: decimal, finite, whole for an integer, in range.
 absl::Status CheckNumber(const ParamSpec& spec, const std::string& text, double& value) {
-  if (!absl::SimpleAtod(text, &value) || !std::isfinite(value)) {
-    return FieldError(Field(spec.name), absl::StrCat("'", text, "' is not a finite number"));
+  if (!IsDecimal(text) || !absl::SimpleAtod(text, &value) || !std::isfinite(value)) {
+    return FieldError(Field(spec.name),
+                      absl::StrCat("'", text, "' is not a finite number in decimal notation"));
   }
   if (spec.kind == ParamKind::kInteger && std::trunc(value) != value) {
     return FieldError(Field(spec.name), absl::StrCat(FormatNumber(value), " is not an integer"));

@@ -2,6 +2,7 @@
 #include "server/job/presets_file.h"
 
 #include <algorithm>
+#include <filesystem>
 #include <map>
 
 #include "absl/strings/ascii.h"
@@ -18,6 +19,12 @@ namespace {
 
 // Long enough for a scanner model and variant, short enough to echo in reports and errors.
 constexpr size_t kMaxPresetNameBytes = 64;
+// GetInfo lists every preset: at these limits (and at most one line per parameter, each value
+// checked) its answer stays far within gRPC's 4 MiB message limit; a plant has a few scanner
+// models, not thousands.
+constexpr size_t kMaxPresets = 256;
+constexpr size_t kMaxDescriptionBytes = 256;
+constexpr uintmax_t kMaxFileBytes = 1 << 20;
 
 bool ValidName(absl::string_view name) {
   return !name.empty() && name.size() <= kMaxPresetNameBytes &&
@@ -39,9 +46,11 @@ absl::Status Bad(std::string_view where, std::string problem) {
   return absl::InvalidArgumentError(absl::StrCat(std::string(where), ": ", problem));
 }
 
+// Names that differ only in case ("Paper" beside "paper") are one name to the people who pick
+// them.
 bool Named(const std::vector<Preset>& presets, absl::string_view name) {
   return std::any_of(presets.begin(), presets.end(),
-                     [&](const Preset& p) { return p.name == name; });
+                     [&](const Preset& p) { return absl::EqualsIgnoreCase(p.name, name); });
 }
 
 }  // namespace
@@ -82,7 +91,11 @@ absl::StatusOr<std::vector<Preset>> ParsePresets(std::string_view text, std::str
         return Bad(where, absl::StrCat("[", line, "] ",
                                        Named(BuiltinPresets(), line)
                                            ? "is a built-in preset; a file cannot redefine it"
-                                           : "is defined twice"));
+                                           : "is defined twice",
+                                       " (names are compared ignoring case)"));
+      }
+      if (presets.size() - builtins == kMaxPresets) {
+        return Bad(where, absl::StrCat("[", line, "]: more than ", kMaxPresets, " presets"));
       }
       presets.push_back({.name = std::string(line)});
       key_lines.clear();
@@ -97,6 +110,10 @@ absl::StatusOr<std::vector<Preset>> ParsePresets(std::string_view text, std::str
     Preset& preset = presets.back();
     const std::string value(absl::StripAsciiWhitespace(kv[1]));
     if (key == "description") {
+      if (value.size() > kMaxDescriptionBytes) {
+        return Bad(where, absl::StrCat("[", preset.name, "] description: ", value.size(),
+                                       " bytes, more than ", kMaxDescriptionBytes));
+      }
       preset.description = value;
       continue;
     }
@@ -111,6 +128,18 @@ absl::StatusOr<std::vector<Preset>> ParsePresets(std::string_view text, std::str
 
 absl::StatusOr<std::vector<Preset>> LoadPresets(const std::string& path) {
   if (path.empty()) return BuiltinPresets();
+  // Checked before it is opened: opening a FIFO blocks until something writes to it, and the
+  // server would hang at startup without a word.
+  std::error_code ec;
+  const std::filesystem::file_status status = std::filesystem::status(path, ec);
+  if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": not a regular file (a directory, FIFO, socket or device)"));
+  }
+  if (const uintmax_t size = std::filesystem::file_size(path, ec); !ec && size > kMaxFileBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": ", size, " bytes, more than ", kMaxFileBytes));
+  }
   SCANPREP_ASSIGN_OR_RETURN(auto text, io::ReadFileToString(path));
   return ParsePresets(text, path);
 }

@@ -16,11 +16,13 @@ namespace scanprep::server {
 
 // The presets of a file's text, after the built-ins. INVALID_ARGUMENT "<source>:<line>: [preset]
 // <key>: <problem>" for an unknown parameter, a value out of range, a key outside a section or
-// given twice, a malformed line, a preset named twice or a name of a built-in (a file cannot
-// silently redefine what "paper" means).
+// given twice, a malformed line, a preset named twice or a name of a built-in, ignoring case (a
+// file cannot silently redefine what "paper" means), more than 256 presets or a description over
+// 256 bytes.
 absl::StatusOr<std::vector<Preset>> ParsePresets(std::string_view text, std::string_view source);
 
-// The built-ins when `path` is empty, else ParsePresets of the file.
+// The built-ins when `path` is empty, else ParsePresets of the file: a regular file (a symlink to
+// one, as a mounted ConfigMap is) of at most 1 MiB.
 absl::StatusOr<std::vector<Preset>> LoadPresets(const std::string& path);
 
 }  // namespace scanprep::server

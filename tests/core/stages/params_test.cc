@@ -12,6 +12,8 @@
 
 #include <gtest/gtest.h>
 
+#include "absl/strings/str_cat.h"
+
 #include "core/base/field_error.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
@@ -120,9 +122,23 @@ TEST(Params, IntegersMustBeWholeAndFinite) {
   EXPECT_EQ(ValidateOptions({.params = {{"correction.rounds", "2.5"}}}),
             FieldError("options.params['correction.rounds']", "2.5 is not an integer"));
   EXPECT_EQ(ValidateOptions({.params = {{"neighbourhoods.k", "nan"}}}),
-            FieldError("options.params['neighbourhoods.k']", "'nan' is not a finite number"));
+            FieldError("options.params['neighbourhoods.k']",
+                       "'nan' is not a finite number in decimal notation"));
   EXPECT_TRUE(ValidateOptions({.params = {{"correction.rounds", "1000"}}}).ok());
   EXPECT_TRUE(ValidateOptions({.params = {{"correction.rounds", "1e3"}}}).ok());
+}
+
+// Decimal notation only: the parser underneath also reads hexadecimal and blanks.
+TEST(Params, NumbersAreDecimal) {
+  for (const char* text : {"0x7", "0x1p3", " 5", "5 ", "1e", ".", "+", "5e+", "1_0", "inf"}) {
+    EXPECT_EQ(ValidateOptions({.params = {{"smoothing.lambda", text}}}),
+              FieldError("options.params['smoothing.lambda']",
+                         absl::StrCat("'", text, "' is not a finite number in decimal notation")))
+        << text;
+  }
+  for (const char* text : {"0.5", "+.5", "-0", "1.", "5e-1", "0.05E+1", "01"}) {
+    EXPECT_TRUE(ValidateOptions({.params = {{"smoothing.lambda", text}}}).ok()) << text;
+  }
 }
 
 TEST(Params, OpenEndsAreExcluded) {
