@@ -66,7 +66,8 @@ TEST_F(PresetsBinary, ACostlyPresetStopsTheServerNamingItsCost) {
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_THAT(r.output, HasSubstr("--presets_file: preset 'slow': the plan's estimated work is"));
   EXPECT_THAT(r.output, HasSubstr("smoothing.iterations=7: smoothing ×7"));
-  EXPECT_THAT(r.output, HasSubstr("neighbourhoods.min_radius_mm=10000: smoothing ×3.4, neighbourhoods ×2.9"));
+  EXPECT_THAT(r.output,
+              HasSubstr("neighbourhoods.min_radius_mm=10000: smoothing ×3.4, neighbourhoods ×2.9"));
 
   ServerProcess allowed({"--presets_file=" + costly.string(), "--max_plan_cost=0"});
   EXPECT_GT(allowed.port(), 0) << allowed.Log();
