@@ -93,7 +93,9 @@ build() { ninja -C "$build_dir" "${targets[@]}" >"$work/build.log" 2>&1; }
 run_named() {  # EXECUTABLES...; the first failing test's name on stdout; status 0 if all passed
   local exe rc=0
   for exe in "$@"; do
-    timeout -k 10 "$timeout_s" "$build_dir/tests/$exe" >"$work/gtest.log" 2>&1 || rc=$?
+    # Fail fast: one failing test is the kill, and a mutation that makes the later tests of the
+    # executable slow (an approximate tree, a lost bound) would otherwise cost minutes each.
+    timeout -k 10 "$timeout_s" "$build_dir/tests/$exe" --gtest_fail_fast >"$work/gtest.log" 2>&1 || rc=$?
     ((rc == 124 || rc == 137)) && { echo "$exe (timeout after ${timeout_s} s)"; return 1; }
     if ((rc != 0)); then
       grep -m1 -oE '^\[  FAILED  \] [^ ]+' "$work/gtest.log" | sed 's/^\[  FAILED  \] //' || echo "$exe"
