@@ -5,6 +5,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
 #include "core/base/status_macros.h"
 #include "core/pipeline/plan_cost.h"
 #include "wire/chunk_arrays.h"
@@ -20,6 +21,23 @@ absl::Status BadChunk(uint64_t chunk, std::string_view array, std::string_view p
       absl::InvalidArgumentError(absl::StrCat("chunk ", chunk, ": ", std::string(problem))),
       "INVALID_CHUNK",
       absl::StrCat("points[", chunk, "]", array.empty() ? "" : ".", std::string(array)));
+}
+
+// POINTS_INVALID: how many points were left out and why, and the first few in upload order.
+Warning PointsInvalidWarning(const AssembledJob& job) {
+  const uint64_t unrepresentable = job.points_unrepresentable;
+  return {WarningCode::kPointsInvalid,
+          absl::StrCat(job.points_invalid, " of ", job.points_received,
+                       " points were excluded: ", job.points_invalid - unrepresentable,
+                       " with NaN, infinite or out-of-range (> ", kMaxCoordinateMm,
+                       " mm) coordinates, ", unrepresentable,
+                       " too far from header.origin for float to hold them to their scan's "
+                       "uncertainty (the first, in upload order: ",
+                       absl::StrJoin(job.first_invalid_points, ", "), ")"),
+          {{"points_invalid", absl::StrCat(job.points_invalid)},
+           {"points_received", absl::StrCat(job.points_received)},
+           {"points_unrepresentable", absl::StrCat(unrepresentable)},
+           {"first_invalid_points", absl::StrJoin(job.first_invalid_points, ",")}}};
 }
 
 // gRPC ends the server's stream at a request message that fails to parse exactly as at the
@@ -133,6 +151,9 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
     job_.cloud.scans.push_back(std::move(meta));
   }
   job_.cloud.kind = KindFromHeader(header);
+  scan_points_.assign(job_.cloud.scans.size(), 0);
+  scan_invalid_.assign(job_.cloud.scans.size(), 0);
+  scan_unrepresentable_.assign(job_.cloud.scans.size(), 0);
 
   total_points_ = header.total_points();
   if (total_points_ == 0) {
@@ -292,13 +313,9 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
     const Eigen::Vector3d p(chunk.xyz(3 * i), chunk.xyz(3 * i + 1), chunk.xyz(3 * i + 2));
     const uint32_t scan = chunk.scan_index_size() > 0 ? chunk.scan_index(i) : 0;
     const Eigen::Vector3d q = frames_[scan].ChunkPoint(p);
-    // Finite in the request's unit can still overflow float once in millimetres.
-    if (!(q.array().abs() <= kMaxCoordinateMm).all()) {
-      ++job_.points_invalid;
-      ++cloud.scans[scan].points_invalid;
-      continue;
-    }
-    SCANPREP_RETURN_IF_ERROR(CheckPrecision(q, i, cloud.scans[scan].uncertainty));
+    ++scan_points_[scan];
+    SCANPREP_ASSIGN_OR_RETURN(const bool excluded, ExcludeInvalid(q, scan, i));
+    if (excluded) continue;
     cloud.x.push_back(static_cast<float>(q.x()));
     cloud.y.push_back(static_cast<float>(q.y()));
     cloud.z.push_back(static_cast<float>(q.z()));
@@ -311,21 +328,71 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
   return absl::OkStatus();
 }
 
-absl::Status JobAssembler::CheckPrecision(const Eigen::Vector3d& local_mm, size_t point,
-                                          double uncertainty_mm) const {
-  for (int k = 0; k < 3; ++k) {
-    const double spacing = FloatSpacingAt(local_mm[k]);
-    if (spacing <= kMaxFloatSpacingPerUncertainty * uncertainty_mm) continue;
-    absl::Status status = BadChunk(
-        chunks_ - 1, "xyz",
-        absl::StrFormat("point %d: its %c = %.17g mm from header.origin cannot be held as a float "
-                        "to its scan's uncertainty %g mm (floats are %g mm apart there, more than "
-                        "u/4): set header.origin near the data, and send the points relative to "
-                        "their scan's points_offset",
-                        point, "xyz"[k], local_mm[k], uncertainty_mm, spacing));
-    status = WithMetadata(std::move(status), "point", absl::StrCat(point));
-    status = WithMetadata(std::move(status), "local_coordinate_mm", absl::StrCat(local_mm[k]));
-    return WithMetadata(std::move(status), "float_spacing_mm", absl::StrCat(spacing));
+absl::StatusOr<bool> JobAssembler::ExcludeInvalid(const Eigen::Vector3d& local_mm, uint32_t scan,
+                                                  size_t point) {
+  // Finite in the request's unit can still overflow float once in millimetres.
+  const bool in_range = (local_mm.array().abs() <= kMaxCoordinateMm).all();
+  const double u = job_.cloud.scans[scan].uncertainty;
+  int axis = 0;  // the first whose float spacing exceeds u/4
+  while (in_range && axis < 3 &&
+         FloatSpacingAt(local_mm[axis]) <= kMaxFloatSpacingPerUncertainty * u) {
+    ++axis;
+  }
+  if (in_range && axis == 3) return false;
+  if (job_.first_invalid_points.size() < kFirstInvalidPointsKept) {
+    job_.first_invalid_points.push_back(job_.points_received + point);
+  }
+  ++job_.points_invalid;
+  ++job_.cloud.scans[scan].points_invalid;
+  ++scan_invalid_[scan];
+  if (!in_range) return true;
+  ++job_.points_unrepresentable;
+  ++scan_unrepresentable_[scan];
+  // By the pigeonhole, a job over the share has a scan over it: refused before the rest arrives.
+  if (job_.points_unrepresentable > kMaxUnrepresentableShare * total_points_) {
+    return UnrepresentableError(local_mm, axis, point, u);
+  }
+  return true;
+}
+
+absl::Status JobAssembler::UnrepresentableError(const Eigen::Vector3d& local_mm, int axis,
+                                                size_t point, double uncertainty_mm) const {
+  const double spacing = FloatSpacingAt(local_mm[axis]);
+  absl::Status status = BadChunk(
+      chunks_ - 1, "xyz",
+      absl::StrFormat("point %d: its %c = %.17g mm from header.origin cannot be held as a float "
+                      "to its scan's uncertainty %g mm (floats are %g mm apart there, more than "
+                      "u/4), nor can %d of the job's %d points, more than %g %%: set "
+                      "header.origin near the data, and send the points relative to their "
+                      "scan's points_offset",
+                      point, "xyz"[axis], local_mm[axis], uncertainty_mm, spacing,
+                      job_.points_unrepresentable, total_points_, 100 * kMaxUnrepresentableShare));
+  status = WithMetadata(std::move(status), "point", absl::StrCat(point));
+  status = WithMetadata(std::move(status), "local_coordinate_mm", absl::StrCat(local_mm[axis]));
+  status = WithMetadata(std::move(status), "points_unrepresentable",
+                        absl::StrCat(job_.points_unrepresentable));
+  return WithMetadata(std::move(status), "float_spacing_mm", absl::StrCat(spacing));
+}
+
+absl::Status JobAssembler::CheckScansKeptPoints() const {
+  for (size_t s = 0; s < job_.cloud.scans.size(); ++s) {
+    const uint64_t received = scan_points_[s], invalid = scan_invalid_[s];
+    const uint64_t far = scan_unrepresentable_[s];
+    const bool none_kept = received > 0 && invalid == received;
+    if (!none_kept && far <= kMaxUnrepresentableShare * received) continue;
+    const ScanMeta& scan = job_.cloud.scans[s];
+    absl::Status status = WithFieldViolation(
+        absl::InvalidArgumentError(absl::StrFormat(
+            "scan %d (%s): %d of its %d points are invalid, %d of them too far from "
+            "header.origin for float to hold them to the scan's uncertainty %g mm; a scan must "
+            "keep a valid point and have at most %g %% so far out%s",
+            s, scan.id, invalid, received, far, scan.uncertainty, 100 * kMaxUnrepresentableShare,
+            far > 0 ? ": set header.origin near the data, and send the points relative to "
+                      "their scan's points_offset"
+                    : "")),
+        "INVALID_CHUNK", absl::StrCat("header.scans[", s, "]"));
+    status = WithMetadata(std::move(status), "points_invalid", absl::StrCat(invalid));
+    return WithMetadata(std::move(status), "points_unrepresentable", absl::StrCat(far));
   }
   return absl::OkStatus();
 }
@@ -380,14 +447,8 @@ absl::StatusOr<AssembledJob> JobAssembler::Finish() {
             " have NaN, infinite or out-of-range (> ", kMaxCoordinateMm, " mm) coordinates")),
         "INVALID_CHUNK", "points");
   }
-  if (job_.points_invalid > 0) {
-    job_.warnings.push_back({WarningCode::kPointsInvalid,
-                             absl::StrCat(job_.points_invalid, " of ", job_.points_received,
-                                          " points had NaN, infinite or out-of-range (> ",
-                                          kMaxCoordinateMm, " mm) coordinates and were excluded"),
-                             {{"points_invalid", absl::StrCat(job_.points_invalid)},
-                              {"points_received", absl::StrCat(job_.points_received)}}});
-  }
+  SCANPREP_RETURN_IF_ERROR(CheckScansKeptPoints());
+  if (job_.points_invalid > 0) job_.warnings.push_back(PointsInvalidWarning(job_));
   // The upload's warnings fail a job that fails on them before any stage runs.
   SCANPREP_RETURN_IF_ERROR(
       FailedOnWarningError(FailOnWarnings(job_.warnings, job_.options.fail_on)));

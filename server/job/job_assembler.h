@@ -58,12 +58,22 @@ struct AssembledJob {
   bool include_removed = false;
   double mm_per_unit = 1.0;
   uint64_t points_received = 0;
-  uint64_t points_invalid = 0;
+  uint64_t points_invalid = 0;  // excluded: not finite, out of range or unrepresentable
+  // Of points_invalid, those too far from header.origin for float to hold to their scan's u.
+  uint64_t points_unrepresentable = 0;
+  // Upload-order indices of the first excluded points (at most kFirstInvalidPointsKept).
+  std::vector<uint64_t> first_invalid_points;
   std::vector<Warning> warnings;  // of the upload (POINTS_INVALID)
   std::map<std::string, std::string> labels;
   bool packed_results = false;  // header.result_arrays = ARRAY_ENCODING_PACKED
   std::string preset;           // header.options.preset; its values are in options.params
 };
+
+// A scan (or, while uploading, the job) with more than this share of its points too far from
+// header.origin for float is refused: a wrong origin, not a few stray returns, which are left out.
+inline constexpr double kMaxUnrepresentableShare = 0.01;
+// How many excluded points POINTS_INVALID names.
+inline constexpr size_t kFirstInvalidPointsKept = 5;
 
 class JobAssembler {
  public:
@@ -90,10 +100,17 @@ class JobAssembler {
   absl::Status CheckCost() const;
   absl::Status AddChunk(const v1::PointChunk& chunk);
   absl::Status CheckChunk(const v1::PointChunk& chunk, size_t n) const;
-  // INVALID_CHUNK naming the point of the chunk just counted when float cannot carry one of its
-  // local coordinates to its scan's uncertainty (kMaxFloatSpacingPerUncertainty).
-  absl::Status CheckPrecision(const Eigen::Vector3d& local_mm, size_t point,
-                              double uncertainty_mm) const;
+  // Leaves out point `point` of the chunk being read (of scan `scan`, local coordinates
+  // `local_mm`) when it is not finite, out of range or unrepresentable (float cannot carry a
+  // coordinate to the scan's uncertainty, kMaxFloatSpacingPerUncertainty); true if it did. An
+  // unrepresentable point is an error only once more than kMaxUnrepresentableShare of the job's
+  // points are (the origin is wrong, not one stray return).
+  absl::StatusOr<bool> ExcludeInvalid(const Eigen::Vector3d& local_mm, uint32_t scan, size_t point);
+  // INVALID_CHUNK naming that point, its axis and the float spacing there, with the origin hint.
+  absl::Status UnrepresentableError(const Eigen::Vector3d& local_mm, int axis, size_t point,
+                                    double uncertainty_mm) const;
+  // Each scan keeps a valid point and at most kMaxUnrepresentableShare unrepresentable ones.
+  absl::Status CheckScansKeptPoints() const;
   // The client's count and CRC-32 against the header's total and the chunks received.
   absl::Status AddEnd(const v1::StreamEnd& end);
 
@@ -109,6 +126,9 @@ class JobAssembler {
   // Which optional arrays the first non-empty chunk carried; later chunks must agree.
   bool layout_known_ = false;
   bool has_scanline_ = false, has_quality_ = false, has_intensity_ = false;
+  // Per scan: the points received, of them those left out, and of those the unrepresentable
+  // (ScanMeta::points_invalid also holds the rows the client left out, points_unmeasured).
+  std::vector<uint64_t> scan_points_, scan_invalid_, scan_unrepresentable_;
 };
 
 }  // namespace scanprep::server

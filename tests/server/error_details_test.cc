@@ -99,7 +99,8 @@ TEST(ErrorDetails, AJobFailedOnAWarningNamesItsCodeAndNumbers) {
     EXPECT_FALSE(d->retry_delay.has_value());
     EXPECT_EQ(d->metadata.at("points_invalid"), "1");
     EXPECT_EQ(d->metadata.at("points_received"), "100");
-    EXPECT_THAT(d->metadata.at("message"), ::testing::HasSubstr("1 of 100 points had NaN"));
+    EXPECT_THAT(d->metadata.at("message"),
+                ::testing::HasSubstr("1 of 100 points were excluded: 1 with NaN"));
   }
 }
 

@@ -21,6 +21,7 @@ namespace scanprep::testing {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 namespace fs = std::filesystem;
 
 // The scan `offset` mm away along the diagonal, as a PLY file, through `scanprep process`'s job
@@ -165,6 +166,98 @@ TEST(FarCoordinatesService, ACoordinateIsRefusedExactlyWhereItsFloatSpacingExcee
     ASSERT_EQ(details.field_violations.size(), 1u);
     EXPECT_EQ(details.field_violations[0].field, "points[0].xyz");
   }
+}
+
+// Issue 40, item 2: stray returns far out are left out like NaN points, not fatal to the scan.
+// A 40×40 plane of 0.5 mm spacing in one scan (`scans` = 2: its last `second` points are a
+// second scan) whose points `strays` lie `far_mm` out along x, where float's spacing is > u/4.
+absl::StatusOr<client::ProcessResult> ProcessPlaneWithStrays(const InProcessServer& server,
+                                                             const std::vector<size_t>& strays,
+                                                             double far_mm, size_t second = 0,
+                                                             bool strict = false) {
+  PointCloud cloud = NoisyPlaneWithSpikes(40, 0.5f).cloud;
+  for (size_t i : strays) cloud.x[i] = static_cast<float>(far_mm);
+  v1::JobHeader header = SimpleHeader();
+  if (second > 0) {
+    cloud.scans.push_back(ScanMeta{.id = "second"});
+    for (size_t i = cloud.size() - second; i < cloud.size(); ++i) cloud.scan[i] = 1;
+    *header.add_scans() = header.scans(0);
+    header.mutable_scans(1)->set_scan_id("second");
+  }
+  if (strict) header.mutable_options()->add_fail_on(v1::WARNING_CODE_POINTS_INVALID);
+  return server.Client().Process(header, cloud);
+}
+
+std::string WarningParam(const v1::Report& report, v1::WarningCode code, const std::string& key) {
+  for (const v1::Warning& w : report.warning_details()) {
+    if (w.code() == code) return w.params().contains(key) ? w.params().at(key) : "(no param)";
+  }
+  return "(no warning)";
+}
+
+TEST(FarCoordinatesService, AStrayPointFloatCannotHoldIsLeftOutAndNamedNotFatal) {
+  InProcessServer server;
+  auto near = ProcessPlaneWithStrays(server, {}, 0);
+  ASSERT_TRUE(near.ok()) << near.status();
+  const size_t n = near->report.points_received();
+  ASSERT_GT(n, 1600u);
+  EXPECT_EQ(near->report.points_invalid(), 0u);  // control: nothing is left out near the origin
+
+  // 1e8 mm: floats are 8 mm apart there, u = 0.1 mm.
+  auto stray = ProcessPlaneWithStrays(server, {700, 5}, 1e8);
+  ASSERT_TRUE(stray.ok()) << stray.status();
+  EXPECT_EQ(stray->report.points_invalid(), 2u);
+  EXPECT_EQ(stray->report.points_processed(), n - 2);
+  const v1::Report& r = stray->report;
+  EXPECT_EQ(WarningParam(r, v1::WARNING_CODE_POINTS_INVALID, "points_unrepresentable"), "2");
+  EXPECT_EQ(WarningParam(r, v1::WARNING_CODE_POINTS_INVALID, "first_invalid_points"), "5,700");
+  for (size_t i = 0; i < stray->cloud.size(); ++i) {
+    EXPECT_LT(std::abs(stray->cloud.x[i]), 100.f) << "a stray came back, point " << i;
+  }
+
+  // Strict fails on it, naming the numbers.
+  auto strict = ProcessPlaneWithStrays(server, {700}, 1e8, 0, /*strict=*/true);
+  EXPECT_EQ(strict.status().code(), absl::StatusCode::kFailedPrecondition) << strict.status();
+  EXPECT_THAT(strict.status().message(), HasSubstr("1 too far from header.origin"));
+}
+
+// More than 1 % unrepresentable is a wrong origin: refused while uploading, with the hint; a
+// scan over the share inside a job under it is refused at the end, naming the scan.
+TEST(FarCoordinatesService, MoreThanOnePercentFarOutIsRefusedWithTheOriginHint) {
+  InProcessServer server;
+  std::vector<size_t> many;
+  for (size_t i = 0; i < 40; ++i) many.push_back(40 * i);  // 2.5 % of the points
+  auto wrong_origin = ProcessPlaneWithStrays(server, many, 1e8);
+  EXPECT_EQ(wrong_origin.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(wrong_origin.status().message(),
+              HasSubstr("more than 1 %: set header.origin near the data"));
+  EXPECT_EQ(client::DetailsOf(wrong_origin.status()).reason, "INVALID_CHUNK");
+
+  // 4 of the second scan's 200 points (2 %), 4 of the job's ~1,600 (0.25 %).
+  std::vector<size_t> in_second;
+  for (size_t i = 0; i < 4; ++i) in_second.push_back(1400 + 10 * i);
+  auto scan_over = ProcessPlaneWithStrays(server, in_second, 1e8, 300);
+  ASSERT_EQ(scan_over.status().code(), absl::StatusCode::kInvalidArgument) << scan_over.status();
+  EXPECT_THAT(scan_over.status().message(),
+              HasSubstr("scan 1 (second): 4 of its 300 points are invalid, 4 of them too far"));
+  const client::CallErrorDetails details = client::DetailsOf(scan_over.status());
+  ASSERT_EQ(details.field_violations.size(), 1u);
+  EXPECT_EQ(details.field_violations[0].field, "header.scans[1]");
+
+  // A scan that keeps no valid point (all NaN) is refused too, without the origin hint.
+  const size_t size = NoisyPlaneWithSpikes(40, 0.5f).cloud.size();
+  std::vector<size_t> second_all;
+  for (size_t i = size - 300; i < size; ++i) second_all.push_back(i);
+  auto none_kept = ProcessPlaneWithStrays(server, second_all, std::nan(""), 300);
+  ASSERT_EQ(none_kept.status().code(), absl::StatusCode::kInvalidArgument) << none_kept.status();
+  EXPECT_THAT(none_kept.status().message(),
+              HasSubstr("scan 1 (second): 300 of its 300 points are invalid, 0 of them too far"));
+  EXPECT_THAT(none_kept.status().message(), Not(HasSubstr("header.origin near")));
+
+  // Control: the same four strays in the first scan are under its share and left out.
+  auto scan_under = ProcessPlaneWithStrays(server, {0, 10, 20, 30}, 1e8, 300);
+  ASSERT_TRUE(scan_under.ok()) << scan_under.status();
+  EXPECT_EQ(scan_under->report.points_invalid(), 4u);
 }
 
 }  // namespace

@@ -689,6 +689,38 @@ TEST(Cli, ProfileGapSplitsATextScanIntoScanlines) {
   EXPECT_EQ(server.Terminate(), 0);
 }
 
+// Issue 40, item 2, as a plant met it: one stray return at 1e8 mm in a text scan (floats are
+// 8 mm apart there) is left out and named, the scan processed; --strict fails on it (exit 4).
+TEST(Cli, OneStrayPointFarOutIsLeftOutNotTheScan) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("stray_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  {
+    std::ofstream xyz(dir / "plane.xyz");
+    for (int line = 0; line < 30; ++line) {
+      for (int i = 0; i < 30; ++i) xyz << 0.5 * i << " " << 0.5 * line << " 0\n";
+      if (line == 12) xyz << "1e8 6 0\n";
+    }
+  }
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  const std::string job = "process " + (dir / "plane.xyz").string() + " --unit mm -o " +
+                          (dir / "out.ply").string() + " --progress off --server " +
+                          server.target();
+  const CommandResult r = RunCli(job);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("1 of 901 points were excluded"));
+  std::vector<std::string> warnings;
+  auto cloud = io::ReadScanFile(dir / "out.ply", warnings);
+  ASSERT_TRUE(cloud.ok()) << cloud.status();
+  EXPECT_GT(cloud->size(), 0u);
+  for (size_t i = 0; i < cloud->size(); ++i) EXPECT_LT(cloud->x[i], 20.f) << i;
+  const CommandResult strict = RunCli(job + " --strict");
+  EXPECT_EQ(strict.exit_code, 4) << strict.output;
+  EXPECT_THAT(strict.output, HasSubstr("POINTS_INVALID"));
+  fs::remove_all(dir);
+  EXPECT_EQ(server.Terminate(), 0);
+}
+
 // Every command answers --help (and -h) with its usage and flags, exit 0.
 TEST(Cli, EveryCommandHasHelp) {
   for (const char* command : {"process", "info", "load", "simulate"}) {
