@@ -12,6 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/stages/stage.h"
+#include "core/stages/warning.h"
 #include "server/admission/memory_reservation.h"
 #include "server/transport/client_identity.h"
 #include "wire/chunk_arrays.h"
@@ -187,6 +188,10 @@ uint64_t ScanPrepService::ReserveAhead(const JobAssembler& assembler) const {
 }
 
 grpc::Status ScanPrepService::Refuse(const absl::Status& status) {
+  if (const std::optional<Warning> warning = FailedWarning(status)) {
+    metrics_.FailedOnWarning(warning->code);  // the upload's POINTS_INVALID under strict
+    return ToGrpc(status);
+  }
   metrics_.Rejected(status.code() == absl::StatusCode::kResourceExhausted ? RejectReason::kLimit
                                                                           : RejectReason::kInvalid);
   return ToGrpc(status);
@@ -295,8 +300,11 @@ grpc::Status ScanPrepService::Relay(grpc::ServerContext* context, Stream* stream
   if (client_gone) return Ended(*context, watch, "processing");
   const absl::StatusOr<PipelineReport>& result = running.result();
   if (!result.ok()) {
-    return runner_.cancelled_all() ? Gone(*context, "processing")
-                                   : ToGrpc(FailedOnWarningError(OptionsError(result.status())));
+    if (runner_.cancelled_all()) return Gone(*context, "processing");
+    if (const std::optional<Warning> warning = FailedWarning(result.status())) {
+      metrics_.FailedOnWarning(warning->code);
+    }
+    return ToGrpc(FailedOnWarningError(OptionsError(result.status())));
   }
   return grpc::Status::OK;
 }
@@ -392,6 +400,9 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
   for (const ParamSpec& spec : AllParamSpecs()) ParamSpecToProto(spec, info->add_parameters());
   for (const Preset& preset : *limits_.presets) PresetToProto(preset, info->add_presets());
   info->set_default_budget_seconds(limits_.default_budget_seconds);
+  for (WarningCode code : StrictWarningCodes()) {
+    info->add_strict_warning_codes(WarningCodeToProto(code));
+  }
   for (const auto& [stage, seconds] : limits_.default_stage_budget_seconds) {
     (*info->mutable_default_stage_budget_seconds())[stage] = seconds;
   }

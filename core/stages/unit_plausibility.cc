@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "core/base/status_macros.h"
 #include "core/spatial/median_nearest.h"
 #include "core/stages/scan_noise.h"
@@ -32,6 +33,27 @@ int Disagreement(double measured, double stated) {
   return 0;
 }
 
+// UNIT_UNCHECKED, once for the job: which scans' unit nothing could confirm, and what to state.
+void WarnUnitUnchecked(const PointCloud& cloud, const std::vector<size_t>& unchecked,
+                       StageReporter& out) {
+  std::vector<std::string> named;
+  for (size_t i = 0; i < std::min<size_t>(unchecked.size(), 5); ++i) {
+    named.push_back(absl::StrCat("'", cloud.scans[unchecked[i]].id, "'"));
+  }
+  const std::string first = absl::StrJoin(named, ", ");
+  out.Warn(WarningCode::kUnitUnchecked,
+           absl::StrCat("the unit of ", unchecked.size(), " of ", cloud.scans.size(),
+                        " scans could not be checked (", first,
+                        unchecked.size() > named.size() ? ", …" : "",
+                        "): a scan states no scanline_spacing or point_spacing, or an uncertainty "
+                        "whose noise could be measured, to compare its data with; state one for "
+                        "the job's unit to be judged"),
+           {{"scans_unchecked", absl::StrCat(unchecked.size())},
+            {"scans", absl::StrCat(cloud.scans.size())},
+            {"first_scans", first},
+            {"state_one_of", "scanline_spacing, point_spacing, uncertainty"}});
+}
+
 }  // namespace
 
 absl::Status WarnIfUnitSuspect(const PointCloud& cloud, const PointMeasures& m,
@@ -41,6 +63,7 @@ absl::Status WarnIfUnitSuspect(const PointCloud& cloud, const PointMeasures& m,
                             MedianNearestDistance(cloud, nb, out.cancel()));
   SCANPREP_ASSIGN_OR_RETURN(const std::vector<std::optional<double>> noise,
                             MeasuredScanNoise(cloud, m, cloud.scans.size(), out.cancel()));
+  std::vector<size_t> unchecked;  // scans no stated scale could be compared with
   for (size_t s = 0; s < cloud.scans.size(); ++s) {
     const ScanMeta& scan = cloud.scans[s];
     std::vector<int> verdicts;
@@ -60,7 +83,11 @@ absl::Status WarnIfUnitSuspect(const PointCloud& cloud, const PointMeasures& m,
       absl::StrAppend(&evidence, evidence.empty() ? "its" : "; its", " noise σ̂ = ", *noise[s],
                       " mm against a stated u = ", scan.uncertainty, " mm");
     }
-    if (verdicts.empty() || verdicts.front() == 0 ||
+    if (verdicts.empty()) {
+      unchecked.push_back(s);
+      continue;
+    }
+    if (verdicts.front() == 0 ||
         std::any_of(verdicts.begin(), verdicts.end(), [&](int v) { return v != verdicts[0]; })) {
       continue;
     }
@@ -71,6 +98,7 @@ absl::Status WarnIfUnitSuspect(const PointCloud& cloud, const PointMeasures& m,
                           "millimetres is 1000x smaller)?"),
              std::move(params));
   }
+  if (!unchecked.empty()) WarnUnitUnchecked(cloud, unchecked, out);
   return absl::OkStatus();
 }
 

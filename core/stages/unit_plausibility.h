@@ -19,7 +19,8 @@ inline constexpr double kUnitSuspectFactor = 20;
 
 // Warns UNIT_SUSPECT for each scan whose every stated scale that can be checked (a stated
 // scanline or point spacing; a stated u when σ̂ is measured) disagrees with the data by more than
-// kUnitSuspectFactor in the same direction. A scan that states nothing is not judged. Needs the
+// kUnitSuspectFactor in the same direction. A scan that states nothing is not judged: one
+// UNIT_UNCHECKED names such scans and what they could state (strict fails on it). Needs the
 // neighbourhoods and `m`'s normal fits (run at the end of the normals stage). CANCELLED
 // when the job's token fires.
 absl::Status WarnIfUnitSuspect(const PointCloud& cloud, const PointMeasures& m,

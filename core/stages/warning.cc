@@ -27,10 +27,8 @@ constexpr std::array kCodes = [] {
 }();
 
 constexpr WarningCode kStrict[] = {
-    WarningCode::kUnitSuspect,
-    WarningCode::kNoiseAboveUncertainty,
-    WarningCode::kScanRepeated,
-    WarningCode::kPointsInvalid,
+    WarningCode::kUnitSuspect,   WarningCode::kNoiseAboveUncertainty, WarningCode::kScanRepeated,
+    WarningCode::kPointsInvalid, WarningCode::kUnitUnchecked,
 };
 
 // (absl::string_view: Debian's Abseil does not alias it to std::string_view.)

@@ -40,7 +40,8 @@ namespace scanprep {
   X(kNormalsPropagated, "NORMALS_PROPAGATED")                               \
   X(kSpacingFromDensity, "SPACING_FROM_DENSITY")                            \
   X(kScanRepeated, "SCAN_REPEATED")                                         \
-  X(kPointsInvalid, "POINTS_INVALID")
+  X(kPointsInvalid, "POINTS_INVALID")                                       \
+  X(kUnitUnchecked, "UNIT_UNCHECKED")
 
 enum class WarningCode {
 #define SCANPREP_WARNING_ENUMERATOR(code, name) code,
@@ -61,11 +62,12 @@ std::string_view WarningCodeName(WarningCode code);
 std::optional<WarningCode> WarningCodeFromName(std::string_view name);
 
 // The codes `scanprep process --strict` fails on: those that say the request is probably wrong
-// (its unit, its stated u, a scan sent twice, points it could not use), so its result should not
-// be used. Left out: codes that describe a correct job's circumstances (one scan, no poses, no
-// stated u), and the caps (RADIUS_CAPPED, BALLS_CAPPED, WINDOWS_CAPPED), which are symptoms:
-// their usual cause, a unit slip, is named by UNIT_SUSPECT at the end of the normals stage, and
-// failing on the symptom first (neighbourhoods) would hide the cause.
+// (its unit, its stated u, a scan sent twice, points it could not use) or could not be checked
+// (a unit no stated scale can confirm), so its result should not be used. Left out: codes that
+// describe a correct job's circumstances (one scan, no poses, no stated u), and the caps
+// (RADIUS_CAPPED, BALLS_CAPPED, WINDOWS_CAPPED), which are symptoms: their usual cause, a unit
+// slip, is named by UNIT_SUSPECT at the end of the normals stage, and failing on the symptom first
+// (neighbourhoods) would hide the cause.
 std::span<const WarningCode> StrictWarningCodes();
 
 // FAILED_PRECONDITION "<message> (fail_on <CODE>)" for the first of `warnings` whose code is in

@@ -100,6 +100,11 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r, const SensorMetricsOptions&
       rejected_(r.AddCounter("scanprep_jobs_rejected_total",
                              "Process calls refused before or during upload, by reason.",
                              {"reason"})),
+      failed_on_warning_(r.AddCounter(
+          "scanprep_jobs_failed_on_warning_total",
+          "Jobs failed (FAILED_PRECONDITION) on a warning their options.fail_on named, e.g. "
+          "--strict, by the warning's code.",
+          {"code"})),
       overruns_(r.AddCounter("scanprep_budget_overruns_total",
                              "Processed jobs whose stage exceeded its cycle-time budget, by stage "
                              "(the whole job: scanprep_job_budget_total{outcome=\"missed\"}).",
@@ -166,6 +171,9 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r, const SensorMetricsOptions&
 
 void ServiceMetrics::AddFirstSeries() {
   for (RejectReason reason : kAllReasons) rejected_.WithLabels({ReasonLabel(reason)});
+  for (WarningCode code : StrictWarningCodes()) {
+    failed_on_warning_.WithLabels({std::string(WarningCodeName(code))});
+  }
   for (Phase phase : kAllPhases) phase_seconds_.WithLabels({PhaseLabel(phase)});
   for (const char* outcome : kBudgetOutcomes) budget_outcomes_.WithLabels({outcome});
   for (const RpcMethod& rpc : {kProcessRpc, kGetInfoRpc}) {
@@ -225,6 +233,10 @@ void ServiceMetrics::RpcHandled(const RpcMethod& rpc, grpc::StatusCode code, dou
 
 void ServiceMetrics::Rejected(RejectReason reason) {
   rejected_.WithLabels({ReasonLabel(reason)}).Inc();
+}
+
+void ServiceMetrics::FailedOnWarning(WarningCode code) {
+  failed_on_warning_.WithLabels({std::string(WarningCodeName(code))}).Inc();
 }
 
 void ServiceMetrics::PhaseEnded(Phase phase, double seconds) {

@@ -14,6 +14,7 @@
 #include <grpcpp/support/status.h>
 
 #include "core/stages/report.h"
+#include "core/stages/warning.h"
 #include "server/admission/admission_observer.h"
 #include "server/metrics/registry.h"
 #include "server/metrics/sensor_metrics.h"
@@ -52,6 +53,9 @@ class ServiceMetrics : public AdmissionObserver {
   // `seconds`: from the call's start to its status.
   void RpcHandled(const RpcMethod& rpc, grpc::StatusCode code, double seconds);
   void Rejected(RejectReason reason);
+  // A job that ended FAILED_PRECONDITION on a warning its options.fail_on (strict) named, by the
+  // warning's code: a plant sees how many parts strict stopped, and why.
+  void FailedOnWarning(WarningCode code);
 
   // Admission's events: the queue's capacity and the memory capacity (exported so alerts can
   // compare against them), the jobs holding a slot and waiting for one with the bytes they
@@ -88,6 +92,7 @@ class ServiceMetrics : public AdmissionObserver {
 
   RpcFamilies rpc_;
   metrics::Family<metrics::Counter>& rejected_;
+  metrics::Family<metrics::Counter>& failed_on_warning_;
   metrics::Family<metrics::Counter>& overruns_;
   metrics::Family<metrics::Counter>& budget_outcomes_;
   metrics::Histogram& budget_used_;

@@ -11,7 +11,8 @@ import unittest
 import grpc
 import numpy as np
 
-from scanprep_client import Client, Flag, Scan, ScanprepError
+from scanprep_client import STRICT_WARNING_CODES, Client, Flag, Scan, ScanprepError
+from scanprep.v1 import scanprep_pb2 as pb
 
 from local_server import LocalServer
 
@@ -169,6 +170,25 @@ class ClientTest(unittest.TestCase):
         info = self.client.info()
         self.assertTrue(info.version)
         self.assertGreater(info.limits.max_points_per_job, 0)
+        self.assertEqual([pb.WarningCode.Name(c)[len("WARNING_CODE_"):]
+                          for c in info.strict_warning_codes], list(STRICT_WARNING_CODES))
+
+    def test_strict_fails_a_job_whose_unit_cannot_be_checked(self):
+        """A scan stating no spacing and no uncertainty: its unit is unchecked (UNIT_UNCHECKED),
+        which strict fails on; the control, without strict, runs; fail_on names one code."""
+        plane, scanlines, _ = spiky_plane()
+        bare = Scan(points=plane, scanline=scanlines)
+        self.assertGreater(len(self.client.process([bare], unit="mm", stages=["normals"]).points),
+                           0)
+        for options in ({"strict": True}, {"fail_on": ["UNIT_UNCHECKED"]}):
+            with self.assertRaises(ScanprepError) as caught:
+                self.client.process([bare], unit="mm", stages=["normals"], **options)
+            self.assertEqual(caught.exception.code, grpc.StatusCode.FAILED_PRECONDITION)
+            self.assertEqual(caught.exception.reason, "UNIT_UNCHECKED")
+        stated = Scan(points=plane, scanline=scanlines, scanline_spacing=0.5, uncertainty=0.01)
+        self.client.process([stated], unit="mm", stages=["normals"], strict=True)
+        with self.assertRaises(ValueError):
+            self.client.process([bare], unit="mm", fail_on=["NO_SUCH_CODE"])
 
 
 if __name__ == "__main__":

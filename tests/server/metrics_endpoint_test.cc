@@ -220,5 +220,39 @@ TEST(MetricsEndpointLimits, AJobOverTheSizeLimitCountsAsRejectedForTheLimit) {
             0);  // never admitted
 }
 
+// Issue 40, item 1: a job strict refuses counts by the warning's code, at the upload
+// (POINTS_INVALID) and at a stage (UNIT_UNCHECKED: a scan stating no spacing or u); not as a
+// rejected call. Control: the same job without fail_on is processed and counts nowhere there.
+TEST(MetricsEndpointStrict, AJobStrictRefusesCountsByTheWarningsCode) {
+  server::ServerOptions options;
+  options.metrics_listen = "127.0.0.1:0";
+  InProcessServer server(options);
+  auto stub = server.Stub();
+  const GeneratedScan scan = NoisyPlaneWithSpikes(30, 0.5f);
+  v1::JobHeader bare = SimpleHeader(0);  // states no spacing and no u: the unit is unchecked
+  bare.mutable_options()->add_stages("normals");
+  ASSERT_TRUE(server.Client().Process(bare, scan.cloud).ok());
+  v1::JobHeader strict = bare;
+  strict.mutable_options()->add_fail_on(v1::WARNING_CODE_UNIT_UNCHECKED);
+  const auto unchecked = server.Client().Process(strict, scan.cloud);
+  EXPECT_EQ(unchecked.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(unchecked.status().message(), HasSubstr("could not be checked"));
+  v1::PointChunk nan = LineChunk(100);
+  nan.set_xyz(4, std::numeric_limits<float>::quiet_NaN());
+  v1::JobHeader invalid = SimpleHeader();
+  invalid.mutable_options()->add_fail_on(v1::WARNING_CODE_POINTS_INVALID);
+  EXPECT_EQ(RawCall(*stub, {HeaderRequest(invalid, 100), ChunkRequest(nan)}).error_code(),
+            grpc::StatusCode::FAILED_PRECONDITION);
+
+  const auto samples = Scrape(server.server().metrics_port());
+  const std::string family = "scanprep_jobs_failed_on_warning_total";
+  EXPECT_EQ(samples.at(Key(family, "code=\"UNIT_UNCHECKED\"")), 1);
+  EXPECT_EQ(samples.at(Key(family, "code=\"POINTS_INVALID\"")), 1);
+  EXPECT_EQ(samples.at(Key(family, "code=\"UNIT_SUSPECT\"")), 0);  // exported before any
+  EXPECT_EQ(samples.at(Key("scanprep_jobs_rejected_total", "reason=\"invalid\"")), 0);
+  EXPECT_EQ(samples.at(GrpcHandled("Process", "FailedPrecondition")), 2);
+  EXPECT_EQ(samples.at(GrpcHandled("Process", "OK")), 1);
+}
+
 }  // namespace
 }  // namespace scanprep::testing

@@ -721,6 +721,36 @@ TEST(Cli, OneStrayPointFarOutIsLeftOutNotTheScan) {
   EXPECT_EQ(server.Terminate(), 0);
 }
 
+// Issue 40, item 1, as a plant met it: a file in metres sent as millimetres with no spacing or u
+// stated passed --strict. Now its unit is UNCHECKED, which --strict fails on (exit 4); the
+// control states the spacing (in the file's real unit, so the slip is visible) and is SUSPECT.
+TEST(Cli, StrictFailsAScanWhoseUnitNothingConfirms) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("unchecked_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  {
+    std::ofstream xyz(dir / "metres.xyz");
+    for (int line = 0; line < 30; ++line) {
+      for (int i = 0; i < 30; ++i) xyz << 0.0005 * i << " " << 0.0005 * line << " 0\n";
+    }
+  }
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  const std::string job = "process " + (dir / "metres.xyz").string() + " --unit mm -o " +
+                          (dir / "out.ply").string() + " --progress off --server " +
+                          server.target();
+  const CommandResult lax = RunCli(job);
+  ASSERT_EQ(lax.exit_code, 0) << lax.output;
+  EXPECT_THAT(lax.output, HasSubstr("warning UNIT_UNCHECKED"));
+  const CommandResult strict = RunCli(job + " --strict");
+  EXPECT_EQ(strict.exit_code, 4) << strict.output;
+  EXPECT_THAT(strict.output, HasSubstr("(reason UNIT_UNCHECKED)"));
+  const CommandResult stated = RunCli(job + " --strict --scanline_spacing 0.5");
+  EXPECT_EQ(stated.exit_code, 4) << stated.output;
+  EXPECT_THAT(stated.output, HasSubstr("(reason UNIT_SUSPECT)"));
+  fs::remove_all(dir);
+  EXPECT_EQ(server.Terminate(), 0);
+}
+
 // Every command answers --help (and -h) with its usage and flags, exit 0.
 TEST(Cli, EveryCommandHasHelp) {
   for (const char* command : {"process", "info", "load", "simulate"}) {

@@ -4,10 +4,10 @@ flags and the report out, with typed errors, a deadline on every call and retrie
 service asks for them. Install: pip install --no-index --no-build-isolation ./client/python into
 a venv made with --system-site-packages (the build generates the API modules from proto/)."""
 
-from scanprep_client.client import Client, Flag, Result, Scan, local_origin
+from scanprep_client.client import STRICT_WARNING_CODES, Client, Flag, Result, Scan, local_origin
 from scanprep_client.errors import ScanprepError
 from scanprep_client.health import Health, PairHealth, ScanHealth
 from scanprep_client.retry import RetryPolicy
 
 __all__ = ["Client", "Flag", "Health", "PairHealth", "Result", "RetryPolicy", "Scan", "ScanHealth",
-           "ScanprepError", "local_origin"]
+           "ScanprepError", "STRICT_WARNING_CODES", "local_origin"]

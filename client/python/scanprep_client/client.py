@@ -20,6 +20,10 @@ from scanprep_client.retry import RetryPolicy, call_with_retries
 
 _UNITS = {"mm": pb.LENGTH_UNIT_MILLIMETRE, "m": pb.LENGTH_UNIT_METRE, "um": pb.LENGTH_UNIT_MICROMETRE, "in": pb.LENGTH_UNIT_INCH}
 _CHUNK_POINTS = 32768  # the service's recommended chunk size (GetInfo().limits)
+# What process(strict=True) fails on: the service's GetInfo().strict_warning_codes, as the CLI's
+# --strict (a test holds them equal).
+STRICT_WARNING_CODES = ("UNIT_SUSPECT", "NOISE_ABOVE_UNCERTAINTY", "SCAN_REPEATED",
+                        "POINTS_INVALID", "UNIT_UNCHECKED")
 T = TypeVar("T")
 
 
@@ -147,7 +151,7 @@ def _wire_points(scan: Scan, offset: Optional[np.ndarray], index: int) -> np.nda
 
 def _header(scans: Sequence[Scan], offsets: Sequence[Optional[np.ndarray]], origin, unit: str,
             stages, params, preset, include_removed, labels, budget_seconds,
-            job_id) -> pb.JobHeader:
+            job_id, fail_on) -> pb.JobHeader:
     if unit not in _UNITS:
         raise ValueError(f"unit {unit!r}: one of {sorted(_UNITS)}")
     header = pb.JobHeader(job_id=job_id, unit=_UNITS[unit],
@@ -174,6 +178,10 @@ def _header(scans: Sequence[Scan], offsets: Sequence[Optional[np.ndarray]], orig
     header.options.params.update({k: str(v) for k, v in (params or {}).items()})
     header.options.preset = preset
     header.options.include_removed = include_removed
+    for code in fail_on:
+        if code not in pb.WarningCode.keys() or code == "WARNING_CODE_UNSPECIFIED":
+            raise ValueError(f"fail_on: unknown warning code {code!r} (docs/api.md#warnings)")
+        header.options.fail_on.append(pb.WarningCode.Value(code))
     header.labels.update(labels or {})
     header.budget.total_seconds = budget_seconds
     return header
@@ -276,7 +284,8 @@ class Client:
                 job_id: str = "", timeout: Optional[float] = None,
                 chunk_points: int = _CHUNK_POINTS,
                 progress: Optional[Callable[[pb.Progress], None]] = None,
-                origin: Optional[Sequence[float]] = None) -> Result:
+                origin: Optional[Sequence[float]] = None, strict: bool = False,
+                fail_on: Sequence[str] = ()) -> Result:
         """Runs one job. unit ("mm", "m", "um", "in") is required, as in the API: a scan in metres
         read as millimetres would be processed with every length 1000 times off. Raises
         ScanprepError when the service refuses or fails it, and when the result arrives
@@ -287,12 +296,18 @@ class Client:
         before origins existed). With an origin, Result.points are origin + local in float64.
 
         preset: a named set of parameters (info().presets: "metrology", "paper" or the server's
-        own per scanner model); params override it."""
+        own per scanner model); params override it.
+
+        strict: fail the job (ScanprepError, FAILED_PRECONDITION, reason = the warning's code) on
+        a warning that the request is probably wrong or could not be checked, as `scanprep
+        process --strict` (STRICT_WARNING_CODES); fail_on: more codes, e.g. "RADIUS_CAPPED"."""
+        codes = [c if c.startswith("WARNING_CODE_") else "WARNING_CODE_" + c
+                 for c in (list(STRICT_WARNING_CODES) if strict else []) + list(fail_on)]
         offsets = [_points_offset(s) for s in scans]
         origin = (_job_origin(scans, offsets) if origin is None
                   else np.asarray(origin, dtype=np.float64).reshape(3))
         header = _header(scans, offsets, origin, unit, stages, params, preset, include_removed,
-                         labels, budget_seconds, job_id)
+                         labels, budget_seconds, job_id, dict.fromkeys(codes))
 
         def attempt(seconds: float) -> Result:
             responses = self._stub.Process(_requests(header, scans, offsets, chunk_points),

@@ -89,10 +89,32 @@ TEST(UnitPlausibility, MillimetresSentAsMetresAreSuspectToo) {
   EXPECT_NE(found.front().message.find("larger"), std::string::npos) << found.front().message;
 }
 
-TEST(UnitPlausibility, AScanThatStatesNothingIsNotJudged) {
+// ...but says so (UNIT_UNCHECKED, which strict fails on), naming the scan and what to state;
+// the control, every scan stating its scales, is checked and gets no such warning.
+TEST(UnitPlausibility, AScanThatStatesNothingIsNotJudgedAndSaysSo) {
   PointCloud bare = testing::WithoutMetadata(Simulated());
   bare.scans[0].uncertainty_stated = false;  // as the server reads a header without u
   EXPECT_TRUE(UnitWarnings(Scaled(bare, 1e-3f)).empty());
+  PointCloud scaled = Scaled(bare, 1e-3f);
+  auto report = testing::RunNormalsFunction(scaled);
+  ASSERT_TRUE(report.ok()) << report.status();
+  const auto unchecked =
+      std::find_if(report->warnings.begin(), report->warnings.end(),
+                   [](const Warning& w) { return w.code == WarningCode::kUnitUnchecked; });
+  ASSERT_NE(unchecked, report->warnings.end());
+  EXPECT_EQ(unchecked->params.at("scans_unchecked"), "1");
+  EXPECT_EQ(unchecked->params.at("first_scans"), "'" + bare.scans[0].id + "'");
+  EXPECT_NE(unchecked->message.find("state one for the job's unit to be judged"),
+            std::string::npos);
+  EXPECT_NE(std::find(StrictWarningCodes().begin(), StrictWarningCodes().end(),
+                      WarningCode::kUnitUnchecked),
+            StrictWarningCodes().end());
+
+  PointCloud with_metadata = testing::WithUserMetadata(Simulated());
+  auto stated = testing::RunNormalsFunction(with_metadata);
+  ASSERT_TRUE(stated.ok()) << stated.status();
+  for (const Warning& w : stated->warnings)
+    EXPECT_NE(w.code, WarningCode::kUnitUnchecked) << w.message;
 }
 
 TEST(UnitPlausibility, RealScansAreJudgedRightAndTheBunnyInTheWrongUnitSuspect) {
