@@ -26,14 +26,21 @@ absl::Status BadChunk(uint64_t chunk, std::string_view array, std::string_view p
 // POINTS_INVALID: how many points were left out and why, and the first few in upload order.
 Warning PointsInvalidWarning(const AssembledJob& job) {
   const uint64_t unrepresentable = job.points_unrepresentable;
+  std::vector<std::string> causes;
+  if (const uint64_t bad = job.points_invalid - unrepresentable; bad > 0) {
+    causes.push_back(absl::StrCat(bad, " with NaN, infinite or out-of-range (> ", kMaxCoordinateMm,
+                                  " mm) coordinates"));
+  }
+  if (unrepresentable > 0) {
+    causes.push_back(absl::StrCat(unrepresentable,
+                                  " too far from header.origin for float to hold them to their "
+                                  "scan's uncertainty"));
+  }
   return {WarningCode::kPointsInvalid,
-          absl::StrCat(job.points_invalid, " of ", job.points_received,
-                       " points were excluded: ", job.points_invalid - unrepresentable,
-                       " with NaN, infinite or out-of-range (> ", kMaxCoordinateMm,
-                       " mm) coordinates, ", unrepresentable,
-                       " too far from header.origin for float to hold them to their scan's "
-                       "uncertainty (the first, in upload order: ",
-                       absl::StrJoin(job.first_invalid_points, ", "), ")"),
+          absl::StrCat(
+              job.points_invalid, " of ", job.points_received,
+              " points were excluded: ", absl::StrJoin(causes, ", "),
+              " (the first, in upload order: ", absl::StrJoin(job.first_invalid_points, ", "), ")"),
           {{"points_invalid", absl::StrCat(job.points_invalid)},
            {"points_received", absl::StrCat(job.points_received)},
            {"points_unrepresentable", absl::StrCat(unrepresentable)},

@@ -189,7 +189,10 @@ TEST(Process, InvalidCoordinatesAreExcludedCountedAndWarned) {
   EXPECT_EQ(result->report.points_processed(), n - 4);
   EXPECT_EQ(result->report.stages(0).points_in(), n - 4);
   EXPECT_THAT(result->report.warnings(),
-              ::testing::Contains(HasSubstr("4 of " + std::to_string(n) + " points had NaN")));
+              ::testing::Contains(HasSubstr(
+                  "4 of " + std::to_string(n) +
+                  " points were excluded: 4 with NaN, infinite or out-of-range (> 1e+09 mm) "
+                  "coordinates (the first, in upload order: 5, 77, 1000, 2000)")));
 }
 
 // A scan header without an uncertainty leaves u at its default: the report counts and names it;
