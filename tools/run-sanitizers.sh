@@ -34,6 +34,9 @@ for job in "${jobs[@]}"; do
       heavy+='|^Cli\.ProgressOfAFourMillionPointJob|^SensorDrift\.ANoiseStepOverReplayedJobs'
       heavy+='|^Pipeline\.BunnyTenScans|^FullPipeline\.BunnyScannerSits|^Bunny\.TenScansRegister'
       heavy+='|^Outliers\.OverlappingScansLoseNoMore'
+      # The two longest under ASan (124 s and 73 s): the TSan job runs the first's faults_test
+      # whole, and the fuzzers run every reader the second reads the shared scans with.
+      heavy+='|^Faults\.ClientsThatVanishMidUploadOrMidDownload|^Cli\.ProcessesEveryScanFileInTheSharedData'
       ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
       UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
         ctest --test-dir build-asan --output-on-failure -j "$(nproc)" -R '[.]' -E "$heavy"
