@@ -17,9 +17,14 @@ is an error, not a silently ignored field), then what must hold between them and
   - selectors, ports and references (Service, HPA, PDB, ServiceMonitor, GRPCRoute) resolve;
   - the recommended app.kubernetes.io/* labels on every object and pod template, selectors
     without the version, and the version label equal to the image tag;
-  - the NetworkPolicy admits every container port, the metrics port only from a namespace;
-  - the HPA's Pods metrics are metrics the server exports and the prometheus-adapter rule of the
-    monitoring overlay serves;
+  - the NetworkPolicy admits every container port, and each only from a selected namespace or
+    pod (the metrics port from a namespace);
+  - the HPA's Pods metrics are metrics the server exports and a prometheus-adapter
+    configuration (a ConfigMap's config.yaml) of the same build serves: an HPA whose metric
+    nobody serves never scales down;
+  - TLS: either --plaintext or --tls_cert/--tls_key, not both; the TLS files lie in a mounted
+    Secret that a cert-manager Certificate of the build issues; no gRPC probe on a TLS port (the
+    kubelet's gRPC probe speaks plaintext only); behind a Gateway, --trusted_proxies is set;
   - the PrometheusRule and the rules ConfigMap hold exactly deploy/prometheus/alerts.yml, whose
     alerts have severity critical or warning and a runbook_url into docs/deployment.md ("Alert runbooks").
 
@@ -73,7 +78,8 @@ QUANTITY = "quantity"  # a string like 2Gi or a number
 METADATA = {"name!": str, "labels": {"*": str}, "annotations": {"*": str}, "namespace": str}
 TEMPLATE_METADATA = {"labels!": {"*": str}, "annotations": {"*": str}}
 LABEL_SELECTOR = {"matchLabels!": {"*": str}}
-PROBE = {"grpc": {"port!": int, "service": str}, "periodSeconds": int, "failureThreshold": int,
+PROBE = {"grpc": {"port!": int, "service": str}, "tcpSocket": {"port!": "any"},
+         "periodSeconds": int, "failureThreshold": int,
          "initialDelaySeconds": int, "timeoutSeconds": int}
 CONTAINER = {
     "name!": str, "image!": str, "args": [str], "command": [str],
@@ -140,10 +146,20 @@ SCHEMAS = {
                                           "certificateRefs!": [{"kind": str, "name!": str}]},
                                   "allowedRoutes": {"kinds": [{"kind!": str}]}}]},
     },
+    ("cert-manager.io/v1", "Certificate"): {
+        "metadata!": METADATA,
+        "spec!": {"secretName!": str,
+                  "issuerRef!": {"name!": str, "kind": str, "group": str},
+                  "dnsNames": [str], "commonName": str, "duration": str, "renewBefore": str,
+                  "usages": [str],
+                  "privateKey": {"algorithm": str, "size": int, "rotationPolicy": str,
+                                 "encoding": str}},
+    },
     ("networking.k8s.io/v1", "NetworkPolicy"): {
         "metadata!": METADATA,
         "spec!": {"podSelector!": LABEL_SELECTOR, "policyTypes!": [str],
-                  "ingress!": [{"from": [{"namespaceSelector!": LABEL_SELECTOR}],
+                  "ingress!": [{"from": [{"namespaceSelector": LABEL_SELECTOR,
+                                          "podSelector": LABEL_SELECTOR}],
                                 "ports!": [{"port!": "any", "protocol": str}]}]},
     },
     ("gateway.networking.k8s.io/v1", "GRPCRoute"): {
@@ -155,12 +171,14 @@ SCHEMAS = {
     },
 }
 LABELS = [{"pairs!": {"*": str}, "includeTemplates": bool}]
+# JSON 6902 patches, inline, on one object each (what build() applies).
+PATCHES = [{"target!": {"kind!": str, "name!": str}, "patch!": str}]
 KUSTOMIZATION = {"apiVersion!": str, "kind!": str, "resources!": [str], "components": [str],
-                 "labels": LABELS,
+                 "labels": LABELS, "patches": PATCHES,
                  "images": [{"name!": str, "newName": str, "newTag": str}],
                  "configMapGenerator": [{"name!": str, "files!": [str]}],
                  "generatorOptions": {"disableNameSuffixHash": bool}}
-COMPONENT = {"apiVersion!": str, "kind!": str, "labels!": LABELS}
+COMPONENT = {"apiVersion!": str, "kind!": str, "labels": LABELS, "patches": PATCHES}
 
 
 def check_schema(value, schema, where, findings):
@@ -280,7 +298,9 @@ def build(directory, findings, seen=None):
             continue
         body = load_documents(component_path)[0]
         check_schema(body, COMPONENT, rel(component_path), findings)
+        apply_patches(body.get("patches", []), objects, rel(component_path), findings)
         apply_labels(body.get("labels", []), objects)
+    apply_patches(kustomization.get("patches", []), objects, rel(path), findings)
     apply_labels(kustomization.get("labels", []), objects)
     for image in kustomization.get("images", []):
         for obj in objects:
@@ -290,6 +310,57 @@ def build(directory, findings, seen=None):
                                           (f":{image['newTag']}" if "newTag" in image else ""))
                     container["_image_set"] = True
     return objects
+
+
+def apply_patches(entries, objects, where, findings):
+    """kustomize's `patches:` with an inline JSON 6902 patch (add, replace, remove, test)."""
+    for entry in entries:
+        target = entry["target"]
+        matched = [o for o in objects if o.body.get("kind") == target["kind"]
+                   and o.body.get("metadata", {}).get("name") == target["name"]]
+        if not matched:
+            findings.append(f"{where}: patch target {target['kind']}/{target['name']} matches "
+                            f"no object")
+        for obj in matched:
+            for op in yaml.safe_load(entry["patch"]):
+                error = json_patch(obj.body, op)
+                if error:
+                    findings.append(f"{where}: patch on {obj.where}: {op['op']} {op['path']}: "
+                                    f"{error}")
+                    break
+
+
+def json_patch(body, op):
+    """One JSON 6902 operation on body in place; an error text, or None."""
+    keys = [k.replace("~1", "/").replace("~0", "~") for k in op["path"].split("/")[1:]]
+    parent = body
+    for key in keys[:-1]:
+        try:
+            parent = parent[int(key)] if isinstance(parent, list) else parent[key]
+        except (KeyError, IndexError, ValueError):
+            return "no such path"
+    last = keys[-1]
+    if isinstance(parent, list):
+        index = len(parent) if last == "-" else int(last)
+        if op["op"] == "add" and index <= len(parent):
+            parent.insert(index, op["value"])
+            return None
+        if index >= len(parent):
+            return "index out of range"
+    elif op["op"] != "add" and last not in parent:
+        return "no such path"
+    else:
+        index = last
+    if op["op"] == "test":
+        return None if strip_private(parent[index]) == op["value"] else (
+            f"is {parent[index]!r}, not {op['value']!r}")
+    if op["op"] == "remove":
+        del parent[index]
+    elif op["op"] in ("add", "replace"):
+        parent[index] = op["value"]
+    else:
+        return "unsupported operation"
+    return None
 
 
 def apply_labels(entries, objects):
@@ -523,7 +594,8 @@ def label_findings(bodies):
 
 
 def check_network_policy(by_kind, findings):
-    """Every container port reachable; the metrics port (plain HTTP) only from a namespace."""
+    """Every container port reachable, none from everywhere; the metrics port (plain HTTP) only
+    from a namespace."""
     pods = [(d, d.body["spec"]["template"]["metadata"]["labels"])
             for d in by_kind.get("Deployment", [])]
     for d, labels in pods:
@@ -542,21 +614,37 @@ def check_network_policy(by_kind, findings):
                 if port["name"] == "metrics" and any(not r.get("from") for r in admitting):
                     findings.append(f"{d.where}: a NetworkPolicy admits the metrics port from "
                                     f"anywhere; only the monitoring namespace may scrape it")
+                elif any(not r.get("from") for r in admitting):
+                    findings.append(f"{d.where}: a NetworkPolicy admits port {port['name']} from "
+                                    f"every namespace; admit labelled namespaces or pods only")
+                if port["name"] == "metrics" and any(
+                        "namespaceSelector" not in peer for r in admitting
+                        for peer in r.get("from", [])):
+                    findings.append(f"{d.where}: the metrics port is admitted from a peer without "
+                                    f"a namespaceSelector (only the monitoring namespace)")
 
 
 def served_metrics():
-    """Metric names the server registers (server/**/*.cc), and those prometheus-adapter serves."""
+    """Metric names the server registers (server/**/*.cc)."""
     exported = set()
     for source in (ROOT / "server").rglob("*.cc"):
         exported |= set(re.findall(r'Add(?:Gauge|Counter|Histogram)\(\s*"(\w+)"',
                                    source.read_text()))
-    adapter = yaml.safe_load((KUBERNETES / "overlays" / "monitoring" /
-                              "prometheus-adapter-rules.yaml").read_text())
-    return exported, {rule["name"]["as"] for rule in adapter["rules"]}
+    return exported
+
+
+def adapted_metrics(by_kind):
+    """Metrics the prometheus-adapter configurations (a ConfigMap's config.yaml) of this build
+    serve through the custom metrics API."""
+    adapted = set()
+    for config_map in by_kind.get("ConfigMap", []):
+        config = yaml.safe_load(config_map.body["data"].get("config.yaml", "")) or {}
+        adapted |= {rule.get("name", {}).get("as") for rule in config.get("rules", [])}
+    return adapted
 
 
 def check_hpa_metrics(by_kind, findings):
-    exported, adapted = served_metrics()
+    exported, adapted = served_metrics(), adapted_metrics(by_kind)
     for h in by_kind.get("HorizontalPodAutoscaler", []):
         for metric in h.body["spec"]["metrics"]:
             if metric["type"] != "Pods":
@@ -565,8 +653,48 @@ def check_hpa_metrics(by_kind, findings):
             if name not in exported:
                 findings.append(f"{h.where}: Pods metric {name} is no metric the server exports")
             if name not in adapted:
-                findings.append(f"{h.where}: Pods metric {name} is served by no rule of "
-                                f"overlays/monitoring/prometheus-adapter-rules.yaml")
+                findings.append(f"{h.where}: Pods metric {name} is served by no "
+                                f"prometheus-adapter config (ConfigMap config.yaml) of this build: "
+                                f"the HPA would never scale down")
+
+
+def check_tls(by_kind, findings):
+    """TLS flags consistent, their files in a mounted cert-manager Secret, probes that work on a
+    TLS port; --trusted_proxies set where a Gateway proxies the calls."""
+    issued = {c.body["spec"]["secretName"] for c in by_kind.get("Certificate", [])}
+    for d in by_kind.get("Deployment", []):
+        pod = d.body["spec"]["template"]["spec"]
+        secrets = {v["name"]: v["secret"]["secretName"] for v in pod.get("volumes", [])
+                   if "secret" in v}
+        for c in containers(d):
+            cw = f"{d.where} container {c['name']}"
+            args = c.get("args", [])
+            tls = {name: flag(args, name) for name in ("tls_cert", "tls_key", "tls_client_ca")}
+            if "--plaintext" in args and any(tls.values()):
+                findings.append(f"{cw}: --plaintext beside TLS flags")
+            if "--plaintext" not in args and not (tls["tls_cert"] and tls["tls_key"]):
+                findings.append(f"{cw}: neither --plaintext nor --tls_cert and --tls_key (the "
+                                f"server refuses to start)")
+            if (by_kind.get("Gateway") or by_kind.get("GRPCRoute")) and not flag(
+                    args, "trusted_proxies"):
+                findings.append(f"{cw}: behind a Gateway without --trusted_proxies: every client "
+                                f"host counts as the Gateway's proxy")
+            if not any(tls.values()):
+                continue
+            for probe in ("readinessProbe", "livenessProbe", "startupProbe"):
+                if "grpc" in c.get(probe, {}):
+                    findings.append(f"{cw}: {probe} is a gRPC probe on a TLS port (the kubelet's "
+                                    f"gRPC probe speaks plaintext only: use tcpSocket)")
+            for name, file in tls.items():
+                if not file:
+                    continue
+                mount = next((m for m in c.get("volumeMounts", [])
+                              if file.startswith(m["mountPath"].rstrip("/") + "/")), None)
+                if mount is None or mount["name"] not in secrets:
+                    findings.append(f"{cw}: --{name}={file} lies in no mounted Secret")
+                elif secrets[mount["name"]] not in issued:
+                    findings.append(f"{cw}: --{name}: Secret {secrets[mount['name']]} is issued "
+                                    f"by no cert-manager Certificate of this build")
 
 
 def alert_findings(groups, runbook_anchors):
@@ -612,6 +740,7 @@ def check(objects):
     check_references(by_kind, findings)
     check_network_policy(by_kind, findings)
     check_hpa_metrics(by_kind, findings)
+    check_tls(by_kind, findings)
     sources = {f"{o.body['kind']}/{o.body['metadata']['name']}": o.source for o in objects}
     findings += [f"{sources[line.split(':')[0]]}: {line}"
                  for line in label_findings([strip_private(o.body) for o in objects])]
@@ -677,8 +806,10 @@ BREAKS = {
     "grace shorter than the drain": lambda o: set_arg(o, "grace_period", "60s"),
     "HPA on a missing Deployment": lambda o: first(o, "HorizontalPodAutoscaler").body["spec"][
         "scaleTargetRef"].update(name="scanprep-old"),
-    "HPA on a metric nobody serves": lambda o: first(o, "HorizontalPodAutoscaler").body["spec"][
-        "metrics"][0]["pods"]["metric"].update(name="scanprep_jobs_waiting"),
+    "HPA Pods metric without its adapter": lambda o: first(o, "HorizontalPodAutoscaler").body[
+        "spec"]["metrics"].insert(0, {"type": "Pods", "pods": {
+            "metric": {"name": "scanprep_jobs_queued"},
+            "target": {"type": "AverageValue", "averageValue": "1"}}}),
     "pod template without a label": lambda o: first(o, "Deployment").body["spec"]["template"][
         "metadata"]["labels"].pop("app.kubernetes.io/part-of"),
     "version in a selector": lambda o: first(o, "Deployment").body["spec"]["selector"][
@@ -688,6 +819,10 @@ BREAKS = {
     "metrics open to every namespace": lambda o: first(o, "NetworkPolicy").body["spec"][
         "ingress"][1].pop("from"),
     "gRPC port not admitted": lambda o: first(o, "NetworkPolicy").body["spec"]["ingress"].pop(0),
+    "gRPC open to every namespace": lambda o: first(o, "NetworkPolicy").body["spec"][
+        "ingress"][0].pop("from"),
+    "neither plaintext nor TLS": lambda o: container(o).update(
+        args=[a for a in container(o)["args"] if a != "--plaintext"]),
     "stale rules ConfigMap": lambda o: first(o, "ConfigMap").body["data"].update(
         {"alerts.yml": "groups: []\n"}),
 }
@@ -698,6 +833,18 @@ OVERLAY_BREAKS = {
         "spec"]["endpoints"][0].update(port="metric")),
     "GRPCRoute to a wrong port": ("external", lambda o: first(o, "GRPCRoute").body["spec"][
         "rules"][0]["backendRefs"][0].update(port=50052)),
+    "HPA on a metric nobody serves": ("monitoring", lambda o: first(
+        o, "HorizontalPodAutoscaler").body["spec"]["metrics"][0]["pods"]["metric"].update(
+            name="scanprep_jobs_waiting")),
+    "no --trusted_proxies behind the Gateway": ("external", lambda o: container(o).update(
+        args=[a for a in container(o)["args"] if not a.startswith("--trusted_proxies=")])),
+    "gRPC probe on the TLS port": ("tls", lambda o: container(o).update(
+        readinessProbe={"grpc": {"port": 50051}})),
+    "TLS secret not mounted": ("tls", lambda o: container(o).update(
+        volumeMounts=[m for m in container(o)["volumeMounts"] if m["name"] != "tls"])),
+    "TLS secret no Certificate issues": ("tls", lambda o: first(o, "Certificate").body["spec"]
+                                         .update(secretName="scanprep-old-tls")),
+    "plaintext beside TLS": ("mtls", lambda o: container(o)["args"].append("--plaintext")),
 }
 
 
