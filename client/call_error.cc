@@ -78,6 +78,7 @@ ExitCode ExitCodeFor(const absl::Status& status) {
       status.code() == absl::StatusCode::kFailedPrecondition) {
     return kExitFixInput;
   }
+  if (status.code() == absl::StatusCode::kDeadlineExceeded) return kExitTimedOut;
   return kExitFailure;
 }
 

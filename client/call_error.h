@@ -30,6 +30,10 @@ enum ExitCode : int {
   kExitFixInput = 4,
   // `process --fail_on_budget_miss`: the job ran and its output was written, over its budget.
   kExitBudgetMissed = 5,
+  // DEADLINE_EXCEEDED: the call's deadline (--timeout) passed before the job ended, or the server
+  // expected the queue to outlast it; the server cancelled the job. Not "fix the input" nor a
+  // local failure: allow more time, or send less.
+  kExitTimedOut = 6,
 };
 
 struct FieldViolation {
@@ -56,7 +60,7 @@ std::string DetailsText(const absl::Status& status);
 // "CODE: message" followed by DetailsText.
 std::string Describe(const absl::Status& status);
 
-// kExitRetryLater, kExitFixInput or kExitFailure for a failed call.
+// kExitRetryLater, kExitFixInput, kExitTimedOut or kExitFailure for a failed call.
 ExitCode ExitCodeFor(const absl::Status& status);
 
 }  // namespace scanprep::client

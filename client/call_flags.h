@@ -36,6 +36,10 @@ struct CallFlags {
   static constexpr char kStrict[] = "strict";
   static constexpr char kFailOn[] = "fail_on";
   static constexpr char kInputFormat[] = "input_format";
+  // What the caller calls the job, echoed in the report, the server's log and the metrics'
+  // exemplars: a job id and labels (part serial, station, program).
+  static constexpr char kJobId[] = "job_id";
+  static constexpr char kLabel[] = "label";
 
   std::string server;                     // the channel target --server names
   std::optional<absl::Duration> timeout;  // none: no deadline

@@ -11,6 +11,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "core/base/did_you_mean.h"
 
 namespace scanprep::client {
 
@@ -23,6 +24,24 @@ std::vector<std::string> ParsedArgs::All(const std::string& name) const {
   auto it = values_.find(name);
   return it == values_.end() ? std::vector<std::string>{} : it->second;
 }
+
+namespace {
+
+// "unknown flag '--scanline_spacng' (did you mean '--scanline_spacing'?)": the nearest declared
+// flag, by the same rule as a misspelt parameter or stage.
+std::string UnknownFlagsMessage(const std::vector<std::string>& unknown,
+                                const std::vector<FlagSpec>& specs) {
+  std::vector<std::string> known;
+  for (const FlagSpec& spec : specs) known.push_back("--" + spec.name);
+  std::vector<std::string> named;
+  for (const std::string& word : unknown) {
+    const std::string flag = word.substr(0, word.find('='));
+    named.push_back(absl::StrCat("'", flag, "'", DidYouMean(flag, known)));
+  }
+  return absl::StrCat("unknown flag ", absl::StrJoin(named, ", "));
+}
+
+}  // namespace
 
 absl::StatusOr<ParsedArgs> ParseArgs(const std::vector<std::string>& args,
                                      const std::vector<FlagSpec>& specs) {
@@ -53,8 +72,7 @@ absl::StatusOr<ParsedArgs> ParseArgs(const std::vector<std::string>& args,
   try {
     app.parse(reversed);
   } catch (const CLI::ExtrasError& e) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("unknown flag '", absl::StrJoin(app.remaining(), "', '"), "'"));
+    return absl::InvalidArgumentError(UnknownFlagsMessage(app.remaining(), specs));
   } catch (const CLI::ParseError& e) {
     return absl::InvalidArgumentError(e.what());
   }

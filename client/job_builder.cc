@@ -6,10 +6,7 @@
 #include <iostream>
 #include <map>
 #include <optional>
-#include <regex>
 #include <set>
-
-#include <google/protobuf/util/json_util.h>
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/numbers.h"
@@ -17,6 +14,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "client/call_flags.h"
+#include "client/job_file.h"
 #include "core/base/status_macros.h"
 #include "core/io/conf.h"
 #include "core/io/read_file.h"
@@ -112,6 +110,21 @@ absl::Status ApplyConf(const std::string& conf_path, const std::vector<std::stri
   return absl::OkStatus();
 }
 
+// Each use of a repeatable "KEY=VALUE" flag (--param, --label) into `to`, split at the first
+// '='; a later use of a key overrides an earlier one and the job file's.
+absl::Status AddKeyValues(const ParsedArgs& args, const char* flag, const char* form,
+                          google::protobuf::Map<std::string, std::string>& to) {
+  for (const std::string& value : args.All(flag)) {
+    const size_t eq = value.find('=');
+    if (eq == std::string::npos || eq == 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--", flag, " '", value, "': expected ", form));
+    }
+    to[value.substr(0, eq)] = value.substr(eq + 1);
+  }
+  return absl::OkStatus();
+}
+
 absl::Status ApplyOptionFlags(const ParsedArgs& args, v1::JobHeader& header) {
   if (args.Has(CallFlags::kUnit)) {
     SCANPREP_ASSIGN_OR_RETURN(auto unit, ParseUnit(args.Get(CallFlags::kUnit)));
@@ -127,14 +140,12 @@ absl::Status ApplyOptionFlags(const ParsedArgs& args, v1::JobHeader& header) {
       options->add_stages(std::string(s));
     }
   }
-  for (const std::string& param : args.All(CallFlags::kParam)) {
-    const size_t eq = param.find('=');
-    if (eq == std::string::npos || eq == 0) {
-      return absl::InvalidArgumentError(absl::StrCat("--param '", param, "': expected name=value"));
-    }
-    (*options->mutable_params())[param.substr(0, eq)] = param.substr(eq + 1);
-  }
+  SCANPREP_RETURN_IF_ERROR(
+      AddKeyValues(args, CallFlags::kParam, "name=value", *options->mutable_params()));
   if (args.Has(CallFlags::kPreset)) options->set_preset(args.Get(CallFlags::kPreset));
+  if (args.Has(CallFlags::kJobId)) header.set_job_id(args.Get(CallFlags::kJobId));
+  SCANPREP_RETURN_IF_ERROR(
+      AddKeyValues(args, CallFlags::kLabel, "KEY=VALUE", *header.mutable_labels()));
   if (args.Bool(CallFlags::kIncludeRemoved)) options->set_include_removed(true);
   SCANPREP_RETURN_IF_ERROR(SetFailOn(args, *options));
   for (const auto& [flag, set] :
@@ -243,6 +254,10 @@ std::vector<FlagSpec> JobFlags() {
        "fail the job on these warning codes, comma-separated (docs/api.md), e.g. UNIT_SUSPECT"},
       {CallFlags::kInputFormat, FlagSpec::kValue,
        "format of the scan read from standard input (SCAN '-'): ply, pcd, e57, las or xyz"},
+      {CallFlags::kJobId, FlagSpec::kValue,
+       "the job's id, echoed in the report and the server's log (over the job file's)"},
+      {CallFlags::kLabel, FlagSpec::kRepeated,
+       "a label KEY=VALUE echoed in the report, e.g. serial=A123 (over the job file's)"},
   };
 }
 
@@ -258,29 +273,6 @@ absl::StatusOr<v1::LengthUnit> ParseUnit(const std::string& text) {
         absl::StrCat("unknown unit '", text, "' (use m, mm, um or in)"));
   }
   return it->second;
-}
-
-// Job files written before the enum values took their enum's prefix (2026-11-24) say
-// "unit": "METRE" and "scannerKind": "LINE"; those values are read as the prefixed ones.
-std::string WithPrefixedEnumValues(const std::string& json) {
-  static const std::regex kUnit(R"re(("unit"\s*:\s*")(MILLIMETRE|METRE|MICROMETRE|INCH)")re");
-  static const std::regex kKind(R"re(("scanner_?[kK]ind"\s*:\s*")(LINE|FLEXIBLE)")re");
-  return std::regex_replace(std::regex_replace(json, kUnit, "$1LENGTH_UNIT_$2\""), kKind,
-                            "$1SCANNER_KIND_$2\"");
-}
-
-absl::StatusOr<v1::JobHeader> ReadJobFile(const std::string& path) {
-  SCANPREP_ASSIGN_OR_RETURN(auto text, io::ReadFileToString(path));
-  text = WithPrefixedEnumValues(text);
-  v1::JobHeader header;
-  google::protobuf::util::JsonParseOptions options;
-  options.ignore_unknown_fields = false;
-  auto status = google::protobuf::util::JsonStringToMessage(text, &header, options);
-  if (!status.ok()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(path, ": not a JobHeader in JSON: ", std::string(status.message())));
-  }
-  return header;
 }
 
 namespace {

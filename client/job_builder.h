@@ -24,9 +24,6 @@ struct Job {
 // "m", "mm", "um", "in" (or the enum names METRE, ...).
 absl::StatusOr<scanprep::v1::LengthUnit> ParseUnit(const std::string& text);
 
-// The JSON form of JobHeader (protobuf's JSON mapping; unknown fields are errors).
-absl::StatusOr<scanprep::v1::JobHeader> ReadJobFile(const std::string& path);
-
 // The flags BuildJob reads, for the commands that build a job (process, load).
 std::vector<FlagSpec> JobFlags();
 

@@ -13,6 +13,7 @@
 #include "client/call_flags.h"
 #include "client/commands.h"
 #include "client/connection_flags.h"
+#include "client/output_check.h"
 
 namespace scanprep::client {
 namespace {
@@ -54,6 +55,11 @@ std::variant<int, SentJob> SendJob(const std::string& command, const ParsedArgs&
   if (!credentials.ok()) return FailFlagFiles(command, credentials.status());
   auto mode = ParseProgressMode(args.Get(kProgress, "auto"), isatty(STDERR_FILENO) != 0);
   if (!mode.ok()) return FailUsage(command, std::string(mode.status().message()));
+  if (args.Has(kReportJson)) {
+    if (absl::Status s = CheckWritable("--report_json", args.Get(kReportJson)); !s.ok()) {
+      return Fail(command, std::string(s.message()));
+    }
+  }
   SentJob sent{.start = absl::Now(), .server = flags->server};
   auto job = BuildJob(args);
   if (!job.ok()) return Fail(command, std::string(job.status().message()));

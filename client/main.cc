@@ -74,9 +74,10 @@ int main(int argc, char** argv) {
     }
     auto args = ParseArgs(words, command.flags);
     if (!args.ok()) {
+      // The mistake and where the flags are listed, not the whole list: the message is what
+      // must be read.
       std::cerr << "scanprep " << name << ": " << args.status().message() << "\nusage: scanprep "
-                << command.synopsis << "\n"
-                << FlagHelp(command.flags);
+                << command.synopsis << "\n(scanprep " << name << " --help lists its flags)\n";
       return kExitUsage;
     }
     return command.run(*args);

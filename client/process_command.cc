@@ -15,6 +15,7 @@
 #include "client/health_table.h"
 #include "client/job_builder.h"
 #include "client/job_call.h"
+#include "client/output_check.h"
 #include "client/preview.h"
 #include "core/base/status_macros.h"
 #include "core/io/scan_file.h"
@@ -121,6 +122,14 @@ int RunProcess(const ParsedArgs& args) {
   if (args.Has(kPreview)) {
     if (absl::Status s = CheckPreviewPath(args.Get(kPreview)); !s.ok()) {
       return FailUsage("process", std::string(s.message()));
+    }
+  }
+  // Where the result goes is checked before the scans are read or sent (exit 1, as a write
+  // failure after the job would be).
+  for (const auto& [flag, name] : {std::pair{kOut, "-o"}, std::pair{kPreview, "--preview"}}) {
+    if (!args.Has(flag) || args.Get(flag) == "-") continue;
+    if (absl::Status s = CheckWritable(name, args.Get(flag)); !s.ok()) {
+      return Fail("process", std::string(s.message()));
     }
   }
   bool write_removed = false;

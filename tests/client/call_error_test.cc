@@ -87,6 +87,12 @@ TEST(CallError, ACorruptedTransferSaysRetryLater) {
   EXPECT_EQ(client::ExitCodeFor(absl::DataLossError("bad chunk")), client::kExitRetryLater);
 }
 
+// Issue 40: a --timeout overrun exited 1, the code of a local failure; now its own code.
+TEST(CallError, ADeadlinePassedSaysTimedOut) {
+  EXPECT_EQ(client::ExitCodeFor(absl::DeadlineExceededError("the call's deadline passed")),
+            client::kExitTimedOut);
+}
+
 TEST(CallError, OtherFailuresAreGeneric) {
   EXPECT_EQ(client::ExitCodeFor(absl::CancelledError("cancelled")), client::kExitFailure);
   EXPECT_EQ(client::Describe(absl::DataLossError("bad chunk")), "DATA_LOSS: bad chunk");

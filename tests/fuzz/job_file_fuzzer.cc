@@ -12,7 +12,7 @@
 
 #include <google/protobuf/stubs/logging.h>
 
-#include "client/job_builder.h"
+#include "client/job_file.h"
 #include "server/job/job_assembler.h"
 #include "tests/fuzz/fuzz_checks.h"
 
