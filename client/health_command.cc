@@ -22,6 +22,8 @@ int RunHealth(const ParsedArgs& args) {
     v1::PipelineOptions& options = *job.header.mutable_options();
     options.clear_stages();
     options.add_stages("health");
+    // The answer is the report: no cloud comes back.
+    job.header.set_result_arrays(v1::ARRAY_ENCODING_NONE);
   });
   if (const int* exit = std::get_if<int>(&sent)) return *exit;
   SentJob& job = std::get<SentJob>(sent);

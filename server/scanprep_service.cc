@@ -312,17 +312,17 @@ grpc::Status ScanPrepService::Relay(grpc::ServerContext* context, Stream* stream
 grpc::Status ScanPrepService::Download(grpc::ServerContext* context, Stream* stream,
                                        IdleWatch::Call& watch, const AssembledJob& job,
                                        const RunningJob& running, const CallRecord& record) {
-  // The kept points (all of them with include_removed), the report, then the end message with
-  // the points' count and CRC-32. The client must read them at the minimum rate: a Write returns
-  // once its message is in gRPC's flow-control window, so the bytes written are what the client
-  // took, give or take one window.
+  // The kept points (all of them with include_removed; none with result_arrays NONE), the
+  // report, then the end message with the points' count and CRC-32. The client must read them at
+  // the minimum rate: a Write returns once its message is in gRPC's flow-control window, so the
+  // bytes written are what the client took, give or take one window.
   const absl::Time download_start = absl::Now();
   watch.ExpectRate(IdleWatch::Direction::kDownload, timeouts_.min_download_rate, timeouts_.idle,
                    "min_download_rate");
   const PointCloud& cloud = running.cloud();
   std::vector<uint32_t> indices;
   indices.reserve(cloud.size());
-  for (uint32_t i = 0; i < cloud.size(); ++i) {
+  for (uint32_t i = 0; job.return_points && i < cloud.size(); ++i) {
     if (job.include_removed || !cloud.removed(i)) indices.push_back(i);
   }
   StreamChecksum sent;

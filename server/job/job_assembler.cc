@@ -132,7 +132,13 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
   job_.mm_per_unit = mm;
   job_.include_removed = header.options().include_removed();
   job_.labels.insert(header.labels().begin(), header.labels().end());
+  if (!v1::ArrayEncoding_IsValid(header.result_arrays())) {
+    return BadHeader("header.result_arrays",
+                     absl::StrCat("header.result_arrays: ", header.result_arrays(),
+                                  " is no ArrayEncoding (REPEATED 1, PACKED 2, NONE 3)"));
+  }
   job_.packed_results = header.result_arrays() == v1::ARRAY_ENCODING_PACKED;
+  job_.return_points = header.result_arrays() != v1::ARRAY_ENCODING_NONE;
   job_.options = OptionsFromHeader(header, limits_.default_budget_seconds,
                                    limits_.default_stage_budget_seconds);
   // The preset is resolved first, so that its values are validated, estimated and reported like

@@ -66,6 +66,7 @@ struct AssembledJob {
   std::vector<Warning> warnings;  // of the upload (POINTS_INVALID)
   std::map<std::string, std::string> labels;
   bool packed_results = false;  // header.result_arrays = ARRAY_ENCODING_PACKED
+  bool return_points = true;    // false: header.result_arrays = ARRAY_ENCODING_NONE
   std::string preset;           // header.options.preset; its values are in options.params
 };
 

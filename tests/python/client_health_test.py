@@ -73,7 +73,17 @@ class HealthFromServerTest(unittest.TestCase):
                       uncertainty=0.005, scanline=scanline)
                  for seed, z, name, sensor in [(1, 0.0, "a", "cell-a"), (2, step_mm, "b", "cell-b")]]
         with LocalServer() as server, Client(server.target) as client:
+            returned = []  # the points each job brought back
+            process = client.process
+
+            def counting(*args, **kwargs):
+                result = process(*args, **kwargs)
+                returned.append(len(result.points))
+                return result
+            client.process = counting
             health = client.health(scans, unit="mm", timeout=120)
+        # Issue 40: health downloaded the whole cloud it never used; now the report alone comes.
+        self.assertEqual(returned, [0])
         self.assertEqual([(s.scan_id, s.sensor_id, s.points) for s in health.scans],
                          [("a", "cell-a", 14400), ("b", "cell-b", 14400)])
         for s in health.scans:  # σ̂ of 5 µm noise, stated as u = 5 µm

@@ -151,11 +151,11 @@ def _wire_points(scan: Scan, offset: Optional[np.ndarray], index: int) -> np.nda
 
 def _header(scans: Sequence[Scan], offsets: Sequence[Optional[np.ndarray]], origin, unit: str,
             stages, params, preset, include_removed, labels, budget_seconds,
-            job_id, fail_on) -> pb.JobHeader:
+            job_id, fail_on, result_arrays) -> pb.JobHeader:
     if unit not in _UNITS:
         raise ValueError(f"unit {unit!r}: one of {sorted(_UNITS)}")
     header = pb.JobHeader(job_id=job_id, unit=_UNITS[unit],
-                          result_arrays=pb.ARRAY_ENCODING_PACKED,
+                          result_arrays=result_arrays,
                           total_points=sum(len(s.points) for s in scans))
     for scan, offset in zip(scans, offsets):
         s = header.scans.add(scan_id=scan.scan_id, sensor_id=scan.sensor_id,
@@ -285,7 +285,8 @@ class Client:
                 chunk_points: int = _CHUNK_POINTS,
                 progress: Optional[Callable[[pb.Progress], None]] = None,
                 origin: Optional[Sequence[float]] = None, strict: bool = False,
-                fail_on: Sequence[str] = ()) -> Result:
+                fail_on: Sequence[str] = (),
+                _result_arrays: int = pb.ARRAY_ENCODING_PACKED) -> Result:
         """Runs one job. unit ("mm", "m", "um", "in") is required, as in the API: a scan in metres
         read as millimetres would be processed with every length 1000 times off. Raises
         ScanprepError when the service refuses or fails it, and when the result arrives
@@ -307,7 +308,7 @@ class Client:
         origin = (_job_origin(scans, offsets) if origin is None
                   else np.asarray(origin, dtype=np.float64).reshape(3))
         header = _header(scans, offsets, origin, unit, stages, params, preset, include_removed,
-                         labels, budget_seconds, job_id, dict.fromkeys(codes))
+                         labels, budget_seconds, job_id, dict.fromkeys(codes), _result_arrays)
 
         def attempt(seconds: float) -> Result:
             responses = self._stub.Process(_requests(header, scans, offsets, chunk_points),
@@ -320,7 +321,9 @@ class Client:
         needs (as `scanprep health`); options as process's, but stages."""
         if "stages" in options:
             raise ValueError("health runs the \"health\" stage and what it needs: no stages")
-        result = self.process(scans, unit=unit, stages=["health"], **options)
+        # The answer is the report: no cloud comes back.
+        result = self.process(scans, unit=unit, stages=["health"],
+                              _result_arrays=pb.ARRAY_ENCODING_NONE, **options)
         if result.health is None:
             raise ScanprepError(grpc.StatusCode.INTERNAL,
                                 "the service ran the health stage but reported no health")
