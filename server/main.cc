@@ -70,8 +70,9 @@ ABSL_FLAG(std::string, trusted_proxies, "",
           "comma-separated CIDR ranges (IPv4 or IPv6, e.g. 10.0.0.0/8,fd00::/8) of proxies whose "
           "x-forwarded-for names the client host: from the right, the first address that is not "
           "itself a trusted proxy. Empty = the direct peer is the client host");
-ABSL_FLAG(std::string, metrics_listen, "0.0.0.0:9464",
-          "HOST:PORT of the Prometheus /metrics endpoint (port 0 = any free port; empty = off)");
+ABSL_FLAG(std::string, metrics_listen, ":9464",
+          "[HOST]:PORT of the Prometheus /metrics endpoint: without HOST, --listen's host (so a "
+          "server on loopback keeps its metrics there too); port 0 = any free port; empty = off");
 ABSL_FLAG(int, max_sensors, 64,
           "distinct ScanHeader.sensor_id values that get their own `sensor` label in the "
           "scanprep_sensor_* metrics; later sensors share sensor=\"other\" (counted in "
@@ -255,6 +256,7 @@ absl::StatusOr<Startup> StartupFromFlags() {
   startup.transport = transport.description;
   ServerOptions& options = startup.options;
   options.credentials = transport.credentials;
+  options.tls = !absl::GetFlag(FLAGS_plaintext);
   SCANPREP_ASSIGN_OR_RETURN(options.limits, JobLimitsFromFlags(budgets));
   SCANPREP_ASSIGN_OR_RETURN(
       options.trusted_proxies,

@@ -2,8 +2,14 @@
 #include "server/scanprep_server.h"
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <limits>
 #include <thread>
+
+#include <netdb.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
@@ -36,6 +42,48 @@ absl::StatusOr<HostPort> ParseHostPort(const std::string& text, const std::strin
     hp.host = hp.host.substr(1, hp.host.size() - 2);
   }
   return hp;
+}
+
+// --metrics_listen ":PORT" takes --listen's host.
+absl::StatusOr<HostPort> MetricsAddress(const std::string& metrics_listen,
+                                        const std::string& listen) {
+  if (!metrics_listen.starts_with(":")) return ParseHostPort(metrics_listen, "metrics_listen");
+  SCANPREP_ASSIGN_OR_RETURN(HostPort grpc, ParseHostPort(listen, "listen"));
+  SCANPREP_ASSIGN_OR_RETURN(HostPort metrics,
+                            ParseHostPort("x" + metrics_listen, "metrics_listen"));
+  metrics.host = grpc.host;
+  return metrics;
+}
+
+// Why gRPC could not listen on `listen`, which it does not say: the address bound by a socket of
+// our own tells a port in use or an address this host lacks ("Address already in use"); a free
+// address leaves the TLS pair, when there is one.
+std::string ListenFailureCause(const std::string& listen, bool tls) {
+  auto address = ParseHostPort(listen, "listen");
+  if (!address.ok()) return std::string(address.status().message());
+  addrinfo hints{};
+  hints.ai_family = AF_UNSPEC;
+  hints.ai_socktype = SOCK_STREAM;
+  hints.ai_flags = AI_PASSIVE;
+  addrinfo* found = nullptr;
+  const std::string host = address->host == "*" ? "" : address->host;
+  if (const int e = getaddrinfo(host.empty() ? nullptr : host.c_str(),
+                                std::to_string(address->port).c_str(), &hints, &found);
+      e != 0) {
+    return absl::StrCat("cannot resolve '", address->host, "': ", gai_strerror(e));
+  }
+  std::string cause;
+  const int fd = socket(found->ai_family, found->ai_socktype, found->ai_protocol);
+  const int one = 1;
+  if (fd >= 0 && (setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) != 0 ||
+                  bind(fd, found->ai_addr, found->ai_addrlen) != 0)) {
+    cause = std::strerror(errno);
+  }
+  if (fd >= 0) close(fd);
+  freeaddrinfo(found);
+  if (!cause.empty()) return cause;
+  return tls ? "the address is free: the TLS certificate and key are probably not a valid pair"
+             : "the address is free; gRPC gave no reason";
 }
 
 // gRPC reads durations as int milliseconds, INT_MAX meaning "never".
@@ -121,8 +169,7 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   std::unique_ptr<ScanPrepServer> server(new ScanPrepServer(resolved));
   if (!options.metrics_listen.empty()) {
-    SCANPREP_ASSIGN_OR_RETURN(auto address,
-                              ParseHostPort(options.metrics_listen, "metrics_listen"));
+    SCANPREP_ASSIGN_OR_RETURN(auto address, MetricsAddress(options.metrics_listen, options.listen));
     SCANPREP_ASSIGN_OR_RETURN(
         server->exporter_,
         metrics::HttpExporter::Start(address.host, address.port, server->registry_));
@@ -140,10 +187,9 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
   builder.RegisterService(&server->service_);
   server->server_ = builder.BuildAndStart();
   if (server->server_ == nullptr || server->port_ == 0) {
-    return absl::UnavailableError(absl::StrCat(
-        "cannot listen on ", options.listen,
-        options.credentials != nullptr ? " (or the TLS certificate and key are not a valid pair)"
-                                       : ""));
+    return absl::UnavailableError(absl::StrCat("cannot listen on ", options.listen, " (",
+                                               ListenFailureCause(options.listen, options.tls),
+                                               ")"));
   }
   server->SetServing(true);
   return server;

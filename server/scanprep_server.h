@@ -64,6 +64,9 @@ struct ServerOptions {
   // The gRPC port's transport security; null = plaintext. The in-process tests keep the
   // default; scanprep-server always sets it and serves plaintext only when asked to.
   std::shared_ptr<grpc::ServerCredentials> credentials;
+  // The credentials are TLS's: a port gRPC cannot listen on although it is free is then blamed
+  // on the certificate and key.
+  bool tls = false;
   std::ostream* log = nullptr;  // where CallLog writes; null = no log
   int max_log_lines_per_second = CallLog::kMaxLinesPerSecond;  // beyond: dropped and counted
   SensorMetricsOptions sensor_metrics;  // per-sensor health metrics (sensor_metrics.h)

@@ -40,7 +40,9 @@ class CallLog {
   std::function<absl::Time()> clock_;
 };
 
-// `text` quoted and C-escaped, cut to `max_chars` characters first (marked with "...").
+// `text` quoted for one log line, cut to at most `max_chars` bytes between characters (marked
+// with "..."): UTF-8 characters as written, quotes, backslashes and control characters C-escaped,
+// bytes that are no UTF-8 as \xNN, so that no caller's text can start a line of its own.
 std::string Quoted(std::string_view text, size_t max_chars = 64);
 
 }  // namespace scanprep::server

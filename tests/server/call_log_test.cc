@@ -57,5 +57,16 @@ TEST(CallLogTest, UnderTheLimitEveryLineIsWritten) {
   EXPECT_EQ(out.str().find("suppressed"), std::string::npos);
 }
 
+// Issue 40: a part named in UTF-8 was logged as octal escapes ("Pr\303\274fteil"). Characters
+// are written as they are; what could break the line or the quoting is still escaped.
+TEST(CallLogTest, QuotedKeepsUtf8AndEscapesWhatCouldBreakTheLine) {
+  EXPECT_EQ(Quoted("Prüfteil 7°"), "\"Prüfteil 7°\"");
+  EXPECT_EQ(Quoted("a\nb\"c\\"), "\"a\\nb\\\"c\\\\\"");
+  EXPECT_EQ(Quoted(std::string("x\xff\xc3y")), "\"x\\xff\\xc3y\"");  // no UTF-8: escaped
+  // Cut between characters: "ü" is two bytes, and a cut inside it keeps neither.
+  EXPECT_EQ(Quoted("aü", 2), "\"a...\"");
+  EXPECT_EQ(Quoted("aü", 3), "\"aü\"");
+}
+
 }  // namespace
 }  // namespace scanprep::server

@@ -91,7 +91,11 @@ CommandResult RunPromtool(const std::vector<double>& noise, const std::vector<in
   out << "rule_files:\n  - " << SCANPREP_ALERT_RULES << "\n"
       << "evaluation_interval: 1m\ntests:\n  - interval: 1m\n    input_series:\n"
       << "      - series: 'scanprep_sensor_noise_mm{instance=\"replay\",sensor=\"" << kSensor
-      << "\"}'\n        values: '" << PromtoolValues(noise) << "'\n    alert_rule_test:\n";
+      << "\"}'\n        values: '" << PromtoolValues(noise) << "'\n"
+      << "      - series: "
+         "'scanprep_sensor_last_report_timestamp_seconds{instance=\"replay\",sensor=\""
+      << kSensor << "\"}'\n        values: '0+60x" << kHistoryMinutes + noise.size() - 1 << "'\n"
+      << "    alert_rule_test:\n";
   for (int minute : quiet_at) {
     out << "      - eval_time: " << kHistoryMinutes + minute << "m\n"
         << "        alertname: ScanprepSensorNoiseDrift\n        exp_alerts: []\n";
@@ -100,10 +104,10 @@ CommandResult RunPromtool(const std::vector<double>& noise, const std::vector<in
     out << "      - eval_time: " << kHistoryMinutes + minute << "m\n"
         << "        alertname: ScanprepSensorNoiseDrift\n        exp_alerts:\n"
         << "          - exp_labels:\n              severity: warning\n"
-        << "              instance: replay\n              sensor: " << kSensor << "\n"
+        << "              sensor: " << kSensor << "\n"
         << "            exp_annotations:\n"
         << "              summary: \"sensor " << kSensor
-        << "'s noise is above 1.5x its 24 h median on replay\"\n"
+        << "'s noise is above 1.5x its 24 h median\"\n"
         << "              description: \"Its last job measured a noise of "
         << absl::StrFormat("%.3g", noise[minute]) << " mm.\"\n"
         << "              runbook_url: "
