@@ -2,26 +2,33 @@
 # SPDX-License-Identifier: Apache-2.0
 # Installs the Debian 12 packages scanprep builds and tests with. Safe to repeat: apt runs only
 # when something is missing. With --sanitizers also clang and its sanitizer and libFuzzer runtimes
-# (tools/run-sanitizers.sh, tools/run-fuzzers.sh).
+# (tools/run-sanitizers.sh, tools/run-fuzzers.sh); with --build-only just what scanprep-server and
+# the scanprep CLI build with (tools/run-demo.sh).
 set -euo pipefail
 
+# What the server and the CLI build with (the demo's --build-only), then what the tests,
+# benchmarks and checks add.
 packages=(
   cmake ninja-build g++ pkg-config
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev libabsl-dev
-  libeigen3-dev libnanoflann-dev libtbb-dev
-  libgtest-dev libgmock-dev libbenchmark-dev libcpp-httplib-dev
+  libeigen3-dev libnanoflann-dev libtbb-dev libcpp-httplib-dev
   liblzf-dev  # PCD DATA binary_compressed (core/io/pcd.cc)
   libcli11-dev  # the CLI's flags (client/cli_args.cc)
   libexpat1-dev  # the XML section of E57 files (core/io/e57_xml.cc)
   libpng-dev  # preview pictures (client/preview.cc)
   zlib1g-dev  # CRC-32 of the StreamEnd (wire/stream_checksum.cc)
-  prometheus  # prometheus and promtool: alert-rule and integration tests
-  openssl     # tls_test makes its certificates at test time
-  clang-format  # the clang_format test (tools/check-format.sh)
-  python3-grpcio python3-protobuf python3-numpy  # client/python and its tests (python_client*)
-  python3-venv python3-pip python3-setuptools python3-wheel  # its wheel, built and installed offline
-  python3-yaml  # tools/check_manifests.py (kubernetes_manifests test)
 )
+if [[ ${1:-} != --build-only ]]; then
+  packages+=(
+    libgtest-dev libgmock-dev libbenchmark-dev
+    prometheus  # prometheus and promtool: alert-rule and integration tests
+    openssl     # tls_test makes its certificates at test time
+    clang-format  # the clang_format test (tools/check-format.sh)
+    python3-grpcio python3-protobuf python3-numpy  # client/python and its tests (python_client*)
+    python3-venv python3-pip python3-setuptools python3-wheel  # its wheel, built and installed offline
+    python3-yaml  # tools/check_manifests.py (kubernetes_manifests test)
+  )
+fi
 if [[ ${1:-} == --sanitizers ]]; then
   packages+=(clang libclang-rt-14-dev)
 fi

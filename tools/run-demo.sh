@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
-# The main job: installs what is missing, builds Release, starts scanprep-server on loopback,
+# The main job: installs what is missing, builds the server and the CLI (Release), starts scanprep-server on loopback,
 # processes a sample scan through the default pipeline, prints the report, draws the input and
 # the result side by side as PNG ($PREVIEW, default build/bunny-preview.png), stops the server.
 # The sample is two overlapping Stanford bunny scans from ../shared/data when present, else a
 # scan the project generates (`scanprep simulate`).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash tools/install-deps.sh
-bash tools/build.sh
+# Only what the demo runs: the server and the CLI (the test command builds and installs the rest).
+bash tools/install-deps.sh --build-only
+bash tools/build.sh --service
 bin=${BUILD_DIR:-build}
 out=$(mktemp -d)
 trap 'kill "$server_pid" 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$out"' EXIT
