@@ -10,6 +10,7 @@ RUN apt-get update \
  && rm -rf /var/lib/apt/lists/*
 WORKDIR /src
 COPY CMakeLists.txt ./
+COPY cmake cmake
 COPY proto proto
 COPY wire wire
 COPY core core
@@ -20,6 +21,14 @@ RUN cmake -S . -B /build -G Ninja -DCMAKE_BUILD_TYPE=Release \
  && ninja -C /build scanprep-server scanprep
 
 FROM debian:bookworm AS runtime
+# The release: CMakeLists.txt's project() version, the tag the image is pushed with and the
+# kustomize images: newTag (tools/check_manifests.py keeps the three equal; the RUN below checks
+# the binary says the same).
+ARG VERSION=0.1.0
+LABEL org.opencontainers.image.title="scanprep" \
+      org.opencontainers.image.description="point-cloud cleanup gRPC server (scanprep-server)" \
+      org.opencontainers.image.version="${VERSION}" \
+      org.opencontainers.image.licenses="Apache-2.0"
 # RUNTIME_PACKAGES (read by tools/check-runtime-libs.sh)
 RUN apt-get update \
  && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \
@@ -28,8 +37,9 @@ RUN apt-get update \
  && useradd --system --uid 10001 --no-create-home scanprep
 COPY --from=build /build/server/scanprep-server /build/client/scanprep /usr/local/bin/
 COPY LICENSE /usr/share/doc/scanprep/LICENSE
-# Proves the runtime stage is complete: the binaries load and run.
-RUN scanprep-server --version && scanprep --help >/dev/null
+# Proves the runtime stage is complete: the binaries load and run, and are the version labelled.
+RUN scanprep-server --version && test "$(scanprep-server --version)" = "scanprep-server ${VERSION}" \
+ && scanprep --help >/dev/null
 # glibc otherwise keeps a heap per thread and resident memory creeps up across jobs.
 ENV MALLOC_ARENA_MAX=2
 USER 10001

@@ -13,7 +13,9 @@ is an error, not a silently ignored field), then what must hold between them and
   - no `replicas` beside an HPA; clients rebalance (--max_connection_age); the termination grace
     covers --grace_period plus the preStop sleep;
   - Pod Security Standard "restricted" with a read-only root;
-  - the image is a name kustomize's `images:` sets, never `:latest`;
+  - the image is a name kustomize's `images:` sets, never `:latest`, tagged with the release:
+    CMakeLists.txt's project() version, which the Dockerfile's ARG VERSION (the image's
+    org.opencontainers.image.version) and deploy/docker-compose.yml's image tag also carry;
   - selectors, ports and references (Service, HPA, PDB, ServiceMonitor, GRPCRoute) resolve;
   - the recommended app.kubernetes.io/* labels on every object and pod template, selectors
     without the version, and the version label equal to the image tag;
@@ -70,6 +72,18 @@ def reservation_constant(name):
 BYTES_PER_POINT = reservation_constant("kBytesPerPoint")
 JOB_OVERHEAD = reservation_constant("kJobOverheadBytes")
 SERVER_RESERVE = reservation_constant("kServerOwnBytes")
+
+
+def project_version():
+    """The release: CMakeLists.txt's project() VERSION, which the binaries' --version prints."""
+    m = re.search(r"^project\(scanprep VERSION ([0-9.]+)", (ROOT / "CMakeLists.txt").read_text(),
+                  re.M)
+    if not m:
+        sys.exit("check_manifests: no project(scanprep VERSION ...) in CMakeLists.txt")
+    return m[1]
+
+
+VERSION = project_version()
 
 # --- schemas ---------------------------------------------------------------------------------
 # A schema is a type (str, int, bool, float), "any", a list [schema] or a dict of keys, where a
@@ -470,6 +484,9 @@ def check_deployment(obj, by_kind, findings):
         image = c["image"]
         if image.endswith(":latest") or ":" not in image.split("/")[-1]:
             findings.append(f"{cw}: image {image} has no version tag (or :latest)")
+        elif image.rsplit(":", 1)[1] != VERSION:
+            findings.append(f"{cw}: image tag {image.rsplit(':', 1)[1]} is not the project "
+                            f"version {VERSION} (CMakeLists.txt project()): a release sets both")
         if not c.get("_image_set"):
             findings.append(f"{cw}: image {image} is not set by kustomize's images:")
         ports = {p["name"] for p in c.get("ports", [])}
@@ -766,8 +783,33 @@ def alert_groups():
     return yaml.safe_load((DEPLOY / "prometheus" / "alerts.yml").read_text())["groups"]
 
 
+def release_findings(version, dockerfile, compose):
+    """The container carries the release: the Dockerfile's ARG VERSION (its
+    org.opencontainers.image.version label), the compose file's image tag and build arg."""
+    findings = []
+    arg = re.search(r"^ARG VERSION=(\S*)$", dockerfile, re.M)
+    if (arg[1] if arg else None) != version:
+        findings.append(f"Dockerfile: ARG VERSION={arg[1] if arg else '(none)'} is not the "
+                        f"project version {version}")
+    if 'org.opencontainers.image.version="${VERSION}"' not in dockerfile:
+        findings.append("Dockerfile: no LABEL org.opencontainers.image.version=\"${VERSION}\"")
+    service = compose["services"]["scanprep"]
+    if service.get("image", "").rsplit(":", 1)[-1] != version:
+        findings.append(f"deploy/docker-compose.yml: image {service.get('image')} is not tagged "
+                        f"with the project version {version}")
+    if service.get("build", {}).get("args", {}).get("VERSION") != version:
+        findings.append(f"deploy/docker-compose.yml: build arg VERSION is not {version}")
+    return findings
+
+
+def release_files():
+    return ((ROOT / "Dockerfile").read_text(),
+            yaml.safe_load((DEPLOY / "docker-compose.yml").read_text()))
+
+
 def check_all():
     findings = alert_findings(alert_groups(), anchors(RUNBOOKS))
+    findings += release_findings(VERSION, *release_files())
     for directory in targets():
         build_findings = []
         objects = build(directory, build_findings)
@@ -787,6 +829,17 @@ def container(objects):
 def set_arg(objects, name, value):
     c = container(objects)
     c["args"] = [a for a in c["args"] if not a.startswith(f"--{name}=")] + [f"--{name}={value}"]
+
+
+def set_release(objects, version):
+    """Another version everywhere in the build (image tag and labels), not in CMakeLists.txt."""
+    c = container(objects)
+    c["image"] = c["image"].rsplit(":", 1)[0] + f":{version}"
+    for o in objects:
+        for place in (o.body, o.body.get("spec", {}).get("template", {})):
+            labels = place.get("metadata", {}).get("labels", {})
+            if "app.kubernetes.io/version" in labels:
+                labels["app.kubernetes.io/version"] = version
 
 
 BREAKS = {
@@ -814,8 +867,9 @@ BREAKS = {
         "metadata"]["labels"].pop("app.kubernetes.io/part-of"),
     "version in a selector": lambda o: first(o, "Deployment").body["spec"]["selector"][
         "matchLabels"].update({"app.kubernetes.io/version": "0.1.0"}),
-    "version label not the image tag": lambda o: container(o).update(
-        image="registry.example.com/scanprep:0.2.0"),
+    "version label not the image tag": lambda o: first(o, "Deployment").body["metadata"][
+        "labels"].update({"app.kubernetes.io/version": "0.2.0"}),
+    "image tag not the project version": lambda o: set_release(o, "0.0.9"),
     "metrics open to every namespace": lambda o: first(o, "NetworkPolicy").body["spec"][
         "ingress"][1].pop("from"),
     "gRPC port not admitted": lambda o: first(o, "NetworkPolicy").body["spec"]["ingress"].pop(0),
@@ -894,6 +948,12 @@ def self_test():
         fn(groups)
         results.append((name, alert_findings(groups, anchors(RUNBOOKS))))
     results.append(("overlay inside its base", layout_findings()))
+    dockerfile, compose = release_files()
+    results.append(("Dockerfile ARG VERSION not the project version", release_findings(
+        VERSION, dockerfile.replace(f"ARG VERSION={VERSION}", "ARG VERSION=0.0.9"), compose)))
+    compose["services"]["scanprep"]["image"] = "scanprep:latest"
+    results.append(("compose image not the project version",
+                    release_findings(VERSION, dockerfile, compose)))
     if shutil.which("kubectl"):  # this check's build drifting from kustomize's
         objects = build(BASE, [])
         first(objects, "Service").body["spec"]["ports"][0].update(port=50052)

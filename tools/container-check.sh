@@ -27,12 +27,15 @@ if ! podman image exists debian:bookworm; then
   tar -C "$work/rootfs" -c . | podman import - debian:bookworm
 fi
 
-podman build --isolation=chroot --pull=never -t scanprep:latest -f Dockerfile .
+# Tagged with the release, CMakeLists.txt's project() version (the Dockerfile's ARG VERSION).
+version=$(sed -n 's/^project(scanprep VERSION \([0-9.]*\).*/\1/p' CMakeLists.txt)
+podman build --isolation=chroot --pull=never --build-arg VERSION="$version" \
+  -t "scanprep:$version" -f Dockerfile .
 
 # The smoke test: start the server in the runtime image and ask it for GetInfo. Plaintext on
 # loopback inside the build; production mounts certificates and uses the --tls_* flags.
-cat >"$work/Containerfile.smoke" <<'SMOKE'
-FROM scanprep:latest
+echo "FROM scanprep:$version" >"$work/Containerfile.smoke"
+cat >>"$work/Containerfile.smoke" <<'SMOKE'
 USER root
 # The step fails unless the server answers GetInfo and then exits 0 on SIGTERM.
 RUN scanprep-server --plaintext --listen=127.0.0.1:50051 --metrics_listen=127.0.0.1:9464 & pid=$! \

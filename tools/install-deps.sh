@@ -27,6 +27,7 @@ if [[ ${1:-} != --build-only ]]; then
     python3-grpcio python3-protobuf python3-numpy  # client/python and its tests (python_client*)
     python3-venv python3-pip python3-setuptools python3-wheel  # its wheel, built and installed offline
     python3-yaml  # tools/check_manifests.py (kubernetes_manifests test)
+    dpkg-dev  # dpkg-shlibdeps: the .deb's Depends (cpack, tools/check-package.sh)
   )
 fi
 if [[ ${1:-} == --sanitizers ]]; then
