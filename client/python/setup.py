@@ -6,6 +6,7 @@ building the wheel needs no registry and its modules match the proto it was buil
 The wheel holds scanprep.v1 (scanprep_pb2, scanprep_pb2_grpc) and the google.rpc error details as
 scanprep_client._rpc, so it does not claim google.rpc, which googleapis-common-protos owns."""
 
+import atexit
 import pathlib
 import shutil
 import subprocess
@@ -49,4 +50,12 @@ class BuildPyWithApi(build_py):
                 shutil.move(module, rpc / module.name)
 
 
-setup(cmdclass={"build_py": BuildPyWithApi})
+# setuptools writes build/ and *.egg-info beside setup.py by default, and pip builds in the source
+# tree (`pip install ./client/python`): both go to a scratch folder instead, removed when the
+# build ends, so that installing leaves the checkout as it was (tests/python/install_clean_test.py).
+_SCRATCH = tempfile.mkdtemp(prefix="scanprep-client-build-")
+atexit.register(shutil.rmtree, _SCRATCH, ignore_errors=True)
+
+setup(cmdclass={"build_py": BuildPyWithApi},
+      options={"build": {"build_base": f"{_SCRATCH}/build"},
+               "egg_info": {"egg_base": _SCRATCH}})

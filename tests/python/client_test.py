@@ -11,7 +11,7 @@ import unittest
 import grpc
 import numpy as np
 
-from scanprep_client import STRICT_WARNING_CODES, Client, Flag, Scan, ScanprepError
+from scanprep_client import STRICT_WARNING_CODES, Client, Flag, Scan, ScanprepError, read_scan
 from scanprep.v1 import scanprep_pb2 as pb
 
 from local_server import LocalServer
@@ -20,29 +20,11 @@ DATA = pathlib.Path(os.environ.get(
     "SCANPREP_DATA_DIR", pathlib.Path(__file__).resolve().parents[2].parent / "shared" / "data"))
 
 
-def read_ascii_ply(path: pathlib.Path) -> np.ndarray:
-    """The vertices (x, y, z) of an ASCII PLY such as the Stanford range scans."""
-    with open(path) as f:
-        vertices = 0
-        for line in f:
-            if line.startswith("element vertex"):
-                vertices = int(line.split()[2])
-            if line.strip() == "end_header":
-                break
-        return np.loadtxt(f, max_rows=vertices, usecols=(0, 1, 2), dtype=np.float32)
-
-
 def bunny_scan(name: str) -> Scan:
-    """A bunny range scan with its bun.conf pose: X_common = R(q)ᵀ·X + t, so the conjugate q."""
-    with open(DATA / "stanford_bunny_range_scans" / "bun.conf") as conf:
-        lines = conf.read().splitlines()
-    for line in lines:
-        fields = line.split()
-        if fields[:2] == ["bmesh", f"{name}.ply"]:
-            tx, ty, tz, qx, qy, qz, qw = map(float, fields[2:])
-            return Scan(points=read_ascii_ply(DATA / "stanford_bunny_range_scans" / f"{name}.ply"),
-                        scan_id=name, to_common=((-qx, -qy, -qz, qw), (tx, ty, tz)))
-    raise KeyError(name)
+    """A bunny range scan (its range_grid rows as scanlines) posed by bun.conf, as `scanprep
+    process --conf` poses it (read_conf: the file stores Rᵀ)."""
+    folder = DATA / "stanford_bunny_range_scans"
+    return read_scan(folder / f"{name}.ply", conf=folder / "bun.conf")
 
 
 def spiky_plane():

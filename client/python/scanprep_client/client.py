@@ -16,6 +16,7 @@ from scanprep.v1 import scanprep_pb2 as pb
 from scanprep.v1 import scanprep_pb2_grpc as pb_grpc
 from scanprep_client.errors import ScanprepError, error_from_rpc
 from scanprep_client.health import Health, health_from_report
+from scanprep_client.report import Report, report_from_pb
 from scanprep_client.retry import RetryPolicy, call_with_retries
 
 _UNITS = {"mm": pb.LENGTH_UNIT_MILLIMETRE, "m": pb.LENGTH_UNIT_METRE, "um": pb.LENGTH_UNIT_MICROMETRE, "in": pb.LENGTH_UNIT_INCH}
@@ -62,6 +63,7 @@ class Scan:
     quality: Optional[np.ndarray] = None    # float in [0, 1] per point
     intensity: Optional[np.ndarray] = None  # float per point
     points_offset: Optional[Sequence[float]] = None  # None = chosen (see above)
+    points_unmeasured: int = 0  # points the file had without a position, left out (readers)
 
 
 @dataclasses.dataclass
@@ -79,6 +81,12 @@ class Result:
     def kept(self) -> np.ndarray:
         """Mask of the points not removed (all of them unless include_removed was asked)."""
         return (self.flags & int(Flag.REMOVED)) == 0
+
+    @property
+    def typed_report(self) -> Report:
+        """The report as typed, frozen dataclasses (scanprep_client.Report); `report` is the
+        protobuf message itself."""
+        return report_from_pb(self.report)
 
     @property
     def health(self) -> Optional[Health]:
@@ -149,6 +157,73 @@ def _wire_points(scan: Scan, offset: Optional[np.ndarray], index: int) -> np.nda
     return local
 
 
+def _vector_ok(value, length: int) -> bool:
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        return False
+    return array.shape == (length,) and bool(np.all(np.isfinite(array)))
+
+
+def check_scans(scans: Sequence[Scan]) -> None:
+    """Raises ValueError naming the scan and the field for what the service could not take, before
+    anything is sent (a wrongly shaped array would otherwise break the request stream and surface
+    as gRPC's "Exception iterating requests!"): points that are not a non-empty n×3 numeric array
+    with a finite point, per-point arrays (scanline, quality, intensity) of another length than
+    the points, scanlines that are not integers in [0, 2³²), vectors that are not 3 finite
+    numbers, a to_common that is not ((qx, qy, qz, qw), (tx, ty, tz))."""
+    if isinstance(scans, Scan) or not all(isinstance(s, Scan) for s in scans):
+        raise ValueError("scans: a sequence of Scan (one scan: [scan])")
+    if not scans:
+        raise ValueError("scans: no scan given")
+    for i, scan in enumerate(scans):
+        where = f"scan {i} ({scan.scan_id!r})"
+        try:
+            points = np.asarray(scan.points)
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"{where}: points: not an array of numbers ({e})") from None
+        if points.dtype.kind not in "fiu":
+            raise ValueError(f"{where}: points: dtype {points.dtype} (expected float or integer)")
+        if points.ndim != 2 or points.shape[1] != 3:
+            raise ValueError(f"{where}: points: shape {points.shape} (expected n×3: x, y, z "
+                             "per row)")
+        if len(points) == 0:
+            raise ValueError(f"{where}: points: empty (a scan needs at least one point)")
+        if points.dtype.kind == "f" and not np.any(np.all(np.isfinite(points), axis=1)):
+            raise ValueError(f"{where}: points: none of the {len(points)} is finite (NaN or "
+                             "infinite coordinates are unmeasured points)")
+        for name in ("scanline", "quality", "intensity"):
+            values = getattr(scan, name)
+            if values is None:
+                continue
+            try:
+                values = np.asarray(values)
+            except (TypeError, ValueError) as e:
+                raise ValueError(f"{where}: {name}: not an array ({e})") from None
+            if values.shape != (len(points),):
+                raise ValueError(f"{where}: {name}: shape {values.shape} (expected "
+                                 f"({len(points)},), one value per point)")
+            if values.dtype.kind not in "fiub":
+                raise ValueError(f"{where}: {name}: dtype {values.dtype} (expected numbers)")
+            if name == "scanline" and not np.all(
+                    (values >= 0) & (values < 2 ** 32) & (values == np.floor(values))):
+                raise ValueError(f"{where}: scanline: values must be integers in [0, 2^32)")
+        for name in ("camera_position", "view_direction", "projector_position",
+                     "projector_direction", "points_offset"):
+            value = getattr(scan, name)
+            if value is not None and not _vector_ok(value, 3):
+                raise ValueError(f"{where}: {name}: {value!r} (expected 3 finite numbers)")
+        if scan.to_common is not None:
+            pose = scan.to_common
+            if not (isinstance(pose, (tuple, list)) and len(pose) == 2 and
+                    _vector_ok(pose[0], 4) and _vector_ok(pose[1], 3)):
+                raise ValueError(f"{where}: to_common: {pose!r} (expected ((qx, qy, qz, qw), "
+                                 "(tx, ty, tz)); a .conf pose: read_conf)")
+        if not isinstance(scan.points_unmeasured, (int, np.integer)) or scan.points_unmeasured < 0:
+            raise ValueError(f"{where}: points_unmeasured: {scan.points_unmeasured!r} (expected "
+                             "a count)")
+
+
 def _header(scans: Sequence[Scan], offsets: Sequence[Optional[np.ndarray]], origin, unit: str,
             stages, params, preset, include_removed, labels, budget_seconds,
             job_id, fail_on, result_arrays) -> pb.JobHeader:
@@ -160,7 +235,8 @@ def _header(scans: Sequence[Scan], offsets: Sequence[Optional[np.ndarray]], orig
     for scan, offset in zip(scans, offsets):
         s = header.scans.add(scan_id=scan.scan_id, sensor_id=scan.sensor_id,
                              scanline_spacing=scan.scanline_spacing,
-                             uncertainty=scan.uncertainty, point_spacing=scan.point_spacing)
+                             uncertainty=scan.uncertainty, point_spacing=scan.point_spacing,
+                             points_unmeasured=scan.points_unmeasured)
         for name in ("camera_position", "view_direction", "projector_position",
                      "projector_direction"):
             if getattr(scan, name) is not None:
@@ -304,6 +380,9 @@ class Client:
         process --strict` (STRICT_WARNING_CODES); fail_on: more codes, e.g. "RADIUS_CAPPED"."""
         codes = [c if c.startswith("WARNING_CODE_") else "WARNING_CODE_" + c
                  for c in (list(STRICT_WARNING_CODES) if strict else []) + list(fail_on)]
+        if not isinstance(scans, Scan):
+            scans = list(scans)  # an iterator is read once, here
+        check_scans(scans)
         offsets = [_points_offset(s) for s in scans]
         origin = (_job_origin(scans, offsets) if origin is None
                   else np.asarray(origin, dtype=np.float64).reshape(3))
