@@ -56,6 +56,9 @@ ABSL_FLAG(double, max_plan_cost, 3,
           "parameter alone at the edge of its range is within 3. 0 = no limit");
 ABSL_FLAG(uint64_t, max_chunk_points, 65'536,
           "largest request chunk in points; larger chunks end the call with RESOURCE_EXHAUSTED");
+ABSL_FLAG(uint32_t, max_message_bytes, 64 << 20,
+          "largest request message gRPC accepts: a stream's chunk, or a whole ProcessUnary job "
+          "(about 5 M points with packed xyz at the default); at most 1 GiB");
 ABSL_FLAG(uint64_t, max_bytes_per_call, uint64_t{1} << 30,
           "serialized size of all request messages of one call; beyond it the call ends with "
           "RESOURCE_EXHAUSTED");
@@ -236,6 +239,11 @@ absl::StatusOr<JobLimits> JobLimitsFromFlags(const TimeBudgetDefaults& budgets) 
   limits.presets = std::make_shared<const std::vector<Preset>>(std::move(presets));
   limits.max_chunk_points = absl::GetFlag(FLAGS_max_chunk_points);
   limits.max_bytes_per_call = absl::GetFlag(FLAGS_max_bytes_per_call);
+  limits.max_message_bytes = absl::GetFlag(FLAGS_max_message_bytes);
+  if (limits.max_message_bytes < (1u << 20) || limits.max_message_bytes > (1u << 30)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--max_message_bytes must be within 1 MiB and 1 GiB (got ", limits.max_message_bytes, ")"));
+  }
   limits.max_scans_per_job = absl::GetFlag(FLAGS_max_scans_per_job);
   limits.default_budget_seconds = budgets.total_seconds;
   limits.default_stage_budget_seconds = budgets.stage_seconds;

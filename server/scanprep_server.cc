@@ -179,7 +179,7 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
       options.listen,
       options.credentials != nullptr ? options.credentials : grpc::InsecureServerCredentials(),
       &server->port_);
-  builder.SetMaxReceiveMessageSize(kMaxMessageBytes);
+  builder.SetMaxReceiveMessageSize(static_cast<int>(options.limits.max_message_bytes));
   // gRPC sets SO_REUSEPORT by default: a second server on the same port would start silently and
   // take half the connections. Without it the second one fails to start.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);

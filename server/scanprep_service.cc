@@ -103,8 +103,31 @@ grpc::Status ScanPrepService::Ended(const grpc::ServerContext& context,
   return Gone(context, phase);
 }
 
-grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stream) {
-  metrics_.RpcStarted(kProcessRpc);
+grpc::Status ScanPrepService::Process(
+    grpc::ServerContext* context,
+    grpc::ServerReaderWriter<v1::ProcessResponse, v1::ProcessRequest>* stream) {
+  BidiJobStream job_stream(stream);
+  return Serve(context, &job_stream);
+}
+
+grpc::Status ScanPrepService::ProcessUnary(grpc::ServerContext* context,
+                                           const v1::ProcessUnaryRequest* request,
+                                           v1::ProcessUnaryResponse* response) {
+  if (absl::Status corrupted = UnaryChecksumError(*request); !corrupted.ok()) {
+    metrics_.RpcStarted(kProcessUnaryRpc);
+    const grpc::Status status = ToGrpc(corrupted);
+    metrics_.RpcHandled(kProcessUnaryRpc, status.error_code(), 0);
+    return status;
+  }
+  // The request is the service's to consume: its points move into the job piece by piece.
+  UnaryJobStream job_stream(const_cast<v1::ProcessUnaryRequest&>(*request), *response,
+                            kRecommendedChunkPoints);
+  return Serve(context, &job_stream);
+}
+
+grpc::Status ScanPrepService::Serve(grpc::ServerContext* context, Stream* stream) {
+  const RpcMethod& method = stream->method();
+  metrics_.RpcStarted(method);
   // Read now: gRPC reports a cancelled call's peer as "unknown".
   const std::string peer = context->peer();
   CallRecord record{.start = absl::Now(), .client = ClientHost(*context, trusted_proxies_)};
@@ -121,7 +144,7 @@ grpc::Status ScanPrepService::Process(grpc::ServerContext* context, Stream* stre
     }
   }
   const absl::Duration elapsed = absl::Now() - record.start;
-  metrics_.RpcHandled(kProcessRpc, status.error_code(), absl::ToDoubleSeconds(elapsed));
+  metrics_.RpcHandled(method, status.error_code(), absl::ToDoubleSeconds(elapsed));
   LogCall(peer, record, status, elapsed);
   return status;
 }
@@ -144,7 +167,7 @@ void ScanPrepService::LogCall(const std::string& peer, const CallRecord& record,
 
 bool ScanPrepService::Send(Stream* stream, IdleWatch::Call& watch,
                            const v1::ProcessResponse& response) {
-  metrics_.ResponseSent(response.ByteSizeLong(),
+  metrics_.ResponseSent(stream->method(), response.ByteSizeLong(),
                         response.has_points() ? ChunkPoints(response.points()) : 0);
   watch.Expect(timeouts_.idle, "idle_timeout",
                absl::StrCat("the client did not read the next ",
@@ -230,7 +253,8 @@ grpc::Status ScanPrepService::Upload(grpc::ServerContext* context, Stream* strea
   watch.Expect(timeouts_.header, "header_timeout", "the header did not arrive");
   while (stream->Read(&request)) {
     const size_t bytes = request.ByteSizeLong();
-    metrics_.RequestReceived(bytes, request.has_points() ? ChunkPoints(request.points()) : 0);
+    metrics_.RequestReceived(stream->method(), bytes,
+                             request.has_points() ? ChunkPoints(request.points()) : 0);
     watch.Transferred(bytes);
     absl::Status added = assembler.Add(request);
     record.job_id = assembler.job_id();
@@ -239,8 +263,10 @@ grpc::Status ScanPrepService::Upload(grpc::ServerContext* context, Stream* strea
     watch.Pause();            // waiting for a slot or memory is the server's time, not the client's
     if (!slot.has_value()) {  // the assembler accepts only a header first
       auto admitted = admission_.Admit(
-          record.client, EstimateJobBytes(assembler.total_points(), assembler.options().params),
-          ReserveAhead(assembler), CallDeadline(*context), cancelled);
+          record.client,
+          stream->held_bytes() +
+              EstimateJobBytes(assembler.total_points(), assembler.options().params),
+          stream->held_bytes() + ReserveAhead(assembler), CallDeadline(*context), cancelled);
       if (!admitted.ok()) {
         // Cancelled while waiting: by the client, or by gRPC because the deadline passed.
         return admitted.status().code() == absl::StatusCode::kCancelled
@@ -254,7 +280,7 @@ grpc::Status ScanPrepService::Upload(grpc::ServerContext* context, Stream* strea
       watch.Expect(timeouts_.idle, "idle_timeout", "the first chunk did not arrive");
       continue;
     }
-    if (!slot->Reserve(ReserveAhead(assembler), cancelled).ok()) {
+    if (!slot->Reserve(stream->held_bytes() + ReserveAhead(assembler), cancelled).ok()) {
       return Gone(*context, "the wait for memory");
     }
     const uint64_t received = assembler.points_received();
@@ -380,7 +406,7 @@ grpc::Status ScanPrepService::GetInfo(grpc::ServerContext*, const v1::GetInfoReq
   limits->set_max_calls_per_peer(peers_.max_calls_per_peer());
   limits->set_max_scans_per_job(limits_.max_scans_per_job);
   limits->set_max_plan_cost(limits_.max_plan_cost);
-  limits->set_max_message_bytes(kMaxMessageBytes);
+  limits->set_max_message_bytes(limits_.max_message_bytes);
   limits->set_max_labels(kMaxLabels);
   limits->set_max_header_string_bytes(kMaxHeaderStringBytes);
   limits->set_header_timeout_seconds(absl::ToDoubleSeconds(timeouts_.header));

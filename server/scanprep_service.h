@@ -13,6 +13,7 @@
 #include "server/admission/peer_limiter.h"
 #include "server/job/job_assembler.h"
 #include "server/job/job_runner.h"
+#include "server/job_stream.h"
 #include "server/metrics/service_metrics.h"
 #include "server/transport/call_log.h"
 #include "server/transport/cidr.h"
@@ -22,9 +23,6 @@ namespace scanprep::server {
 
 // Points per result chunk; half the per-chunk limit, about 0.8 MiB with every array filled.
 inline constexpr uint32_t kRecommendedChunkPoints = 32'768;
-// Largest request message gRPC accepts (its default, set explicitly so the limit is ours): a
-// chunk at the default max_chunk_points with every optional array is about 2 MiB.
-inline constexpr int kMaxMessageBytes = 4 << 20;
 
 // How long a client may keep the server waiting for its next upload message, or for it to read
 // the next response.
@@ -58,11 +56,13 @@ class ScanPrepService final : public v1::ScanPrep::Service {
   grpc::Status Process(
       grpc::ServerContext* context,
       grpc::ServerReaderWriter<v1::ProcessResponse, v1::ProcessRequest>* stream) override;
+  grpc::Status ProcessUnary(grpc::ServerContext* context, const v1::ProcessUnaryRequest* request,
+                            v1::ProcessUnaryResponse* response) override;
   grpc::Status GetInfo(grpc::ServerContext* context, const v1::GetInfoRequest* request,
                        v1::GetInfoResponse* info) override;
 
  private:
-  using Stream = grpc::ServerReaderWriter<v1::ProcessResponse, v1::ProcessRequest>;
+  using Stream = JobStream;
   // What the log line of a Process call says besides its status.
   struct CallRecord {
     absl::Time start;    // when the call arrived
@@ -70,6 +70,8 @@ class ScanPrepService final : public v1::ScanPrep::Service {
     std::string job_id;
     uint64_t points = 0;
   };
+  // A job call (Process or ProcessUnary, through `stream`) from its per-host cap to its log line.
+  grpc::Status Serve(grpc::ServerContext* context, Stream* stream);
   // A Process call's phases: upload (validated as it arrives, a slot taken once the header is
   // valid), processing (progress relayed, cancellation passed on), download (points, report,
   // end). Each returns OK to go on, else the call's status.
@@ -105,7 +107,8 @@ class ScanPrepService final : public v1::ScanPrep::Service {
   grpc::Status Ended(const grpc::ServerContext& context, const IdleWatch::Call& watch,
                      std::string_view phase) const;
   // What a job must have reserved before its next message is read: the estimate for the points
-  // received so far and one more chunk at the largest size, at most the whole declared job.
+  // received so far and one more chunk at the largest size, at most the whole declared job (plus
+  // what its stream holds, JobStream::held_bytes).
   uint64_t ReserveAhead(const JobAssembler& assembler) const;
   // The status for a job the assembler refused, counted as a rejection.
   grpc::Status Refuse(const absl::Status& status);

@@ -29,6 +29,9 @@ if [[ ${1:-} != --build-only ]]; then
     python3-yaml  # tools/check_manifests.py (kubernetes_manifests test)
     dpkg-dev  # dpkg-shlibdeps: the .deb's Depends (cpack, tools/check-package.sh)
   )
+  # Node.js and npm for the second-language example (client/examples/node, node_client_example),
+  # Debian's unless the machine has its own node with npm.
+  command -v npm >/dev/null || packages+=(nodejs npm)
 fi
 if [[ ${1:-} == --sanitizers ]]; then
   packages+=(clang libclang-rt-14-dev)
@@ -44,4 +47,10 @@ if ((${#missing[@]})); then
   [[ $(id -u) -eq 0 ]] || sudo_cmd=(sudo)
   "${sudo_cmd[@]}" apt-get update -qq
   DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+# The Node example's two packages (@grpc/grpc-js, @grpc/proto-loader) from the npm registry, at
+# the versions its lock file names.
+node_example=$(dirname "$0")/../client/examples/node
+if [[ ${1:-} != --build-only && ! -d $node_example/node_modules/@grpc/grpc-js ]]; then
+  (cd "$node_example" && npm ci --no-audit --no-fund --loglevel=error)
 fi

@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "wire/chunk_arrays.h"
 
+#include <algorithm>
 #include <bit>
 #include <cstring>
 #include <string>
+#include <string_view>
 
 #include "absl/strings/str_cat.h"
 
@@ -79,6 +81,29 @@ bool HasPackedArrays(const v1::PointChunk& chunk) {
   return !chunk.xyz_packed().empty() || !chunk.scan_index_packed().empty() ||
          !chunk.scanline_packed().empty() || !chunk.quality_packed().empty() ||
          !chunk.intensity_packed().empty() || !chunk.normal_packed().empty();
+}
+
+v1::PointChunk SliceChunk(v1::PointChunk& chunk, uint64_t begin, uint64_t end) {
+  v1::PointChunk slice;
+  ForEachArray([&](auto pair) {
+    const auto& values = *(chunk.*pair.repeated)();
+    const std::string_view name = pair.name;
+    const uint64_t width = name == "xyz" || name == "normal" ? 3 : 1;
+    const uint64_t size = values.size();
+    const uint64_t from = std::min(begin * width, size);
+    const uint64_t to = std::min(end * width, size);
+    (slice.*pair.repeated)()->Add(values.begin() + from, values.begin() + to);
+  });
+  return slice;
+}
+
+void AppendChunk(v1::PointChunk& from, v1::PointChunk& to) {
+  ForEachArray([&](auto pair) {
+    const auto& values = *(from.*pair.repeated)();
+    (to.*pair.repeated)()->Add(values.begin(), values.end());
+    (to.*pair.packed)()->append(*(from.*pair.packed)());
+  });
+  to.mutable_flags()->append(from.flags());
 }
 
 }  // namespace scanprep

@@ -38,6 +38,9 @@ struct JobLimits {
   // Serialized size of all request messages of one call; the default fits a job at
   // max_points_per_job with every optional array (about 30 bytes per point).
   uint64_t max_bytes_per_call = uint64_t{1} << 30;
+  // Largest single request message gRPC accepts: a stream's chunk or a whole ProcessUnary job
+  // (held whole before its header is checked, and reserved as such).
+  uint32_t max_message_bytes = 64 << 20;
   // Scans declared in one header; each costs a frame and metadata before any point arrives.
   uint32_t max_scans_per_job = 1'000;
   // The most work a job's plan may ask for, as a multiple of the default plan's

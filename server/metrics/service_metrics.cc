@@ -176,7 +176,7 @@ void ServiceMetrics::AddFirstSeries() {
   }
   for (Phase phase : kAllPhases) phase_seconds_.WithLabels({PhaseLabel(phase)});
   for (const char* outcome : kBudgetOutcomes) budget_outcomes_.WithLabels({outcome});
-  for (const RpcMethod& rpc : {kProcessRpc, kGetInfoRpc}) {
+  for (const RpcMethod& rpc : {kProcessRpc, kProcessUnaryRpc, kGetInfoRpc}) {
     rpc_.started.WithLabels(RpcLabels(rpc));
     rpc_.handling_seconds.WithLabels(RpcLabels(rpc));
     std::vector<std::string> ok = RpcLabels(rpc);
@@ -243,14 +243,14 @@ void ServiceMetrics::PhaseEnded(Phase phase, double seconds) {
   phase_seconds_.WithLabels({PhaseLabel(phase)}).Observe(seconds);
 }
 
-void ServiceMetrics::RequestReceived(uint64_t bytes, uint64_t points) {
-  rpc_.msg_received.WithLabels(RpcLabels(kProcessRpc)).Inc();
+void ServiceMetrics::RequestReceived(const RpcMethod& rpc, uint64_t bytes, uint64_t points) {
+  rpc_.msg_received.WithLabels(RpcLabels(rpc)).Inc();
   bytes_received_.Inc(static_cast<double>(bytes));
   points_received_.Inc(static_cast<double>(points));
 }
 
-void ServiceMetrics::ResponseSent(uint64_t bytes, uint64_t points) {
-  rpc_.msg_sent.WithLabels(RpcLabels(kProcessRpc)).Inc();
+void ServiceMetrics::ResponseSent(const RpcMethod& rpc, uint64_t bytes, uint64_t points) {
+  rpc_.msg_sent.WithLabels(RpcLabels(rpc)).Inc();
   bytes_sent_.Inc(static_cast<double>(bytes));
   points_returned_.Inc(static_cast<double>(points));
 }

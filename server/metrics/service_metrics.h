@@ -34,6 +34,7 @@ struct RpcMethod {
   const char* name;  // grpc_method
 };
 inline constexpr RpcMethod kProcessRpc{"bidi_stream", "Process"};
+inline constexpr RpcMethod kProcessUnaryRpc{"unary", "ProcessUnary"};
 inline constexpr RpcMethod kGetInfoRpc{"unary", "GetInfo"};
 
 // Histogram bounds in seconds, fine where cycle-time budgets lie (0.5 s to 10 s in steps of
@@ -68,9 +69,10 @@ class ServiceMetrics : public AdmissionObserver {
   // A phase of a Process call that ended.
   void PhaseEnded(Phase phase, double seconds);
 
-  // One Process request message received, one Process response message sent.
-  void RequestReceived(uint64_t bytes, uint64_t points);
-  void ResponseSent(uint64_t bytes, uint64_t points);
+  // One request message of a job call received, one response message sent (a ProcessUnary
+  // call's are its pieces, as the stream it is run as).
+  void RequestReceived(const RpcMethod& rpc, uint64_t bytes, uint64_t points);
+  void ResponseSent(const RpcMethod& rpc, uint64_t bytes, uint64_t points);
   // A pipeline that ran to its end (successfully): its time (phase "processing"), stage times,
   // stage overruns, the job's budget outcome with its used share of the budget, and its health
   // per sensor (SensorMetrics) when it ran the health stage.

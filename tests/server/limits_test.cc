@@ -362,13 +362,15 @@ TEST(Limits, AReportForAHeaderAtEveryLimitFitsTheClientsReceiveLimit) {
   const size_t bytes = result->report.ByteSizeLong();
   std::printf("report of %zu bytes, %d warnings\n", bytes, result->report.warnings_size());
   EXPECT_EQ(result->report.job_id(), header.job_id());
-  EXPECT_LT(bytes, size_t{server::kMaxMessageBytes});
+  EXPECT_LT(bytes, size_t{4} << 20);  // within a client's default receive limit
 }
 
-TEST(Limits, MessagesAboveFourMebibytesAreRefusedByGrpcBeforeTheyAreParsed) {
-  InProcessServer server;
+TEST(Limits, MessagesAboveMaxMessageBytesAreRefusedByGrpcBeforeTheyAreParsed) {
+  server::ServerOptions options;
+  options.limits.max_message_bytes = 4 << 20;
+  InProcessServer server(options);
   v1::PointChunk chunk = LineChunk(400'000);  // 4.8 MB of xyz
-  ASSERT_GT(ChunkRequest(chunk).ByteSizeLong(), size_t{server::kMaxMessageBytes});
+  ASSERT_GT(ChunkRequest(chunk).ByteSizeLong(), size_t{4} << 20);
   const grpc::Status status =
       RawCall(*server.Stub(), {HeaderRequest(SimpleHeader()), ChunkRequest(chunk)});
   EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
@@ -386,7 +388,7 @@ TEST(Limits, GetInfoReportsEveryLimit) {
   EXPECT_EQ(info->limits().max_bytes_per_call(), uint64_t{1} << 30);
   EXPECT_EQ(info->limits().max_calls_per_peer(), 3u);
   EXPECT_EQ(info->limits().max_scans_per_job(), 1000u);
-  EXPECT_EQ(info->limits().max_message_bytes(), 4u << 20);
+  EXPECT_EQ(info->limits().max_message_bytes(), 64u << 20);
   EXPECT_EQ(info->limits().max_header_string_bytes(), 256u);
 }
 

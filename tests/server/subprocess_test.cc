@@ -203,7 +203,7 @@ TEST(ServerBinary, LimitFlagsReachGetInfo) {
     EXPECT_EQ(info->limits().max_bytes_per_call(), 123456u);
     EXPECT_EQ(info->limits().max_scans_per_job(), 7u);
     EXPECT_EQ(info->limits().max_calls_per_peer(), 3u);
-    EXPECT_EQ(info->limits().max_message_bytes(), 4u << 20);
+    EXPECT_EQ(info->limits().max_message_bytes(), 64u << 20);
   }
   EXPECT_EQ(server.Terminate(), 0);
 }
