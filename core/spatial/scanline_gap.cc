@@ -52,7 +52,12 @@ absl::StatusOr<std::vector<double>> ScanlineGaps(const PointCloud& cloud, const 
                                                  const std::vector<double>& reach,
                                                  const CancelToken& cancel) {
   std::vector<double> gap(reach.size(), 0.0);
-  if (!cloud.has_scanlines()) return gap;
+  // No scan to measure (the usual case: every requested r_min within the limit): no pass over
+  // the points at all.
+  if (!cloud.has_scanlines() ||
+      std::none_of(reach.begin(), reach.end(), [](double r) { return r > 0; })) {
+    return gap;
+  }
   const std::vector<uint32_t> samples = Samples(cloud, reach);
   std::vector<float> found(samples.size());
   SCANPREP_RETURN_IF_ERROR(ParallelFor(
