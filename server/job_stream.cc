@@ -35,7 +35,7 @@ bool UnaryJobStream::Read(v1::ProcessRequest* request) {
     }
     unpacked_ = true;
     const uint64_t end = std::min(points_, next_point_ + chunk_points_);
-    *request->mutable_points() = SliceChunk(*request_.mutable_points(), next_point_, end);
+    *request->mutable_points() = SliceChunk(request_.points(), next_point_, end);
     upload_.Add(request->points());
     next_point_ = end;
     return true;
@@ -49,8 +49,7 @@ bool UnaryJobStream::Read(v1::ProcessRequest* request) {
 
 bool UnaryJobStream::Write(const v1::ProcessResponse& response) {
   if (response.has_points()) {
-    v1::PointChunk chunk = response.points();
-    AppendChunk(chunk, *response_.mutable_points());
+    AppendChunk(response.points(), *response_.mutable_points());
   } else if (response.has_report()) {
     *response_.mutable_report() = response.report();
   } else if (response.has_end()) {
@@ -61,16 +60,16 @@ bool UnaryJobStream::Write(const v1::ProcessResponse& response) {
   return true;
 }
 
-absl::Status UnaryChecksumError(const v1::ProcessUnaryRequest& request) {
-  if (!request.has_crc32()) return absl::OkStatus();
+absl::Status UnaryJobStream::Check() const {
+  if (!request_.has_crc32()) return absl::OkStatus();
   StreamChecksum received;
-  received.Add(request.points());
-  if (received.crc32() == request.crc32()) return absl::OkStatus();
+  received.Add(request_.points());
+  if (received.crc32() == request_.crc32()) return absl::OkStatus();
   // Corrupted on the way, as a stream's end can find: the same request can succeed again.
   return WithReason(absl::DataLossError(absl::StrFormat(
                         "crc32 = 0x%08x but the %d points received have CRC-32 0x%08x: the "
                         "request was corrupted in transfer",
-                        request.crc32(), received.points(), received.crc32())),
+                        request_.crc32(), received.points(), received.crc32())),
                     "CHECKSUM_MISMATCH", absl::ZeroDuration());
 }
 

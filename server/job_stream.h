@@ -28,6 +28,9 @@ class JobStream {
   // header could be checked), for the job's memory reservation.
   virtual uint64_t held_bytes() const = 0;
   virtual const RpcMethod& method() const = 0;
+  // What the call carries that is wrong before any of it is read (a unary request's crc32 that
+  // its points do not have); OK for a stream, whose messages are checked as they arrive.
+  virtual absl::Status Check() const { return absl::OkStatus(); }
 };
 
 // Process: the stream itself.
@@ -47,7 +50,7 @@ class BidiJobStream final : public JobStream {
 // ProcessUnary: reads the header, the points in pieces of at most `chunk_points` (as a client
 // would stream them) and a StreamEnd summed over those pieces; writes the result's chunks into
 // one chunk of `response`, the report, and an end summed over that one chunk. Progress is not
-// kept. The request's own crc32 is checked by the caller (UnaryChecksumError) before this reads.
+// kept. The request's own crc32 is checked by Check, before this reads.
 class UnaryJobStream final : public JobStream {
  public:
   UnaryJobStream(v1::ProcessUnaryRequest& request, v1::ProcessUnaryResponse& response,
@@ -56,6 +59,9 @@ class UnaryJobStream final : public JobStream {
   bool Write(const v1::ProcessResponse& response) override;
   uint64_t held_bytes() const override { return held_bytes_; }
   const RpcMethod& method() const override { return kProcessUnaryRpc; }
+  // DATA_LOSS (reason CHECKSUM_MISMATCH) when the request states a crc32 that its points do not
+  // have.
+  absl::Status Check() const override;
 
  private:
   v1::ProcessUnaryRequest& request_;
@@ -69,9 +75,5 @@ class UnaryJobStream final : public JobStream {
   bool unpacked_ = false;  // the request's points in the repeated form, to be sliced
   StreamChecksum upload_;
 };
-
-// DATA_LOSS (reason CHECKSUM_MISMATCH) when the request states a crc32 that its points do not
-// have; OK otherwise.
-absl::Status UnaryChecksumError(const v1::ProcessUnaryRequest& request);
 
 }  // namespace scanprep::server

@@ -113,12 +113,6 @@ grpc::Status ScanPrepService::Process(
 grpc::Status ScanPrepService::ProcessUnary(grpc::ServerContext* context,
                                            const v1::ProcessUnaryRequest* request,
                                            v1::ProcessUnaryResponse* response) {
-  if (absl::Status corrupted = UnaryChecksumError(*request); !corrupted.ok()) {
-    metrics_.RpcStarted(kProcessUnaryRpc);
-    const grpc::Status status = ToGrpc(corrupted);
-    metrics_.RpcHandled(kProcessUnaryRpc, status.error_code(), 0);
-    return status;
-  }
   // The request is the service's to consume: its points move into the job piece by piece.
   UnaryJobStream job_stream(const_cast<v1::ProcessUnaryRequest&>(*request), *response,
                             kRecommendedChunkPoints);
@@ -135,6 +129,8 @@ grpc::Status ScanPrepService::Serve(grpc::ServerContext* context, Stream* stream
   // The optional per-host cap, counted before anything is read.
   if (auto lease = peers_.Acquire(record.client); !lease.ok()) {
     status = Refuse(lease.status());
+  } else if (absl::Status corrupted = stream->Check(); !corrupted.ok()) {
+    status = Refuse(corrupted);
   } else {
     try {
       status = ProcessJob(context, stream, record);

@@ -5,7 +5,6 @@
 #include <bit>
 #include <cstring>
 #include <string>
-#include <string_view>
 
 #include "absl/strings/str_cat.h"
 
@@ -19,20 +18,29 @@ static_assert(std::endian::native == std::endian::little);
 template <class T>
 struct ArrayPair {
   const char* name;
+  int width;  // values per point
   google::protobuf::RepeatedField<T>* (v1::PointChunk::*repeated)();
   std::string* (v1::PointChunk::*packed)();
+  const google::protobuf::RepeatedField<T>& (v1::PointChunk::*values)() const;
+  const std::string& (v1::PointChunk::*bytes)() const;
 };
 
 // Calls visit(pair) for each of the six arrays, in field order.
 template <class Visit>
 void ForEachArray(Visit&& visit) {
   using C = v1::PointChunk;
-  visit(ArrayPair<float>{"xyz", &C::mutable_xyz, &C::mutable_xyz_packed});
-  visit(ArrayPair<uint32_t>{"scan_index", &C::mutable_scan_index, &C::mutable_scan_index_packed});
-  visit(ArrayPair<uint32_t>{"scanline", &C::mutable_scanline, &C::mutable_scanline_packed});
-  visit(ArrayPair<float>{"quality", &C::mutable_quality, &C::mutable_quality_packed});
-  visit(ArrayPair<float>{"intensity", &C::mutable_intensity, &C::mutable_intensity_packed});
-  visit(ArrayPair<float>{"normal", &C::mutable_normal, &C::mutable_normal_packed});
+  visit(
+      ArrayPair<float>{"xyz", 3, &C::mutable_xyz, &C::mutable_xyz_packed, &C::xyz, &C::xyz_packed});
+  visit(ArrayPair<uint32_t>{"scan_index", 1, &C::mutable_scan_index, &C::mutable_scan_index_packed,
+                            &C::scan_index, &C::scan_index_packed});
+  visit(ArrayPair<uint32_t>{"scanline", 1, &C::mutable_scanline, &C::mutable_scanline_packed,
+                            &C::scanline, &C::scanline_packed});
+  visit(ArrayPair<float>{"quality", 1, &C::mutable_quality, &C::mutable_quality_packed, &C::quality,
+                         &C::quality_packed});
+  visit(ArrayPair<float>{"intensity", 1, &C::mutable_intensity, &C::mutable_intensity_packed,
+                         &C::intensity, &C::intensity_packed});
+  visit(ArrayPair<float>{"normal", 3, &C::mutable_normal, &C::mutable_normal_packed, &C::normal,
+                         &C::normal_packed});
 }
 
 }  // namespace
@@ -83,25 +91,23 @@ bool HasPackedArrays(const v1::PointChunk& chunk) {
          !chunk.intensity_packed().empty() || !chunk.normal_packed().empty();
 }
 
-v1::PointChunk SliceChunk(v1::PointChunk& chunk, uint64_t begin, uint64_t end) {
+v1::PointChunk SliceChunk(const v1::PointChunk& chunk, uint64_t begin, uint64_t end) {
   v1::PointChunk slice;
   ForEachArray([&](auto pair) {
-    const auto& values = *(chunk.*pair.repeated)();
-    const std::string_view name = pair.name;
-    const uint64_t width = name == "xyz" || name == "normal" ? 3 : 1;
+    const auto& values = (chunk.*pair.values)();
     const uint64_t size = values.size();
-    const uint64_t from = std::min(begin * width, size);
-    const uint64_t to = std::min(end * width, size);
+    const uint64_t from = std::min(begin * pair.width, size);
+    const uint64_t to = std::min(end * pair.width, size);
     (slice.*pair.repeated)()->Add(values.begin() + from, values.begin() + to);
   });
   return slice;
 }
 
-void AppendChunk(v1::PointChunk& from, v1::PointChunk& to) {
+void AppendChunk(const v1::PointChunk& from, v1::PointChunk& to) {
   ForEachArray([&](auto pair) {
-    const auto& values = *(from.*pair.repeated)();
+    const auto& values = (from.*pair.values)();
     (to.*pair.repeated)()->Add(values.begin(), values.end());
-    (to.*pair.packed)()->append(*(from.*pair.packed)());
+    (to.*pair.packed)()->append((from.*pair.bytes)());
   });
   to.mutable_flags()->append(from.flags());
 }

@@ -26,13 +26,13 @@ uint64_t ChunkPoints(const v1::PointChunk& chunk);
 // Whether any array of `chunk` is in the packed form.
 bool HasPackedArrays(const v1::PointChunk& chunk);
 
-// Points [begin, end) of `chunk` (not changed; non-const for the accessors), whose arrays are in
-// the repeated form: xyz and normal three values per point, the others one. An array shorter
-// than the range gives what it has, so a mismatch reaches the chunk's checks as it was sent.
-v1::PointChunk SliceChunk(v1::PointChunk& chunk, uint64_t begin, uint64_t end);
+// Points [begin, end) of `chunk`, whose arrays are in the repeated form: xyz and normal three
+// values per point, the others one. An array shorter than the range gives what it has, so a
+// mismatch reaches the chunk's checks as it was sent.
+v1::PointChunk SliceChunk(const v1::PointChunk& chunk, uint64_t begin, uint64_t end);
 
 // Appends `from`'s points to `to`, array by array in whichever form each came (both chunks in
 // the same form), and its flags.
-void AppendChunk(v1::PointChunk& from, v1::PointChunk& to);
+void AppendChunk(const v1::PointChunk& from, v1::PointChunk& to);
 
 }  // namespace scanprep
