@@ -180,6 +180,9 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
       options.credentials != nullptr ? options.credentials : grpc::InsecureServerCredentials(),
       &server->port_);
   builder.SetMaxReceiveMessageSize(static_cast<int>(options.limits.max_message_bytes));
+  // And sent: a ProcessUnary answer (its points with normals) outlives the job's reservation in
+  // gRPC's buffers until the client reads it, so it is held to the same bound.
+  builder.SetMaxSendMessageSize(static_cast<int>(options.limits.max_message_bytes));
   // gRPC sets SO_REUSEPORT by default: a second server on the same port would start silently and
   // take half the connections. Without it the second one fails to start.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
