@@ -150,6 +150,8 @@ class ReadersAgainstTheCliTest(unittest.TestCase):
                                  else np.float32)
                 self.assertTrue(np.all((scan.quality >= 0) & (scan.quality <= 1)))
                 self.assertEqual(len(scan.intensity), len(scan.points))
+                self.assertEqual(list(scan.attributes), ["red"])  # the rest the reader uses
+                np.testing.assert_array_equal(scan.attributes["red"], np.full(298, 7, np.uint8))
 
     def test_synthetic_pcd_and_text(self):
         for name, write in [("plain.pcd", lambda p: write_pcd(p, "ascii")),
@@ -163,7 +165,9 @@ class ReadersAgainstTheCliTest(unittest.TestCase):
                 self.assertEqual(scan.points_unmeasured, 2)
                 if name.endswith(".pcd"):
                     self.assertEqual(scan.camera_position, (1.5, -2.0, 30.0))
-                    self.assertTrue(any("fields not used: rgb" in n for n in notes), notes)
+                    self.assertEqual(scan.attributes["rgb"].dtype, np.uint32)  # TYPE U, SIZE 4
+                    self.assertEqual(len(scan.attributes["rgb"]), len(scan.points))
+                    self.assertFalse(any("left out:" in n for n in notes), notes)
 
     def test_shared_scans(self):
         files = [BUNNY / "bun000.ply",  # ascii, range_grid scanlines

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import warnings
 import zlib
 from typing import Callable, Iterator, Mapping, Optional, Sequence, TypeVar
 
@@ -64,6 +65,10 @@ class Scan:
     intensity: Optional[np.ndarray] = None  # float per point
     points_offset: Optional[Sequence[float]] = None  # None = chosen (see above)
     points_unmeasured: int = 0  # points the file had without a position, left out (readers)
+    # What the service does not read, by name, one value per point (first axis = the points): a
+    # file's colour, a scanner's own scalars. Not sent; Result.attributes gives them back for the
+    # returned points (by Result.source_index).
+    attributes: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass
@@ -76,6 +81,13 @@ class Result:
     scan_index: np.ndarray           # uint32 per point
     report: pb.Report
     origin: Optional[np.ndarray] = None  # the job's origin (float64 × 3), None when it had none
+    # Each returned point's 0-based position in the upload: over the scans' points in the order
+    # given, unmeasured (NaN) rows counted. uint32; None when the job did not ask for it (no scan
+    # had attributes and return_source_index was not given).
+    source_index: Optional[np.ndarray] = None
+    # The scans' attributes for the returned points, by name: those every scan of the job has with
+    # one dtype (and shape per point); any other is left out with a warning.
+    attributes: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
 
     @property
     def kept(self) -> np.ndarray:
@@ -171,7 +183,8 @@ def check_scans(scans: Sequence[Scan]) -> None:
     as gRPC's "Exception iterating requests!"): points that are not a non-empty n×3 numeric array
     with a finite point, per-point arrays (scanline, quality, intensity) of another length than
     the points, scanlines that are not integers in [0, 2³²), vectors that are not 3 finite
-    numbers, a to_common that is not ((qx, qy, qz, qw), (tx, ty, tz))."""
+    numbers, a to_common that is not ((qx, qy, qz, qw), (tx, ty, tz)), attributes that are not a
+    dict of arrays with one value per point."""
     if isinstance(scans, Scan) or not all(isinstance(s, Scan) for s in scans):
         raise ValueError("scans: a sequence of Scan (one scan: [scan])")
     if not scans:
@@ -222,16 +235,34 @@ def check_scans(scans: Sequence[Scan]) -> None:
         if not isinstance(scan.points_unmeasured, (int, np.integer)) or scan.points_unmeasured < 0:
             raise ValueError(f"{where}: points_unmeasured: {scan.points_unmeasured!r} (expected "
                              "a count)")
+        _check_attributes(scan.attributes, len(points), where)
+
+
+def _check_attributes(attributes, count: int, where: str) -> None:
+    if not isinstance(attributes, Mapping):
+        raise ValueError(f"{where}: attributes: {type(attributes).__name__} (expected a dict of "
+                         "name: array)")
+    for name, values in attributes.items():
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"{where}: attributes: name {name!r} (expected a non-empty str)")
+        try:
+            values = np.asarray(values)
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"{where}: attributes[{name!r}]: not an array ({e})") from None
+        if values.ndim == 0 or values.shape[0] != count:
+            raise ValueError(f"{where}: attributes[{name!r}]: shape {values.shape} (expected "
+                             f"({count}, ...), one value per point)")
 
 
 def _header(scans: Sequence[Scan], offsets: Sequence[Optional[np.ndarray]], origin, unit: str,
             stages, params, preset, include_removed, labels, budget_seconds,
-            job_id, fail_on, result_arrays) -> pb.JobHeader:
+            job_id, fail_on, result_arrays, return_source_index: bool = False) -> pb.JobHeader:
     if unit not in _UNITS:
         raise ValueError(f"unit {unit!r}: one of {sorted(_UNITS)}")
     header = pb.JobHeader(job_id=job_id, unit=_UNITS[unit],
                           result_arrays=result_arrays,
-                          total_points=sum(len(s.points) for s in scans))
+                          total_points=sum(len(s.points) for s in scans),
+                          return_source_index=return_source_index)
     for scan, offset in zip(scans, offsets):
         s = header.scans.add(scan_id=scan.scan_id, sensor_id=scan.sensor_id,
                              scanline_spacing=scan.scanline_spacing,
@@ -286,6 +317,51 @@ def _job_origin(scans: Sequence[Scan],
         rotation, translation = scan.to_common
         return _rotate(rotation, offset) + np.asarray(translation, dtype=np.float64)
     return None
+
+
+def _attribute_kind(values) -> tuple[np.dtype, tuple[int, ...]]:
+    """An attribute's dtype (native byte order: a big-endian file's float32 is float32) and its
+    shape per point."""
+    values = np.asarray(values)
+    return values.dtype.newbyteorder("="), values.shape[1:]
+
+
+def _shared_attributes(scans: Sequence[Scan]) -> list[str]:
+    """The attribute names that every scan has with one dtype and shape per point, in order of
+    first appearance; a warning names each other one and why it will not come back."""
+    def where(i: int) -> str:
+        return f"scan {i} ({scans[i].scan_id!r})"
+
+    shared, left_out = [], []
+    for name in dict.fromkeys(n for s in scans for n in s.attributes):
+        missing = next((i for i, s in enumerate(scans) if name not in s.attributes), None)
+        if missing is not None:
+            left_out.append(f"{name!r} ({where(missing)} has none)")
+            continue
+        kinds = [_attribute_kind(s.attributes[name]) for s in scans]
+        other = next((i for i, k in enumerate(kinds) if k != kinds[0]), None)
+        if other is not None:
+            text = [f"{d}{f' × {shape}' if shape else ''}"
+                    for d, shape in (kinds[0], kinds[other])]
+            left_out.append(f"{name!r} ({text[0]} in {where(0)}, {text[1]} in {where(other)})")
+            continue
+        shared.append(name)
+    if left_out:
+        warnings.warn("Result.attributes: left out " + "; ".join(left_out) + ": an attribute "
+                      "comes back only when every scan of the job has it, with one dtype",
+                      stacklevel=3)
+    return shared
+
+
+def _gather(scans: Sequence[Scan], names: Sequence[str],
+            source_index: np.ndarray) -> dict[str, np.ndarray]:
+    """The named attributes of the returned points: their values over the scans in upload order
+    (as _requests sends the points), taken at source_index."""
+    gathered = {}
+    for name in names:
+        values = np.concatenate([np.asarray(s.attributes[name]) for s in scans])
+        gathered[name] = values[source_index].astype(_attribute_kind(values)[0], copy=False)
+    return gathered
 
 
 def _requests(header: pb.JobHeader, scans: Sequence[Scan], offsets: Sequence[Optional[np.ndarray]],
@@ -361,7 +437,7 @@ class Client:
                 chunk_points: int = _CHUNK_POINTS,
                 progress: Optional[Callable[[pb.Progress], None]] = None,
                 origin: Optional[Sequence[float]] = None, strict: bool = False,
-                fail_on: Sequence[str] = (),
+                fail_on: Sequence[str] = (), return_source_index: bool = False,
                 _result_arrays: int = pb.ARRAY_ENCODING_PACKED) -> Result:
         """Runs one job. unit ("mm", "m", "um", "in") is required, as in the API: a scan in metres
         read as millimetres would be processed with every length 1000 times off. Raises
@@ -377,7 +453,12 @@ class Client:
 
         strict: fail the job (ScanprepError, FAILED_PRECONDITION, reason = the warning's code) on
         a warning that the request is probably wrong or could not be checked, as `scanprep
-        process --strict` (STRICT_WARNING_CODES); fail_on: more codes, e.g. "RADIUS_CAPPED"."""
+        process --strict` (STRICT_WARNING_CODES); fail_on: more codes, e.g. "RADIUS_CAPPED".
+
+        Scan.attributes (a file's colour, a scanner's own scalars) are not sent: the job asks for
+        each returned point's position in the upload (Result.source_index, 4 bytes a point, also
+        asked by return_source_index=True) and Result.attributes gives back, for the returned
+        points, every attribute that all scans have with one dtype; a warning names any other."""
         codes = [c if c.startswith("WARNING_CODE_") else "WARNING_CODE_" + c
                  for c in (list(STRICT_WARNING_CODES) if strict else []) + list(fail_on)]
         if not isinstance(scans, Scan):
@@ -386,14 +467,25 @@ class Client:
         offsets = [_points_offset(s) for s in scans]
         origin = (_job_origin(scans, offsets) if origin is None
                   else np.asarray(origin, dtype=np.float64).reshape(3))
+        points_back = _result_arrays != pb.ARRAY_ENCODING_NONE
+        want_index = points_back and (return_source_index or any(s.attributes for s in scans))
+        names = _shared_attributes(scans) if want_index else []
         header = _header(scans, offsets, origin, unit, stages, params, preset, include_removed,
-                         labels, budget_seconds, job_id, dict.fromkeys(codes), _result_arrays)
+                         labels, budget_seconds, job_id, dict.fromkeys(codes), _result_arrays,
+                         want_index)
 
         def attempt(seconds: float) -> Result:
             responses = self._stub.Process(_requests(header, scans, offsets, chunk_points),
                                            timeout=seconds)
-            return _result(responses, origin, progress)
-        return self._call(attempt, timeout)
+            return _result(responses, origin, progress, header.total_points if want_index else 0)
+        result = self._call(attempt, timeout)
+        if result.source_index is not None:
+            result.attributes = _gather(scans, names, result.source_index)
+        elif want_index:
+            warnings.warn("the service returned no source_index (a server older than "
+                          "JobHeader.return_source_index): Result.source_index is None and "
+                          "Result.attributes are empty", stacklevel=2)
+        return result
 
     def health(self, scans: Sequence[Scan], *, unit: str, **options) -> Health:
         """The scans' health without cleaning them: the job runs the "health" stage and what it
@@ -409,10 +501,38 @@ class Client:
         return result.health
 
 
+_RESULT_ARRAYS = (("xyz", "<f4"), ("scan_index", "<u4"), ("scanline", "<u4"), ("quality", "<f4"),
+                  ("intensity", "<f4"), ("normal", "<f4"))
+
+
+def _array_bytes(chunk: pb.PointChunk, name: str, dtype: str) -> bytes:
+    """One array of a chunk as its little-endian bytes, from either form (packed or repeated)."""
+    packed = getattr(chunk, f"{name}_packed")
+    if packed:
+        return packed
+    values = getattr(chunk, name)
+    return np.array(values, dtype=dtype).tobytes() if len(values) else b""
+
+
+def _source_index(parts: list[bytes], points: int, uploaded: int) -> Optional[np.ndarray]:
+    """The result's source_index, checked against its points and the upload; None when a server
+    that predates JobHeader.return_source_index sent none."""
+    index = np.frombuffer(b"".join(parts), dtype="<u4")
+    if points and not len(index):
+        return None
+    if len(index) != points or (len(index) and int(index.max()) >= uploaded):
+        raise ScanprepError(grpc.StatusCode.DATA_LOSS,
+                            f"the result's source_index does not fit: {len(index)} values for "
+                            f"{points} points, of {uploaded} uploaded")
+    return index.astype(np.uint32)
+
+
 def _result(responses: Iterator[pb.ProcessResponse], origin: Optional[np.ndarray],
-            progress: Optional[Callable[[pb.Progress], None]]) -> Result:
-    """The Result of one job's response stream, its checksum verified."""
-    parts: dict[str, list[bytes]] = {"xyz": [], "normal": [], "scan_index": []}
+            progress: Optional[Callable[[pb.Progress], None]], uploaded: int) -> Result:
+    """The Result of one job's response stream, its checksum verified; with uploaded (the job's
+    total_points) > 0 the job asked for source_index."""
+    parts: dict[str, list[bytes]] = {"xyz": [], "normal": [], "scan_index": [],
+                                     "source_index": []}
     flags: list[bytes] = []
     report = end = None
     crc = 0
@@ -420,13 +540,16 @@ def _result(responses: Iterator[pb.ProcessResponse], origin: Optional[np.ndarray
         kind = response.WhichOneof("kind")
         if kind == "points":
             chunk = response.points
-            for name in ("xyz", "scan_index", "scanline", "quality", "intensity", "normal"):
-                data = getattr(chunk, f"{name}_packed")
+            for name, dtype in _RESULT_ARRAYS:  # the checksum's order: field numbers, then flags
+                data = _array_bytes(chunk, name, dtype)
                 crc = zlib.crc32(data, crc)
                 if name in parts and data:
                     parts[name].append(data)
             crc = zlib.crc32(chunk.flags, crc)
             flags.append(chunk.flags)
+            data = _array_bytes(chunk, "source_index", "<u4")  # after flags (scanprep.proto)
+            crc = zlib.crc32(data, crc)
+            parts["source_index"].append(data)
         elif kind == "report":
             report = response.report
         elif kind == "end":
@@ -442,7 +565,9 @@ def _result(responses: Iterator[pb.ProcessResponse], origin: Optional[np.ndarray
                if parts["normal"] else None)
     if origin is not None:  # the service's local coordinates, back in the caller's frame
         points = points.astype(np.float64) + origin
+    source_index = (_source_index(parts["source_index"], len(points), uploaded) if uploaded
+                    else None)
     return Result(points=points, normals=normals,
                   flags=np.frombuffer(b"".join(flags), dtype=np.uint8),
                   scan_index=np.frombuffer(b"".join(parts["scan_index"]), dtype="<u4"),
-                  report=report, origin=origin)
+                  report=report, origin=origin, source_index=source_index)
