@@ -9,6 +9,7 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "absl/time/time.h"
 #include "client/call_error.h"
 #include "client/commands.h"
@@ -143,6 +144,9 @@ int RunProcess(const ParsedArgs& args) {
   const std::string out = args.Get(kOut);
   // The result is in the job's unit, the scan files' own, so a LAS input's grid fits it.
   result.cloud.grid = job.points.grid;
+  if (absl::Status s = GatherSentAttributes(job.points, result); !s.ok()) {
+    return Fail("process", std::string(s.message()));
+  }
   const io::WriteOptions write_options{.include_removed = write_removed};
   const absl::Time write_start = absl::Now();
   // With the result on standard output, what is said about it goes to standard error.
@@ -163,6 +167,12 @@ int RunProcess(const ParsedArgs& args) {
   }
   PrintSummary(text, result.report);
   PrintPhases(text, phases);
+  if (!job.points.attributes.empty() && !io::KeepsAttributes(*out_format)) {
+    std::vector<std::string> names;
+    for (const PointAttribute& a : job.points.attributes) names.push_back(a.name);
+    text << "note: " << absl::StrJoin(names, ", ")
+         << " left out of the output: LAS has no place for them (write .ply, .pcd or .xyz)\n";
+  }
   if (args.Bool(kHealth)) PrintHealth(text, result.report);
   if (args.Has(kPreview)) {
     if (absl::Status s = WritePreview(args.Get(kPreview), job.points, job.header, result.cloud);

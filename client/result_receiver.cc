@@ -19,12 +19,13 @@ void Append(const Repeated& from, std::vector<T>& to) {
 
 }  // namespace
 
-absl::Status AppendResultChunk(const v1::PointChunk& chunk, PointCloud& cloud) {
+absl::Status AppendResultChunk(const v1::PointChunk& chunk, ProcessResult& result) {
+  PointCloud& cloud = result.cloud;
   const size_t n = chunk.xyz_size() / 3;
   if (chunk.xyz_size() % 3 != 0 || !Fits(chunk.scan_index_size(), n) ||
       !Fits(chunk.scanline_size(), n) || !Fits(chunk.quality_size(), n) ||
       !Fits(chunk.intensity_size(), n) || !Fits(chunk.normal_size(), 3 * n) ||
-      chunk.flags().size() != n) {
+      !Fits(chunk.source_index_size(), n) || chunk.flags().size() != n) {
     return absl::DataLossError("the server sent a result chunk whose arrays disagree in length");
   }
   for (size_t i = 0; i < n; ++i) {
@@ -46,6 +47,24 @@ absl::Status AppendResultChunk(const v1::PointChunk& chunk, PointCloud& cloud) {
   Append(chunk.quality(), cloud.quality);
   Append(chunk.intensity(), cloud.intensity);
   cloud.flags.insert(cloud.flags.end(), chunk.flags().begin(), chunk.flags().end());
+  Append(chunk.source_index(), result.source_index);
+  return absl::OkStatus();
+}
+
+absl::Status GatherSentAttributes(const PointCloud& sent, ProcessResult& result) {
+  if (sent.attributes.empty()) return absl::OkStatus();
+  if (result.source_index.size() != result.cloud.size()) {
+    return absl::DataLossError(
+        absl::StrCat("the server sent source_index for ", result.source_index.size(), " of the ",
+                     result.cloud.size(), " points returned: the attributes cannot be given back"));
+  }
+  for (uint32_t position : result.source_index) {
+    if (position >= sent.size()) {
+      return absl::DataLossError(absl::StrCat("the server sent source_index ", position,
+                                              " for an upload of ", sent.size(), " points"));
+    }
+  }
+  result.cloud.attributes = GatherAttributes(sent.attributes, result.source_index);
   return absl::OkStatus();
 }
 
@@ -74,7 +93,7 @@ absl::Status ResultReceiver::AddMessage(v1::ProcessResponse& response) {
         return absl::DataLossError(
             absl::StrCat("the server sent a result chunk whose ", bad_array, " is malformed"));
       }
-      return AppendResultChunk(response.points(), result_.cloud);
+      return AppendResultChunk(response.points(), result_);
     }
     case v1::ProcessResponse::kReport:
       result_.report = std::move(*response.mutable_report());

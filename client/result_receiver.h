@@ -4,6 +4,9 @@
 // result is refused instead of written.
 #pragma once
 
+#include <cstdint>
+#include <vector>
+
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "core/base/point_cloud.h"
@@ -27,6 +30,8 @@ struct ProcessResult {
   // In the job's unit and the common frame, relative to cloud.origin (the header's origin);
   // `scans` carries the header's scan ids.
   PointCloud cloud;
+  // With JobHeader.return_source_index: each returned point's position in the upload.
+  std::vector<uint32_t> source_index;
   v1::Report report;
   TransferSeconds transfer;
   int retries = 0;  // attempts that ended UNAVAILABLE before this one succeeded
@@ -56,7 +61,12 @@ class ResultReceiver {
   absl::Status error_;
 };
 
-// Appends a result chunk to `cloud`; DATA_LOSS when its arrays disagree.
-absl::Status AppendResultChunk(const v1::PointChunk& chunk, PointCloud& cloud);
+// Appends a result chunk to `result`'s cloud and source_index; DATA_LOSS when its arrays
+// disagree.
+absl::Status AppendResultChunk(const v1::PointChunk& chunk, ProcessResult& result);
+
+// The attributes of `sent` (the uploaded points) for the result's points, by their source_index;
+// DATA_LOSS when the server sent no source_index for some point or one beyond the upload.
+absl::Status GatherSentAttributes(const PointCloud& sent, ProcessResult& result);
 
 }  // namespace scanprep::client

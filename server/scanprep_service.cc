@@ -351,9 +351,14 @@ grpc::Status ScanPrepService::Download(grpc::ServerContext* context, Stream* str
   for (size_t begin = 0; begin < indices.size(); begin += kRecommendedChunkPoints) {
     const size_t end = std::min(indices.size(), begin + kRecommendedChunkPoints);
     v1::ProcessResponse response;
-    ResultChunk(cloud, indices, begin, end, job.mm_per_unit, response.mutable_points());
-    if (job.packed_results) PackArrays(*response.mutable_points());
-    sent.Add(response.points());
+    v1::PointChunk& chunk = *response.mutable_points();
+    ResultChunk(cloud, indices, begin, end, job.mm_per_unit, &chunk);
+    // Positions are below header.total_points, itself within max_points_per_job < 2^32.
+    for (size_t k = begin; job.return_source_index && k < end; ++k) {
+      chunk.add_source_index(static_cast<uint32_t>(job.upload_positions.Of(indices[k])));
+    }
+    if (job.packed_results) PackArrays(chunk);
+    sent.Add(chunk);
     const bool written = Send(stream, watch, response);
     watch.Transferred(response.ByteSizeLong());
     if (!written || !SendProgress(stream, watch, v1::Progress::PHASE_DOWNLOAD,

@@ -25,7 +25,7 @@ struct ArrayPair {
   const std::string& (v1::PointChunk::*bytes)() const;
 };
 
-// Calls visit(pair) for each of the six arrays, in field order.
+// Calls visit(pair) for each of the seven arrays, in field order.
 template <class Visit>
 void ForEachArray(Visit&& visit) {
   using C = v1::PointChunk;
@@ -41,6 +41,9 @@ void ForEachArray(Visit&& visit) {
                          &C::intensity, &C::intensity_packed});
   visit(ArrayPair<float>{"normal", 3, &C::mutable_normal, &C::mutable_normal_packed, &C::normal,
                          &C::normal_packed});
+  visit(ArrayPair<uint32_t>{"source_index", 1, &C::mutable_source_index,
+                            &C::mutable_source_index_packed, &C::source_index,
+                            &C::source_index_packed});
 }
 
 }  // namespace
@@ -88,7 +91,8 @@ uint64_t ChunkPoints(const v1::PointChunk& chunk) {
 bool HasPackedArrays(const v1::PointChunk& chunk) {
   return !chunk.xyz_packed().empty() || !chunk.scan_index_packed().empty() ||
          !chunk.scanline_packed().empty() || !chunk.quality_packed().empty() ||
-         !chunk.intensity_packed().empty() || !chunk.normal_packed().empty();
+         !chunk.intensity_packed().empty() || !chunk.normal_packed().empty() ||
+         !chunk.source_index_packed().empty();
 }
 
 v1::PointChunk SliceChunk(const v1::PointChunk& chunk, uint64_t begin, uint64_t end) {

@@ -41,6 +41,7 @@ void StreamChecksum::Add(const v1::PointChunk& chunk) {
   crc = Update(crc, chunk.intensity(), chunk.intensity_packed());
   crc = Update(crc, chunk.normal(), chunk.normal_packed());
   crc = Update(crc, chunk.flags().data(), chunk.flags().size());
+  crc = Update(crc, chunk.source_index(), chunk.source_index_packed());
   crc32_ = crc;
 }
 

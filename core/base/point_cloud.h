@@ -10,6 +10,8 @@
 
 #include <Eigen/Core>
 
+#include "core/base/point_attributes.h"
+
 namespace scanprep {
 
 // Per-point flag bits. A removed point stays in the arrays (removal is by label, paper §3.3)
@@ -76,6 +78,9 @@ struct PointCloud {
   std::vector<float> quality;
   // Optional intensity, carried through untouched; empty when absent.
   std::vector<float> intensity;
+  // A file's other per-point fields (colour, a scanner's scalars), each one value per point: kept
+  // by the readers and writers, never sent to the service (the client joins them back).
+  std::vector<PointAttribute> attributes;
   // Unit normals; empty until a stage estimates them.
   std::vector<float> nx, ny, nz;
   std::vector<uint8_t> flags;

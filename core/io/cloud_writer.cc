@@ -1,9 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "core/io/cloud_writer.h"
 
+#include <algorithm>
 #include <fstream>
+#include <set>
 #include <vector>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 
@@ -34,6 +37,26 @@ absl::Status CheckWritable(const PointCloud& cloud, const char* format) {
         CheckSize(cloud.quality, "quality", n, true, format),
         CheckSize(cloud.intensity, "intensity", n, true, format)}) {
     SCANPREP_RETURN_IF_ERROR(s);
+  }
+  for (const PointAttribute& attribute : cloud.attributes) {
+    SCANPREP_RETURN_IF_ERROR(CheckSize(attribute.values, attribute.name.c_str(), n, false, format));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status CheckAttributeNames(const PointCloud& cloud, const char* format,
+                                 std::initializer_list<std::string_view> written) {
+  std::set<std::string_view> names(written);
+  for (const PointAttribute& attribute : cloud.attributes) {
+    const std::string& name = attribute.name;
+    const bool word = !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+      return absl::ascii_isgraph(static_cast<unsigned char>(c));
+    });
+    if (!word || !names.insert(name).second) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "cannot write ", format, ": attribute '", name, "' ",
+          word ? "has the name of another field" : "is not a word of printable characters"));
+    }
   }
   return absl::OkStatus();
 }

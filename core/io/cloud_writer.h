@@ -4,9 +4,12 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <initializer_list>
 #include <ostream>
+#include <string_view>
 
 #include "absl/status/status.h"
 #include "core/base/point_cloud.h"
@@ -20,6 +23,35 @@ struct WriteOptions {
 // INVALID_ARGUMENT naming the array when an optional per-point array is neither empty nor one
 // entry per point ("cannot write <format>: cloud.nx has 3 entries for 4 points").
 absl::Status CheckWritable(const PointCloud& cloud, const char* format);
+
+// The cloud's attributes as fields of a file that also writes the fields `written`: each a word
+// of printable ASCII (as PLY and PCD headers separate names by spaces) that none of them and no
+// other attribute has (INVALID_ARGUMENT naming it), so the file reads back unambiguously.
+absl::Status CheckAttributeNames(const PointCloud& cloud, const char* format,
+                                 std::initializer_list<std::string_view> written);
+
+// Calls put(v) with `value` as the C++ type of `type`: exact, as it was read from one.
+template <class Put>
+void PutAttributeValue(AttributeType type, double value, Put&& put) {
+  switch (type) {
+    case AttributeType::kInt8:
+      return put(static_cast<int8_t>(value));
+    case AttributeType::kUint8:
+      return put(static_cast<uint8_t>(value));
+    case AttributeType::kInt16:
+      return put(static_cast<int16_t>(value));
+    case AttributeType::kUint16:
+      return put(static_cast<uint16_t>(value));
+    case AttributeType::kInt32:
+      return put(static_cast<int32_t>(value));
+    case AttributeType::kUint32:
+      return put(static_cast<uint32_t>(value));
+    case AttributeType::kFloat32:
+      return put(static_cast<float>(value));
+    case AttributeType::kFloat64:
+      return put(value);
+  }
+}
 
 // Whether point i is written: every point with include_removed, else the kept ones.
 inline bool Written(const PointCloud& cloud, size_t i, const WriteOptions& options) {

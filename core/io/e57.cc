@@ -305,7 +305,8 @@ absl::StatusOr<Pose> ReadPose(const XmlNode& scan, const std::string& what) {
 struct ScanPoints {
   uint64_t count = 0;  // valid points
   std::vector<float> intensity;
-  std::vector<uint32_t> line;  // empty without a grid
+  std::vector<PointAttribute> attributes;  // the other fields (colour, time stamps…)
+  std::vector<uint32_t> line;              // empty without a grid
   bool has_intensity = false;
 };
 
@@ -397,6 +398,7 @@ struct PointColumns {
   const std::vector<double>*range = nullptr, *azimuth = nullptr, *elevation = nullptr;
   const std::vector<double>*invalid = nullptr, *intensity = nullptr;
   const std::vector<double>*row = nullptr, *column = nullptr;  // grid indices
+  std::vector<size_t> others;  // the scan's other fields: kept as attributes for the output
 
   bool cartesian() const { return x && y && z; }
 
@@ -408,10 +410,21 @@ struct PointColumns {
   }
 };
 
-// Picks the point columns out of the scan's, refused without a full set of coordinates; the
-// names of the fields no point uses are appended to `unused`, for a warning.
-absl::StatusOr<PointColumns> PickColumns(const ScanColumns& columns, const std::string& what,
-                                         std::vector<std::string>& unused) {
+// The attribute type that holds every value of `field` as its prototype bounds them.
+AttributeType TypeOf(const Field& field) {
+  if (field.kind == Field::kFloat) {
+    return field.single ? AttributeType::kFloat32 : AttributeType::kFloat64;
+  }
+  if (field.kind == Field::kScaledInteger) return AttributeType::kFloat64;
+  if (field.minimum >= 0 && field.maximum <= UINT8_MAX) return AttributeType::kUint8;
+  if (field.minimum >= 0 && field.maximum <= UINT16_MAX) return AttributeType::kUint16;
+  if (field.minimum >= INT32_MIN && field.maximum <= INT32_MAX) return AttributeType::kInt32;
+  if (field.minimum >= 0 && field.maximum <= UINT32_MAX) return AttributeType::kUint32;
+  return AttributeType::kFloat64;  // beyond 2^53 a double rounds: E57 fields that wide are rare
+}
+
+// Picks the point columns out of the scan's, refused without a full set of coordinates.
+absl::StatusOr<PointColumns> PickColumns(const ScanColumns& columns, const std::string& what) {
   PointColumns c{.x = columns.Find("cartesianX"),
                  .y = columns.Find("cartesianY"),
                  .z = columns.Find("cartesianZ"),
@@ -426,7 +439,8 @@ absl::StatusOr<PointColumns> PickColumns(const ScanColumns& columns, const std::
   c.intensity = columns.Find("intensity");
   c.row = columns.Find("rowIndex");
   c.column = columns.Find("columnIndex");
-  for (const Field& f : columns.fields) {
+  for (size_t k = 0; k < columns.fields.size(); ++k) {
+    const Field& f = columns.fields[k];
     static const char* kUsed[] = {"cartesianX",
                                   "cartesianY",
                                   "cartesianZ",
@@ -439,7 +453,7 @@ absl::StatusOr<PointColumns> PickColumns(const ScanColumns& columns, const std::
                                   "rowIndex",
                                   "columnIndex"};
     if (std::find(std::begin(kUsed), std::end(kUsed), f.name) == std::end(kUsed)) {
-      unused.push_back(f.name);
+      c.others.push_back(k);
     }
   }
   return c;
@@ -450,13 +464,15 @@ absl::StatusOr<PointColumns> PickColumns(const ScanColumns& columns, const std::
 absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size,
                                     const XmlNode& scan, const Pose& pose, const std::string& what,
                                     const std::string& label, size_t scan_index,
-                                    WideCoordinates& positions, UnmeasuredPoints& unmeasured,
-                                    std::vector<std::string>& unused) {
+                                    WideCoordinates& positions, UnmeasuredPoints& unmeasured) {
   SCANPREP_ASSIGN_OR_RETURN(const ScanColumns columns,
                             DecodeColumns(logical, page_size, scan, what));
-  SCANPREP_ASSIGN_OR_RETURN(const PointColumns c, PickColumns(columns, what, unused));
+  SCANPREP_ASSIGN_OR_RETURN(const PointColumns c, PickColumns(columns, what));
   ScanPoints out;
   out.has_intensity = c.intensity != nullptr;
+  for (size_t k : c.others) {
+    out.attributes.push_back({.name = columns.fields[k].name, .type = TypeOf(columns.fields[k])});
+  }
   std::vector<uint32_t> order(columns.count);
   std::iota(order.begin(), order.end(), 0u);
   std::vector<uint32_t> line;
@@ -477,6 +493,9 @@ absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size
     positions.Push(p.x(), p.y(), p.z());
     ++out.count;
     if (c.intensity) out.intensity.push_back(static_cast<float>((*c.intensity)[i]));
+    for (size_t a = 0; a < c.others.size(); ++a) {
+      out.attributes[a].values.push_back(columns.values[c.others[a]][i]);
+    }
     if (!line.empty()) out.line.push_back(line[k]);
   }
   return out;
@@ -549,7 +568,7 @@ struct ScansRead {
   std::vector<ScanPoints> points;  // per scan
   WideCoordinates positions;       // every scan's valid points, in the file's frame
   UnmeasuredPoints unmeasured{"record"};
-  std::vector<std::string> unused;   // fields no point uses, per scan (repeats included)
+  std::vector<std::string> unused;   // fields not in every scan alike (repeats included)
   std::vector<std::string> no_pose;  // ids of the scans without a pose
 };
 
@@ -570,13 +589,39 @@ absl::Status ReadScans(const E57File& e57_file, const XmlNode& data3d, const std
       read.no_pose.push_back(meta.id);
     }
     SCANPREP_ASSIGN_OR_RETURN(
-        ScanPoints points, ReadScan(e57_file.logical, e57_file.page_size, node, pose, what,
-                                    absl::StrCat("scan ", s, " '", meta.id, "'"), s, read.positions,
-                                    read.unmeasured, read.unused));
+        ScanPoints points,
+        ReadScan(e57_file.logical, e57_file.page_size, node, pose, what,
+                 absl::StrCat("scan ", s, " '", meta.id, "'"), s, read.positions, read.unmeasured));
     metas.push_back(std::move(meta));
     read.points.push_back(std::move(points));
   }
   return absl::OkStatus();
+}
+
+// The attributes every scan has, of one type, joined into the cloud's; the names of the others
+// go to `unused`, for a warning.
+void JoinAttributes(std::vector<ScanPoints>& scans, PointCloud& cloud,
+                    std::vector<std::string>& unused) {
+  for (const PointAttribute& first : scans.front().attributes) {
+    const bool everywhere = std::all_of(scans.begin(), scans.end(), [&](const ScanPoints& s) {
+      return std::any_of(s.attributes.begin(), s.attributes.end(), [&](const PointAttribute& a) {
+        return a.name == first.name && a.type == first.type;
+      });
+    });
+    if (everywhere) cloud.attributes.push_back({.name = first.name, .type = first.type});
+  }
+  for (ScanPoints& scan : scans) {
+    for (PointAttribute& a : scan.attributes) {
+      auto kept = std::find_if(cloud.attributes.begin(), cloud.attributes.end(),
+                               [&](const PointAttribute& k) { return k.name == a.name; });
+      if (kept == cloud.attributes.end()) {
+        unused.push_back(a.name);
+      } else {
+        kept->values.insert(kept->values.end(), a.values.begin(), a.values.end());
+      }
+    }
+    scan.attributes = {};
+  }
 }
 
 // The scans' per-point arrays joined into the cloud's, each scan's emptied as it goes: the scan
@@ -636,7 +681,8 @@ void WarnLeftOut(const std::string& name, ScansRead& read, bool intensity,
   std::sort(unused.begin(), unused.end());
   unused.erase(std::unique(unused.begin(), unused.end()), unused.end());
   if (!unused.empty()) {
-    warnings.push_back(absl::StrCat(name, ": fields not used: ", absl::StrJoin(unused, ", ")));
+    warnings.push_back(absl::StrCat(
+        name, ": fields left out (not in every scan, of one type): ", absl::StrJoin(unused, ", ")));
   }
   if (!intensity && std::any_of(read.points.begin(), read.points.end(),
                                 [](const ScanPoints& s) { return s.has_intensity; })) {
@@ -658,6 +704,7 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
   SCANPREP_RETURN_IF_ERROR(ReadScans(e57_file, *data3d, name, cloud.scans, read));
   const bool intensity = std::all_of(read.points.begin(), read.points.end(),
                                      [](const ScanPoints& s) { return s.has_intensity; });
+  JoinAttributes(read.points, cloud, read.unused);
   SCANPREP_RETURN_IF_ERROR(JoinScans(read.points, intensity, name, cloud));
   SCANPREP_RETURN_IF_ERROR(read.unmeasured.Finish(name, cloud.scan.size(), warnings));
   read.unmeasured.Record(cloud.scans);

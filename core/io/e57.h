@@ -31,7 +31,9 @@ namespace scanprep::io {
 // Integer and ScaledInteger bit-packed between their minimum and maximum); other codecs,
 // String fields and damaged pages (CRC-32C) are INVALID_ARGUMENT naming the scan, field or page.
 // Every size is checked against the file before anything is allocated for it. Fields the
-// service has no use for (colour, returns, time stamps) are named in a warning.
+// service has no use for (colour, returns, time stamps) are kept as attributes for the output,
+// in the type their prototype bounds, when every scan has them alike; the others are named in a
+// warning.
 // The CRC-32C (Castagnoli) an E57 page carries over its payload, stored big-endian in the page's
 // last four bytes.
 uint32_t E57PageChecksum(std::string_view payload);

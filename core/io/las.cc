@@ -187,6 +187,28 @@ struct AngleRange {
   double min = std::numeric_limits<double>::infinity(), max = -min;
 };
 
+// Where a point data format keeps its red, green, blue (uint16 each); 0 = it has no colour.
+constexpr uint16_t kRgbOffset[] = {0, 0, 20, 28, 0, 28, 0, 30, 30, 0, 30};
+
+// The records' colour as the attributes red, green, blue (uint16, as LAS stores them), for the
+// output: no stage reads them.
+void DecodeColour(std::string_view file, const LasLayout& las, PointCloud& cloud) {
+  const uint16_t at = kRgbOffset[las.format];
+  if (at == 0) return;
+  for (int channel = 0; channel < 3; ++channel) {
+    PointAttribute& attribute =
+        cloud.attributes.emplace_back(PointAttribute{.name = channel == 0   ? "red"
+                                                             : channel == 1 ? "green"
+                                                                            : "blue",
+                                                     .type = AttributeType::kUint16});
+    attribute.values.resize(las.count);
+    for (uint64_t i = 0; i < las.count; ++i) {
+      attribute.values[i] =
+          Load<uint16_t>(file.data() + las.offset + i * las.record + at + 2 * channel);
+    }
+  }
+}
+
 // Every record's coordinates (relative to cloud.origin), intensity and scanline into `cloud`;
 // returns their scan angles' range. Coordinates that a float cannot hold within half the file's
 // scale are refused.
@@ -236,6 +258,7 @@ absl::StatusOr<PointCloud> ReadLasBytes(std::string_view file, const std::string
                               .offset = {las.shift[0], las.shift[1], las.shift[2]}};
   FlightLines lines;
   SCANPREP_ASSIGN_OR_RETURN(const AngleRange angles, DecodeRecords(file, las, name, lines, cloud));
+  DecodeColour(file, las, cloud);
   const std::string stem = std::filesystem::path(name).stem().string();
   cloud.scans.push_back(ScanMeta{.id = stem});
   warnings.push_back(absl::StrFormat(

@@ -175,9 +175,32 @@ class AsciiSource {
   std::vector<std::string_view> values_;
 };
 
-// Which field feeds each slot; the fields nobody reads are listed for the warning.
+// The attribute type of a field of one value that a double holds exactly (not 8-byte integers).
+std::optional<AttributeType> AttributeTypeOf(const Field& field) {
+  if (field.count != 1) return std::nullopt;
+  switch (field.type) {
+    case 'F':
+      return field.size == 4   ? std::optional(AttributeType::kFloat32)
+             : field.size == 8 ? std::optional(AttributeType::kFloat64)
+                               : std::nullopt;
+    case 'I':
+      return field.size == 1   ? std::optional(AttributeType::kInt8)
+             : field.size == 2 ? std::optional(AttributeType::kInt16)
+             : field.size == 4 ? std::optional(AttributeType::kInt32)
+                               : std::nullopt;
+    default:
+      return field.size == 1   ? std::optional(AttributeType::kUint8)
+             : field.size == 2 ? std::optional(AttributeType::kUint16)
+             : field.size == 4 ? std::optional(AttributeType::kUint32)
+                               : std::nullopt;
+  }
+}
+
+// Which field feeds each slot and each attribute (the other fields of one value: rgb, label,
+// curvature…); the fields nobody can hold are listed for the warning.
 struct Layout {
   std::array<std::optional<size_t>, kSlots> field;
+  std::vector<size_t> attribute_fields;
   std::vector<std::string> unused;
 };
 
@@ -189,7 +212,12 @@ absl::StatusOr<Layout> MapFields(const Header& header, const std::string& name) 
     int slot = 0;
     while (slot < kSlots && field.name != kSlotNames[slot]) ++slot;
     if (slot == kSlots || !Readable(slot, field)) {
-      layout.unused.push_back(field.name);
+      if (slot == kSlots && AttributeTypeOf(field)) {  // not a slot's name in another type
+        layout.attribute_fields.push_back(f);
+      } else {
+        layout.unused.push_back(absl::StrCat(field.name, " (", std::string(1, field.type),
+                                             field.size, " x ", field.count, ")"));
+      }
       continue;
     }
     if (layout.field[slot]) {
@@ -267,6 +295,11 @@ absl::Status ReadPoints(const Header& header, const Layout& layout, Source& sour
       cloud.nz.push_back(value[kNz]);
     }
     if (intensity) cloud.intensity.push_back(value[kIntensity]);
+    for (size_t a = 0; a < layout.attribute_fields.size(); ++a) {
+      double attribute = 0;
+      SCANPREP_RETURN_IF_ERROR(source.Get(layout.attribute_fields[a], attribute));
+      cloud.attributes[a].values.push_back(attribute);
+    }
     if (flags) cloud.flags.push_back(static_cast<uint8_t>(raw[kFlags]));
     if (organised) {
       cloud.scanline.push_back(static_cast<uint32_t>(i / header.width));
@@ -331,8 +364,9 @@ void AddMetadataWarnings(const Header& header, const Layout& layout, const std::
                          PointCloud& cloud, std::vector<std::string>& warnings) {
   if (!layout.unused.empty()) {
     warnings.push_back(absl::StrCat(
-        name, ": fields not used: ", absl::StrJoin(layout.unused, ", "),
-        " (scanprep reads x y z, normal_x/y/z, intensity, and its own flags and scanline)"));
+        name, ": fields left out: ", absl::StrJoin(layout.unused, ", "),
+        " (scanprep reads x y z, normal_x/y/z, intensity, its own flags and scanline, and keeps "
+        "any other field of one value up to 4 bytes, or F8, for the output)"));
   }
   constexpr std::array<double, 7> kPclDefault = {0, 0, 0, 1, 0, 0, 0};
   if (!header.viewpoint || *header.viewpoint == kPclDefault) {
@@ -353,6 +387,10 @@ absl::StatusOr<PointCloud> ParsePcd(std::string_view data, const std::string& na
   SCANPREP_ASSIGN_OR_RETURN(Layout layout, MapFields(header, name));
   const std::string_view body = data.substr(header.body_offset);
   PointCloud cloud;
+  for (size_t f : layout.attribute_fields) {
+    cloud.attributes.push_back(
+        {.name = header.fields[f].name, .type = *AttributeTypeOf(header.fields[f])});
+  }
   // ParseHeader bounded POINTS by the body (binary_compressed: Decompress does, below).
   if (header.data != Data::kBinaryCompressed) Reserve(header, layout, cloud);
   UnmeasuredPoints invalid("point");

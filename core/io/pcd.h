@@ -18,8 +18,9 @@ namespace scanprep::io {
 // binary_compressed (LZF, fields stored one after another). FIELDS x y z of any TYPE/SIZE are
 // required; normal_x/y/z -> normals, intensity -> intensity, and the fields WritePcd adds: flags
 // (U1) -> flags, scanline (U4) -> scanline (an organised cloud's rows win). Every other field
-// (rgb, rgba, curvature, ...) is read past and named in a warning; PCL's "_" padding fields are
-// skipped.
+// of one value up to 4 bytes, or F8 (rgb, rgba, curvature, ...), is kept as an attribute in its
+// own type; the rest (COUNT > 1, 8-byte integers, a flags or scanline of another type) is read
+// past and named in a warning; PCL's "_" padding fields are skipped.
 //
 // Points with a NaN or infinite coordinate are PCL's mark for "no measurement" in organised
 // clouds: they are left out and counted in a warning, as the service does with such points (a
@@ -39,8 +40,8 @@ absl::StatusOr<PointCloud> ReadPcd(std::istream& in, const std::string& name_for
                                    std::vector<std::string>& warnings);
 
 // PCD 0.7, DATA binary, one unorganised row: x y z float; normal_x/y/z when the cloud has normals;
-// intensity when present; flags U1; scanline U4 when present. Removed points are skipped unless
-// include_removed.
+// intensity when present; flags U1; scanline U4 when present; each attribute in its own
+// TYPE/SIZE. Removed points are skipped unless include_removed.
 absl::Status WritePcd(const std::filesystem::path& path, const PointCloud& cloud,
                       const WriteOptions& options = {});
 absl::Status WritePcd(std::ostream& out, const PointCloud& cloud, const WriteOptions& options = {});

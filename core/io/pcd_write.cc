@@ -33,6 +33,9 @@ void Append(std::string& record, T value) {
 
 absl::Status WritePcd(std::ostream& out, const PointCloud& cloud, const WriteOptions& options) {
   SCANPREP_RETURN_IF_ERROR(CheckWritable(cloud, "PCD"));
+  SCANPREP_RETURN_IF_ERROR(CheckAttributeNames(
+      cloud, "PCD",
+      {"x", "y", "z", "normal_x", "normal_y", "normal_z", "intensity", "flags", "scanline"}));
   const bool normals = cloud.has_normals(), scanlines = cloud.has_scanlines();
   const bool intensity = !cloud.intensity.empty();
   const bool wide = WritesDoubleCoordinates(cloud);
@@ -44,6 +47,10 @@ absl::Status WritePcd(std::ostream& out, const PointCloud& cloud, const WriteOpt
   if (intensity) fields.push_back({"intensity", 4, 'F'});
   fields.push_back({"flags", 1, 'U'});
   if (scanlines) fields.push_back({"scanline", 4, 'U'});
+  for (const PointAttribute& a : cloud.attributes) {
+    const char type = !IsIntegerAttribute(a.type) ? 'F' : IsSignedAttribute(a.type) ? 'I' : 'U';
+    fields.push_back({a.name.c_str(), AttributeBytes(a.type), type});
+  }
   auto column = [&](auto get) {
     std::vector<std::string> v;
     for (const OutField& f : fields) v.push_back(get(f));
@@ -76,6 +83,9 @@ absl::Status WritePcd(std::ostream& out, const PointCloud& cloud, const WriteOpt
     if (intensity) Append(record, cloud.intensity[i]);
     Append(record, cloud.flags.empty() ? uint8_t{0} : cloud.flags[i]);
     if (scanlines) Append(record, cloud.scanline[i]);
+    for (const PointAttribute& a : cloud.attributes) {
+      PutAttributeValue(a.type, a.values[i], [&](auto v) { Append(record, v); });
+    }
     out.write(record.data(), static_cast<std::streamsize>(record.size()));
   }
   if (!out) return absl::UnavailableError("cannot write PCD: output stream failed");

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "core/base/status_macros.h"
 #include "core/io/byte_order.h"
 #include "core/io/float_narrowing.h"
@@ -207,8 +208,14 @@ enum class Slot : uint8_t {
   kQuality,
   kScan,
   kScanline,
-  kFlags
+  kFlags,
+  kAttribute  // any other scalar property: kept as a PointAttribute for the writers
 };
+
+// ply::ScalarType and AttributeType list the same types in the same order.
+AttributeType ToAttributeType(ScalarType type) { return static_cast<AttributeType>(type); }
+static_assert(static_cast<int>(ScalarType::kFloat64) == static_cast<int>(AttributeType::kFloat64) &&
+              static_cast<int>(ScalarType::kUint8) == static_cast<int>(AttributeType::kUint8));
 
 Slot VertexSlot(std::string_view name) {
   if (name == "x") return Slot::kX;
@@ -222,7 +229,7 @@ Slot VertexSlot(std::string_view name) {
   if (name == "scan" || name == "scan_index" || name == "scan_id") return Slot::kScan;
   if (name == "scanline" || name == "scanline_id" || name == "row") return Slot::kScanline;
   if (name == "flags") return Slot::kFlags;
-  return Slot::kSkip;
+  return Slot::kAttribute;
 }
 
 // Collects vertex values into a PointCloud, validating each one; the Store/GridEntry methods
@@ -239,11 +246,18 @@ class VertexBuilder {
     if (vertex == nullptr)
       return absl::InvalidArgumentError(absl::StrCat(name, ": no 'vertex' element"));
     builder.count_ = vertex->count;
-    bool has[static_cast<size_t>(Slot::kFlags) + 1] = {};
+    bool has[static_cast<size_t>(Slot::kAttribute) + 1] = {};
     for (const Property& property : vertex->properties) {
       const Slot slot = property.is_list ? Slot::kSkip : VertexSlot(property.name);
       builder.slots_.push_back(slot);
       has[static_cast<size_t>(slot)] = true;
+      builder.attribute_of_.push_back(builder.cloud_.attributes.size());
+      if (slot == Slot::kAttribute) {
+        builder.cloud_.attributes.push_back(
+            {.name = property.name, .type = ToAttributeType(property.type)});
+      } else if (slot == Slot::kSkip) {
+        builder.left_out_.push_back(property.name);
+      }
     }
     for (const char* axis : {"x", "y", "z"}) {
       if (!has[static_cast<size_t>(VertexSlot(axis))]) {
@@ -298,6 +312,7 @@ class VertexBuilder {
     if (has[static_cast<size_t>(Slot::kScan)]) c.scan.resize(n);
     if (has[static_cast<size_t>(Slot::kScanline)] || builder.grid_ != nullptr) c.scanline.resize(n);
     if (has[static_cast<size_t>(Slot::kFlags)]) builder.flags_.resize(n);
+    for (PointAttribute& attribute : c.attributes) attribute.values.resize(n);
     return builder;
   }
 
@@ -305,6 +320,9 @@ class VertexBuilder {
     uint64_t index = 0;
     switch (slots_[property]) {
       case Slot::kSkip:
+        return nullptr;
+      case Slot::kAttribute:
+        cloud_.attributes[attribute_of_[property]].values[i] = value;
         return nullptr;
       case Slot::kX:
         return StoreCoordinate(0, i, value);
@@ -384,6 +402,11 @@ class VertexBuilder {
         cloud_.scans.push_back(ScanMeta{.id = absl::StrCat(stem, ":", k)});
     }
     cloud_.FinishLoading(std::move(flags_));
+    if (!left_out_.empty()) {
+      warnings.push_back(absl::StrCat(name, ": vertex list properties left out (",
+                                      absl::StrJoin(left_out_, ", "),
+                                      "): only one value per point is kept"));
+    }
     UnmeasuredPoints unmeasured("vertex");
     DropUnmeasured(unmeasured);
     SCANPREP_RETURN_IF_ERROR(unmeasured.Finish(name, cloud_.size(), warnings));
@@ -426,11 +449,14 @@ class VertexBuilder {
     compact(cloud_.x), compact(cloud_.y), compact(cloud_.z), compact(cloud_.scan);
     compact(cloud_.scanline), compact(cloud_.quality), compact(cloud_.intensity);
     compact(cloud_.nx), compact(cloud_.ny), compact(cloud_.nz), compact(cloud_.flags);
+    for (PointAttribute& attribute : cloud_.attributes) compact(attribute.values);
   }
 
   PointCloud cloud_;
   std::vector<uint8_t> flags_;
   std::vector<Slot> slots_;
+  std::vector<size_t> attribute_of_;   // per property: its index in cloud_.attributes
+  std::vector<std::string> left_out_;  // vertex list properties, which no array can hold
   uint64_t count_ = 0;
   uint64_t max_scan_ = 0;
   const Element* grid_ = nullptr;

@@ -30,10 +30,36 @@ class RecordPacker {
   std::vector<char>& buffer_;
 };
 
+// PLY's name of each attribute type (ply_header.cc reads them back).
+const char* PlyTypeName(AttributeType type) {
+  switch (type) {
+    case AttributeType::kInt8:
+      return "char";
+    case AttributeType::kUint8:
+      return "uchar";
+    case AttributeType::kInt16:
+      return "short";
+    case AttributeType::kUint16:
+      return "ushort";
+    case AttributeType::kInt32:
+      return "int";
+    case AttributeType::kUint32:
+      return "uint";
+    case AttributeType::kFloat32:
+      return "float";
+    case AttributeType::kFloat64:
+      return "double";
+  }
+  return "double";
+}
+
 }  // namespace
 
 absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const WriteOptions& options) {
   SCANPREP_RETURN_IF_ERROR(CheckWritable(cloud, "PLY"));
+  SCANPREP_RETURN_IF_ERROR(CheckAttributeNames(
+      cloud, "PLY",
+      {"x", "y", "z", "nx", "ny", "nz", "flags", "scan", "scanline", "quality", "intensity"}));
   const size_t n = cloud.size();
   const size_t count = WrittenCount(cloud, options);
 
@@ -49,12 +75,15 @@ absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const WriteOpt
   if (cloud.has_scanlines()) absl::StrAppend(&header, "property uint scanline\n");
   if (!cloud.quality.empty()) absl::StrAppend(&header, "property float quality\n");
   if (!cloud.intensity.empty()) absl::StrAppend(&header, "property float intensity\n");
+  for (const PointAttribute& attribute : cloud.attributes) {
+    absl::StrAppend(&header, "property ", PlyTypeName(attribute.type), " ", attribute.name, "\n");
+  }
   absl::StrAppend(&header, "end_header\n");
   out.write(header.data(), static_cast<std::streamsize>(header.size()));
 
   constexpr size_t kChunkPoints = 1 << 16;
   std::vector<char> buffer;
-  buffer.reserve(kChunkPoints * 52);  // the widest record is 50 bytes
+  buffer.reserve(kChunkPoints * 52);  // the widest record without attributes is 50 bytes
   RecordPacker pack(buffer);
   for (size_t begin = 0; begin < n && out; begin += kChunkPoints) {
     buffer.clear();
@@ -76,6 +105,9 @@ absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const WriteOpt
       if (cloud.has_scanlines()) pack.Put(cloud.scanline[i]);
       if (!cloud.quality.empty()) pack.Put(cloud.quality[i]);
       if (!cloud.intensity.empty()) pack.Put(cloud.intensity[i]);
+      for (const PointAttribute& attribute : cloud.attributes) {
+        PutAttributeValue(attribute.type, attribute.values[i], [&](auto v) { pack.Put(v); });
+      }
     }
     out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
   }

@@ -87,6 +87,8 @@ absl::StatusOr<ScanFormat> ScanFormatOf(const std::filesystem::path& path) {
 
 bool Writable(ScanFormat format) { return format != ScanFormat::kE57; }
 
+bool KeepsAttributes(ScanFormat format) { return format != ScanFormat::kLas; }
+
 absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
                                         std::vector<std::string>& warnings,
                                         const ReadOptions& options) {

@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "core/io/xyz.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <optional>
 #include <string_view>
 #include <utility>
@@ -29,6 +31,8 @@ struct Columns {
   int x = 0, y = 1, z = 2, nx = -1, ny = -1, nz = -1, flags = -1, scanline = -1;
   size_t count = 3;    // values a point line needs
   bool named = false;  // by a "# columns:" line
+  // The other named columns, kept as attributes for the output: (column, name).
+  std::vector<std::pair<int, std::string>> others;
 };
 
 // The columns a "# columns: NAME..." comment names, or nothing for any other comment.
@@ -46,6 +50,7 @@ absl::StatusOr<std::optional<Columns>> ParseColumns(std::string_view line, const
   std::vector<std::string_view> names;
   SplitFields(line, /*commas=*/true, names);
   for (size_t k = 0; k < names.size(); ++k) {
+    bool known_name = false;
     for (auto [known, slot] : {std::pair{"x", &c.x},
                                {"y", &c.y},
                                {"z", &c.z},
@@ -54,8 +59,9 @@ absl::StatusOr<std::optional<Columns>> ParseColumns(std::string_view line, const
                                {"nz", &c.nz},
                                {"flags", &c.flags},
                                {"scanline", &c.scanline}}) {
-      if (names[k] == known) *slot = static_cast<int>(k);
+      if (names[k] == known) *slot = static_cast<int>(k), known_name = true;
     }
+    if (!known_name) c.others.emplace_back(static_cast<int>(k), std::string(names[k]));
   }
   c.count = names.size();
   c.named = true;
@@ -157,7 +163,27 @@ absl::Status ReadPoint(const PointLine& line, const Columns& columns, PointCloud
     SCANPREP_RETURN_IF_ERROR(line.Integer(columns.scanline, 4294967295.0, value));
     cloud.scanline.push_back(static_cast<uint32_t>(value));
   }
+  for (size_t a = 0; a < columns.others.size(); ++a) {
+    SCANPREP_RETURN_IF_ERROR(line.Number(columns.others[a].first, value));
+    cloud.attributes[a].values.push_back(value);
+  }
   return absl::OkStatus();
+}
+
+// Text has no types: each attribute gets the narrowest that holds all its values exactly, so a
+// colour column of 0..255 is written back to PLY or PCD as uchar.
+AttributeType TextAttributeType(const std::vector<double>& values) {
+  const auto within = [&](double lo, double hi) {
+    return std::all_of(values.begin(), values.end(),
+                       [&](double v) { return v >= lo && v <= hi && v == std::floor(v); });
+  };
+  if (within(0, UINT8_MAX)) return AttributeType::kUint8;
+  if (within(0, UINT16_MAX)) return AttributeType::kUint16;
+  if (within(INT32_MIN, INT32_MAX)) return AttributeType::kInt32;
+  const bool floats = std::all_of(values.begin(), values.end(), [](double v) {
+    return std::isnan(v) || static_cast<double>(static_cast<float>(v)) == v;
+  });
+  return floats ? AttributeType::kFloat32 : AttributeType::kFloat64;
 }
 
 absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& name,
@@ -173,12 +199,18 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
   std::vector<std::string_view> fields;
   std::string_view line;
   Columns columns;
+  size_t unnamed = 0;  // the most values of a line beyond the columns read
   WideCoordinates wide;
   UnmeasuredPoints unmeasured("line");
   while (cursor.Next(line)) {
     if (first_data_line) {
       SCANPREP_ASSIGN_OR_RETURN(auto named, ParseColumns(line, name, cursor.line_number()));
-      if (named) columns = *named;
+      if (named) {
+        columns = *named;
+        for (const auto& [column, attribute] : columns.others) {
+          cloud.attributes.push_back({.name = attribute});
+        }
+      }
     }
     SplitFields(StripComment(line), /*commas=*/true, fields);
     if (fields.empty()) continue;
@@ -198,6 +230,16 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
                                            ", found ", fields.size(), " value(s)"));
     }
     SCANPREP_RETURN_IF_ERROR(ReadPoint(point_line, columns, cloud, wide, unmeasured));
+    unnamed = std::max(unnamed, fields.size() - columns.count);
+  }
+  if (unnamed > 0) {
+    warnings.push_back(absl::StrCat(
+        name, ": ", unnamed, " column(s) after the ", columns.count,
+        " read are left out: name every column in a '# columns: x y z ...' line before the first "
+        "point to keep them for the output"));
+  }
+  for (PointAttribute& attribute : cloud.attributes) {
+    attribute.type = TextAttributeType(attribute.values);
   }
   SCANPREP_RETURN_IF_ERROR(wide.Narrow(cloud, name));
   const uint64_t rows = cloud.size() + unmeasured.count();

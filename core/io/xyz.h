@@ -14,10 +14,11 @@
 
 namespace scanprep::io {
 
-// One point per line: x y z separated by blanks or commas; further columns are ignored, unless a
-// comment line "# columns: NAME..." before the first point names them (as WriteXyz writes): then
-// x, y, z, nx, ny, nz (all three or none), flags and scanline are read from the named columns
-// and any other name is skipped. '#' starts a comment; blank lines are skipped. A first line
+// One point per line: x y z separated by blanks or commas; further columns are left out with a
+// warning, unless a comment line "# columns: NAME..." before the first point names them (as
+// WriteXyz writes): then x, y, z, nx, ny, nz (all three or none), flags and scanline are read
+// from the named columns and any other name is kept as an attribute, in the narrowest type that
+// holds its values exactly. '#' starts a comment; blank lines are skipped. A first line
 // holding a single integer is taken as a point count (Leica PTS) and checked. When profile_gap > 0
 // the file order is taken as the scan order and a jump longer than profile_gap between consecutive
 // points starts a new scanline; otherwise the cloud has no scanlines. Coordinates stay in the
@@ -29,8 +30,9 @@ absl::StatusOr<PointCloud> ReadXyz(const std::filesystem::path& path,
 absl::StatusOr<PointCloud> ReadXyz(std::istream& in, const std::string& name_for_errors,
                                    std::vector<std::string>& warnings, double profile_gap = 0.0);
 
-// "# columns: x y z [nx ny nz] flags [scanline]", then one point per line, floats to nine
-// significant digits (read back exactly). Removed points are skipped unless include_removed.
+// "# columns: x y z [nx ny nz] flags [scanline] [attributes]", then one point per line, floats
+// to nine significant digits (read back exactly), attributes as their values (17 digits). Removed
+// points are skipped unless include_removed.
 absl::Status WriteXyz(const std::filesystem::path& path, const PointCloud& cloud,
                       const WriteOptions& options = {});
 absl::Status WriteXyz(std::ostream& out, const PointCloud& cloud, const WriteOptions& options = {});

@@ -14,11 +14,14 @@ namespace scanprep::io {
 
 absl::Status WriteXyz(std::ostream& out, const PointCloud& cloud, const WriteOptions& options) {
   SCANPREP_RETURN_IF_ERROR(CheckWritable(cloud, "XYZ"));
+  SCANPREP_RETURN_IF_ERROR(
+      CheckAttributeNames(cloud, "XYZ", {"x", "y", "z", "nx", "ny", "nz", "flags", "scanline"}));
   const bool normals = cloud.has_normals(), scanlines = cloud.has_scanlines();
   std::vector<std::string> names = {"x", "y", "z"};
   if (normals) names.insert(names.end(), {"nx", "ny", "nz"});
   names.push_back("flags");
   if (scanlines) names.push_back("scanline");
+  for (const PointAttribute& a : cloud.attributes) names.push_back(a.name);
   out << "# written by scanprep\n# columns: " << absl::StrJoin(names, " ") << "\n";
   std::string line;
   for (size_t i = 0; i < cloud.size() && out; ++i) {
@@ -34,6 +37,10 @@ absl::Status WriteXyz(std::ostream& out, const PointCloud& cloud, const WriteOpt
       absl::StrAppendFormat(&line, " %.9g %.9g %.9g", cloud.nx[i], cloud.ny[i], cloud.nz[i]);
     absl::StrAppend(&line, " ", cloud.flags.empty() ? 0 : cloud.flags[i]);
     if (scanlines) absl::StrAppend(&line, " ", cloud.scanline[i]);
+    for (const PointAttribute& a : cloud.attributes) {
+      absl::StrAppendFormat(&line, a.type == AttributeType::kFloat32 ? " %.9g" : " %.17g",
+                            a.values[i]);
+    }
     line += '\n';
     out.write(line.data(), static_cast<std::streamsize>(line.size()));
   }

@@ -113,6 +113,11 @@ uint64_t LargestJobPoints(uint64_t capacity_bytes) {
 }
 
 absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t capacity_flag, uint64_t max_points_flag) {
+  if (max_points_flag > kMaxIndexablePoints) {
+    return absl::InvalidArgumentError(absl::StrCat("--max_points_per_job=", max_points_flag,
+                                                   " is more than ", kMaxIndexablePoints,
+                                                   ", the most points a job can index (32 bits)"));
+  }
   SCANPREP_ASSIGN_OR_RETURN(const MemoryCapacity capacity,
                             capacity_flag > 0
                                 ? absl::StatusOr<MemoryCapacity>(MemoryCapacity{

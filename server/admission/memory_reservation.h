@@ -105,6 +105,9 @@ std::optional<uint64_t> ParseCgroupLimit(std::string_view text);
 
 // The largest job --max_points_per_job defaults to: also bounded by the memory capacity.
 inline constexpr uint64_t kDefaultMaxPointsPerJob = 20'000'000;
+// The largest --max_points_per_job at all: a job's points and their upload positions
+// (PointChunk.source_index) are 32-bit indices.
+inline constexpr uint64_t kMaxIndexablePoints = 0xFFFF'FFFFu;
 
 // Points of the largest job (default parameters) whose estimate fits in `capacity_bytes`.
 uint64_t LargestJobPoints(uint64_t capacity_bytes);
@@ -117,7 +120,8 @@ struct MemoryLimits {
 // The limits in force from the flags: the capacity is `capacity_flag` bytes, or when 0
 // DetectMemoryCapacity(); `max_points_flag` is the largest job, or when 0 kDefaultMaxPointsPerJob
 // or LargestJobPoints, whichever is smaller. Fails when a job at an explicit `max_points_flag`
-// (default parameters) could never fit the capacity, a limit the server could not meet.
+// (default parameters) could never fit the capacity, or its points could not be indexed
+// (kMaxIndexablePoints): a limit the server could not meet.
 absl::StatusOr<MemoryLimits> ResolveMemoryLimits(uint64_t capacity_flag, uint64_t max_points_flag);
 
 }  // namespace scanprep::server

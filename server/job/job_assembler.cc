@@ -139,6 +139,7 @@ absl::Status JobAssembler::AddHeader(const v1::JobHeader& header) {
   }
   job_.packed_results = header.result_arrays() == v1::ARRAY_ENCODING_PACKED;
   job_.return_points = header.result_arrays() != v1::ARRAY_ENCODING_NONE;
+  job_.return_source_index = header.return_source_index();
   job_.options = OptionsFromHeader(header, limits_.default_budget_seconds,
                                    limits_.default_stage_budget_seconds);
   // The preset is resolved first, so that its values are validated, estimated and reported like
@@ -249,9 +250,11 @@ absl::Status JobAssembler::CheckChunk(const v1::PointChunk& chunk, size_t n) con
   SCANPREP_RETURN_IF_ERROR(CheckLength(id, "scanline", chunk.scanline_size(), n));
   SCANPREP_RETURN_IF_ERROR(CheckLength(id, "quality", chunk.quality_size(), n));
   SCANPREP_RETURN_IF_ERROR(CheckLength(id, "intensity", chunk.intensity_size(), n));
-  if (chunk.normal_size() > 0 || !chunk.flags().empty()) {
-    return BadChunk(id, chunk.normal_size() > 0 ? "normal" : "flags",
-                    "normal and flags are result-only fields");
+  if (chunk.normal_size() > 0 || !chunk.flags().empty() || chunk.source_index_size() > 0) {
+    const char* field = chunk.normal_size() > 0 ? "normal"
+                        : chunk.flags().empty() ? "source_index"
+                                                : "flags";
+    return BadChunk(id, field, "normal, flags and source_index are result-only fields");
   }
   const size_t scans = job_.cloud.scans.size();
   if (n > 0 && chunk.scan_index_size() == 0 && scans > 1) {
@@ -355,6 +358,7 @@ absl::StatusOr<bool> JobAssembler::ExcludeInvalid(const Eigen::Vector3d& local_m
   if (job_.first_invalid_points.size() < kFirstInvalidPointsKept) {
     job_.first_invalid_points.push_back(job_.points_received + point);
   }
+  job_.upload_positions.Exclude(job_.points_received + point);
   ++job_.points_invalid;
   ++job_.cloud.scans[scan].points_invalid;
   ++scan_invalid_[scan];

@@ -16,6 +16,7 @@
 #include "core/pipeline/pipeline.h"
 #include "core/pipeline/presets.h"
 #include "scanprep/v1/scanprep.pb.h"
+#include "server/job/upload_positions.h"
 #include "wire/convert.h"
 #include "wire/stream_checksum.h"
 
@@ -68,9 +69,11 @@ struct AssembledJob {
   std::vector<uint64_t> first_invalid_points;
   std::vector<Warning> warnings;  // of the upload (POINTS_INVALID)
   std::map<std::string, std::string> labels;
-  bool packed_results = false;  // header.result_arrays = ARRAY_ENCODING_PACKED
-  bool return_points = true;    // false: header.result_arrays = ARRAY_ENCODING_NONE
-  std::string preset;           // header.options.preset; its values are in options.params
+  bool packed_results = false;       // header.result_arrays = ARRAY_ENCODING_PACKED
+  bool return_points = true;         // false: header.result_arrays = ARRAY_ENCODING_NONE
+  bool return_source_index = false;  // header.return_source_index
+  UploadPositions upload_positions;  // each cloud point's position in the upload
+  std::string preset;                // header.options.preset; its values are in options.params
 };
 
 // A scan (or, while uploading, the job) with more than this share of its points too far from

@@ -93,5 +93,15 @@ TEST(ResolveMemoryLimits, RefusesAJobLimitTheCapacityCannotMeet) {
   EXPECT_THAT(limits.status().message(), HasSubstr("leaves no room for a job"));
 }
 
+TEST(ResolveMemoryLimits, RefusesMorePointsThanAJobCanIndex) {
+  // Enough memory for them (416 B/point), but upload positions are 32-bit: the control, one
+  // point fewer, is accepted.
+  const uint64_t capacity = uint64_t{2} << 40;
+  auto limits = ResolveMemoryLimits(capacity, kMaxIndexablePoints + 1);
+  EXPECT_EQ(limits.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(limits.status().message(), HasSubstr("the most points a job can index"));
+  EXPECT_TRUE(ResolveMemoryLimits(capacity, kMaxIndexablePoints).ok());
+}
+
 }  // namespace
 }  // namespace scanprep::server

@@ -48,9 +48,12 @@ TEST(UnaryCall, AJobInOneMessageIsTheSameJobStreamed) {
   const GeneratedScan scan = NoisyPlaneWithSpikes(300, 0.5f);  // 90 k points: three pieces
   ASSERT_GT(scan.cloud.size(), 2 * server::kRecommendedChunkPoints);
   v1::ProcessUnaryResponse unary;
-  const grpc::Status status = CallUnary(server, UnaryRequest(scan), unary);
+  v1::ProcessUnaryRequest request = UnaryRequest(scan);
+  request.mutable_header()->set_return_source_index(true);
+  const grpc::Status status = CallUnary(server, request, unary);
   ASSERT_TRUE(status.ok()) << status.error_message();
   v1::JobHeader header = SimpleHeader();
+  header.set_return_source_index(true);
   auto streamed = server.Client().Process(header, scan.cloud, {.timeout = absl::Seconds(120)});
   ASSERT_TRUE(streamed.ok()) << streamed.status();
 
@@ -63,6 +66,7 @@ TEST(UnaryCall, AJobInOneMessageIsTheSameJobStreamed) {
   for (size_t i = 0; i < streamed->cloud.size(); ++i) {
     ASSERT_EQ(points.xyz(3 * i + 2), streamed->cloud.z[i]) << i;
     ASSERT_EQ(static_cast<uint8_t>(points.flags()[i]), streamed->cloud.flags[i]) << i;
+    ASSERT_EQ(points.source_index(i), streamed->source_index[i]) << i;
   }
   // Ground truth, not only agreement: every spike is gone.
   size_t spikes = 0;

@@ -9,6 +9,8 @@ namespace scanprep::testing {
 
 std::string LasFile(int minor, int format, const std::vector<LasPoint>& points, int record) {
   const int sizes[] = {20, 28, 26, 34, 57, 63, 30, 36, 38, 59, 67};
+  // The spec's place of red, green, blue in the formats that have them (2, 3, 5, 7, 8, 10).
+  const int rgb[] = {0, 0, 20, 28, 0, 28, 0, 30, 30, 0, 30};
   if (record == 0) record = sizes[format];
   const size_t header = minor >= 4 ? 375 : 227;
   const size_t vlr = 54;  // one variable-length record's header, skipped by the offset
@@ -31,6 +33,10 @@ std::string LasFile(int minor, int format, const std::vector<LasPoint>& points, 
     const LasPoint& p = points[i];
     PutAt(out, at, p.x), PutAt(out, at + 4, p.y), PutAt(out, at + 8, p.z);
     PutAt(out, at + 12, p.intensity);
+    for (int channel = 0; rgb[format] != 0 && channel < 3; ++channel) {
+      PutAt<uint16_t>(out, at + rgb[format] + 2 * channel,
+                      static_cast<uint16_t>(p.intensity + channel + 1));
+    }
     const uint8_t flags = (p.direction ? 0x40 : 0) | (p.edge ? 0x80 : 0);
     if (format >= 6) {
       out[at + 14] = 0x11;                             // return 1 of 1

@@ -246,7 +246,43 @@ TEST(E57, TwoScansCartesianScaledAndSphericalWithPoses) {
                             "or an invalid state) and were left out; the first is record 500 of "
                             "scan 0 'front'")));
   EXPECT_THAT(warnings, ::testing::Contains(HasSubstr("no pose (scanner origin) for side")));
-  EXPECT_THAT(warnings, ::testing::Contains(HasSubstr("fields not used: colorRed")));
+  // Only the first scan has a colour: it cannot be one array of the file's points.
+  EXPECT_THAT(
+      warnings,
+      ::testing::Contains(HasSubstr("fields left out (not in every scan, of one type): colorRed")));
+  EXPECT_TRUE(cloud->attributes.empty());
+}
+
+// A field no stage reads is kept, in the type its prototype bounds, for the output (issue 40
+// item 7): an 8-bit colour and a double time stamp, for the valid records only.
+TEST(E57, OtherFieldsAreKeptForTheOutput) {
+  std::vector<double> xs, stamps;
+  std::vector<int64_t> red, state;
+  for (int i = 0; i < 50; ++i) {
+    xs.push_back(i);
+    stamps.push_back(1e9 + 0.5 * i);
+    red.push_back(5 * i);
+    state.push_back(i == 7 ? 1 : 0);
+  }
+  Scan scan{.name = "coloured",
+            .columns = {Doubles("cartesianX", xs), Doubles("cartesianY", xs),
+                        Doubles("cartesianZ", xs), Integers("cartesianInvalidState", state, 0, 2),
+                        Integers("colorRed", red, 0, 255), Doubles("timeStamp", stamps)},
+            .records = 50};
+  std::vector<std::string> warnings;
+  auto cloud = Read(E57File({scan}), warnings);
+  ASSERT_TRUE(cloud.ok()) << cloud.status();
+  ASSERT_EQ(cloud->size(), 49u);
+  ASSERT_EQ(cloud->attributes.size(), 2u);
+  EXPECT_EQ(cloud->attributes[0].name, "colorRed");
+  EXPECT_EQ(cloud->attributes[0].type, AttributeType::kUint8);
+  EXPECT_EQ(cloud->attributes[1].name, "timeStamp");
+  EXPECT_EQ(cloud->attributes[1].type, AttributeType::kFloat64);
+  for (size_t k = 0; k < cloud->size(); ++k) {
+    const int i = k < 7 ? static_cast<int>(k) : static_cast<int>(k) + 1;  // record 7 invalid
+    EXPECT_EQ(cloud->attributes[0].values[k], 5 * i) << k;
+    EXPECT_EQ(cloud->attributes[1].values[k], 1e9 + 0.5 * i) << k;
+  }
 }
 
 // A georeferenced file: two scans posed 5e5 m out (a UTM easting; 5e8 mm), one in doubles and one

@@ -116,6 +116,18 @@ TEST(Las, EveryPointFormatReadsTheSameCoordinates) {
     ASSERT_TRUE(cloud.ok()) << format << ": " << cloud.status();
     EXPECT_NEAR(World(*cloud, 1, 3), -750 * 0.001 + 2000, 1e-6) << format;
     EXPECT_EQ(cloud->scanline, (std::vector<uint32_t>{0, 0, 0, 1, 1, 1, 2})) << format;
+    // The formats with colour keep it for the output, from where the spec puts it.
+    const bool colour =
+        format == 2 || format == 3 || format == 5 || format == 7 || format == 8 || format == 10;
+    ASSERT_EQ(cloud->attributes.size(), colour ? 3u : 0u) << format;
+    for (int channel = 0; colour && channel < 3; ++channel) {
+      const PointAttribute& a = cloud->attributes[channel];
+      EXPECT_EQ(a.name, (std::array<const char*, 3>{"red", "green", "blue"}[channel]));
+      EXPECT_EQ(a.type, AttributeType::kUint16);
+      for (size_t i = 0; i < cloud->size(); ++i) {
+        EXPECT_EQ(a.values[i], cloud->intensity[i] + channel + 1) << format << " " << i;
+      }
+    }
   }
 }
 

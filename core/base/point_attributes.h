@@ -1,0 +1,42 @@
+// SPDX-License-Identifier: Apache-2.0
+// Per-point fields of a file that no stage reads (a colour, a scanner's own scalars): the readers
+// keep them, the client sends none of them, and the writers store them back for the points that
+// come back (by PointChunk.source_index), so that nothing a file carried is dropped.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace scanprep {
+
+// The file's storage type, so that a writer stores each value back as it was read.
+enum class AttributeType : uint8_t {
+  kInt8,
+  kUint8,
+  kInt16,
+  kUint16,
+  kInt32,
+  kUint32,
+  kFloat32,
+  kFloat64
+};
+
+struct PointAttribute {
+  std::string name;  // as the file names it ("red", "confidence_2")
+  AttributeType type = AttributeType::kFloat32;
+  // One value per point; a double holds every value of every type above exactly.
+  std::vector<double> values;
+};
+
+// Bytes of one value of `type` in a binary file.
+int AttributeBytes(AttributeType type);
+bool IsIntegerAttribute(AttributeType type);
+bool IsSignedAttribute(AttributeType type);
+
+// `from`'s attributes for the points `positions` index, in that order (the result's points by
+// their source_index). Every position must be below each attribute's size.
+std::vector<PointAttribute> GatherAttributes(const std::vector<PointAttribute>& from,
+                                             const std::vector<uint32_t>& positions);
+
+}  // namespace scanprep
