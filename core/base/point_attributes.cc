@@ -14,6 +14,7 @@ int AttributeBytes(AttributeType type) {
     case AttributeType::kInt32:
     case AttributeType::kUint32:
     case AttributeType::kFloat32:
+    case AttributeType::kFloat32Bits:
       return 4;
     case AttributeType::kFloat64:
       return 8;
@@ -22,7 +23,8 @@ int AttributeBytes(AttributeType type) {
 }
 
 bool IsIntegerAttribute(AttributeType type) {
-  return type != AttributeType::kFloat32 && type != AttributeType::kFloat64;
+  return type != AttributeType::kFloat32 && type != AttributeType::kFloat64 &&
+         type != AttributeType::kFloat32Bits;
 }
 
 bool IsSignedAttribute(AttributeType type) {

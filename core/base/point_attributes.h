@@ -19,7 +19,11 @@ enum class AttributeType : uint8_t {
   kInt32,
   kUint32,
   kFloat32,
-  kFloat64
+  kFloat64,
+  // A 4-byte float field that holds a bit pattern, not a number (PCL's packed colour "rgb",
+  // 0xAARRGGBB, often a NaN): kept as that uint32 and written back as a float with the same bits,
+  // which a value through double would not keep (a signalling NaN comes back quieted).
+  kFloat32Bits
 };
 
 struct PointAttribute {

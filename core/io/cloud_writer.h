@@ -3,6 +3,7 @@
 // arrays agree, the points they write, and writing to a file with the path in every error.
 #pragma once
 
+#include <bit>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -50,6 +51,8 @@ void PutAttributeValue(AttributeType type, double value, Put&& put) {
       return put(static_cast<float>(value));
     case AttributeType::kFloat64:
       return put(value);
+    case AttributeType::kFloat32Bits:
+      return put(std::bit_cast<float>(static_cast<uint32_t>(value)));
   }
 }
 

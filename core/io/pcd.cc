@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <optional>
@@ -115,6 +116,16 @@ class BinarySource {
     return absl::OkStatus();
   }
 
+  // A 4-byte field's bits (a packed colour), not its value.
+  absl::Status GetBits(size_t f, uint32_t& out) const {
+    const Field& field = header_.fields[f];
+    const size_t at = stride_ != 0 ? point_ * stride_ + field_start_[f]
+                                   : field_start_[f] + point_ * field.count * field.size;
+    std::memcpy(&out, bytes_.data() + at, 4);
+    if (kHostIsBigEndian) out = ByteSwapped(out);
+    return absl::OkStatus();
+  }
+
  private:
   std::string_view bytes_;
   const Header& header_;
@@ -153,6 +164,21 @@ class AsciiSource {
         absl::StrCat("field '", field.name, "' value '", std::string(token), "' is not a number"));
   }
 
+  // A packed colour: PCL writes a float "rgb" in ASCII as the integer of its bits; a float's
+  // text is taken as its value's bits.
+  absl::Status GetBits(size_t f, uint32_t& out) const {
+    const std::string_view token = values_[header_.fields[f].value_index];
+    uint64_t bits = 0;
+    if (ParseUint64(token, bits) && bits <= UINT32_MAX) {
+      out = static_cast<uint32_t>(bits);
+      return absl::OkStatus();
+    }
+    double value = 0;
+    SCANPREP_RETURN_IF_ERROR(Get(f, value));
+    out = std::bit_cast<uint32_t>(static_cast<float>(value));
+    return absl::OkStatus();
+  }
+
   absl::Status Finish() {
     std::string_view line;
     while (cursor_.Next(line)) {
@@ -180,6 +206,9 @@ std::optional<AttributeType> AttributeTypeOf(const Field& field) {
   if (field.count != 1) return std::nullopt;
   switch (field.type) {
     case 'F':
+      if (field.size == 4 && (field.name == "rgb" || field.name == "rgba")) {
+        return AttributeType::kFloat32Bits;  // PCL's packed colour
+      }
       return field.size == 4   ? std::optional(AttributeType::kFloat32)
              : field.size == 8 ? std::optional(AttributeType::kFloat64)
                                : std::nullopt;
@@ -297,7 +326,13 @@ absl::Status ReadPoints(const Header& header, const Layout& layout, Source& sour
     if (intensity) cloud.intensity.push_back(value[kIntensity]);
     for (size_t a = 0; a < layout.attribute_fields.size(); ++a) {
       double attribute = 0;
-      SCANPREP_RETURN_IF_ERROR(source.Get(layout.attribute_fields[a], attribute));
+      if (cloud.attributes[a].type == AttributeType::kFloat32Bits) {
+        uint32_t bits = 0;
+        SCANPREP_RETURN_IF_ERROR(source.GetBits(layout.attribute_fields[a], bits));
+        attribute = bits;
+      } else {
+        SCANPREP_RETURN_IF_ERROR(source.Get(layout.attribute_fields[a], attribute));
+      }
       cloud.attributes[a].values.push_back(attribute);
     }
     if (flags) cloud.flags.push_back(static_cast<uint8_t>(raw[kFlags]));

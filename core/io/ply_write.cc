@@ -46,6 +46,7 @@ const char* PlyTypeName(AttributeType type) {
     case AttributeType::kUint32:
       return "uint";
     case AttributeType::kFloat32:
+    case AttributeType::kFloat32Bits:
       return "float";
     case AttributeType::kFloat64:
       return "double";

@@ -2,6 +2,7 @@
 // A file's per-point fields that no stage reads (colour, a scanner's scalars) are kept by the PLY
 // and PCD readers, value for value in their own types, and written back by both writers, so that
 // a cloud read, written and read again has them unchanged (issue 40 item 7: nothing dropped).
+#include <cstring>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -83,6 +84,36 @@ TEST(Attributes, ANameTheFileGivesItsOwnFieldIsRefused) {
   EXPECT_THAT(status.message(), HasSubstr("attribute 'flags' has the name of another field"));
   cloud.attributes[0].name = "two words";
   EXPECT_THAT(WritePcd(out, cloud).message(), HasSubstr("is not a word"));
+}
+
+// PCL's packed colour: a float whose bits are 0xAARRGGBB. Opaque red 0x9F makes it a signalling
+// NaN, which a trip through double would quiet (red + 64): the bits are kept, in binary and in
+// ASCII (where PCL writes them as an integer), and written back as the same float bits.
+TEST(Attributes, PcdPackedColourKeepsItsBits) {
+  constexpr uint32_t kColour = 0xFF9F1020u;
+  const std::string header =
+      "VERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH 1\n"
+      "HEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ";
+  std::string binary = header + "binary\n";
+  const float xyz[3] = {1, 2, 3};
+  binary.append(reinterpret_cast<const char*>(xyz), sizeof xyz);
+  binary.append(reinterpret_cast<const char*>(&kColour), 4);
+  for (const std::string& file : {binary, header + "ascii\n1 2 3 4288614432\n"}) {
+    std::stringstream in(file);
+    std::vector<std::string> warnings;
+    auto cloud = ReadPcd(in, "colour.pcd", warnings);
+    ASSERT_TRUE(cloud.ok()) << cloud.status();
+    ASSERT_EQ(cloud->attributes.size(), 1u);
+    EXPECT_EQ(cloud->attributes[0].type, AttributeType::kFloat32Bits);
+    EXPECT_EQ(cloud->attributes[0].values[0], kColour);
+    std::stringstream out;
+    ASSERT_TRUE(WritePcd(out, *cloud).ok());
+    const std::string written = out.str();
+    EXPECT_THAT(written, HasSubstr("FIELDS x y z flags rgb\nSIZE 4 4 4 1 4\nTYPE F F F U F"));
+    uint32_t bits = 0;
+    std::memcpy(&bits, written.data() + written.size() - 4, 4);  // the record's last field
+    EXPECT_EQ(bits, kColour);
+  }
 }
 
 // Text has no types: a named column gets the narrowest that holds its values; an unnamed one is
