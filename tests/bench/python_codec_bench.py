@@ -18,7 +18,9 @@ CHUNK = 32768
 
 def encode_packed(scan):
     offsets = [None]  # float32 points: sent as they are
-    header = _header([scan], offsets, None, "mm", None, None, False, None, 0.0, "")
+    header = _header([scan], offsets, None, "mm", stages=None, params=None, preset="",
+                     include_removed=False, labels=None, budget_seconds=0.0, job_id="",
+                     fail_on=(), result_arrays=pb.ARRAY_ENCODING_PACKED)
     return [r.SerializeToString() for r in _requests(header, [scan], offsets, CHUNK)]
 
 
