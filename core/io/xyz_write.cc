@@ -38,8 +38,11 @@ absl::Status WriteXyz(std::ostream& out, const PointCloud& cloud, const WriteOpt
     absl::StrAppend(&line, " ", cloud.flags.empty() ? 0 : cloud.flags[i]);
     if (scanlines) absl::StrAppend(&line, " ", cloud.scanline[i]);
     for (const PointAttribute& a : cloud.attributes) {
-      absl::StrAppendFormat(&line, a.type == AttributeType::kFloat32 ? " %.9g" : " %.17g",
-                            a.values[i]);
+      if (a.type == AttributeType::kFloat32) {
+        absl::StrAppendFormat(&line, " %.9g", a.values[i]);
+      } else {
+        absl::StrAppendFormat(&line, " %.17g", a.values[i]);
+      }
     }
     line += '\n';
     out.write(line.data(), static_cast<std::streamsize>(line.size()));
