@@ -75,8 +75,9 @@ TEST(HeldResources, AClientThatStopsReadingLosesItsSlotToTheNextJob) {
   for (const v1::ProcessRequest& r : requests) ASSERT_TRUE(stalled->Write(r));
   ASSERT_TRUE(stalled->WritesDone());
 
-  // Queued behind the stalled call; 20 s is far beyond the 0.5 s idle limit and the job's time.
-  const SmallJob next = RunSmallJob(*stub, absl::Seconds(20));
+  // Queued behind the stalled call; 60 s is far beyond the 0.5 s idle limit and the job's time
+  // (about 20 s under ASan on 2 loaded cores).
+  const SmallJob next = RunSmallJob(*stub, absl::Seconds(60));
   EXPECT_TRUE(next.status.ok()) << next.status.error_message();
   EXPECT_TRUE(next.report);
 
