@@ -421,37 +421,19 @@ void DefaultUnit(const ParsedArgs& args, const std::vector<io::ScanFormat>& form
 
 // The files' attributes (colour, a scanner's own fields) for the result, which the server
 // returns with each point's upload position: one is kept when every file has it, of one type.
-void JoinAttributes(const std::vector<std::string>& files, const std::vector<FileRead>& read,
-                    Job& job) {
-  std::vector<PointAttribute>& all = job.points.attributes;
-  all = read.front().cloud.attributes;
-  for (PointAttribute& attribute : all) attribute.values.clear();
-  std::erase_if(all, [&](const PointAttribute& attribute) {
-    return !std::all_of(read.begin(), read.end(), [&](const FileRead& r) {
-      return std::any_of(r.cloud.attributes.begin(), r.cloud.attributes.end(),
-                         [&](const PointAttribute& a) {
-                           return a.name == attribute.name && a.type == attribute.type;
-                         });
-    });
-  });
+void JoinFileAttributes(const std::vector<std::string>& files, const std::vector<FileRead>& read,
+                        Job& job) {
+  std::vector<const std::vector<PointAttribute>*> parts;
+  for (const FileRead& r : read) parts.push_back(&r.cloud.attributes);
+  std::vector<std::vector<std::string>> left_out;
+  job.points.attributes = JoinAttributes(parts, left_out);
   for (size_t s = 0; s < read.size(); ++s) {
-    std::vector<std::string> dropped;
-    for (const PointAttribute& a : read[s].cloud.attributes) {
-      auto kept = std::find_if(all.begin(), all.end(),
-                               [&](const PointAttribute& k) { return k.name == a.name; });
-      if (kept == all.end() || kept->type != a.type) {
-        dropped.push_back(a.name);
-      } else {
-        kept->values.insert(kept->values.end(), a.values.begin(), a.values.end());
-      }
-    }
-    if (!dropped.empty()) {
-      job.notes.push_back(absl::StrCat(files[s], ": ", absl::StrJoin(dropped, ", "),
-                                       " left out of the output (not in every file, of one type)"));
-    }
+    if (left_out[s].empty()) continue;
+    job.notes.push_back(absl::StrCat(files[s], ": ", absl::StrJoin(left_out[s], ", "),
+                                     " left out of the output (not in every file, of one type)"));
   }
   // Each returned point says where it was uploaded, so the output gets its attributes back.
-  if (!all.empty()) job.header.set_return_source_index(true);
+  if (!job.points.attributes.empty()) job.header.set_return_source_index(true);
 }
 
 // Every file's points into the job's cloud, each point with the header index of its scan. The
@@ -483,7 +465,7 @@ void JoinPoints(const std::vector<std::string>& files, const std::vector<FileRea
     AppendOptional(quality, c.quality, all.quality);
     AppendOptional(intensity, c.intensity, all.intensity);
   }
-  JoinAttributes(files, read, job);
+  JoinFileAttributes(files, read, job);
 }
 
 }  // namespace

@@ -38,6 +38,13 @@ int AttributeBytes(AttributeType type);
 bool IsIntegerAttribute(AttributeType type);
 bool IsSignedAttribute(AttributeType type);
 
+// The attributes of clouds joined end to end (a job's files, an E57 file's scans): those every
+// part has under one name and type, each part's values appended in order. The names of the
+// others go to left_out[p] for the part p that has them: a note, never a silent drop.
+std::vector<PointAttribute> JoinAttributes(
+    const std::vector<const std::vector<PointAttribute>*>& parts,
+    std::vector<std::vector<std::string>>& left_out);
+
 // `from`'s attributes for the points `positions` index, in that order (the result's points by
 // their source_index). Every position must be below each attribute's size.
 std::vector<PointAttribute> GatherAttributes(const std::vector<PointAttribute>& from,

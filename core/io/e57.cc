@@ -598,32 +598,6 @@ absl::Status ReadScans(const E57File& e57_file, const XmlNode& data3d, const std
   return absl::OkStatus();
 }
 
-// The attributes every scan has, of one type, joined into the cloud's; the names of the others
-// go to `unused`, for a warning.
-void JoinAttributes(std::vector<ScanPoints>& scans, PointCloud& cloud,
-                    std::vector<std::string>& unused) {
-  for (const PointAttribute& first : scans.front().attributes) {
-    const bool everywhere = std::all_of(scans.begin(), scans.end(), [&](const ScanPoints& s) {
-      return std::any_of(s.attributes.begin(), s.attributes.end(), [&](const PointAttribute& a) {
-        return a.name == first.name && a.type == first.type;
-      });
-    });
-    if (everywhere) cloud.attributes.push_back({.name = first.name, .type = first.type});
-  }
-  for (ScanPoints& scan : scans) {
-    for (PointAttribute& a : scan.attributes) {
-      auto kept = std::find_if(cloud.attributes.begin(), cloud.attributes.end(),
-                               [&](const PointAttribute& k) { return k.name == a.name; });
-      if (kept == cloud.attributes.end()) {
-        unused.push_back(a.name);
-      } else {
-        kept->values.insert(kept->values.end(), a.values.begin(), a.values.end());
-      }
-    }
-    scan.attributes = {};
-  }
-}
-
 // The scans' per-point arrays joined into the cloud's, each scan's emptied as it goes: the scan
 // index, and intensity and scanlines when every scan has them.
 absl::Status JoinScans(std::vector<ScanPoints>& scans, bool intensity, const std::string& name,
@@ -704,7 +678,13 @@ absl::StatusOr<PointCloud> ReadE57Bytes(std::string_view file, const std::string
   SCANPREP_RETURN_IF_ERROR(ReadScans(e57_file, *data3d, name, cloud.scans, read));
   const bool intensity = std::all_of(read.points.begin(), read.points.end(),
                                      [](const ScanPoints& s) { return s.has_intensity; });
-  JoinAttributes(read.points, cloud, read.unused);
+  std::vector<const std::vector<PointAttribute>*> parts;
+  for (const ScanPoints& scan : read.points) parts.push_back(&scan.attributes);
+  std::vector<std::vector<std::string>> left_out;
+  cloud.attributes = JoinAttributes(parts, left_out);
+  for (std::vector<std::string>& names : left_out) {
+    read.unused.insert(read.unused.end(), names.begin(), names.end());
+  }
   SCANPREP_RETURN_IF_ERROR(JoinScans(read.points, intensity, name, cloud));
   SCANPREP_RETURN_IF_ERROR(read.unmeasured.Finish(name, cloud.scan.size(), warnings));
   read.unmeasured.Record(cloud.scans);

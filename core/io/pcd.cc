@@ -109,24 +109,26 @@ class BinarySource {
   }
 
   absl::Status Get(size_t f, double& out) const {
-    const Field& field = header_.fields[f];
-    const size_t at = stride_ != 0 ? point_ * stride_ + field_start_[f]
-                                   : field_start_[f] + point_ * field.count * field.size;
-    out = DecodeBinary(field, bytes_.data() + at);
+    out = DecodeBinary(header_.fields[f], Value(f));
     return absl::OkStatus();
   }
 
   // A 4-byte field's bits (a packed colour), not its value.
   absl::Status GetBits(size_t f, uint32_t& out) const {
-    const Field& field = header_.fields[f];
-    const size_t at = stride_ != 0 ? point_ * stride_ + field_start_[f]
-                                   : field_start_[f] + point_ * field.count * field.size;
-    std::memcpy(&out, bytes_.data() + at, 4);
+    std::memcpy(&out, Value(f), 4);
     if (kHostIsBigEndian) out = ByteSwapped(out);
     return absl::OkStatus();
   }
 
  private:
+  // Field f's bytes for the current point.
+  const char* Value(size_t f) const {
+    const Field& field = header_.fields[f];
+    const size_t at = stride_ != 0 ? point_ * stride_ + field_start_[f]
+                                   : field_start_[f] + point_ * field.count * field.size;
+    return bytes_.data() + at;
+  }
+
   std::string_view bytes_;
   const Header& header_;
   std::vector<size_t> field_start_;

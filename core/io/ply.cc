@@ -126,7 +126,7 @@ class BinarySource {
   }
 
   absl::Status Read(ScalarType type, const Property& property, double& out) {
-    const size_t size = ply::SizeOf(type);
+    const size_t size = AttributeBytes(type);
     if (size > body_.size() - pos_) {
       return Error(absl::StrCat("data ends inside '", property.name, "' (truncated file)"));
     }
@@ -136,7 +136,7 @@ class BinarySource {
   }
 
   absl::Status CheckList(uint64_t items, const Property& property) const {
-    if (items <= (body_.size() - pos_) / ply::SizeOf(property.type)) return absl::OkStatus();
+    if (items <= (body_.size() - pos_) / AttributeBytes(property.type)) return absl::OkStatus();
     return Error(absl::StrCat("list '", property.name, "' declares ", items, " items but only ",
                               body_.size() - pos_, " bytes remain (truncated file)"));
   }
@@ -179,6 +179,7 @@ class BinarySource {
       case ScalarType::kUint32:
         return Load<uint32_t>(p);
       case ScalarType::kFloat32:
+      case ScalarType::kFloat32Bits:  // no PLY type: the header parser never gives it
         return Load<float>(p);
       case ScalarType::kFloat64:
         return Load<double>(p);
@@ -211,11 +212,6 @@ enum class Slot : uint8_t {
   kFlags,
   kAttribute  // any other scalar property: kept as a PointAttribute for the writers
 };
-
-// ply::ScalarType and AttributeType list the same types in the same order.
-AttributeType ToAttributeType(ScalarType type) { return static_cast<AttributeType>(type); }
-static_assert(static_cast<int>(ScalarType::kFloat64) == static_cast<int>(AttributeType::kFloat64) &&
-              static_cast<int>(ScalarType::kUint8) == static_cast<int>(AttributeType::kUint8));
 
 Slot VertexSlot(std::string_view name) {
   if (name == "x") return Slot::kX;
@@ -253,8 +249,7 @@ class VertexBuilder {
       has[static_cast<size_t>(slot)] = true;
       builder.attribute_of_.push_back(builder.cloud_.attributes.size());
       if (slot == Slot::kAttribute) {
-        builder.cloud_.attributes.push_back(
-            {.name = property.name, .type = ToAttributeType(property.type)});
+        builder.cloud_.attributes.push_back({.name = property.name, .type = property.type});
       } else if (slot == Slot::kSkip) {
         builder.left_out_.push_back(property.name);
       }

@@ -45,7 +45,7 @@ uint64_t MinEntryBytes(const Element& element, Format format) {
     if (format == Format::kAscii) {
       bytes += 2;
     } else {
-      bytes += SizeOf(p.is_list ? p.count_type : p.type);
+      bytes += AttributeBytes(p.is_list ? p.count_type : p.type);
     }
   }
   return bytes;
@@ -140,7 +140,7 @@ class HeaderParser {
       const auto count_type = LookupType(fields_[2]);
       const auto item_type = LookupType(fields_[3]);
       if (!count_type || !item_type) return Error("unknown type in list property");
-      if (!IsInteger(*count_type)) return Error("list count type must be an integer type");
+      if (!IsIntegerAttribute(*count_type)) return Error("list count type must be an integer type");
       property.is_list = true;
       property.count_type = *count_type;
       property.type = *item_type;
@@ -204,26 +204,12 @@ class HeaderParser {
 
 }  // namespace
 
-size_t SizeOf(ScalarType type) {
-  switch (type) {
-    case ScalarType::kInt8:
-    case ScalarType::kUint8:
-      return 1;
-    case ScalarType::kInt16:
-    case ScalarType::kUint16:
-      return 2;
-    case ScalarType::kInt32:
-    case ScalarType::kUint32:
-    case ScalarType::kFloat32:
-      return 4;
-    case ScalarType::kFloat64:
-      return 8;
+std::string TypeName(ScalarType type) {
+  if (type == ScalarType::kFloat32Bits) type = ScalarType::kFloat32;  // a float with its bits
+  for (const auto& [type_name, t] : kTypeNames) {
+    if (t == type) return std::string(type_name);  // the first, classic name
   }
-  return 0;
-}
-
-bool IsInteger(ScalarType type) {
-  return type != ScalarType::kFloat32 && type != ScalarType::kFloat64;
+  return "double";
 }
 
 absl::StatusOr<Header> ParseHeader(std::string_view data, const std::string& name) {

@@ -10,23 +10,17 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "core/base/point_attributes.h"
 
 namespace scanprep::io::ply {
 
 enum class Format { kAscii, kBinaryLittleEndian, kBinaryBigEndian };
-enum class ScalarType : uint8_t {
-  kInt8,
-  kUint8,
-  kInt16,
-  kUint16,
-  kInt32,
-  kUint32,
-  kFloat32,
-  kFloat64
-};
+// PLY's eight scalar types are the attribute types, so a property read keeps its type as it is
+// (AttributeBytes, IsIntegerAttribute); the parser never gives kFloat32Bits.
+using ScalarType = AttributeType;
 
-size_t SizeOf(ScalarType type);
-bool IsInteger(ScalarType type);
+// The PLY name of `type` ("uchar"; kFloat32Bits: "float"), as the writer declares a property.
+std::string TypeName(ScalarType type);
 
 struct Property {
   std::string name;

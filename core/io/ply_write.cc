@@ -11,6 +11,7 @@
 #include "core/io/byte_order.h"
 #include "core/io/cloud_writer.h"
 #include "core/io/ply.h"
+#include "core/io/ply_header.h"
 
 namespace scanprep::io {
 namespace {
@@ -29,30 +30,6 @@ class RecordPacker {
  private:
   std::vector<char>& buffer_;
 };
-
-// PLY's name of each attribute type (ply_header.cc reads them back).
-const char* PlyTypeName(AttributeType type) {
-  switch (type) {
-    case AttributeType::kInt8:
-      return "char";
-    case AttributeType::kUint8:
-      return "uchar";
-    case AttributeType::kInt16:
-      return "short";
-    case AttributeType::kUint16:
-      return "ushort";
-    case AttributeType::kInt32:
-      return "int";
-    case AttributeType::kUint32:
-      return "uint";
-    case AttributeType::kFloat32:
-    case AttributeType::kFloat32Bits:
-      return "float";
-    case AttributeType::kFloat64:
-      return "double";
-  }
-  return "double";
-}
 
 }  // namespace
 
@@ -77,7 +54,7 @@ absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const WriteOpt
   if (!cloud.quality.empty()) absl::StrAppend(&header, "property float quality\n");
   if (!cloud.intensity.empty()) absl::StrAppend(&header, "property float intensity\n");
   for (const PointAttribute& attribute : cloud.attributes) {
-    absl::StrAppend(&header, "property ", PlyTypeName(attribute.type), " ", attribute.name, "\n");
+    absl::StrAppend(&header, "property ", ply::TypeName(attribute.type), " ", attribute.name, "\n");
   }
   absl::StrAppend(&header, "end_header\n");
   out.write(header.data(), static_cast<std::streamsize>(header.size()));
