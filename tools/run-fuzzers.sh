@@ -13,6 +13,7 @@ targets=(ply_fuzzer xyz_fuzzer pcd_fuzzer e57_fuzzer las_fuzzer conf_fuzzer job_
 bash tools/install-deps.sh --sanitizers
 # The same configuration as tools/run-sanitizers.sh, so both can share one build directory.
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only -DNDEBUG" \
   -DSCANPREP_FUZZ=ON -DSCANPREP_BUILD_BENCHMARKS=OFF >/dev/null
 ninja -C "$build_dir" "${targets[@]}"
 
