@@ -13,7 +13,15 @@
 # Usage: tools/run-mutations.sh [NAME_REGEX]   (default: every mutation)
 # Environment: BUILD_DIR (default build; reused, configured Release if new), MUTATION_TIMEOUT
 # (seconds for one mutation's test run, default 300; a hang counts as a kill), MUTATION_BASELINE
-# (0: skip the unmutated suite's run, for a build whose suite has just passed).
+# (0: skip the unmutated suite's run, for a build whose suite has just passed), MUTATION_BUDGET
+# (seconds; default none: every selected mutation runs).
+#
+# With a budget (CI's, .ci/run: the whole list takes about 30 minutes on two cores, more than CI
+# can give it) the mutations run in an order that puts first what a change can have broken, and
+# no new one starts once the budget is spent; the table then lists the ones not run. The order:
+# mutations of files that the last MUTATION_RECENT commits (default 40, about one stop's work)
+# changed, then the rest shuffled by the commit (a hash of the name and HEAD), so successive
+# commits reach different ones. A budgeted run is a sample: the whole list is run before a stop.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=${BUILD_DIR:-build}
@@ -38,13 +46,25 @@ trap 'restore; rm -rf "$work"' EXIT
 trap 'exit 130' INT TERM
 
 # The list: blocks of "name = …", "what = …", "file = …", "from = …", "to = …" lines; # comments.
-mutations() {  # prints the selected names, one a line
-  python3 - "$list" "$filter" <<'PY'
-import re, sys
-names = [m for m in re.findall(r"^name\s*=\s*(\S+)", open(sys.argv[1]).read(), re.M)]
+mutations() {  # prints the selected names, one a line, in the order they run
+  local recent=() head
+  if [[ -n ${MUTATION_BUDGET:-} ]]; then
+    head=$(git rev-parse HEAD)
+    mapfile -t recent < <(git log -n "${MUTATION_RECENT:-40}" --format= --name-only | sort -u)
+  fi
+  python3 - "$list" "$filter" "${head:-}" "${recent[@]}" <<'PY'
+import hashlib, re, sys
+text = open(sys.argv[1]).read()
+names = re.findall(r"^name\s*=\s*(\S+)", text, re.M)
 if len(names) != len(set(names)):
     sys.exit("mutations.txt: duplicate names")
-print("\n".join(n for n in names if re.search(sys.argv[2], n)))
+files = dict(re.findall(r"^name\s*=\s*(\S+)\n(?:.*\n)*?file\s*=\s*(\S+)", text, re.M))
+names = [n for n in names if re.search(sys.argv[2], n)]
+head, recent = sys.argv[3], set(sys.argv[4:])
+if head:  # a budget: what the recent commits touched first, the rest in this commit's order
+    names.sort(key=lambda n: (files.get(n) not in recent,
+                              hashlib.sha1((head + n).encode()).hexdigest()))
+print("\n".join(names))
 PY
 }
 
@@ -125,9 +145,13 @@ if [[ ${MUTATION_BASELINE:-1} != 0 ]] && ! run_suite >/dev/null; then
   exit 1
 fi
 
-rows=() survived=0 broken=0
+rows=() survived=0 broken=0 skipped=()
 for name in "${names[@]}"; do
   t0=$SECONDS
+  if [[ -n ${MUTATION_BUDGET:-} ]] && ((t0 - start >= MUTATION_BUDGET)); then
+    skipped+=("$name")
+    continue
+  fi
   if ! what=$(apply_mutation "$name"); then
     rows+=("| $name | (the list is stale: see above) | ERROR | | 0 |")
     broken=$((broken + 1))
@@ -157,8 +181,12 @@ echo "| mutation | what it breaks | verdict | killed by | seconds |"
 echo "|---|---|---|---|---:|"
 printf '%s\n' "${rows[@]}"
 echo
-echo "${#names[@]} mutations: $((${#names[@]} - survived - broken)) killed, $survived survived," \
+ran=$((${#names[@]} - ${#skipped[@]}))
+echo "$ran mutations: $((ran - survived - broken)) killed, $survived survived," \
   "$broken broken; $((SECONDS - start)) s in all on $(nproc) cores"
+if ((${#skipped[@]})); then
+  echo "not run within the ${MUTATION_BUDGET} s budget (${#skipped[@]} of ${#names[@]}): ${skipped[*]}"
+fi
 if [[ $(git diff HEAD | sha1sum) != "$tree_before" ]]; then
   git diff --stat HEAD
   echo "the tree differs from before the run: a mutation was not restored" >&2
