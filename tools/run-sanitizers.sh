@@ -23,8 +23,9 @@ jobs=("$@")
 
 bash tools/install-deps.sh --sanitizers  # the build's packages, clang and its runtimes
 
-# -O1 with line tables only: what a sanitizer's report needs (function, file, line), at about
-# half the compile time of RelWithDebInfo's -O2 -g, whose full debug info nothing here reads.
+# -O1 with line tables only: what an ASan or UBSan report needs (function, file, line), at about
+# half the compile time of RelWithDebInfo's -O2 -g. The TSan build adds -g back (CMakeLists.txt):
+# its suppressions match qualified names, which line tables drop from inlined frames.
 configure() {  # DIR, extra cmake flags...
   local dir=$1
   shift
