@@ -73,14 +73,11 @@ void Add(std::vector<CostTerm>& terms, std::string_view stage, std::string cause
 // The terms of the radii that fill a stage's balls.
 std::vector<CostTerm> FillTerms(const ParamOverrides& params) {
   std::vector<CostTerm> terms;
-  const auto add = [&](std::string_view stage, std::string cause, double multiplier) {
-    Add(terms, stage, std::move(cause), multiplier);
-  };
   const NeighbourhoodsSettings nb = NeighbourhoodsParams().Read(params);
   if (nb.min_radius.forced.has_value()) {
     const std::string cause =
         Cause(params, {NeighbourhoodsParams().Name(&NeighbourhoodsSettings::min_radius)});
-    for (const Fill& fill : kMinRadiusFills) add(fill.stage, cause, fill.multiplier);
+    for (const Fill& fill : kMinRadiusFills) Add(terms, fill.stage, cause, fill.multiplier);
   }
   const NormalsSettings normals = NormalsParams().Read(params);
   if (normals.mitra()) {
@@ -89,7 +86,7 @@ std::vector<CostTerm> FillTerms(const ParamOverrides& params) {
     const double multiplier = normals.mitra_max_radius_mm.forced.has_value()
                                   ? kMitraFull
                                   : std::min(kMitraFull, kMitra * std::pow(c, kMitraExponent));
-    add(sn::kNormals,
+    Add(terms, sn::kNormals,
         Cause(params,
               {table.Name(&NormalsSettings::radius_mode), table.Name(&NormalsSettings::mitra_c1),
                table.Name(&NormalsSettings::mitra_c2),
@@ -101,7 +98,7 @@ std::vector<CostTerm> FillTerms(const ParamOverrides& params) {
       correction.radius.forced.has_value()
           ? kCorrectionFull
           : std::min(kCorrectionFull, std::pow(correction.radius_scale, kCorrectionScaleExponent));
-  add(sn::kCorrection,
+  Add(terms, sn::kCorrection,
       Cause(params, {CorrectionParams().Name(&CorrectionSettings::radius_scale),
                      CorrectionParams().Name(&CorrectionSettings::radius)}),
       correction_multiplier);
