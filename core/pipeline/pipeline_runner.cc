@@ -76,14 +76,19 @@ void PipelineRunner::Emit(double stage_fraction) {
 // Capped balls above this share of the points get a warning (they are always recorded).
 constexpr double kCappedBallsWarnShare = 0.01;
 
-void PipelineRunner::RecordCappedBalls(StageReport& stage) {
+void PipelineRunner::RecordBallCounts(StageReport& stage) {
   const Neighbourhoods* nb = shared_.neighbourhoods.get();
   if (nb == nullptr) return;
-  // Since the last stage that ended: each stage claims the balls it capped.
+  // Since the last stage that ended: each stage claims the balls it capped and sampled.
   const uint64_t capped = nb->capped_balls() - capped_reported_;
   const uint64_t cut = nb->capped_points() - cut_reported_;
+  const uint64_t sampled = nb->sampled_balls() - sampled_reported_;
   capped_reported_ += capped;
   cut_reported_ += cut;
+  sampled_reported_ += sampled;
+  if (sampled > 0) {
+    stage.parameters[absl::StrCat(stage.name, ".balls_sampled")] = static_cast<double>(sampled);
+  }
   if (capped == 0) return;
   stage.parameters[absl::StrCat(stage.name, ".balls_capped")] = static_cast<double>(capped);
   stage.parameters[absl::StrCat(stage.name, ".ball_points_left_out")] = static_cast<double>(cut);
@@ -128,7 +133,7 @@ absl::Status PipelineRunner::RunStage(size_t index) {
   const auto start = std::chrono::steady_clock::now();
   StageContext ctx(cloud_, shared_, plan_.params(), cancel_, *this, stage, report_.warnings);
   absl::Status status = info.make()->Run(ctx);
-  RecordCappedBalls(stage);
+  RecordBallCounts(stage);
   if (status.ok()) {
     status = FailOnWarnings(std::span(report_.warnings).subspan(first_warning), fail_on_);
   }

@@ -49,7 +49,7 @@ class PipelineRunner : private WorkMeter, private StageMeter {
   // Sends a progress event when the running stage's fraction passed the next 2 % tick.
   void Emit(double stage_fraction);
   // Records and warns about the balls the stage capped (Neighbourhoods::Within).
-  void RecordCappedBalls(StageReport& stage);
+  void RecordBallCounts(StageReport& stage);
   // Unremoved input points, each duplicate group counted with its multiplicity.
   uint64_t KeptInputPoints() const;
 
@@ -72,7 +72,8 @@ class PipelineRunner : private WorkMeter, private StageMeter {
   size_t index_ = 0;                          // of the running stage in the plan
   double plan_weight_ = 0, done_weight_ = 0;  // of the plan's stages: all, and those finished
   double job_fraction_ = 0;
-  uint64_t capped_reported_ = 0, cut_reported_ = 0;  // Neighbourhoods' cap counters, reported
+  // Neighbourhoods' ball counters, reported
+  uint64_t capped_reported_ = 0, cut_reported_ = 0, sampled_reported_ = 0;
 };
 
 }  // namespace scanprep

@@ -234,30 +234,56 @@ uint32_t KeyIndex(uint64_t key) { return static_cast<uint32_t>(key); }
 
 }  // namespace
 
-size_t CellGrid::Ball(const float q[3], const NearestQuery& query, float radius,
-                      RadiusMatches& out) const {
+size_t CellGrid::Ball(const float q[3], const NearestQuery& query, float radius, RadiusMatches& out,
+                      size_t sample_over, double* step) const {
   out.clear();
   const bool capped = query.count != SIZE_MAX;
   Runs runs;
-  if (CollectRuns(q, radius, runs) && (runs.candidates <= GridBudget(capped ? query.count : 0) ||
-                                       AffordOverflow(runs.candidates))) {
+  const bool fits = CollectRuns(q, radius, runs);
+  const auto match = [](uint32_t id, float d2) { return std::pair<uint32_t, float>(id, d2); };
+  bool sample = fits && runs.candidates > sample_over;
+  const double lattice = sample ? double(runs.candidates) / double(sample_over) : 1.0;
+  if (sample) {
+    for (size_t r = 0; r < runs.count; ++r) {
+      candidates_examined_by_this_thread +=
+          AppendLattice(q, runs.run[r].first, runs.run[r].second, lattice, query.limit_sq,
+                        query.exclude, out, match);
+    }
+    // A lattice too thin for a fit (a ball holding far fewer points than the caller expected: a
+    // line, an edge) gives way to the whole ball; judged before any flag leaves a point out, so
+    // the same ball is sampled whatever was removed since.
+    if (4 * out.size() < sample_over) {
+      out.clear();
+      sample = false;
+    }
+  }
+  if (step != nullptr) *step = sample ? lattice : 1.0;
+  if (!sample) {
+    if (!fits || (runs.candidates > GridBudget(capped ? query.count : 0) &&
+                  !AffordOverflow(runs.candidates))) {
+      return TreeBall(q, query, out);
+    }
     candidates_examined_by_this_thread += runs.candidates;
     for (size_t r = 0; r < runs.count; ++r) {
       AppendInside(q, runs.run[r].first, runs.run[r].second, query.limit_sq, query.exclude, out,
-                   [](uint32_t id, float d2) { return std::pair<uint32_t, float>(id, d2); });
+                   match);
     }
-    if (query.flags != nullptr) {
-      std::erase_if(out, [&](const auto& m) { return (query.flags[m.first] & query.skip) != 0; });
-    }
-    if (out.size() <= query.count) return 0;
-    std::nth_element(out.begin(), out.begin() + (query.count - 1), out.end(),
-                     [](const auto& a, const auto& b) {
-                       return a.second < b.second || (a.second == b.second && a.first < b.first);
-                     });
-    const size_t left_out = out.size() - query.count;
-    out.resize(query.count);
-    return left_out;
   }
+  if (query.flags != nullptr) {
+    std::erase_if(out, [&](const auto& m) { return (query.flags[m.first] & query.skip) != 0; });
+  }
+  if (out.size() <= query.count) return 0;
+  std::nth_element(out.begin(), out.begin() + (query.count - 1), out.end(),
+                   [](const auto& a, const auto& b) {
+                     return a.second < b.second || (a.second == b.second && a.first < b.first);
+                   });
+  const size_t left_out = out.size() - query.count;
+  out.resize(query.count);
+  return left_out;
+}
+
+size_t CellGrid::TreeBall(const float q[3], const NearestQuery& query, RadiusMatches& out) const {
+  const bool capped = query.count != SIZE_MAX;
   const EntryTree* tree = Tree();
   if (tree == nullptr) return 0;  // cancelled: the caller's loop stops at its next check
   // One more than the count tells whether the count left any out.

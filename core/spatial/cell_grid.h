@@ -84,7 +84,16 @@ class CellGrid {
   // The points `query` asks for (query.limit_sq = radius²), as (j, d2), unsorted, into `out`;
   // returns how many a count left out: exact when the grid answered, 1 (at least one) when the
   // tree did, which stops at the count.
-  size_t Ball(const float q[3], const NearestQuery& query, float radius, RadiusMatches& out) const;
+  // `sample_over`: where the ball's cells hold more candidates than this, only an even lattice
+  // of about that many entries is read, every (candidates / sample_over)-th of each column's run
+  // (entries are in cell order, so each cell gives its share), and those inside are returned: a
+  // spatially even subset of the ball for a fit or a mean, read at a cost that does not grow with
+  // the density. The lattice is the same for every query at one step; one holding fewer than a
+  // quarter of sample_over (a line, an edge) gives way to the whole ball. A ball crossing more than
+  // kMaxColumns columns is answered by the tree, whole up to the count. `step`, when given, is
+  // set to the lattice's step (1: the whole ball was read).
+  size_t Ball(const float q[3], const NearestQuery& query, float radius, RadiusMatches& out,
+              size_t sample_over = SIZE_MAX, double* step = nullptr) const;
 
   // The k nearest points to q other than `exclude`, nearest first (ties: lower index first;
   // which of those tied at the k-th distance are in: see above), as
@@ -126,9 +135,29 @@ class CellGrid {
     }
     out.resize(at);
   }
+  // AppendInside for the entries at floor(m·step) in [begin, end), integer m: the lattice that
+  // Ball's sample reads. Returns how many entries it read.
+  template <typename T, typename Make>
+  size_t AppendLattice(const float q[3], uint32_t begin, uint32_t end, double step, float limit,
+                       uint32_t exclude, std::vector<T>& out, Make make) const {
+    size_t read = 0;
+    for (double m = std::ceil(begin / step);; m += 1) {
+      const auto e = static_cast<uint32_t>(m * step);
+      if (e >= end) break;
+      if (e < begin) continue;  // rounding of m·step just below begin
+      ++read;
+      const Entry& p = entries_[e];
+      const float dx = q[0] - p.x, dy = q[1] - p.y, dz = q[2] - p.z;
+      const float d2 = dx * dx + dy * dy + dz * dz;
+      if (d2 < limit && id_[e] != exclude) out.push_back(make(id_[e], d2));
+    }
+    return read;
+  }
   // For a query over its budget: whether the overflow allowance still holds its `candidates`
   // (which are then counted against it) and the tree is not built yet.
   bool AffordOverflow(size_t candidates) const;
+  // Ball's answer from the kd-tree (the same points as the grid's whole read).
+  size_t TreeBall(const float q[3], const NearestQuery& query, RadiusMatches& out) const;
   // The kd-tree over the entries, built on first use (cancelled with the token of the loop that
   // asks, running_loop_token); null when that token fired first.
   const EntryTree* Tree() const;

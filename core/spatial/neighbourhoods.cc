@@ -220,6 +220,20 @@ bool Neighbourhoods::Encode(size_t i, const uint32_t* idx) {
 
 bool Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
                             uint8_t skip, size_t cap) const {
+  return Query(cloud, i, radius, out, skip, cap, SIZE_MAX);
+}
+
+bool Neighbourhoods::Sample(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
+                            uint8_t skip) const {
+  // On a surface a ball holds about (k + 1)·(r / d_k)² points: only one that would hold more
+  // than twice the sample is worth a lattice.
+  const double per_dk = dk(i) > 0 ? double(radius) / dk(i) : 0.0;
+  const bool full = (k_ + 1) * per_dk * per_dk > 2.0 * sample_points();
+  return Query(cloud, i, radius, out, skip, 0, full ? 2 * sample_points() : SIZE_MAX);
+}
+
+bool Neighbourhoods::Query(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
+                           uint8_t skip, size_t cap, size_t sample_over) const {
   out.clear();
   if (cap == 0) cap = max_ball_points();
   // Twice the cap on an even surface: r ≥ kStandInRadiusPerDk·d_k·√(cap / max_ball_points()).
@@ -241,9 +255,23 @@ bool Neighbourhoods::Within(const PointCloud& cloud, size_t i, float radius, Rad
     return false;
   }
   const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-  const size_t left_out = grid_.Ball(
-      q, {.limit_sq = radius * radius, .count = cap, .flags = cloud.flags.data(), .skip = skip},
-      radius, out);
+  const NearestQuery query = {
+      .limit_sq = radius * radius, .count = cap, .flags = cloud.flags.data(), .skip = skip};
+  double step = 1;
+  const size_t left_out = grid_.Ball(q, query, radius, out, sample_over, &step);
+  if (step > 1) {
+    // The centre belongs to its own fit (weight 1 in Eq. 4 and 6) whether the lattice read it
+    // or not; it comes first, as the k-NN path puts it.
+    const auto at =
+        std::find_if(out.begin(), out.end(), [&](const auto& m) { return m.first == i; });
+    if (at != out.end()) {
+      std::iter_swap(out.begin(), at);
+    } else if ((cloud.flags[i] & skip) == 0) {
+      out.emplace_back(static_cast<uint32_t>(i), 0.f);
+      std::swap(out.front(), out.back());
+    }
+    sampled_balls_.fetch_add(1, std::memory_order_relaxed);
+  }
   if (left_out == 0) return true;
   capped_balls_.fetch_add(1, std::memory_order_relaxed);
   capped_points_.fetch_add(left_out, std::memory_order_relaxed);

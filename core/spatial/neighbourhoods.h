@@ -63,6 +63,12 @@ inline constexpr float kStandInRadiusPerDk = 8.f;
 // of the radius is what spans the profiles.
 inline constexpr float kStandInMostDkPerGlobalRadius = 0.5f;
 
+// A sampled ball (Neighbourhoods::Sample) keeps about this many points per point of the k-NN list
+// and its centre: 63 at k = 20, what a normals ball of the default r_p holds on a scan at the
+// density its radii were meant for (docs/benchmarks.md), where balls stay whole; a denser scan's
+// fits see as many points as that one's, and an overlap's own-scan share keeps about k.
+inline constexpr uint32_t kSamplePointsPerNeighbour = 3;
+
 // Where scans overlap, a ball of one scan's points is widened once so that it holds about k + 1
 // of them, as r_p = d_k would on that scan alone: by √((k+1)/own) for `own` found, at most 2×
 // (4× the area; a point with hardly any of its own scan around it is judged on what is there,
@@ -170,9 +176,24 @@ class Neighbourhoods {
   bool Within(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
               uint8_t skip = kRemovedMask, size_t cap = 0) const;
   uint32_t max_ball_points() const { return std::max<uint32_t>(kMaxBallPointsPerK * k_, 64); }
-  // Balls capped so far, and the points they left out.
+  // Within for a fit or a mean (a plane, a normal, a weighted average, a mean quality), which
+  // needs an even spread of the ball, not every point of it. A ball that would hold more than
+  // 2·sample_points() points on a surface of i's d_k is read as a lattice of that many of its
+  // cells' entries (CellGrid::Ball's sample_over), and those inside stand for it, about
+  // sample_points() of them, i itself first unless `skip` leaves it out; counted in
+  // sampled_balls(). A lattice holding fewer than a quarter of what it read (a ball far thinner
+  // than its d_k said: a line, an edge; judged before `skip`, so a ball stays sampled or whole
+  // as points are removed) gives way to the whole ball. The work of a fit then stays of the order
+  // of the k-NN list however densely the surface is sampled (issue 38): a radius that holds the
+  // stated uncertainty u keeps its size in mm as the spacing shrinks, and without this a scan 16×
+  // as dense reads 2-3× the points per ball.
+  bool Sample(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out,
+              uint8_t skip = kRemovedMask) const;
+  size_t sample_points() const { return size_t{kSamplePointsPerNeighbour} * (k_ + 1); }
+  // Balls capped so far, and the points they left out; balls sampled.
   uint64_t capped_balls() const { return capped_balls_.load(std::memory_order_relaxed); }
   uint64_t capped_points() const { return capped_points_.load(std::memory_order_relaxed); }
+  uint64_t sampled_balls() const { return sampled_balls_.load(std::memory_order_relaxed); }
 
   // The points moved by at most `max_shift` each (smoothing bounds it by δ, Eq. 10). Instead of
   // a rebuild of the graph (a full k-NN pass) every k-NN list is re-ranked by its new distances,
@@ -185,6 +206,9 @@ class Neighbourhoods {
  private:
   Neighbourhoods() = default;
   void ComputeGlobalRadius();
+  // Within, with the grid's sample_over (SIZE_MAX: the whole ball).
+  bool Query(const PointCloud& cloud, size_t i, float radius, RadiusMatches& out, uint8_t skip,
+             size_t cap, size_t sample_over) const;
   // Stores idx (k indices) as i's list of rank differences; false, with the list marked wide,
   // when one does not fit 16 bits.
   bool Encode(size_t i, const uint32_t* idx);
@@ -210,7 +234,7 @@ class Neighbourhoods {
   std::vector<double> min_radius_;  // per scan
   std::span<const uint32_t> scan_;  // the cloud's scan index per point
   bool moved_ = false;              // points moved since the graph was built
-  mutable std::atomic<uint64_t> capped_balls_{0}, capped_points_{0};
+  mutable std::atomic<uint64_t> capped_balls_{0}, capped_points_{0}, sampled_balls_{0};
 };
 
 // Eq. (2): r_min = √3·Δs + ε_u (the circumsphere of a cube of edge 2Δs, which reaches both

@@ -143,7 +143,7 @@ absl::StatusOr<size_t> Gather(PointCloud& cloud, const Neighbourhoods& nb,
         const uint32_t i = order[at];
         go[i] = 0;
         if (cloud.removed(i) || settled[i] || !touched[i]) continue;
-        nb.Within(cloud, i, radius[cloud.scan[i]], matches);
+        nb.Sample(cloud, i, radius[cloud.scan[i]], matches);
         const Verdict v = Judge(cloud, quality, matches);
         settled[i] = !v.overlap;
         go[i] = ShouldGo(cloud, quality, v, i);

@@ -42,7 +42,7 @@ struct Scratch {
 // The unremoved points within `radius` of i, of i's own scan when `per_scan`.
 void Gather(const PointCloud& cloud, const Neighbourhoods& nb, size_t i, float radius,
             bool per_scan, RadiusMatches& matches) {
-  nb.Within(cloud, i, radius, matches);
+  nb.Sample(cloud, i, radius, matches);
   if (per_scan) {
     std::erase_if(matches, [&](const auto& m) { return cloud.scan[m.first] != cloud.scan[i]; });
   }

@@ -158,7 +158,7 @@ SmoothingOutcome SmoothPoint(const SmoothingInputs& in, size_t i, SmoothingScrat
   // they are measurements of the same surface, only worse viewed (Eq. 6 weighs them so), and
   // without them the merged layer is smoothed from a third of the data where three scans overlap.
   const uint8_t skip = in.s.own_side() ? kRemovedOutlier | kRemovedSimplify : kRemovedMask;
-  in.nb.Within(in.cloud, i, r_p, scratch.matches, skip);
+  in.nb.Sample(in.cloud, i, r_p, scratch.matches, skip);
   BaseWeights(in, r_p, scratch);
   return in.s.own_side() ? OwnSide(in, i, p, scratch, out) : Mean(in, i, p, scratch, out);
 }

@@ -132,7 +132,7 @@ std::optional<Judged> NearestSupportedPlane(const PointCloud& cloud, size_t i, f
 // plane, nor be judged by another scan's (possibly misregistered) layer.
 void OwnScanNeighbours(const PointCloud& cloud, const Neighbourhoods& nb, size_t i, float radius,
                        RadiusMatches& matches) {
-  nb.Within(cloud, i, radius, matches);
+  nb.Sample(cloud, i, radius, matches);
   std::erase_if(matches, [&](const auto& match) {
     return match.first == i || cloud.scan[match.first] != cloud.scan[i];
   });

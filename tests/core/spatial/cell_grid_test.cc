@@ -242,6 +242,63 @@ TEST(Neighbourhoods, WithinStaysExactAfterPointsMove) {
   }
 }
 
+// A ball for a fit on a densely sampled plane (0.01 mm pitch, radius 0.1 mm: about 310 points,
+// twice as many candidates): Sample reads a lattice of 2·sample_points() of its cells' entries
+// and returns those inside, an even spread of the ball with its centre first. Each
+// quadrant around the centre holds its quarter and the mean distance its share (2r/3 on a disc),
+// so a plane fit or a mean over it sees the ball, not a corner of it. The control: the whole
+// ball (Within) holds more points than the sample reads.
+TEST(Neighbourhoods, SampledBallIsAnEvenSubsetWithItsCentreFirst) {
+  PointCloud cloud;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> jitter(-0.002f, 0.002f);
+  for (int r = 0; r < 120; ++r) {
+    for (int c = 0; c < 120; ++c) {
+      cloud.x.push_back(c * 0.01f + jitter(rng));
+      cloud.y.push_back(r * 0.01f + jitter(rng));
+      cloud.z.push_back(jitter(rng));
+    }
+  }
+  cloud.FinishLoading();
+  auto nb = Neighbourhoods::Build(cloud, {.k = 20}, CancelToken());
+  ASSERT_TRUE(nb.ok());
+  const float radius = 0.1f;
+  RadiusMatches whole, sample;
+  for (const size_t i : {size_t{60 * 120 + 60}, size_t{45 * 120 + 70}, size_t{70 * 120 + 41}}) {
+    (*nb)->Within(cloud, i, radius, whole);
+    const uint64_t sampled_before = (*nb)->sampled_balls();
+    EXPECT_TRUE((*nb)->Sample(cloud, i, radius, sample));
+    EXPECT_EQ((*nb)->sampled_balls(), sampled_before + 1);
+    ASSERT_GT(whole.size(), 2 * (*nb)->sample_points()) << "the control: a ball worth sampling";
+    ASSERT_FALSE(sample.empty());
+    EXPECT_EQ(sample.front(), std::make_pair(static_cast<uint32_t>(i), 0.f));
+    EXPECT_LE(sample.size(), 2 * (*nb)->sample_points());
+    EXPECT_GE(sample.size(), (*nb)->sample_points() / 2);
+    std::sort(whole.begin(), whole.end());
+    int quadrant[4] = {0, 0, 0, 0};
+    double mean_distance = 0;
+    for (const auto& m : sample) {
+      EXPECT_TRUE(std::binary_search(whole.begin(), whole.end(), m)) << "point " << m.first;
+      const float dx = cloud.x[m.first] - cloud.x[i], dy = cloud.y[m.first] - cloud.y[i];
+      ++quadrant[(dx > 0) + 2 * (dy > 0)];
+      mean_distance += std::sqrt(m.second) / double(sample.size());
+    }
+    std::sort(sample.begin(), sample.end());
+    EXPECT_EQ(std::adjacent_find(sample.begin(), sample.end()), sample.end());
+    for (const int q : quadrant) {
+      EXPECT_NEAR(q, sample.size() / 4.0, sample.size() * 0.08) << "centre " << i;
+    }
+    EXPECT_NEAR(mean_distance, 2 * radius / 3, 0.1 * radius) << "centre " << i;
+  }
+  // A ball whose cells hold no more than the sample reads is read whole.
+  const size_t centre = 60 * 120 + 60;
+  (*nb)->Within(cloud, centre, 0.03f, whole);
+  (*nb)->Sample(cloud, centre, 0.03f, sample);
+  std::sort(whole.begin(), whole.end());
+  std::sort(sample.begin(), sample.end());
+  EXPECT_EQ(sample, whole);
+}
+
 // A job mixing a fine line sensor (Δs = 0.1 mm) and a coarse one (Δs = 1 mm) side by side: each
 // scan's r_min follows Eq. (2) from its own spacing and uncertainty, r_min = √3·Δs + u, so the
 // fine sensor's balls are not blown up to the coarse one's.

@@ -189,9 +189,12 @@ TEST(Correction, WithoutQualityTheMergeSaysItDidNothing) {
 // judges every unremoved point whose ball spanned two scans last time, on the labels of the
 // round before; a ball fuller than `cap` keeps its nearest (ties to the lower index), and a ball
 // kStandInRadiusPerDk·d_k or wider is the point and its k nearest others (the k-NN list stands in).
+// A ball that `sampled` (the index's Sample, its lattice tested in cell_grid_test) reads as a
+// lattice is that lattice: what is checked here is which centres are judged again, not the ball.
 std::vector<uint8_t> ReferenceGather(const PointCloud& cloud, const std::vector<uint8_t>& flags,
                                      const std::vector<float>& quality,
-                                     const std::vector<float>& radius, size_t cap) {
+                                     const std::vector<float>& radius, size_t cap,
+                                     const Neighbourhoods& sampled) {
   const KdTree tree(cloud);
   std::vector<uint8_t> gone(cloud.size(), 0), settled(cloud.size(), 0);
   for (size_t i = 0; i < cloud.size(); ++i) gone[i] = (flags[i] & kRemovedMask) != 0;
@@ -206,7 +209,11 @@ std::vector<uint8_t> ReferenceGather(const PointCloud& cloud, const std::vector<
       const float q[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
       const float r = radius[cloud.scan[i]];
       tree.Knn(q, kK + 1, idx.data(), d2.data());  // i itself first, then its k nearest others
-      if (r >= kStandInRadiusPerDk * std::sqrt(d2[kK])) {
+      const uint64_t lattices = sampled.sampled_balls();
+      sampled.Sample(cloud, i, r, ball, 0);
+      if (sampled.sampled_balls() > lattices) {
+        // the lattice
+      } else if (r >= kStandInRadiusPerDk * std::sqrt(d2[kK])) {
         ball.clear();
         for (uint32_t m = 0; m <= kK; ++m) ball.emplace_back(idx[m], d2[m]);
       } else {
@@ -284,7 +291,10 @@ TEST(Correction, GatherJudgesAgainOnlyWhereABallLostAPoint) {
     EXPECT_GT(stage.parameters.at("correction.rounds_run"), 2);
     EXPECT_EQ(capped_after > capped_before, cluster);
 
-    const std::vector<uint8_t> expected = ReferenceGather(cloud, flags, quality, radius, cap);
+    auto sampled = Neighbourhoods::Build(cloud, {.k = kDefaultNeighbourK}, CancelToken());
+    ASSERT_TRUE(sampled.ok()) << sampled.status();
+    const std::vector<uint8_t> expected =
+        ReferenceGather(cloud, flags, quality, radius, cap, **sampled);
     size_t removed = 0, differ = 0;
     for (size_t i = 0; i < cloud.size(); ++i) {
       removed += (cloud.flags[i] & kRemovedMerge) != 0;
