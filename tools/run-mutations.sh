@@ -24,6 +24,7 @@
 # commits reach different ones. A budgeted run is a sample: the whole list is run before a stop.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source tools/lib/test-suites.sh
 build_dir=${BUILD_DIR:-build}
 list=tools/mutations.txt
 filter=${1:-.}
@@ -102,8 +103,7 @@ PY
 mapfile -t sources < <(ls tests/core/*/*_test.cc | grep -v '/io_')
 targets=()
 for s in "${sources[@]}"; do targets+=("$(basename "$s" .cc)"); done
-suites=$(grep -ohE '^TEST(_F|_P)?\(\w+' "${sources[@]}" | sed 's/.*(//' | sort -u | paste -sd'|')
-suite_regex="^($suites)\\."
+suite_regex=$(test_suite_regex "${sources[@]}")
 
 [[ -f $build_dir/build.ninja ]] ||
   cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null

@@ -18,6 +18,7 @@
 # report fails the run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source tools/lib/test-suites.sh
 jobs=("$@")
 ((${#jobs[@]})) || jobs=(asan tsan)
 
@@ -59,11 +60,10 @@ for job in "${jobs[@]}"; do
       mapfile -t tests < <(ls tests/core/{base,spatial,io,sim}/*_test.cc | xargs -n1 basename |
         sed 's/[.]cc$//')
       ninja -C build-asan "${tests[@]}"
-      suites=$(grep -ohE '^TEST(_F|_P)?\(\w+' tests/core/{base,spatial,io,sim}/*_test.cc |
-        sed 's/.*(//' | sort -u | paste -sd'|')
+      suites=$(test_suite_regex tests/core/{base,spatial,io,sim}/*_test.cc)
       ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
       UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-        ctest --test-dir build-asan --output-on-failure -j "$(nproc)" -R "^($suites)[.]"
+        ctest --test-dir build-asan --output-on-failure -j "$(nproc)" -R "$suites"
       BUILD_DIR=build-asan bash tools/run-fuzzers.sh "${FUZZ_SECONDS:-60}"
       ;;
     tsan)
