@@ -52,7 +52,8 @@ void PrintRow(const std::string& name, const Metrology& m, const Metrology& raw,
   std::fflush(stdout);
 }
 
-double Seconds(const std::function<void()>& run) {
+// Used by the optional PCL and CGAL comparisons only.
+[[maybe_unused]] double Seconds(const std::function<void()>& run) {
   const auto start = std::chrono::steady_clock::now();
   run();
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -34,7 +34,7 @@ PointCloud Sample() {
     cloud.nx.push_back(std::cos(a));
     cloud.ny.push_back(std::sin(a));
     cloud.nz.push_back(0);
-    flags.push_back(static_cast<uint8_t>(i % 7 == 3 ? kRemovedOutlier : (i * 37) % 64 & ~7));
+    flags.push_back(static_cast<uint8_t>(i % 7 == 3 ? int{kRemovedOutlier} : (i * 37) % 64 & ~7));
     cloud.scanline.push_back(i / 10);
   }
   cloud.scans.push_back(ScanMeta{.id = "sample"});
