@@ -14,6 +14,8 @@
 #include "core/base/parallel.h"
 #include "core/base/status_macros.h"
 #include "core/spatial/view_geometry.h"
+#include "core/stages/noise_bounds.h"
+#include "core/stages/scan_noise.h"
 #include "core/stages/scan_spacing.h"
 #include "core/stages/scanline_curvature.h"
 #include "core/stages/stage_context.h"
@@ -119,12 +121,10 @@ absl::StatusOr<std::vector<double>> Windows(const PointCloud& cloud, const Neigh
   return window;
 }
 
-absl::Status Curvature(PointCloud& cloud, PointMeasures& m, const Neighbourhoods* nb,
-                       const MeasuresSettings& settings, StageReporter& out) {
-  const size_t n = cloud.size();
-  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> window, Windows(cloud, nb, settings, out));
-
-  std::vector<float> kappa;
+// κ of every scanline window (`curvatures`), when the cloud is a line scan with scanlines (the
+// return value); the warnings for a line scan without them and for capped windows.
+absl::StatusOr<bool> ScanlineStep(const PointCloud& cloud, const std::vector<double>& window,
+                                  StageReporter& out, ScanlineCurvatures& curvatures) {
   const bool lines = cloud.kind == ScannerKind::kLine && cloud.has_scanlines();
   // A line scanner's κ̂ comes from its scanlines (Eq. 11); without them every point falls back
   // to surface variation (Eq. 12), which blurs edges over the whole ball. Flexible scanners
@@ -137,54 +137,116 @@ absl::Status Curvature(PointCloud& cloud, PointMeasures& m, const Neighbourhoods
              "surface variation (Eq. 12) everywhere instead of scanline curvature (Eq. 11); "
              "send the scanline of every point");
   }
-  if (lines) {
-    ScanlineCurvatureCounts counts;
-    SCANPREP_RETURN_IF_ERROR(ScanlineCurvature(cloud, window, out.cancel(), kappa, counts));
-    out.Record("measures.windows_capped", static_cast<double>(counts.windows_capped));
-    if (counts.windows_capped > 0) {
-      out.Warn(WarningCode::kWindowsCapped,
-               absl::StrCat("measures: ", counts.windows_capped,
-                            " scanline windows held more "
-                            "than ",
-                            kMaxWindowSide,
-                            " points on a side and were cut to that; "
-                            "measures.window_mm may be far too large for the point spacing "
-                            "(or given in the wrong unit)"));
+  if (!lines) return false;
+  ScanlineCurvatureCounts counts;
+  SCANPREP_RETURN_IF_ERROR(ScanlineCurvature(cloud, window, out.cancel(), curvatures, counts));
+  out.Record("measures.windows_capped", static_cast<double>(counts.windows_capped));
+  if (counts.windows_capped > 0) {
+    out.Warn(WarningCode::kWindowsCapped,
+             absl::StrCat("measures: ", counts.windows_capped, " scanline windows held more than ",
+                          kMaxWindowSide,
+                          " points on a side and were cut to that; measures.window_mm may be far "
+                          "too large for the point spacing (or given in the wrong unit)"));
+  }
+  return true;
+}
+
+// The median fit residual ρ̂ noise gives a plane, per scan (MeasuredScanNoise); from the stated u
+// where none was measured.
+absl::StatusOr<std::vector<float>> MedianFitPerScan(const PointCloud& cloud, const PointMeasures& m,
+                                                    const NoiseBounds& bounds,
+                                                    const CancelToken& cancel) {
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<std::optional<double>> measured,
+                            MeasuredScanNoise(cloud, m, cloud.scans.size(), cancel));
+  std::vector<float> median(cloud.scans.size());
+  for (size_t s = 0; s < median.size(); ++s) {
+    median[s] = static_cast<float>(
+        measured[s].value_or(cloud.scans[s].uncertainty / bounds.sigma_per_median));
+  }
+  return median;
+}
+
+// A point's κ̂ (Eq. 7) and κ̂ less what noise alone makes of a plane there (the edge decision),
+// from its scanline window or else its surface variation.
+struct Judged {
+  double curvature, beyond_noise;
+};
+
+Judged FromScanline(const ScanlineCurvatures& c, size_t i, double sigma,
+                    const MeasuresSettings& settings) {
+  // Less what noise σ makes of a straight line in this window, at 99.9 %; and only where a
+  // smooth curve plus noise does not explain the window: a bore or a fillet is curvature, not
+  // an edge.
+  const double noise_kappa = NoiseBounds::kZ * sigma * c.noise_per_sigma[i];
+  const bool kink = c.misfit[i] > sigma * sigma;
+  return {c.kappa[i] / settings.scale,
+          kink ? std::max(0.0, c.kappa[i] - noise_kappa) / settings.scale : 0.0};
+}
+
+Judged FromVariation(const PointMeasures& m, size_t i, double median_fit, double fit_ms_bound,
+                     const MeasuresSettings& settings) {
+  const double value = m.surface_variation[i] / settings.variation_scale;  // Eq. (12) fallback
+  // Less the share of the fit's spread that a plane's noise accounts for at 99.9 %.
+  const double fit = m.fit_rms[i];
+  const double noise_ms = fit_ms_bound * median_fit * median_fit;
+  return {value, fit > 0 ? value * std::max(0.0, 1 - noise_ms / (fit * fit)) : 0.0};
+}
+
+struct EdgeCounts {
+  size_t flagged = 0;       // EDGE: κ̂ less noise at the threshold
+  size_t at_threshold = 0;  // κ̂ alone there: simplification's edge set, EDGE without the noise
+};
+
+// EDGE where κ̂ less noise reaches the threshold.
+EdgeCounts FlagEdges(PointCloud& cloud, const std::vector<float>& curvature,
+                     const std::vector<float>& beyond_noise, double threshold) {
+  EdgeCounts counts;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    cloud.flags[i] &= static_cast<uint8_t>(~kEdge);
+    if (cloud.removed(i)) continue;
+    counts.at_threshold += curvature[i] >= threshold;
+    if (beyond_noise[i] >= threshold) {
+      cloud.flags[i] |= kEdge;
+      ++counts.flagged;
     }
   }
+  return counts;
+}
+
+absl::Status Curvature(PointCloud& cloud, PointMeasures& m, const Neighbourhoods* nb,
+                       const MeasuresSettings& settings, StageReporter& out) {
+  const size_t n = cloud.size();
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> window, Windows(cloud, nb, settings, out));
+  ScanlineCurvatures scanline;
+  SCANPREP_ASSIGN_OR_RETURN(const bool lines, ScanlineStep(cloud, window, out, scanline));
+  const NoiseBounds bounds(nb ? nb->k() : kDefaultNeighbourK);
+  SCANPREP_ASSIGN_OR_RETURN(const std::vector<float> median_fit,
+                            MedianFitPerScan(cloud, m, bounds, out.cancel()));
   std::vector<float>& curvature = m.curvature;
   curvature.assign(n, 0.f);
-  const std::vector<float>& variation = m.surface_variation;
+  std::vector<float> beyond_noise(n, 0.f);
   std::atomic<size_t> fallback{0};
+  const auto by_line = [&](size_t i) { return lines && std::isfinite(scanline.kappa[i]); };
   // Neither a scanline window nor a normal fit: no curvature at all.
-  auto unknown = [&](size_t i) {
-    return !(lines && std::isfinite(kappa[i])) && !HasNormal(cloud, i);
-  };
+  const auto unknown = [&](size_t i) { return !by_line(i) && !HasNormal(cloud, i); };
   SCANPREP_RETURN_IF_ERROR(ParallelFor(n, out.cancel(), [&](size_t begin, size_t end) {
     size_t local_fallback = 0;
     for (size_t i = begin; i < end; ++i) {
-      if (cloud.removed(i)) continue;
-      double value;
-      if (lines && std::isfinite(kappa[i])) {
-        value = kappa[i] / settings.scale;
-      } else {
-        value = variation[i] / settings.variation_scale;  // Eq. (12) fallback
-        ++local_fallback;
-      }
-      curvature[i] = static_cast<float>(std::min(value, 1.0));  // Eq. (7)
+      if (cloud.removed(i) || unknown(i)) continue;
+      const double median = median_fit[cloud.scan[i]];
+      const Judged judged =
+          by_line(i) ? FromScanline(scanline, i, bounds.sigma_per_median * median, settings)
+                     : FromVariation(m, i, median, bounds.fit_ms_over_median, settings);
+      local_fallback += !by_line(i);
+      curvature[i] = static_cast<float>(std::min(judged.curvature, 1.0));  // Eq. (7)
+      beyond_noise[i] = static_cast<float>(std::min(judged.beyond_noise, 1.0));
     }
     fallback += local_fallback;
   }));
   AssignScanMedians(cloud, unknown, curvature);
-  size_t edges = 0;
-  for (size_t i = 0; i < n; ++i) {
-    cloud.flags[i] &= static_cast<uint8_t>(~kEdge);
-    if (!cloud.removed(i) && curvature[i] >= settings.edge_threshold) {
-      cloud.flags[i] |= kEdge;
-      ++edges;
-    }
-  }
-  out.Record("measures.edges", static_cast<double>(edges));
+  const EdgeCounts edges = FlagEdges(cloud, curvature, beyond_noise, settings.edge_threshold);
+  out.Record("measures.edges", static_cast<double>(edges.flagged));
+  out.Record("measures.curvature_at_threshold", static_cast<double>(edges.at_threshold));
   out.Record("measures.curvature_from_variation", static_cast<double>(fallback));
   return absl::OkStatus();
 }
@@ -201,6 +263,9 @@ class MeasuresStage : public Stage {
 
 absl::Status ComputeMeasures(PointCloud& cloud, PointMeasures& m, const Neighbourhoods* nb,
                              const MeasuresSettings& settings, StageReporter& out) {
+  if (m.fit_rms.size() != cloud.size() || m.surface_variation.size() != cloud.size()) {
+    return absl::InternalError("measures: the normals stage left no fits");
+  }
   SCANPREP_RETURN_IF_ERROR(Quality(cloud, m, out));
   return Curvature(cloud, m, nb, settings, out);
 }

@@ -12,6 +12,7 @@
 #include "core/base/per_scan_values.h"
 #include "core/base/status_macros.h"
 #include "core/spatial/local_moments.h"
+#include "core/stages/noise_bounds.h"
 
 namespace scanprep {
 namespace {
@@ -49,11 +50,21 @@ struct LineScratch {
   std::vector<float> w;
 };
 
+struct WindowFit {
+  float kappa = std::numeric_limits<float>::quiet_NaN();
+  float noise_per_sigma = std::numeric_limits<float>::quiet_NaN();
+  float misfit = std::numeric_limits<float>::quiet_NaN();
+};
+
 // The weighted quadratic y = a0 + a1·x + a2·x² in the window's own PCA frame. In three passes,
 // so that the loop that sums holds no call: frame coordinates, weights, power sums.
-float WindowCurvature(LineScratch& s, size_t centre, size_t lo, size_t hi, double h) {
+// Its noise: with independent noise σ on y, Cov(a) = σ²·A⁻¹BA⁻¹ for A = Σw·rowᵀrow and
+// B = Σw²·rowᵀrow, so std(a2)/σ = √(vᵀBv) with v = A⁻¹e₂; and the weighted residual Σw·r² has
+// the mean σ²·(Σw − tr(A⁻¹B)) (exactly: (I − H)ᵀW(I − H) = W − WH for the hat matrix H), and
+// about the spread of σ²·χ²_ν/ν times that, ν = (Σw)²/Σw² − 3.
+WindowFit WindowCurvature(LineScratch& s, size_t centre, size_t lo, size_t hi, double h) {
   const LocalFrame frame = s.prefix[hi + 1].Without(s.prefix[lo]).Solve();
-  if (!(frame.eigenvalues[2] > 0)) return std::numeric_limits<float>::quiet_NaN();
+  if (!(frame.eigenvalues[2] > 0)) return {};
   const Eigen::Vector3d tangent = frame.axes.col(2), across = frame.axes.col(1);
   const double inv_two_var = 1.0 / (2 * (h / 2) * (h / 2));
   const size_t count = hi - lo + 1;
@@ -69,23 +80,39 @@ float WindowCurvature(LineScratch& s, size_t centre, size_t lo, size_t hi, doubl
   }
   for (float& w : s.w) w = std::exp(w);  // float: a weight
   // The normal equations of rows (1, x, x²) hold only the weighted power sums Σw·xᵏ, k <= 4,
-  // and Σw·y·xᵏ, k <= 2.
-  double sx[5] = {0, 0, 0, 0, 0}, sy[3] = {0, 0, 0};
+  // and Σw·y·xᵏ, k <= 2; their noise the sums Σw²·xᵏ.
+  double sx[5] = {0, 0, 0, 0, 0}, sy[3] = {0, 0, 0}, sq[5] = {0, 0, 0, 0, 0}, syy = 0;
   for (size_t t = 0; t < count; ++t) {
     const double w = s.w[t], x = s.x[t], y = s.y[t], x2 = x * x;
     const double wx = w * x, wx2 = w * x2;
     sx[0] += w, sx[1] += wx, sx[2] += wx2, sx[3] += wx2 * x, sx[4] += wx2 * x2;
-    sy[0] += w * y, sy[1] += wx * y, sy[2] += wx2 * y;
+    sy[0] += w * y, sy[1] += wx * y, sy[2] += wx2 * y, syy += w * y * y;
+    sq[0] += w * w, sq[1] += w * wx, sq[2] += w * wx2, sq[3] += w * wx2 * x, sq[4] += w * wx2 * x2;
   }
-  Eigen::Matrix3d normal_eq;
-  normal_eq << sx[0], sx[1], sx[2], sx[1], sx[2], sx[3], sx[2], sx[3], sx[4];
-  const Eigen::Vector3d a = normal_eq.ldlt().solve(Eigen::Vector3d(sy[0], sy[1], sy[2]));
-  const double kappa = std::abs(2 * a[2]) / std::pow(1 + a[1] * a[1], 1.5);
-  return std::isfinite(kappa) ? static_cast<float>(kappa) : std::numeric_limits<float>::quiet_NaN();
+  const auto hankel = [](const double(&m)[5]) {
+    Eigen::Matrix3d a;
+    a << m[0], m[1], m[2], m[1], m[2], m[3], m[2], m[3], m[4];
+    return a;
+  };
+  const auto normal_eq = hankel(sx).ldlt();
+  const Eigen::Vector3d b(sy[0], sy[1], sy[2]);
+  const Eigen::Vector3d a = normal_eq.solve(b);
+  const Eigen::Vector3d v = normal_eq.solve(Eigen::Vector3d::UnitZ());
+  const Eigen::Matrix3d noise_sums = hankel(sq);
+  const double slope = std::pow(1 + a[1] * a[1], 1.5);
+  const double kappa = std::abs(2 * a[2]) / slope;
+  const double noise = 2 * std::sqrt(std::max(0.0, v.dot(noise_sums * v))) / slope;
+  // The residual's mean square per unit of its expectation, at its 99.9 % bound.
+  const double expected = sx[0] - normal_eq.solve(noise_sums).trace();
+  const double nu = std::max(1.0, sx[0] * sx[0] / sq[0] - 3);
+  const double residual = std::max(0.0, syy - a.dot(b));
+  const double misfit = residual / expected / (ChiSquareQuantile(nu, kOneSided999) / nu);
+  if (!std::isfinite(kappa) || !std::isfinite(noise) || !(expected > 0)) return {};
+  return {static_cast<float>(kappa), static_cast<float>(noise), static_cast<float>(misfit)};
 }
 
 void LineCurvature(const PointCloud& cloud, size_t begin, size_t end, double h,
-                   const CancelToken& cancel, LineScratch& s, std::vector<float>& kappa,
+                   const CancelToken& cancel, LineScratch& s, ScanlineCurvatures& out,
                    ScanlineCurvatureCounts& counts) {
   s.idx.clear();
   for (size_t i = begin; i < end; ++i) {
@@ -133,7 +160,10 @@ void LineCurvature(const PointCloud& cloud, size_t begin, size_t end, double h,
     if (t - first < 2 || last - t < 2) continue;  // a segment end: the caller falls back
     counts.windows_capped += first != lo || last != reach;
     counts.window_points += last - first + 1;
-    kappa[s.idx[t]] = WindowCurvature(s, t, first, last, h);
+    const WindowFit fit = WindowCurvature(s, t, first, last, h);
+    out.kappa[s.idx[t]] = fit.kappa;
+    out.noise_per_sigma[s.idx[t]] = fit.noise_per_sigma;
+    out.misfit[s.idx[t]] = fit.misfit;
   }
 }
 
@@ -163,9 +193,11 @@ absl::StatusOr<std::vector<double>> MedianScanlineSpacing(const PointCloud& clou
 }
 
 absl::Status ScanlineCurvature(const PointCloud& cloud, const std::vector<double>& window,
-                               const CancelToken& cancel, std::vector<float>& kappa,
+                               const CancelToken& cancel, ScanlineCurvatures& out,
                                ScanlineCurvatureCounts& counts) {
-  kappa.assign(cloud.size(), std::numeric_limits<float>::quiet_NaN());
+  out.kappa.assign(cloud.size(), std::numeric_limits<float>::quiet_NaN());
+  out.noise_per_sigma.assign(cloud.size(), std::numeric_limits<float>::quiet_NaN());
+  out.misfit.assign(cloud.size(), std::numeric_limits<float>::quiet_NaN());
   const std::vector<std::pair<size_t, size_t>> runs = ScanlineRuns(cloud);
   std::atomic<size_t> capped{0}, points{0};
   absl::Status status = ParallelFor(
@@ -175,8 +207,7 @@ absl::Status ScanlineCurvature(const PointCloud& cloud, const std::vector<double
         ScanlineCurvatureCounts local;
         for (size_t r = begin; r < end; ++r) {
           const auto [first, last] = runs[r];
-          LineCurvature(cloud, first, last, window[cloud.scan[first]], cancel, scratch, kappa,
-                        local);
+          LineCurvature(cloud, first, last, window[cloud.scan[first]], cancel, scratch, out, local);
         }
         capped += local.windows_capped;
         points += local.window_points;

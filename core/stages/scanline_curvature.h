@@ -29,12 +29,25 @@ struct ScanlineCurvatureCounts {
   size_t window_points = 0;   // points summed over all fits: the work, <= (2·kMaxWindowSide+1)·n
 };
 
-// κ (mm⁻¹) for every point whose scanline window holds >= 2 points on each side; NaN elsewhere
+// Per point, from its scanline window, so that a caller can judge κ against the scan's noise σ:
+// - kappa: κ (mm⁻¹);
+// - noise_per_sigma: the standard deviation κ would have on a straight line with unit noise
+//   across it (κ's noise per mm of σ);
+// - misfit (mm²): the σ² at which the quadratic's residual would be the 99.9 % extreme of noise;
+//   above the scan's σ², the window is no smooth curve (a kink: an edge, not a bore or a fillet).
+// NaN where no window exists.
+struct ScanlineCurvatures {
+  std::vector<float> kappa;
+  std::vector<float> noise_per_sigma;
+  std::vector<float> misfit;
+};
+
+// κ for every point whose scanline window holds >= 2 points on each side; NaN elsewhere
 // (removed points, segment ends, clouds without scanlines). Lines are split at gaps > 3·Δp_ℓ and
 // the window is |arc offset| <= window[scan], at most kMaxWindowSide points a side, with
 // weights exp(−x²/(2(h/2)²)).
 absl::Status ScanlineCurvature(const PointCloud& cloud, const std::vector<double>& window,
-                               const CancelToken& cancel, std::vector<float>& kappa,
+                               const CancelToken& cancel, ScanlineCurvatures& out,
                                ScanlineCurvatureCounts& counts);
 
 }  // namespace scanprep

@@ -61,6 +61,27 @@ double CoverageRadiusMm(const sim::SimulatedCloud& sim) {
   return 2 * spacing;
 }
 
+EdgeFlags EdgeFlagsAgainstTruth(const sim::SimulatedCloud& sim, const PointCloud& processed) {
+  EdgeFlags flags;
+  for (size_t i = 0; i < processed.size(); ++i) {
+    if (sim.is_outlier[i] || (processed.flags[i] & (kRemovedOutlier | kRemovedMerge))) continue;
+    const float* band =
+        std::upper_bound(std::begin(kEdgeBandsMm), std::end(kEdgeBandsMm), sim.edge_distance[i]);
+    const size_t b = static_cast<size_t>(band - std::begin(kEdgeBandsMm));
+    const bool edge = (processed.flags[i] & kEdge) != 0;
+    const bool curved = sim.edge_distance[i] > kEdgeZoneMm && !OnPlanarFace(sim.true_normal[i]);
+    const bool returned = !processed.removed(i);
+    for (auto [share, counts] : {std::pair{&flags.measured[b], true},
+                                 {&flags.returned[b], returned},
+                                 {&flags.curved_measured, curved},
+                                 {&flags.curved_returned, curved && returned}}) {
+      share->points += counts;
+      share->flagged += counts && edge;
+    }
+  }
+  return flags;
+}
+
 Metrology MeasureAgainstTruth(sim::Part part, const sim::SimulatedCloud& sim,
                               const PointCloud& processed) {
   SumOfSquares flat, curved, edge, convex, concave;

@@ -15,6 +15,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <iterator>
 
 #include "core/base/point_cloud.h"
 #include "core/sim/scan_simulator.h"
@@ -44,6 +45,26 @@ struct Metrology {
 // Twice the largest nominal scanline spacing of the scans: a hole counts only when it is wider
 // than two scanlines, which no thinning to the simplification's spacing 2·√(Δs·Δp) may leave.
 double CoverageRadiusMm(const sim::SimulatedCloud& sim);
+
+// The EDGE flag against each sample's true distance to the nearest sharp edge, in bands with
+// these upper bounds (mm); the last band is everything farther (flat faces, curved ones, parts
+// without an edge). Spikes are left out.
+inline constexpr float kEdgeBandsMm[] = {0.1f, 0.3f, 1.0f, 3.0f};
+inline constexpr size_t kEdgeBands = std::size(kEdgeBandsMm) + 1;
+
+struct FlaggedShare {
+  size_t points = 0, flagged = 0;
+  double share() const { return points > 0 ? double(flagged) / double(points) : std::nan(""); }
+};
+struct EdgeFlags {
+  // measured: the points the measures stage judged and smoothing saw (those simplification
+  // thinned included); returned: the points the job returns.
+  FlaggedShare measured[kEdgeBands], returned[kEdgeBands];
+  // The curved zone (curved faces more than kEdgeZoneMm from a sharp edge), likewise: a bore or
+  // a fillet is curvature, not an edge.
+  FlaggedShare curved_measured, curved_returned;
+};
+EdgeFlags EdgeFlagsAgainstTruth(const sim::SimulatedCloud& sim, const PointCloud& processed);
 
 // `processed` is `sim.cloud` after a pipeline run: the same points in the same order, removed
 // points still present and flagged. Pass sim.cloud itself for the raw row.

@@ -5,16 +5,19 @@
 
 namespace scanprep::testing {
 
-sim::SimulatedCloud SimulateEvaluationScan(size_t points, uint64_t seed) {
-  std::vector<sim::SimSensor> sensors = sim::ThreeOverlappingSensors(kEvaluationPart);
-  for (sim::SimSensor& s : sensors) s.noise_sigma = kEvaluationSigmaMm;
-  return sim::SimulateWithPointCount(kEvaluationPart, std::move(sensors), points,
-                                     kEvaluationSpikeShare, seed);
+sim::SimulatedCloud SimulateScan(sim::Part part, double sigma, size_t points, uint64_t seed) {
+  std::vector<sim::SimSensor> sensors = sim::ThreeOverlappingSensors(part);
+  for (sim::SimSensor& s : sensors) s.noise_sigma = sigma;
+  return sim::SimulateWithPointCount(part, std::move(sensors), points, kEvaluationSpikeShare, seed);
 }
 
-PointCloud WithUserMetadata(const sim::SimulatedCloud& sim) {
+sim::SimulatedCloud SimulateEvaluationScan(size_t points, uint64_t seed) {
+  return SimulateScan(kEvaluationPart, kEvaluationSigmaMm, points, seed);
+}
+
+PointCloud WithUserMetadata(const sim::SimulatedCloud& sim, double sigma) {
   PointCloud cloud = sim.cloud;
-  for (ScanMeta& scan : cloud.scans) scan.uncertainty = kEvaluationSigmaMm;
+  for (ScanMeta& scan : cloud.scans) scan.uncertainty = sigma;
   return cloud;
 }
 

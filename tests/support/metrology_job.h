@@ -22,10 +22,14 @@ inline constexpr double kEvaluationSpikeShare = 0.01;  // injected spikes per sc
 // The stepped block seen by ThreeOverlappingSensors, about `points` points, 1 % spikes.
 sim::SimulatedCloud SimulateEvaluationScan(size_t points, uint64_t seed);
 
+// `part` seen by ThreeOverlappingSensors with range noise `sigma`, about `points` points, 1 %
+// spikes.
+sim::SimulatedCloud SimulateScan(sim::Part part, double sigma, size_t points, uint64_t seed);
+
 // One file per scan with its scanlines, as a user describes a laser-line scanner: camera
-// position, projector direction, scanline and point spacing, and u = σ — the sensor's stated
-// uncertainty, not the simulator's conservative 3σ.
-PointCloud WithUserMetadata(const sim::SimulatedCloud& sim);
+// position, projector direction, scanline and point spacing, and u = `sigma` — the sensor's
+// stated uncertainty, not the simulator's conservative 3σ.
+PointCloud WithUserMetadata(const sim::SimulatedCloud& sim, double sigma = kEvaluationSigmaMm);
 
 // What the service makes of the same points sent as one bare .xyz file (`scanprep process
 // all.xyz`: io::ReadXyz, client::BuildJob, server ScanMetaFromProto / KindFromHeader): one scan

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <functional>
 #include <numbers>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -11,6 +12,7 @@
 #include "core/sim/scan_simulator.h"
 #include "core/stages/measures.h"
 #include "core/stages/scanline_curvature.h"
+#include "tests/support/metrology_job.h"
 #include "tests/support/planned_stages.h"
 #include "tests/support/sim_checks.h"
 #include "tests/support/stage_call.h"
@@ -21,16 +23,21 @@ namespace {
 
 // The stage function, called on the normals its plan's earlier stages fitted, after `before` has
 // seen the cloud; its measures copied into `result`.
+// `stages`: the plan it is part of (default: measures alone, after its prerequisites).
 absl::StatusOr<PipelineReport> RunMeasures(PointCloud& cloud, PointMeasures* result,
                                            const ParamOverrides& params = {},
-                                           const std::function<void(PointCloud&)>& before = {}) {
-  return CallStage(cloud, "measures", params, [&](StageInputs& in) {
-    if (before) before(in.cloud);
-    SCANPREP_RETURN_IF_ERROR(ComputeMeasures(in.cloud, in.measures, &in.neighbourhoods,
-                                             in.Settings(MeasuresParams()), in.out));
-    *result = in.measures;
-    return absl::OkStatus();
-  });
+                                           const std::function<void(PointCloud&)>& before = {},
+                                           std::vector<std::string> stages = {}) {
+  return CallStage(
+      cloud, "measures", params,
+      [&](StageInputs& in) {
+        if (before) before(in.cloud);
+        SCANPREP_RETURN_IF_ERROR(ComputeMeasures(in.cloud, in.measures, &in.neighbourhoods,
+                                                 in.Settings(MeasuresParams()), in.out));
+        *result = in.measures;
+        return absl::OkStatus();
+      },
+      std::move(stages));
 }
 
 double Angle(const Eigen::Vector3d& n, const Eigen::Vector3d& toward) {
@@ -196,6 +203,129 @@ TEST(Measures, SurfaceVariationFindsTheBoxEdgesWithoutScanlines) {
   EXPECT_LE(h.far_hits, 0.02 * h.far);
 }
 
+// Straight scanlines with Gaussian noise σ across them: κ = |2·a2|/(1 + a1²)^1.5 is then |a
+// Gaussian| whose standard deviation the fit states per unit σ (noise_per_sigma), so the RMS of
+// κ over the windows is σ times that. Ground truth is the spread the noise really produced.
+TEST(Measures, ScanlineCurvatureStatesTheSpreadNoiseGivesIt) {
+  constexpr int kLines = 40, kPoints = 500;
+  constexpr double kSigma = 0.01;
+  std::mt19937_64 rng(31);
+  std::normal_distribution<double> noise(0, kSigma);
+  PointCloud cloud;
+  for (int line = 0; line < kLines; ++line) {
+    for (int t = 0; t < kPoints; ++t) {
+      cloud.x.push_back(0.05f * t);
+      cloud.y.push_back(0.2f * line);
+      cloud.z.push_back(static_cast<float>(noise(rng)));
+      cloud.scanline.push_back(line);
+    }
+  }
+  cloud.scans.push_back(ScanMeta{.id = "lines", .scanline_spacing = 0.2, .uncertainty = kSigma});
+  cloud.FinishLoading();
+  ScanlineCurvatures c;
+  ScanlineCurvatureCounts counts;
+  ASSERT_TRUE(ScanlineCurvature(cloud, {0.5}, CancelToken(), c, counts).ok());
+  double sum_sq = 0;
+  std::vector<double> stated;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (!std::isfinite(c.kappa[i])) continue;
+    sum_sq += double(c.kappa[i]) * c.kappa[i];
+    stated.push_back(kSigma * c.noise_per_sigma[i]);
+  }
+  ASSERT_GT(stated.size(), size_t{kLines * (kPoints - 20)});
+  const double rms = std::sqrt(sum_sq / double(stated.size()));
+  std::printf("straight noisy lines: κ RMS %.4f /mm, stated %.4f /mm\n", rms,
+              Quantile(stated, 0.5));
+  EXPECT_NEAR(rms / Quantile(stated, 0.5), 1.0, 0.1);
+}
+
+// The EDGE flag knows the noise (§9 "Noise"): on the faces of a part seen by three oblique
+// laser-line sensors, where the noise grows with the viewing angle, noise alone must not make an
+// edge. The control is the rule without the noise term (κ̂ >= 0.5), which calls a good share of
+// the same faces edges; the sharp edges themselves stay flagged
+// (SharpBoxEdgesReachTheEdgeThreshold).
+struct FaceFlags {
+  double flagged = 0, without_noise_term = 0;
+};
+FaceFlags FlagsFarFromEdges(Part part, double sigma, bool metadata) {
+  const SimulatedCloud sim = SimulateScan(part, sigma, 60000, 77);
+  PointCloud cloud = metadata ? WithUserMetadata(sim, sigma) : WithoutMetadata(sim);
+  PointMeasures m;
+  // After the outliers, as in a job: a spike kinks every scanline window it falls in.
+  EXPECT_TRUE(RunMeasures(cloud, &m, {}, {}, {"outliers", "measures"}).ok());
+  size_t far = 0, flagged = 0, raw = 0;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (sim.is_outlier[i] || cloud.removed(i) || sim.edge_distance[i] <= 3.0f) continue;
+    ++far;
+    flagged += (cloud.flags[i] & kEdge) != 0;
+    raw += m.curvature[i] >= 0.5f;
+  }
+  EXPECT_GT(far, 5000u);
+  return {double(flagged) / double(far), double(raw) / double(far)};
+}
+
+TEST(Measures, NoiseAloneMakesNoEdgeOnTheFacesOfAPart) {
+  for (const Part part : {Part::kSteppedBlock, Part::kBoxWithBore}) {
+    for (const double sigma : {0.01, 0.03}) {
+      const FaceFlags f = FlagsFarFromEdges(part, sigma, true);
+      std::printf(
+          "part %d, σ %.2f: %.1f %% of points > 3 mm from an edge flagged (%.1f %% "
+          "without the noise term)\n",
+          int(part), sigma, 100 * f.flagged, 100 * f.without_noise_term);
+      EXPECT_LE(f.flagged, 0.04) << int(part) << " " << sigma;
+      EXPECT_LE(f.flagged, 0.3 * f.without_noise_term) << int(part) << " " << sigma;
+    }
+  }
+}
+
+// The fallback (no scanlines, no poses: one bare .xyz) judges surface variation against the
+// cloud's own fit residuals: one band of q̂, so the oblique faces' noise is less well known.
+TEST(Measures, NoiseAloneMakesFewEdgesWithoutMetadata) {
+  for (const Part part : {Part::kSteppedBlock, Part::kBoxWithBore}) {
+    const FaceFlags f = FlagsFarFromEdges(part, 0.03, false);
+    std::printf("part %d without metadata: %.1f %% flagged (%.1f %% without the noise term)\n",
+                int(part), 100 * f.flagged, 100 * f.without_noise_term);
+    EXPECT_LE(f.flagged, 0.07) << int(part);
+    EXPECT_GE(f.without_noise_term, 0.5) << int(part);
+  }
+}
+
+// A bore of radius 2 mm (κ = 0.5 mm⁻¹, κ̂ = 1) scanned across its axis with noise σ: curvature far
+// beyond noise, but a smooth one: a quadratic plus noise explains every window, so nothing on it
+// is an edge. The control is κ̂ itself, which calls the whole wall significant curvature.
+TEST(Measures, ASmoothCurvedFaceIsNoEdge) {
+  constexpr double kRadius = 2, kSigma = 0.005, kStep = 0.05;
+  std::mt19937_64 rng(43);
+  std::normal_distribution<double> noise(0, kSigma);
+  PointCloud cloud;
+  for (int line = 0; line < 40; ++line) {
+    for (double a = -1.3; a <= 1.3; a += kStep / kRadius) {
+      const double r = kRadius + noise(rng);
+      cloud.x.push_back(static_cast<float>(r * std::cos(a)));
+      cloud.y.push_back(static_cast<float>(r * std::sin(a)));
+      cloud.z.push_back(0.1f * line);
+      cloud.scanline.push_back(line);
+    }
+  }
+  cloud.scans.push_back(ScanMeta{.id = "bore",
+                                 .camera_position = Eigen::Vector3d(50, 0, 2),
+                                 .scanline_spacing = 0.1,
+                                 .uncertainty = kSigma,
+                                 .point_spacing = kStep});
+  cloud.FinishLoading();
+  PointMeasures m;
+  ASSERT_TRUE(RunMeasures(cloud, &m).ok());
+  size_t edges = 0, curved = 0;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    edges += (cloud.flags[i] & kEdge) != 0;
+    curved += m.curvature[i] >= 0.5f;
+  }
+  std::printf("bore wall: %zu of %zu points EDGE, %zu with κ̂ >= 0.5\n", edges, cloud.size(),
+              curved);
+  EXPECT_LE(edges, cloud.size() / 50);
+  EXPECT_GE(curved, cloud.size() * 9 / 10);
+}
+
 TEST(Measures, ScanlineCurvatureOfACylinderIsOneOverR) {
   SimulatedCloud sim = Simulate(Part::kCylinder, FrontalSensor(Part::kCylinder), 25);
   PointMeasures m;
@@ -243,16 +373,17 @@ TEST(Measures, ScanlineWindowIsBoundedWhateverItsWidth) {
   const double radius = 20000 * 0.05 / (2 * std::numbers::pi);
   const size_t n = cloud.size();
   CancelToken cancel;
-  std::vector<float> kappa;
+  ScanlineCurvatures curvatures;
+  const std::vector<float>& kappa = curvatures.kappa;
   ScanlineCurvatureCounts huge;
-  ASSERT_TRUE(ScanlineCurvature(cloud, {1e9}, cancel, kappa, huge).ok());
+  ASSERT_TRUE(ScanlineCurvature(cloud, {1e9}, cancel, curvatures, huge).ok());
   std::printf("window 1e9 mm: %zu windows capped, %zu window points (%.1f per point)\n",
               huge.windows_capped, huge.window_points, double(huge.window_points) / n);
   EXPECT_LE(huge.window_points, (2 * kMaxWindowSide + 1) * n);
   EXPECT_EQ(huge.windows_capped, n - 5 * 4);  // all but the two points at each line end
 
   ScanlineCurvatureCounts fitting;
-  ASSERT_TRUE(ScanlineCurvature(cloud, {1.0}, cancel, kappa, fitting).ok());
+  ASSERT_TRUE(ScanlineCurvature(cloud, {1.0}, cancel, curvatures, fitting).ok());
   EXPECT_EQ(fitting.windows_capped, 0u);
   std::vector<double> relative;
   for (size_t i = 0; i < n; ++i) {
@@ -279,12 +410,12 @@ TEST(Measures, ScanlinesAreSplitAtGaps) {
   cloud.scans.push_back(ScanMeta{.id = "step", .scanline_spacing = 0.2, .uncertainty = 0.01});
   cloud.FinishLoading();
   CancelToken cancel;
-  std::vector<float> kappa;
+  ScanlineCurvatures curvatures;
   ScanlineCurvatureCounts counts;
-  ASSERT_TRUE(ScanlineCurvature(cloud, {1.0}, cancel, kappa, counts).ok());
+  ASSERT_TRUE(ScanlineCurvature(cloud, {1.0}, cancel, curvatures, counts).ok());
   size_t fitted = 0;
   float largest = 0;
-  for (const float k : kappa) {
+  for (const float k : curvatures.kappa) {
     if (!std::isfinite(k)) continue;
     ++fitted;
     largest = std::max(largest, k);
