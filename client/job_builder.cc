@@ -249,7 +249,8 @@ std::vector<FlagSpec> JobFlags() {
       {CallFlags::kIncludeRemoved, FlagSpec::kBool, "also return removed points, flagged"},
       {CallFlags::kStrict, FlagSpec::kBool,
        "fail the job (FAILED_PRECONDITION) on a warning that the request is probably wrong: "
-       "UNIT_SUSPECT, NOISE_ABOVE_UNCERTAINTY, SCAN_REPEATED, POINTS_INVALID, UNIT_UNCHECKED"},
+       "UNIT_SUSPECT, NOISE_ABOVE_UNCERTAINTY, SCAN_REPEATED, POINTS_INVALID, UNIT_UNCHECKED, "
+       "SCANLINES_IMPLAUSIBLE"},
       {CallFlags::kFailOn, FlagSpec::kValue,
        "fail the job on these warning codes, comma-separated (docs/api.md), e.g. UNIT_SUSPECT"},
       {CallFlags::kInputFormat, FlagSpec::kValue,

@@ -12,6 +12,7 @@
 #include "absl/strings/str_join.h"
 #include "core/base/status_macros.h"
 #include "core/spatial/scanline_gap.h"
+#include "core/stages/scanline_plausibility.h"
 #include "core/stages/stage_context.h"
 #include "core/stages/stage_names.h"
 
@@ -160,6 +161,7 @@ absl::StatusOr<std::unique_ptr<Neighbourhoods>> BuildNeighbourhoods(
                           "and every point of it returned with that result"));
   }
   out.Record("neighbourhoods.duplicates_collapsed", static_cast<double>(duplicates_collapsed));
+  SCANPREP_RETURN_IF_ERROR(WarnIfScanlinesImplausible(cloud, *nb, out));
   out.Record("neighbourhoods.global_radius_mm", nb->global_radius());
   out.Record("neighbourhoods.density_per_mm2", nb->density());
   // Lists kept as 32-bit indices because a neighbour lies too far away in the grid's order:

@@ -27,8 +27,9 @@ constexpr std::array kCodes = [] {
 }();
 
 constexpr WarningCode kStrict[] = {
-    WarningCode::kUnitSuspect,   WarningCode::kNoiseAboveUncertainty, WarningCode::kScanRepeated,
-    WarningCode::kPointsInvalid, WarningCode::kUnitUnchecked,
+    WarningCode::kUnitSuspect,   WarningCode::kNoiseAboveUncertainty,
+    WarningCode::kScanRepeated,  WarningCode::kPointsInvalid,
+    WarningCode::kUnitUnchecked, WarningCode::kScanlinesImplausible,
 };
 
 // (absl::string_view: Debian's Abseil does not alias it to std::string_view.)

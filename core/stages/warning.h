@@ -41,7 +41,8 @@ namespace scanprep {
   X(kSpacingFromDensity, "SPACING_FROM_DENSITY")                            \
   X(kScanRepeated, "SCAN_REPEATED")                                         \
   X(kPointsInvalid, "POINTS_INVALID")                                       \
-  X(kUnitUnchecked, "UNIT_UNCHECKED")
+  X(kUnitUnchecked, "UNIT_UNCHECKED")                                       \
+  X(kScanlinesImplausible, "SCANLINES_IMPLAUSIBLE")
 
 enum class WarningCode {
 #define SCANPREP_WARNING_ENUMERATOR(code, name) code,

@@ -3,6 +3,7 @@
 // name; options.fail_on refuses a code the server does not know; and the CLI's --strict fails a
 // file in metres sent as millimetres with FAILED_PRECONDITION naming UNIT_SUSPECT, while the same
 // file sent with --unit m passes (the real binaries).
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -95,6 +96,33 @@ TEST(WarningCodes, StrictFailsAMetreFileSentAsMillimetresAndPassesItInMetres) {
   r = RunCommand(in_m + " --strict");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_THAT(r.output, Not(HasSubstr("UNIT_SUSPECT")));
+  EXPECT_EQ(server.Terminate(), 0);
+}
+
+// Issue 39 finding 5: a plane whose every point was put on scanline 0 (a reader or client bug)
+// came back with 281 of 100 k points and only RADIUS_CAPPED to say why. Now its own code names it
+// and --strict fails it; the same file with its rows as scanlines passes.
+TEST(WarningCodes, StrictFailsScanlinesThatHoldAnArea) {
+  ServerProcess server;
+  ASSERT_GT(server.port(), 0);
+  PointCloud plane = NoisyPlaneWithSpikes(120, 0.5f).cloud;
+  const fs::path rows = fs::path(::testing::TempDir()) / "plane_rows.ply";
+  ASSERT_TRUE(io::WritePly(rows, plane).ok());
+  std::fill(plane.scanline.begin(), plane.scanline.end(), 0u);
+  const fs::path one_line = fs::path(::testing::TempDir()) / "plane_one_line.ply";
+  ASSERT_TRUE(io::WritePly(one_line, plane).ok());
+  const fs::path out = fs::path(::testing::TempDir()) / "plane_lines_out.ply";
+  const auto cli = [&](const fs::path& file) {
+    return absl::StrCat(SCANPREP_CLI_BINARY, " process ", file.string(), " -o ", out.string(),
+                        " --server ", server.target(),
+                        " --unit mm --scanline_spacing 0.5 --uncertainty 0.025 --strict");
+  };
+  CommandResult r = RunCommand(cli(one_line));
+  EXPECT_EQ(r.exit_code, 4) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("reason SCANLINES_IMPLAUSIBLE"));
+  r = RunCommand(cli(rows));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, Not(HasSubstr("SCANLINES_IMPLAUSIBLE")));
   EXPECT_EQ(server.Terminate(), 0);
 }
 

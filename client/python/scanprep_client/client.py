@@ -25,7 +25,7 @@ _CHUNK_POINTS = 32768  # the service's recommended chunk size (GetInfo().limits)
 # What process(strict=True) fails on: the service's GetInfo().strict_warning_codes, as the CLI's
 # --strict (a test holds them equal).
 STRICT_WARNING_CODES = ("UNIT_SUSPECT", "NOISE_ABOVE_UNCERTAINTY", "SCAN_REPEATED",
-                        "POINTS_INVALID", "UNIT_UNCHECKED")
+                        "POINTS_INVALID", "UNIT_UNCHECKED", "SCANLINES_IMPLAUSIBLE")
 T = TypeVar("T")
 
 
