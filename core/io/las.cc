@@ -261,6 +261,15 @@ absl::StatusOr<PointCloud> ReadLasBytes(std::string_view file, const std::string
   DecodeColour(file, las, cloud);
   const std::string stem = std::filesystem::path(name).stem().string();
   cloud.scans.push_back(ScanMeta{.id = stem});
+  // Legal arithmetic, but no scanner measures mirrored: said, so a writer's sign slip is seen.
+  for (int k = 0; k < 3; ++k) {
+    if (las.scale[k] > 0) continue;
+    warnings.push_back(absl::StrCat(name, ": ", std::string(1, "xyz"[k]), " scale ", las.scale[k],
+                                    " is negative: its ", std::string(1, "xyz"[k]),
+                                    " coordinates are read mirrored (integer times scale plus "
+                                    "offset, as the header says); if the writer meant ",
+                                    -las.scale[k], ", the part comes out mirrored"));
+  }
   warnings.push_back(absl::StrFormat(
       "%s: LAS %d.%d, point format %d: scan angle from %.3f to %.3f "
       "degrees, %d scanlines by scan direction and flight-line edge",

@@ -73,6 +73,22 @@ TEST(Las, Format0Version12ScaledCoordinatesIntensityAndScanlines) {
   EXPECT_THAT(warnings, ::testing::Contains(HasSubstr("LAS carries no sensor origin")));
 }
 
+// Issue 39: a negative scale is read as the header says (mirrored), and said; the same file with
+// its positive scale is the control.
+TEST(Las, ANegativeScaleIsReadMirroredAndSaid) {
+  std::string file = LasFile(2, 0, Sweeps());
+  PutAt(file, 131, -0.001);  // the x scale
+  std::vector<std::string> warnings;
+  auto cloud = Read(file, warnings);
+  ASSERT_TRUE(cloud.ok()) << cloud.status();
+  for (int i = 0; i < 7; ++i)
+    EXPECT_NEAR(World(*cloud, 0, i), (1000 * i - 500) * -0.001 + 1000, 1e-6);
+  EXPECT_THAT(warnings, ::testing::Contains(HasSubstr("x scale -0.001 is negative")));
+  std::vector<std::string> plain;
+  ASSERT_TRUE(Read(LasFile(2, 0, Sweeps()), plain).ok());
+  EXPECT_THAT(plain, ::testing::Not(::testing::Contains(HasSubstr("negative"))));
+}
+
 TEST(Las, Format6Version14WithExtraBytesAndTheWideScanAngle) {
   std::vector<std::string> warnings;
   auto cloud = Read(LasFile(4, 6, Sweeps(), /*record=*/30 + 12), warnings);
