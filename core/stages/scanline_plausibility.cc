@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/base/parallel.h"
+#include "core/base/per_scan_values.h"
 #include "core/base/status_macros.h"
 #include "core/spatial/local_moments.h"
 
@@ -43,8 +44,7 @@ absl::Status WarnIfScanlinesImplausible(const PointCloud& cloud, const Neighbour
                                         StageReporter& out) {
   if (cloud.kind != ScannerKind::kLine || !cloud.has_scanlines()) return absl::OkStatus();
   const size_t scans = cloud.scans.size();
-  std::vector<size_t> points(scans, 0);
-  for (const uint32_t s : cloud.scan) ++points[s];
+  const std::vector<size_t> points = ScanPointCounts(cloud);
   // Every stride-th point of each scan, in index order.
   std::vector<uint32_t> sample;
   std::vector<size_t> seen(scans, 0);
