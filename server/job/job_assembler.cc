@@ -33,7 +33,8 @@ Warning PointsInvalidWarning(const AssembledJob& job) {
   }
   if (unrepresentable > 0) {
     causes.push_back(absl::StrCat(unrepresentable,
-                                  " too far from header.origin for float to hold them to their "
+                                  " too far from header.origin, or sent as floats too far from "
+                                  "their scan's points_offset, for float to hold them to their "
                                   "scan's uncertainty"));
   }
   return {WarningCode::kPointsInvalid,
@@ -330,7 +331,7 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
     const uint32_t scan = chunk.scan_index_size() > 0 ? chunk.scan_index(i) : 0;
     const Eigen::Vector3d q = frames_[scan].ChunkPoint(p);
     ++scan_points_[scan];
-    SCANPREP_ASSIGN_OR_RETURN(const bool excluded, ExcludeInvalid(q, scan, i));
+    SCANPREP_ASSIGN_OR_RETURN(const bool excluded, ExcludeInvalid(p, q, scan, i));
     if (excluded) continue;
     cloud.x.push_back(static_cast<float>(q.x()));
     cloud.y.push_back(static_cast<float>(q.y()));
@@ -344,17 +345,37 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
   return absl::OkStatus();
 }
 
-absl::StatusOr<bool> JobAssembler::ExcludeInvalid(const Eigen::Vector3d& local_mm, uint32_t scan,
+namespace {
+
+// The coarsest float among a point's coordinates, in millimetres: as they arrived (`sent`, job
+// units, relative to the scan's points_offset) and as they are held (`local_mm`, relative to
+// header.origin). Either can be a lattice: a client that states an origin but sends absolute
+// floats far from zero has already rounded them before the server sees them.
+FloatPrecision CoarsestFloat(const Eigen::Vector3d& sent, double mm_per_unit,
+                             const Eigen::Vector3d& local_mm) {
+  FloatPrecision coarsest;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (const bool as_sent : {false, true}) {  // on a tie, the origin's is the one to name
+      const double value = as_sent ? sent[axis] : local_mm[axis];
+      const double spacing = FloatSpacingAt(value) * (as_sent ? mm_per_unit : 1.0);
+      if (!(spacing <= coarsest.spacing_mm)) {
+        coarsest = {.axis = axis, .as_sent = as_sent, .value = value, .spacing_mm = spacing};
+      }
+    }
+  }
+  return coarsest;
+}
+
+}  // namespace
+
+absl::StatusOr<bool> JobAssembler::ExcludeInvalid(const Eigen::Vector3d& sent,
+                                                  const Eigen::Vector3d& local_mm, uint32_t scan,
                                                   size_t point) {
   // Finite in the request's unit can still overflow float once in millimetres.
   const bool in_range = (local_mm.array().abs() <= kMaxCoordinateMm).all();
   const double u = job_.cloud.scans[scan].uncertainty;
-  int axis = 0;  // the first whose float spacing exceeds u/4
-  while (in_range && axis < 3 &&
-         FloatSpacingAt(local_mm[axis]) <= kMaxFloatSpacingPerUncertainty * u) {
-    ++axis;
-  }
-  if (in_range && axis == 3) return false;
+  const FloatPrecision coarsest = CoarsestFloat(sent, frames_[scan].mm_per_unit, local_mm);
+  if (in_range && coarsest.spacing_mm <= kMaxFloatSpacingPerUncertainty * u) return false;
   if (job_.first_invalid_points.size() < kFirstInvalidPointsKept) {
     job_.first_invalid_points.push_back(job_.points_received + point);
   }
@@ -367,28 +388,37 @@ absl::StatusOr<bool> JobAssembler::ExcludeInvalid(const Eigen::Vector3d& local_m
   ++scan_unrepresentable_[scan];
   // By the pigeonhole, a job over the share has a scan over it: refused before the rest arrives.
   if (job_.points_unrepresentable > kMaxUnrepresentableShare * total_points_) {
-    return UnrepresentableError(local_mm, axis, point, u);
+    return UnrepresentableError(coarsest, point, u);
   }
   return true;
 }
 
-absl::Status JobAssembler::UnrepresentableError(const Eigen::Vector3d& local_mm, int axis,
-                                                size_t point, double uncertainty_mm) const {
-  const double spacing = FloatSpacingAt(local_mm[axis]);
+absl::Status JobAssembler::UnrepresentableError(const FloatPrecision& coarsest, size_t point,
+                                                double uncertainty_mm) const {
+  const char axis = "xyz"[coarsest.axis];
+  const std::string where =
+      coarsest.as_sent
+          ? absl::StrFormat(
+                "its %c = %.17g as sent (job unit, from its scan's points_offset) was "
+                "rounded by float before it arrived, coarser than",
+                axis, coarsest.value)
+          : absl::StrFormat("its %c = %.17g mm from header.origin cannot be held as a float to",
+                            axis, coarsest.value);
   absl::Status status = BadChunk(
       chunks_ - 1, "xyz",
-      absl::StrFormat("point %d: its %c = %.17g mm from header.origin cannot be held as a float "
-                      "to its scan's uncertainty %g mm (floats are %g mm apart there, more than "
-                      "u/4), nor can %d of the job's %d points, more than %g %%: set "
+      absl::StrFormat("point %d: %s its scan's uncertainty %g mm (floats are %g mm apart there, "
+                      "more than u/4), nor can %d of the job's %d points, more than %g %%: set "
                       "header.origin near the data, and send the points relative to their "
                       "scan's points_offset",
-                      point, "xyz"[axis], local_mm[axis], uncertainty_mm, spacing,
+                      point, where, uncertainty_mm, coarsest.spacing_mm,
                       job_.points_unrepresentable, total_points_, 100 * kMaxUnrepresentableShare));
   status = WithMetadata(std::move(status), "point", absl::StrCat(point));
-  status = WithMetadata(std::move(status), "local_coordinate_mm", absl::StrCat(local_mm[axis]));
+  status =
+      WithMetadata(std::move(status), coarsest.as_sent ? "sent_coordinate" : "local_coordinate_mm",
+                   absl::StrCat(coarsest.value));
   status = WithMetadata(std::move(status), "points_unrepresentable",
                         absl::StrCat(job_.points_unrepresentable));
-  return WithMetadata(std::move(status), "float_spacing_mm", absl::StrCat(spacing));
+  return WithMetadata(std::move(status), "float_spacing_mm", absl::StrCat(coarsest.spacing_mm));
 }
 
 absl::Status JobAssembler::CheckScansKeptPoints() const {

@@ -82,6 +82,15 @@ inline constexpr double kMaxUnrepresentableShare = 0.01;
 // How many excluded points POINTS_INVALID names.
 inline constexpr size_t kFirstInvalidPointsKept = 5;
 
+// A point's coarsest float coordinate: its axis, whether as sent (job unit) or as held (mm from
+// header.origin), its value and the spacing of floats there in millimetres.
+struct FloatPrecision {
+  int axis = 0;
+  bool as_sent = false;
+  double value = 0;
+  double spacing_mm = 0;
+};
+
 class JobAssembler {
  public:
   explicit JobAssembler(JobLimits limits) : limits_(limits) {}
@@ -107,14 +116,17 @@ class JobAssembler {
   absl::Status CheckCost() const;
   absl::Status AddChunk(const v1::PointChunk& chunk);
   absl::Status CheckChunk(const v1::PointChunk& chunk, size_t n) const;
-  // Leaves out point `point` of the chunk being read (of scan `scan`, local coordinates
-  // `local_mm`) when it is not finite, out of range or unrepresentable (float cannot carry a
-  // coordinate to the scan's uncertainty, kMaxFloatSpacingPerUncertainty); true if it did. An
-  // unrepresentable point is an error only once more than kMaxUnrepresentableShare of the job's
-  // points are (the origin is wrong, not one stray return).
-  absl::StatusOr<bool> ExcludeInvalid(const Eigen::Vector3d& local_mm, uint32_t scan, size_t point);
-  // INVALID_CHUNK naming that point, its axis and the float spacing there, with the origin hint.
-  absl::Status UnrepresentableError(const Eigen::Vector3d& local_mm, int axis, size_t point,
+  // Leaves out point `point` of the chunk being read (of scan `scan`, as sent `sent`, local
+  // coordinates `local_mm`) when it is not finite, out of range or unrepresentable (a float, as
+  // sent or as held, cannot carry a coordinate to the scan's uncertainty,
+  // kMaxFloatSpacingPerUncertainty); true if it did. An unrepresentable point is an error only
+  // once more than kMaxUnrepresentableShare of the job's points are (the origin is wrong, not one
+  // stray return).
+  absl::StatusOr<bool> ExcludeInvalid(const Eigen::Vector3d& sent, const Eigen::Vector3d& local_mm,
+                                      uint32_t scan, size_t point);
+  // INVALID_CHUNK naming that point, its coarsest coordinate and the float spacing there, with the
+  // origin hint.
+  absl::Status UnrepresentableError(const FloatPrecision& coarsest, size_t point,
                                     double uncertainty_mm) const;
   // Each scan keeps a valid point and at most kMaxUnrepresentableShare unrepresentable ones.
   absl::Status CheckScansKeptPoints() const;

@@ -121,6 +121,38 @@ TEST(FarCoordinatesService, FarCoordinatesWithoutAnOriginAreRefusedNotCollapsed)
   }
 }
 
+// Issue 39, finding 3: a client that states the origin but still sends absolute floats far out
+// has rounded them before the server sees them (at 1e6 mm floats are 0.0625 mm apart, more than
+// u/4 = 0.025 mm). Relative to the origin they look fine; as sent they are a lattice. Refused,
+// naming the coordinate as sent. Control: the same client at 1e5 mm (0.0078 mm apart) passes.
+TEST(FarCoordinatesService, AbsoluteFloatsSentBesideAnOriginAreRefusedNotProcessedOnTheirLattice) {
+  InProcessServer server;
+  for (const float far : {1e6f, 1e5f}) {
+    SCOPED_TRACE(far);
+    v1::JobHeader header = SimpleHeader();
+    header.mutable_origin()->set_x(far);
+    header.mutable_origin()->set_y(far);
+    header.mutable_origin()->set_z(far);
+    v1::PointChunk chunk = LineChunk(10);
+    for (int i = 0; i < chunk.xyz_size(); ++i) chunk.set_xyz(i, chunk.xyz(i) + far);
+    const absl::Status status =
+        client::FromGrpc(RawCall(*server.Stub(), {HeaderRequest(header, 10), ChunkRequest(chunk)}));
+    if (far < 1e6f) {
+      EXPECT_TRUE(status.ok()) << status;
+      continue;
+    }
+    EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << status;
+    EXPECT_THAT(status.message(),
+                HasSubstr("chunk 0: point 0: its x = 1000000 as sent (job unit, from its scan's "
+                          "points_offset) was rounded by float before it arrived, coarser than "
+                          "its scan's uncertainty 0.1 mm (floats are 0.0625 mm apart there"));
+    const client::CallErrorDetails details = client::DetailsOf(status);
+    EXPECT_EQ(details.reason, "INVALID_CHUNK");
+    ASSERT_EQ(details.field_violations.size(), 1u);
+    EXPECT_EQ(details.field_violations[0].field, "points[0].xyz");
+  }
+}
+
 // The limit itself (issue 43): a coordinate 300,000 mm from the origin, where floats are
 // s = 2^-5 mm apart, sent with uncertainties that put s at u/8, just under u/4, just over u/4 and
 // at u/2. The first two are accepted, the last two refused naming the chunk's field and the
