@@ -3,12 +3,15 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 #include <set>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "core/base/did_you_mean.h"
 #include "core/base/field_error.h"
+#include "core/base/per_scan_values.h"
 #include "core/base/status_macros.h"
 #include "core/pipeline/pipeline_runner.h"
 #include "core/pipeline/plan.h"
@@ -59,6 +62,33 @@ absl::StatusOr<PipelineReport> RunStages(const Plan& plan, PointCloud& cloud,
   return std::move(runner.report());
 }
 
+// SCAN_REPEATED for the first scan with at least kRepeatedScanShare of its points within the
+// resolution of an earlier scan's (a scan sent twice or re-exported). Below that share they are
+// chance: two independent measurements from one pose put about 1 % of their points that close
+// (the simulated box at its own noise), other poses fewer.
+constexpr double kRepeatedScanShare = 0.1;
+std::optional<Warning> ScanRepeatedWarning(const PointCloud& cloud,
+                                           const DuplicateGroups& duplicates) {
+  const std::vector<size_t> points = ScanPointCounts(cloud);
+  for (size_t s = 0; s < duplicates.repeated_per_scan.size(); ++s) {
+    const uint64_t repeated = duplicates.repeated_per_scan[s];
+    if (repeated == 0 || repeated < kRepeatedScanShare * points[s]) continue;
+    const double share = double(repeated) / points[s];
+    return Warning{
+        WarningCode::kScanRepeated,
+        absl::StrFormat("%d of scan %d's (%s) %d points (%.1f %%) lie within the sensor's "
+                        "resolution of a point of an earlier scan of the job (%d in all): was a "
+                        "scan sent twice, or re-exported? They are not merged: each is processed "
+                        "as a point of its own scan",
+                        repeated, s, cloud.scans[s].id, points[s], 100 * share,
+                        duplicates.coincident_across_scans),
+        {{"points", absl::StrCat(duplicates.coincident_across_scans)},
+         {"scan", absl::StrCat(s)},
+         {"share", absl::StrFormat("%.3f", share)}}};
+  }
+  return std::nullopt;
+}
+
 // Each stage's time, and the job's, against the budgets the job set (0: none).
 void JudgeTimeBudgets(const PipelineOptions& options, PipelineReport& report) {
   for (StageReport& stage : report.stages) {
@@ -84,14 +114,8 @@ absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOpti
   SCANPREP_ASSIGN_OR_RETURN(DuplicateGroups duplicates, FindDuplicates(cloud, cancel));
   const size_t coincident_across_scans = duplicates.coincident_across_scans;
   std::vector<Warning> before_stages;
-  if (coincident_across_scans > 0) {
-    before_stages.push_back(
-        {WarningCode::kScanRepeated,
-         absl::StrCat(coincident_across_scans,
-                      " points lie exactly on a point of an earlier scan of the job (was a scan "
-                      "sent twice?); they are not merged: each is processed as a point of its "
-                      "own scan"),
-         {{"points", absl::StrCat(coincident_across_scans)}}});
+  if (std::optional<Warning> repeated = ScanRepeatedWarning(cloud, duplicates)) {
+    before_stages.push_back(*std::move(repeated));
   }
   // Known before any stage runs, so a job that fails on it does no work.
   SCANPREP_RETURN_IF_ERROR(FailOnWarnings(before_stages, options.fail_on));

@@ -2,39 +2,16 @@
 #include "core/spatial/duplicates.h"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
-#include <random>
 #include <utility>
 
 #include "core/base/parallel.h"
 #include "core/base/status_macros.h"
+#include "core/spatial/cell_hash.h"
+#include "core/spatial/near_repeats.h"
 
 namespace scanprep {
 namespace {
-
-// Coordinates compare as floats (−0 equals 0), so hash them with −0 folded into 0.
-uint32_t Bits(float v) { return std::bit_cast<uint32_t>(v + 0.0f); }
-
-uint64_t Mix(uint64_t h) {  // splitmix64's finaliser
-  h ^= h >> 30;
-  h *= 0xbf58476d1ce4e5b9ull;
-  h ^= h >> 27;
-  h *= 0x94d049bb133111ebull;
-  return h ^ (h >> 31);
-}
-
-// A key drawn once per process: equal hashes of distinct positions make a run that is compared
-// pairwise, and a fixed key would let a client craft such runs. Which points are grouped never
-// depends on it, only how they are found.
-uint64_t HashKey() {
-  static const uint64_t key = uint64_t{std::random_device()()} << 32 | std::random_device()();
-  return key;
-}
-
-bool SamePosition(const PointCloud& cloud, uint32_t a, uint32_t b) {
-  return cloud.x[a] == cloud.x[b] && cloud.y[a] == cloud.y[b] && cloud.z[a] == cloud.z[b];
-}
 
 // The cells points of one scan are taken as one measurement in: cubes of edge u/100 for the
 // finest stated uncertainty u of the job's scans (a hundredth of what the sensor can tell apart),
@@ -61,21 +38,9 @@ struct Cell {
   int64_t v[3];
   bool operator==(const Cell&) const = default;
 };
-// A coordinate whose cell number would not fit 62 bits (or is not finite) is its own cell, by
-// its bits, apart from every numbered one.
 Cell CellOf(const PointCloud& cloud, uint32_t i, double edge) {
-  const float p[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
-  Cell cell;
-  for (int a = 0; a < 3; ++a) {
-    const double c = edge > 0 ? std::floor(double(p[a]) / edge) : HUGE_VAL;
-    cell.v[a] = std::abs(c) < 0x1p62 ? static_cast<int64_t>(c) : (int64_t{1} << 62) + Bits(p[a]);
-  }
-  return cell;
-}
-
-bool HoldsPosition(const PointCloud& cloud, const std::vector<uint32_t>& points, uint32_t i) {
-  return std::any_of(points.begin(), points.end(),
-                     [&](uint32_t p) { return SamePosition(cloud, p, i); });
+  return {
+      {CellNumber(cloud.x[i], edge), CellNumber(cloud.y[i], edge), CellNumber(cloud.z[i], edge)}};
 }
 
 // Each group's first input point, in group order.
@@ -104,22 +69,18 @@ absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const Ca
   // adjacent, scan by scan, each scan's lowest index first. Points at one position share a cell.
   const double edge = ResolutionCell(cloud);
   std::vector<std::pair<uint64_t, uint64_t>> keyed(n);
-  const uint64_t key = HashKey();
   SCANPREP_RETURN_IF_ERROR(ParallelFor(n, cancel, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       const Cell c = CellOf(cloud, static_cast<uint32_t>(i), edge);
-      const uint64_t h = Mix(key ^ uint64_t(c.v[0]) ^ Mix(uint64_t(c.v[1]) ^ Mix(c.v[2])));
-      keyed[i] = {h, (uint64_t(cloud.scan[i]) << 32) | i};
+      keyed[i] = {HashCell(c.v[0], c.v[1], c.v[2]), (uint64_t(cloud.scan[i]) << 32) | i};
     }
   }));
   SCANPREP_RETURN_IF_ERROR(CancellableSort(keyed, cancel));
 
   // first[i]: the lowest index of i's group. Within a run of equal hashes each point is compared
-  // with the groups of its scan so far (one, unless 64-bit hashes collide) and with the positions
-  // of the lower scans' groups' first points.
+  // with the groups of its scan so far (one, unless 64-bit hashes collide).
   std::vector<uint32_t> first(n);
-  std::vector<uint32_t> scan_points, earlier_positions;
-  size_t across = 0;
+  std::vector<uint32_t> scan_points;
   for (size_t begin = 0, runs = 0; begin < n; ++runs) {
     if ((runs & 0xffff) == 0) {
       SCANPREP_RETURN_IF_ERROR(cancel.Check());
@@ -127,14 +88,8 @@ absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const Ca
     size_t end = begin + 1;
     while (end < n && keyed[end].first == keyed[begin].first) ++end;
     scan_points.clear();
-    earlier_positions.clear();
     for (size_t e = begin; e < end; ++e) {
-      if (e > begin && keyed[e].second >> 32 != keyed[e - 1].second >> 32) {  // the next scan
-        for (const uint32_t p : scan_points) {
-          if (!HoldsPosition(cloud, earlier_positions, p)) earlier_positions.push_back(p);
-        }
-        scan_points.clear();
-      }
+      if (e > begin && keyed[e].second >> 32 != keyed[e - 1].second >> 32) scan_points.clear();
       const uint32_t i = static_cast<uint32_t>(keyed[e].second);
       uint32_t group = i;
       for (const uint32_t d : scan_points) {
@@ -142,22 +97,29 @@ absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const Ca
       }
       if (group == i) scan_points.push_back(i);
       first[i] = group;
-      if (HoldsPosition(cloud, earlier_positions, i)) ++across;
     }
     begin = end;
   }
+  keyed = {};
 
   DuplicateGroups groups;
-  groups.coincident_across_scans = across;
   groups.group_of.resize(n);
+  std::vector<uint32_t> standing;
   for (size_t i = 0; i < n; ++i) {
     if (first[i] == i) {
       groups.group_of[i] = static_cast<uint32_t>(groups.multiplicity.size());
       groups.multiplicity.push_back(1);
+      standing.push_back(static_cast<uint32_t>(i));
     } else {
       groups.group_of[i] = groups.group_of[first[i]];  // first[i] < i: already numbered
       ++groups.multiplicity[groups.group_of[i]];
     }
+  }
+  first = {};
+  SCANPREP_ASSIGN_OR_RETURN(groups.repeated_per_scan,
+                            CountNearRepeats(cloud, standing, edge, cancel));
+  for (const uint64_t repeated : groups.repeated_per_scan) {
+    groups.coincident_across_scans += repeated;
   }
   return groups;
 }

@@ -25,17 +25,19 @@ struct DuplicateGroups {
   std::vector<uint32_t> group_of;
   // Per group: how many input points it stands for.
   std::vector<uint32_t> multiplicity;
-  // Input points at exactly the position of a point of a lower-numbered scan (a scan sent twice,
-  // a registration that copied points): not collapsed, since each scan keeps its own points, but
-  // counted so that the report can say so.
-  size_t coincident_across_scans = 0;
+  // Per scan: its input points within the resolution cube's edge ε of a group's first point of a
+  // lower-numbered scan (near_repeats.h: a scan sent twice, a re-exported copy, a registration
+  // that copied points; exact positions when ε is 0). Not collapsed, since each scan keeps its own
+  // points, but counted so that the report can say so.
+  std::vector<uint64_t> repeated_per_scan;
+  size_t coincident_across_scans = 0;  // their sum
 
   size_t collapsed() const { return group_of.size() - multiplicity.size(); }
 };
 
 // Groups the cloud's points by scan and resolution cube (by exact position when no scan states a
-// positive uncertainty) and counts the points that coincide exactly with the first point of a
-// group of a lower-numbered scan; O(n log n), cancellable.
+// positive uncertainty) and counts each scan's points within ε of the first point of a group of a
+// lower-numbered scan; O(n log n), cancellable.
 absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const CancelToken& cancel);
 
 // The cloud with one point per group (the group's first), every per-point array and the scans.

@@ -31,8 +31,8 @@ struct PipelineReport {
   double total_seconds = 0;
   double budget_seconds = 0;
   bool budget_met = true;
-  // Input points at exactly the position of a point of a lower-numbered scan (DuplicateGroups),
-  // with a warning when there are any.
+  // Input points within the resolution of a point of a lower-numbered scan (DuplicateGroups),
+  // with a warning when they are kRepeatedScanShare of a scan (pipeline.cc).
   uint64_t points_coincident_across_scans = 0;
   std::vector<Warning> warnings;
   // Scanner health, when the plan ran the "health" stage.

@@ -99,6 +99,42 @@ TEST(WarningCodes, StrictFailsAMetreFileSentAsMillimetresAndPassesItInMetres) {
   EXPECT_EQ(server.Terminate(), 0);
 }
 
+// Issue 39 finding 4: the same scan sent again after a re-export (every coordinate 1e-4 mm
+// off) was counted 0 and processed as new data, with the result holding both. Now strict fails it
+// (reason SCAN_REPEATED, naming the scan); the control, the plane again moved a third of its
+// spacing across (another sampling of the same surface), passes.
+TEST(WarningCodes, StrictFailsAScanSentAgainAfterAReExport) {
+  InProcessServer server;
+  const PointCloud plane = NoisyPlaneWithSpikes(60, 0.5f).cloud;
+  for (const float moved : {1e-4f, 0.5f / 3}) {
+    SCOPED_TRACE(moved);
+    v1::JobHeader header = SimpleHeader();
+    header.mutable_scans(0)->set_uncertainty(0.05);  // ε = u/100 = 5e-4 mm
+    *header.add_scans() = header.scans(0);
+    header.mutable_scans(1)->set_scan_id("again");
+    header.mutable_options()->add_fail_on(v1::WARNING_CODE_SCAN_REPEATED);
+    PointCloud twice = plane;
+    twice.scans.push_back(ScanMeta{.id = "again"});
+    for (size_t i = 0; i < plane.size(); ++i) {
+      const bool re_export = moved < 1e-3f;
+      twice.x.push_back(plane.x[i] + moved);
+      twice.y.push_back(plane.y[i] + (re_export ? moved : 0.f));
+      twice.z.push_back(plane.z[i] + (re_export ? -moved : 0.f));
+      twice.scan.push_back(1);
+      twice.scanline.push_back(plane.scanline[i]);
+    }
+    twice.FinishLoading();
+    auto result = server.Client().Process(header, twice);
+    if (moved > 1e-3f) {
+      EXPECT_TRUE(result.ok()) << result.status();
+      continue;
+    }
+    ASSERT_EQ(result.status().code(), absl::StatusCode::kFailedPrecondition) << result.status();
+    EXPECT_EQ(client::DetailsOf(result.status()).reason, "SCAN_REPEATED");
+    EXPECT_THAT(result.status().message(), HasSubstr("of scan 1's (again)"));
+  }
+}
+
 // Issue 39 finding 5: a plane whose every point was put on scanline 0 (a reader or client bug)
 // came back with 281 of 100 k points and only RADIUS_CAPPED to say why. Now its own code names it
 // and --strict fails it; the same file with its rows as scanlines passes.

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Points that coincide across scans (a scan sent twice): counted in the report with a warning,
 // against a count taken by brute force over the scans' positions.
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <set>
@@ -21,18 +22,31 @@ using sim::Part;
 
 uint64_t SharingAResolutionCube(const PointCloud& cloud);
 
-// The ground truth: points whose exact position a lower-numbered scan holds.
+double ResolutionEdge(const PointCloud& cloud);
+
+// The ground truth: points within ε (the resolution cube's edge) of the first point of a cube of
+// a lower-numbered scan, by a sweep over those first points sorted by x.
 uint64_t CoincidentAcrossScans(const PointCloud& cloud) {
-  using Position = std::tuple<float, float, float>;
-  std::vector<std::set<Position>> by_scan(cloud.scans.size());
+  const double edge = ResolutionEdge(cloud);
+  std::set<std::tuple<uint32_t, int64_t, int64_t, int64_t>> seen;
+  std::vector<std::pair<float, uint32_t>> firsts;  // (x, index)
   for (size_t i = 0; i < cloud.size(); ++i) {
-    by_scan[cloud.scan[i]].insert({cloud.x[i], cloud.y[i], cloud.z[i]});
+    if (seen.insert({cloud.scan[i], int64_t(std::floor(double(cloud.x[i]) / edge)),
+                     int64_t(std::floor(double(cloud.y[i]) / edge)),
+                     int64_t(std::floor(double(cloud.z[i]) / edge))})
+            .second) {
+      firsts.push_back({cloud.x[i], static_cast<uint32_t>(i)});
+    }
   }
+  std::sort(firsts.begin(), firsts.end());
   uint64_t count = 0;
   for (size_t i = 0; i < cloud.size(); ++i) {
-    const Position p{cloud.x[i], cloud.y[i], cloud.z[i]};
-    for (uint32_t s = 0; s < cloud.scan[i]; ++s) {
-      if (by_scan[s].contains(p)) {
+    auto it = std::lower_bound(firsts.begin(), firsts.end(),
+                               std::pair<float, uint32_t>{float(cloud.x[i] - edge), 0});
+    for (; it != firsts.end() && it->first <= cloud.x[i] + edge; ++it) {
+      const uint32_t j = it->second;
+      const Eigen::Vector3d d = (cloud.point(i) - cloud.point(j)).cast<double>();
+      if (cloud.scan[j] < cloud.scan[i] && d.norm() <= edge) {
         ++count;
         break;
       }
@@ -95,12 +109,86 @@ TEST(CoincidentAcrossScans, OneScanSentAsThreeIsCountedAndWarned) {
   EXPECT_TRUE(WarnsAboutCoincidence(report));
 }
 
-TEST(CoincidentAcrossScans, DistinctScansCountNothing) {
-  PointCloud cloud = Scans({7, 8, 9});  // the same sensor, other noise: no position repeats
-  ASSERT_EQ(CoincidentAcrossScans(cloud), 0u);
+// The same sensor and pose, other noise: a few points fall within the resolution by chance,
+// counted, but too few to be a repeated scan.
+TEST(CoincidentAcrossScans, DistinctScansAreNoRepeat) {
+  PointCloud cloud = Scans({7, 8, 9});
+  const uint64_t truth = CoincidentAcrossScans(cloud);
+  ASSERT_LT(truth, cloud.size() / 30);
   const PipelineReport report = RunNeighbourhoods(cloud);
-  EXPECT_EQ(report.points_coincident_across_scans, 0u);
+  EXPECT_EQ(report.points_coincident_across_scans, truth);
   EXPECT_FALSE(WarnsAboutCoincidence(report));
+}
+
+// Issue 39, finding 4: one scan sent again after a re-export (every coordinate moved by 1 ULP,
+// 1e-5 or 1e-4 mm, with a random sign) is a repeated scan like an exact copy; found with the
+// resolution ε = u/100 = 3e-4 mm. Control: the same scan moved by a third of its point spacing
+// across the surface (another sampling of the same part) is not.
+TEST(CoincidentAcrossScans, AReExportedScanIsARepeat) {
+  const PointCloud base =
+      sim::Simulate(Part::kBoxWithBore, sim::FrontalSensor(Part::kBoxWithBore), 7).cloud;
+  ASSERT_NEAR(ResolutionEdge(base), 3e-4, 1e-9);
+  const double spacing = base.scans.front().point_spacing;
+  for (const double moved : {0.0, 1e-5, 1e-4, spacing / 3}) {
+    SCOPED_TRACE(moved);
+    PointCloud cloud;
+    cloud.kind = ScannerKind::kLine;
+    for (const char* id : {"scan", "again"}) {
+      cloud.scans.push_back(base.scans.front());
+      cloud.scans.back().id = id;
+    }
+    AppendAsScan(base, 0, cloud, [](size_t) { return true; });
+    AppendAsScan(base, 1, cloud, [](size_t) { return true; });
+    std::mt19937 rng(11);
+    for (size_t i = base.size(); i < cloud.size(); ++i) {
+      for (float* v : {&cloud.x[i], &cloud.y[i], &cloud.z[i]}) {
+        const float away = rng() % 2 ? HUGE_VALF : -HUGE_VALF;
+        *v = moved == 0 ? std::nextafter(*v, away) : *v + float(rng() % 2 ? moved : -moved);
+      }
+      if (moved > 1e-3) cloud.z[i] = base.z[i - base.size()], cloud.y[i] = base.y[i - base.size()];
+    }
+    const uint64_t truth = CoincidentAcrossScans(cloud);
+    const PipelineReport report = RunNeighbourhoods(cloud);
+    EXPECT_EQ(report.points_coincident_across_scans, truth);
+    if (moved > 1e-3) {
+      EXPECT_LT(truth, base.size() / 100);
+      EXPECT_FALSE(WarnsAboutCoincidence(report));
+    } else {
+      EXPECT_GT(truth, base.size() * 9 / 10);
+      EXPECT_TRUE(WarnsAboutCoincidence(report));
+    }
+  }
+}
+
+// A stated u a thousand times the point spacing (a unit slip in the metadata, no spacing stated)
+// makes ε ten spacings: every scan's own points lie that close, so another sampling of the
+// same surface nearby says nothing about a repeat, and is not called one; an exact copy still is
+// (compared by position). The control: the same scans with their own u.
+TEST(CoincidentAcrossScans, AResolutionTheScanDoesNotResolveFindsNoRepeat) {
+  const PointCloud base =
+      sim::Simulate(Part::kBoxWithBore, sim::FrontalSensor(Part::kBoxWithBore), 7).cloud;
+  const double spacing = base.scans.front().point_spacing;
+  for (const bool copy : {false, true}) {
+    for (const double u : {base.scans.front().uncertainty, 1000 * spacing}) {
+      SCOPED_TRACE(testing::Message() << "copy " << copy << ", u " << u);
+      PointCloud cloud;
+      cloud.kind = ScannerKind::kLine;
+      for (const char* id : {"scan", "other"}) {
+        cloud.scans.push_back(base.scans.front());
+        cloud.scans.back().id = id;
+        cloud.scans.back().uncertainty = u;
+        cloud.scans.back().point_spacing = cloud.scans.back().scanline_spacing = 0;
+      }
+      AppendAsScan(base, 0, cloud, [](size_t) { return true; });
+      AppendAsScan(base, 1, cloud, [](size_t) { return true; });
+      if (!copy) {
+        for (size_t i = base.size(); i < cloud.size(); ++i) cloud.x[i] += float(spacing / 3);
+      }
+      ASSERT_NEAR(ResolutionEdge(cloud), u / 100, 1e-12);
+      const PipelineReport report = RunNeighbourhoods(cloud);
+      EXPECT_EQ(WarnsAboutCoincidence(report), copy);
+    }
+  }
 }
 
 // Scan 1 repeats every third point of scan 0 among its own, scan 2 every fifth twice (within-scan
@@ -138,12 +226,19 @@ TEST(CoincidentAcrossScans, PartialRepeatsAndWithinScanDuplicates) {
 // The ground truth of what is collapsed: points whose cube of edge u/100 (u the scans' finest
 // uncertainty, at most an eighth of a stated spacing: core/spatial/duplicates.h) already holds
 // a point of their scan.
-uint64_t SharingAResolutionCube(const PointCloud& cloud) {
+double ResolutionEdge(const PointCloud& cloud) {
   double edge = HUGE_VAL;
   for (const ScanMeta& scan : cloud.scans) {
-    edge =
-        std::min({edge, scan.uncertainty / 100, scan.point_spacing / 8, scan.scanline_spacing / 8});
+    edge = std::min(edge, scan.uncertainty / 100);
+    for (const double spacing : {scan.point_spacing, scan.scanline_spacing}) {
+      if (spacing > 0) edge = std::min(edge, spacing / 8);
+    }
   }
+  return edge;
+}
+
+uint64_t SharingAResolutionCube(const PointCloud& cloud) {
+  const double edge = ResolutionEdge(cloud);
   std::set<std::tuple<uint32_t, int64_t, int64_t, int64_t>> seen;
   uint64_t count = 0;
   for (size_t i = 0; i < cloud.size(); ++i) {

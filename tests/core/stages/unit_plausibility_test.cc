@@ -158,11 +158,13 @@ TEST(FailOn, AJobFailsAtTheEndOfTheStageThatWarnedAndRunsNoLaterStage) {
   EXPECT_TRUE(ok.ok()) << ok.status();
 }
 
+// (Not SCAN_REPEATED as the code failed on: with the unit slipped, the simulated sensors, which
+// sample the same lines, agree a hundred times better than their stated u, and that is named.)
 TEST(FailOn, AWarningNotFailedOnStaysAWarning) {
   PointCloud cloud = Scaled(testing::WithUserMetadata(Simulated()), 1e-3f);
   PipelineOptions options;
   options.stages = {"normals"};
-  options.fail_on = {WarningCode::kScanRepeated};
+  options.fail_on = {WarningCode::kNoiseAboveUncertainty};
   auto report = RunPipeline(cloud, options, CancelToken());
   ASSERT_TRUE(report.ok()) << report.status();
   EXPECT_TRUE(std::any_of(report->warnings.begin(), report->warnings.end(),
