@@ -21,8 +21,9 @@ namespace scanprep {
 // lower-numbered scan. Counted in full in the scans where an even sample of kNearRepeatSample of
 // their points finds one; any other scan is counted 0 (fewer than about 1 in kNearRepeatSample of
 // its points can be near), and so is a scan the tolerance does not resolve (its own standing
-// points that close at over 5 % of its sample: a unit slip, not a repeat). At most kNearRepeatCandidates are read per cell a point looks in, so
-// the work is O(n) at any density; O(n) memory while it runs. Cancellable.
+// points that close at over 5 % of its sample: a unit slip, not a repeat). At most
+// kNearRepeatCandidates are read per cell a point looks in, so the work is O(n) at any density;
+// O(n) memory while it runs. Cancellable.
 absl::StatusOr<std::vector<uint64_t>> CountNearRepeats(const PointCloud& cloud,
                                                        const std::vector<uint32_t>& standing,
                                                        double tolerance, const CancelToken& cancel);

@@ -107,9 +107,9 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
     observer_.Admitted(0);
     return Slot(this, arrived, holder);
   }
-  if (static_cast<int>(waiting_.size()) >= options_.max_queued_jobs) {
+  if (static_cast<int>(waiting_.size()) >= options_.max_queued_jobs && !DisplaceForLocked(host)) {
     observer_.Refused(AdmissionRefusal::kQueueFull);
-    return QueueFullErrorLocked();
+    return QueueFullErrorLocked(/*displaced=*/false);
   }
   const double expected = ExpectedWaitLocked();
   const double remaining = absl::ToDoubleSeconds(deadline - arrived);
@@ -128,6 +128,10 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
     observer_.Admitted(absl::ToDoubleSeconds(options_.now() - arrived));
     return Slot(this, options_.now(), self.holder);
   }
+  if (self.displaced) {  // DisplaceForLocked already took it off the queue
+    observer_.Refused(AdmissionRefusal::kQueueFull);
+    return QueueFullErrorLocked(/*displaced=*/true);
+  }
   waiting_.erase(position);
   EndCallLocked(host);
   if (waiting_for_memory_ == &self) waiting_for_memory_ = nullptr;
@@ -140,12 +144,37 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
   return absl::CancelledError("the call was cancelled or its deadline passed while queued");
 }
 
-absl::Status AdmissionQueue::QueueFullErrorLocked() const {
+bool AdmissionQueue::DisplaceForLocked(const std::string& host) {
+  const auto mine = hosts_.find(host);
+  int most = (mine == hosts_.end() ? 0 : mine->second.calls) + 1;
+  auto victim = waiting_.rend();
+  for (auto it = waiting_.rbegin(); it != waiting_.rend(); ++it) {  // newest first
+    if (*it == waiting_for_memory_) continue;                       // it keeps its turn
+    const int calls = hosts_.at((*it)->host).calls;
+    if (calls > most) {
+      most = calls;
+      victim = it;
+    }
+  }
+  if (victim == waiting_.rend()) return false;
+  Waiter* displaced = *victim;
+  waiting_.erase(std::next(victim).base());
+  EndCallLocked(displaced->host);
+  displaced->displaced = true;
+  changed_.notify_all();
+  return true;
+}
+
+absl::Status AdmissionQueue::QueueFullErrorLocked(bool displaced) const {
   // Retry once the queue can be expected to have moved; at least a second, so that refused
   // clients do not hammer a server that has not finished a job yet.
   const int in_flight = static_cast<int>(holders_.size());
   return WithReason(
       absl::ResourceExhaustedError(absl::StrCat(
+          displaced ? "this call's place in the queue went to a call of another client host, "
+                      "which held or awaited fewer jobs than yours (hosts keep equal shares of "
+                      "the queue when they contend): "
+                    : "",
           in_flight >= options_.max_concurrent_jobs
               ? absl::StrCat("the server is running its limit of ", options_.max_concurrent_jobs,
                              " concurrent jobs (max_concurrent_jobs)")
@@ -161,7 +190,9 @@ absl::Status AdmissionQueue::QueueFullErrorLocked() const {
 void AdmissionQueue::WaitLocked(std::unique_lock<std::mutex>& lock, Waiter& self,
                                 const std::function<bool()>& cancelled) {
   // A holder keeps its slot through a drain: only calls still waiting for one are released.
-  const auto done = [&] { return self.granted || (draining_ && !self.holds_slot); };
+  const auto done = [&] {
+    return self.granted || self.displaced || (draining_ && !self.holds_slot);
+  };
   while (!done()) {
     if (changed_.wait_for(lock, kPollInterval, done)) break;
     if (cancelled()) break;

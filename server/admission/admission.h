@@ -3,11 +3,13 @@
 // slot, up to `max_queued_jobs` more wait for one, and anything beyond that is refused at once.
 // One client host (client_identity.h) may take every slot and queue place while nobody else
 // waits; when hosts contend, a freed slot goes to the waiting host served least recently (its
-// oldest call), so the hosts take turns instead of the one that queued most getting most. A host
-// with no call held or waiting is forgotten, and counts as never served when it comes back. A call
-// is admitted when its header arrives, before the upload: a waiting call holds no points, so memory
-// stays bounded by the running jobs, and a full server refuses before the client sends anything
-// large.
+// oldest call), so the hosts take turns instead of the one that queued most getting most, and a
+// full queue gives a place to a host with fewer calls than another by taking that host's newest
+// waiting call (DisplaceForLocked), so one that resubmits at once cannot keep the others out. A
+// host with no call held or waiting is forgotten, and counts as never served when it comes back. A
+// call is admitted when its header arrives, before the upload: a waiting call holds no points, so
+// memory stays bounded by the running jobs, and a full server refuses before the client sends
+// anything large.
 //
 // Each call also claims its job's estimated memory (memory_reservation.h), and the reservations
 // never exceed `memory_capacity_bytes`. A claim is reserved as the job's data arrives
@@ -118,7 +120,8 @@ class AdmissionQueue {
     bool holds_slot = false;
     std::list<Holder>::iterator holder;  // when holds_slot, or once granted a slot
     bool granted = false;
-    std::string host;  // of a call waiting for a slot
+    bool displaced = false;  // its queue place went to another host's call
+    std::string host;        // of a call waiting for a slot
   };
   // A client host with calls holding or waiting for a slot.
   struct Host {
@@ -145,8 +148,15 @@ class AdmissionQueue {
   void WaitLocked(std::unique_lock<std::mutex>& lock, Waiter& self,
                   const std::function<bool()>& cancelled);
   double ExpectedWaitLocked() const;
-  // RESOURCE_EXHAUSTED QUEUE_FULL, naming what holds the slots, with a RetryInfo.
-  absl::Status QueueFullErrorLocked() const;
+  // Max-min fair queue places: with the queue full, a call of `host` takes the place of the newest
+  // waiting call of the host with the most calls (held or waiting), when that host has at least
+  // two more than `host`; true if it did. The displaced call ends QUEUE_FULL. So a host that
+  // floods the server keeps an equal share once another host comes, and that host's call is
+  // first in turn for the next slot.
+  bool DisplaceForLocked(const std::string& host);
+  // RESOURCE_EXHAUSTED QUEUE_FULL, naming what holds the slots (and, when `displaced`, that the
+  // call's place went to another host), with a RetryInfo.
+  absl::Status QueueFullErrorLocked(bool displaced) const;
   // Reports the slots held, the calls waiting and the bytes reserved.
   void PublishLocked();
 

@@ -21,6 +21,7 @@ namespace {
 
 using server::AdmissionQueue;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 // Polls `condition` every millisecond for at most 10 s.
 template <typename Fn>
@@ -178,7 +179,7 @@ TEST(AdmissionQueue, HostsThatContendTakeTurnsLeastRecentlyServedFirst) {
   }
 }
 
-// Alone, a host may fill every slot and every queue place; the next call is refused only because
+// Alone, a host may fill every slot and every queue place; its next call is refused only because
 // the queue is full.
 TEST(AdmissionQueue, OneHostAloneMayTakeEverySlotAndQueuePlace) {
   QueueUnderTest q(/*max_concurrent=*/2, /*max_queued=*/2);
@@ -188,13 +189,55 @@ TEST(AdmissionQueue, OneHostAloneMayTakeEverySlotAndQueuePlace) {
   auto third = q.AdmitQueued(0, nullptr, "A");
   auto fourth = q.AdmitQueued(0, nullptr, "A");
   EXPECT_EQ(q.queue().queued(), 2);
-  const auto refused = q.AdmitNow(0, "B");
+  const auto refused = q.AdmitNow(0, "A");
   EXPECT_EQ(refused.status().code(), absl::StatusCode::kResourceExhausted);
   EXPECT_THAT(refused.status().message(), HasSubstr("(max_queued_jobs) is full"));
   { auto release = std::move(*first); }
   EXPECT_TRUE(third.get().ok());
   { auto release = std::move(*second); }
   EXPECT_TRUE(fourth.get().ok());
+}
+
+// Issue 39 finding 1: host A holds every slot and queue place and resubmits at once; each call
+// of host B takes the place of A's newest waiting call (refused QUEUE_FULL, saying why, with a
+// RetryInfo) until both hold or await as many calls (3 of the 6 places); then B's next call is
+// refused like anyone's at a full queue. B runs at the next free slot, A at the one after.
+TEST(AdmissionQueue, AHostThatFloodsTheQueueGivesPlacesToAnotherUntilTheyAreEven) {
+  QueueUnderTest q(/*max_concurrent=*/2, /*max_queued=*/4);
+  std::atomic<bool> give_up{false};
+  std::vector<std::future<absl::StatusOr<AdmissionQueue::Slot>>> a, b;
+  absl::Cleanup end_waits = [&] { give_up = true; };  // before the futures wait for their calls
+  auto a1 = q.AdmitNow(0, "A");
+  auto a2 = q.AdmitNow(0, "A");
+  ASSERT_TRUE(a1.ok() && a2.ok());
+  for (int i = 0; i < 4; ++i) a.push_back(q.AdmitQueued(0, &give_up, "A"));
+  ASSERT_EQ(q.queue().queued(), 4);
+  EXPECT_EQ(q.AdmitNow(0, "A").status().code(), absl::StatusCode::kResourceExhausted);
+
+  for (int k = 0; k < 3; ++k) {
+    b.push_back(q.AdmitAsync(absl::InfiniteFuture(), &give_up, 0, "B"));
+    ASSERT_EQ(a[3 - k].wait_for(std::chrono::seconds(10)), std::future_status::ready) << k;
+    const absl::Status displaced = a[3 - k].get().status();
+    EXPECT_EQ(displaced.code(), absl::StatusCode::kResourceExhausted);
+    EXPECT_THAT(displaced.message(), HasSubstr("went to a call of another client host"));
+  }
+  ASSERT_TRUE(Eventually([&] { return q.queue().queued() == 4; }));
+  const auto even = q.AdmitNow(0, "B");
+  EXPECT_EQ(even.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(even.status().message(), Not(HasSubstr("another client host")));
+  EXPECT_FALSE(Ready(a[0]) || Ready(b[0]) || Ready(b[1]) || Ready(b[2]));
+
+  // The next slot goes to B (never served), the one after to A.
+  { auto release = std::move(*a1); }
+  ASSERT_EQ(b[0].wait_for(std::chrono::seconds(10)), std::future_status::ready);
+  const auto b_runs = b[0].get();
+  EXPECT_TRUE(b_runs.ok());
+  EXPECT_FALSE(Ready(a[0]));
+  { auto release = std::move(*a2); }
+  ASSERT_EQ(a[0].wait_for(std::chrono::seconds(10)), std::future_status::ready);
+  const auto a_runs = a[0].get();
+  EXPECT_TRUE(a_runs.ok());
+  EXPECT_FALSE(Ready(b[1]));
 }
 
 // A call whose turn came while a slot was free but not its memory keeps its turn: a host that
@@ -540,6 +583,34 @@ TEST(Admission, HostsForwardedByATrustedProxyTakeTurnsForTheSlot) {
     for (HeldCall* call : {&b, &a2, &a3}) call->Cancel();
     EXPECT_TRUE(next_runs.get());
   }
+}
+
+// Issue 39 finding 1 through the server: a host that holds the slot and fills the queue no
+// longer refuses a second host QUEUE_FULL; the second host's call takes the first host's newest
+// place and runs when the slot frees.
+TEST(Admission, ASecondHostGetsAPlaceInAQueueAnotherHostFilled) {
+  server::ServerOptions options = Options(1, 2);
+  options.trusted_proxies = *server::ParseCidrList("127.0.0.0/8");
+  InProcessServer server(options);
+  const int metrics = server.server().metrics_port();
+  auto stub = server.Stub();
+  HeldCall running(*stub, "203.0.113.1");
+  ASSERT_TRUE(running.WaitUntilRunning());
+  HeldCall a2(*stub, "203.0.113.1");
+  ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 1));
+  HeldCall a3(*stub, "203.0.113.1");
+  ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 2));
+  HeldCall b(*stub, "203.0.113.2");
+  const grpc::Status displaced = a3.Finish();
+  EXPECT_EQ(displaced.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(displaced.error_message(), HasSubstr("went to a call of another client host"));
+  EXPECT_EQ(Sample(metrics, "scanprep_jobs_queued"), 2);
+
+  auto b_runs = std::async(std::launch::async, [&] { return b.WaitUntilRunning(); });
+  EXPECT_TRUE(running.Finish().ok());
+  EXPECT_EQ(b_runs.wait_for(std::chrono::seconds(10)), std::future_status::ready);
+  EXPECT_TRUE(b_runs.get());
+  for (HeldCall* call : {&b, &a2}) call->Cancel();
 }
 
 TEST(Admission, ACallWhoseDeadlineIsShorterThanTheExpectedWaitFailsAtOnce) {
