@@ -133,6 +133,7 @@ absl::StatusOr<PipelineReport> RunPipeline(PointCloud& cloud, const PipelineOpti
   report.points_coincident_across_scans = coincident_across_scans;
   report.estimated_plan_cost = EstimatePlanCost(plan).ratio;
   report.warnings.insert(report.warnings.end(), before_stages.begin(), before_stages.end());
+  FoldRepeatedWarnings(report.warnings);
   report.total_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   JudgeTimeBudgets(options, report);

@@ -12,6 +12,7 @@
 #include <mutex>
 #include <numbers>
 #include <span>
+#include <tuple>
 #include <utility>
 
 #include "core/base/parallel.h"
@@ -257,6 +258,24 @@ class HealthStage : public Stage {
   }
 };
 
+// Keeps the kMaxReportedPairs pairs with the most overlap points, in (fixed, moving) order, and
+// returns how many it left out: 64 scans that all overlap are 2,016 pairs, and the report and the
+// per-sensor series would grow with the square of the scans.
+size_t KeepLargestOverlaps(std::vector<PairHealth>& pairs) {
+  if (pairs.size() <= kMaxReportedPairs) return 0;
+  const size_t left_out = pairs.size() - kMaxReportedPairs;
+  const auto by_overlap = [](const PairHealth& a, const PairHealth& b) {
+    return std::tie(b.overlap_points, a.fixed, a.moving) <
+           std::tie(a.overlap_points, b.fixed, b.moving);
+  };
+  std::nth_element(pairs.begin(), pairs.begin() + kMaxReportedPairs, pairs.end(), by_overlap);
+  pairs.resize(kMaxReportedPairs);
+  std::sort(pairs.begin(), pairs.end(), [](const PairHealth& a, const PairHealth& b) {
+    return std::tie(a.fixed, a.moving) < std::tie(b.fixed, b.moving);
+  });
+  return left_out;
+}
+
 }  // namespace
 
 absl::StatusOr<HealthReport> MeasureHealth(const PointCloud& cloud, const PointMeasures& m,
@@ -269,6 +288,9 @@ absl::StatusOr<HealthReport> MeasureHealth(const PointCloud& cloud, const PointM
   SCANPREP_ASSIGN_OR_RETURN(health.pairs, PairHealths(cloud, m, nb, settings, out.cancel()));
   SCANPREP_ASSIGN_OR_RETURN(health.scans, ScanHealths(cloud, m, ran, out.cancel()));
   out.Record("health.pairs", static_cast<double>(health.pairs.size()));
+  if (const size_t left_out = KeepLargestOverlaps(health.pairs); left_out > 0) {
+    out.Record("health.pairs_left_out", static_cast<double>(left_out));
+  }
   return health;
 }
 

@@ -64,6 +64,11 @@ struct PairHealth {
   std::string note;
 };
 
+// Pairs a report holds at most: those with the most overlap points (the parameter
+// health.pairs_left_out counts the rest), so a job of many overlapping scans does not make a
+// report and per-sensor series that grow with the square of its scans.
+inline constexpr size_t kMaxReportedPairs = 256;
+
 struct HealthReport {
   std::vector<ScanHealth> scans;  // one per scan, in scan order
   std::vector<PairHealth> pairs;  // overlapping pairs, fixed < moving

@@ -86,4 +86,28 @@ std::optional<Warning> FailedWarning(const absl::Status& status) {
   return warning;
 }
 
+void FoldRepeatedWarnings(std::vector<Warning>& warnings) {
+  std::map<WarningCode, size_t> seen;
+  std::map<WarningCode, std::pair<size_t, std::string>> left_out;  // count, the first's text
+  std::vector<Warning> kept;
+  for (Warning& w : warnings) {
+    if (++seen[w.code] <= kMaxWarningsPerCode) {
+      kept.push_back(std::move(w));
+      continue;
+    }
+    auto& [count, first] = left_out[w.code];
+    if (count++ == 0) first = std::move(w.message);
+  }
+  for (const auto& [code, folded] : left_out) {
+    const auto& [count, first] = folded;
+    kept.push_back(
+        {code,
+         absl::StrCat(count, " more ", std::string(WarningCodeName(code)), " warnings like the ",
+                      kMaxWarningsPerCode, " above are left out of the report (at most ",
+                      kMaxWarningsPerCode, " of a code are listed); the first: ", first),
+         {{"warnings_left_out", absl::StrCat(count)}}});
+  }
+  warnings = std::move(kept);
+}
+
 }  // namespace scanprep

@@ -7,11 +7,14 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "absl/strings/str_cat.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sim/scan_simulator.h"
 #include "core/stages/health.h"
@@ -166,6 +169,37 @@ TEST(Health, EveryOverlappingPairIsReportedOnceInOrder) {
     EXPECT_EQ(std::pair(pair.fixed, pair.moving), order[p]);
     ASSERT_TRUE(pair.constrained[2]) << pair.note;
     EXPECT_NEAR(pair.translation_mm.z(), pair.moving == 2 ? 0.01 : 0.0, 0.002) << p;
+  }
+}
+
+// Issue 39 finding 8: 30 scans of one plate overlap in hundreds of pairs; the report keeps 256 of
+// them (those with the most overlap points), in (fixed, moving) order.
+TEST(Health, AReportKeepsTheLargestOverlapsWhenScansOverlapInManyPairs) {
+  PointCloud cloud;
+  cloud.kind = ScannerKind::kLine;
+  std::mt19937 rng(3);
+  std::normal_distribution<float> noise(0.f, 0.01f);
+  for (uint32_t s = 0; s < 30; ++s) {
+    cloud.scans.push_back(ScanMeta{.id = absl::StrCat("plate", s),
+                                   .view_direction = Eigen::Vector3d::UnitZ(),
+                                   .scanline_spacing = 0.5,
+                                   .uncertainty = 0.01});
+    for (int r = 0; r < 40; ++r) {
+      for (int c = 0; c < 40; ++c) {
+        cloud.x.push_back(0.5f * c + 0.25f * (s % 2));
+        cloud.y.push_back(0.5f * r + 0.02f * s);
+        cloud.z.push_back(noise(rng));
+        cloud.scan.push_back(s);
+        cloud.scanline.push_back(static_cast<uint32_t>(r));
+      }
+    }
+  }
+  cloud.FinishLoading();
+  const HealthReport health = Health(cloud);
+  ASSERT_EQ(health.pairs.size(), kMaxReportedPairs);
+  for (size_t p = 1; p < health.pairs.size(); ++p) {
+    EXPECT_LT(std::tie(health.pairs[p - 1].fixed, health.pairs[p - 1].moving),
+              std::tie(health.pairs[p].fixed, health.pairs[p].moving));
   }
 }
 

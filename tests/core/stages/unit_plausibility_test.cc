@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "absl/strings/str_cat.h"
+
 #include "core/pipeline/pipeline.h"
 #include "core/stages/warning.h"
 #include "tests/support/metrology_job.h"
@@ -169,6 +171,26 @@ TEST(FailOn, AWarningNotFailedOnStaysAWarning) {
   ASSERT_TRUE(report.ok()) << report.status();
   EXPECT_TRUE(std::any_of(report->warnings.begin(), report->warnings.end(),
                           [](const Warning& w) { return w.code == WarningCode::kUnitSuspect; }));
+}
+
+// Issue 39 finding 8: a report lists at most kMaxWarningsPerCode warnings of a code; the rest of
+// that code fold into one that counts them and quotes the first, and other codes keep theirs.
+TEST(WarningCodes, ARepeatedCodeIsListedTenTimesAndTheRestCounted) {
+  std::vector<Warning> warnings;
+  for (int s = 0; s < 25; ++s) {
+    warnings.push_back({WarningCode::kNoPose, absl::StrCat("scan ", s, " has no pose")});
+    if (s < 2) warnings.push_back({WarningCode::kUnitSuspect, absl::StrCat("unit ", s)});
+  }
+  FoldRepeatedWarnings(warnings);
+  ASSERT_EQ(warnings.size(), kMaxWarningsPerCode + 2 + 1);
+  size_t no_pose = 0;
+  for (const Warning& w : warnings) no_pose += w.code == WarningCode::kNoPose;
+  EXPECT_EQ(no_pose, kMaxWarningsPerCode + 1);
+  const Warning& folded = warnings.back();
+  EXPECT_EQ(folded.code, WarningCode::kNoPose);
+  EXPECT_EQ(folded.params.at("warnings_left_out"), "15");
+  EXPECT_NE(folded.message.find("15 more NO_POSE warnings"), std::string::npos) << folded.message;
+  EXPECT_NE(folded.message.find("scan 10 has no pose"), std::string::npos) << folded.message;
 }
 
 TEST(WarningCodes, EveryCodeHasAUniqueNameThatMapsBack) {
