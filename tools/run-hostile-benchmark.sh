@@ -9,7 +9,8 @@
 # 1,000 scans of one point (alone, and the ordinary cloud in 1,000 scans); issue 38's dense spots
 # (a quarter and a half of the points in a 0.05 mm ball, a quarter jittered within 0.002, 0.01 and
 # 0.05 mm, every point at log-uniform radii 1e-3-1e4 mm, one scan in inches or metres sent as mm
-# without its u) and every costly parameter at its edge together; DRAWN cases (default
+# without its u) and every costly parameter at its edge together; issue 39's re-exported scan
+# (the first scan again, 1e-4 mm off) and scanlines all 0; DRAWN cases (default
 # 200) drawn from SEED (default random, printed) by tools/lib/hostile_cases.py: far parts in a
 # random direction at 1e3-1e9 mm holding 0.5-30 % of the points, clusters of 1-50 k
 # near-identical points within 0-1e-3 mm, lines at 1e-4 mm, offsets of the whole job up to

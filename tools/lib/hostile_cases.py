@@ -137,6 +137,29 @@ class Cases:
         # Millimetre data sent as metres: the ordinary files and job with --unit m.
         self.emit("mm_data_as_metres", self.scans, self.job, extra=["--unit", "m"])
 
+    def reexported_scan(self, moved):
+        # The first scan sent again as a third scan, every coordinate `moved` mm off (a scan
+        # re-exported through decimal text): a repeat within the resolution, SCAN_REPEATED.
+        first = self.job["scans"][0]["scan_id"]
+        names, fmt, rows = self.scans[first]
+        xyz = [names.index(a) for a in "xyz"]
+        again = [list(r) for r in rows]
+        for row in again:
+            for a in xyz:
+                row[a] += moved
+        job = dict(self.job, scans=self.job["scans"] + [dict(self.job["scans"][0],
+                                                             scan_id=first + "_again")])
+        self.emit(f"scan_reexported_{moved:g}mm", {**self.scans, first + "_again":
+                                                   (names, fmt, again)}, job)
+
+    def scanlines_all_zero(self):
+        # Every point on scanline 0 (a reader or client bug): SCANLINES_IMPLAUSIBLE.
+        def zero(rows, names):
+            line = names.index("scanline")
+            for row in rows:
+                row[line] = 0
+        self.emit("scanlines_all_zero", self.mapped(zero), self.job)
+
     def one_point_scans(self, scans):
         """`scans` scans of one point each (points of the first scan, with its metadata), alone;
         and the ordinary cloud in `scans` scans, all but its own of one point each. The server's
@@ -388,6 +411,8 @@ def main():
     cases.unit_slips()
     no_pose_scene(scene_dir, cases, sum(len(r) for _, _, r in cases.scans.values()))
     cases.one_point_scans(1000)
+    cases.reexported_scan(1e-4)
+    cases.scanlines_all_zero()
     cases.dense_spots()
     cases.parameters_at_their_edges()
     if len(sys.argv) > 6:
