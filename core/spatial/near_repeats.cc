@@ -16,7 +16,7 @@ namespace {
 // Cells of this many tolerances a side: a ball of radius `tolerance` around a point crosses into
 // a neighbour along an axis only within a quarter of the cell of that side's face, so a query
 // looks in (1 + 1/4)³ ≈ 2 cells on average instead of 8 (each a cache miss at a million points),
-// while a cell stays far smaller than any point spacing (ε ≤ spacing/8).
+// while a cell stays no wider than a stated point spacing (ε ≤ spacing/8).
 constexpr double kCellPerTolerance = 8;
 
 // A point as the table holds it, so a candidate costs one memory read.

@@ -32,7 +32,7 @@ absl::StatusOr<std::vector<uint64_t>> CountNearRepeats(const PointCloud& cloud,
 // points) pays one look per standing point into a table of these, which stays in cache.
 inline constexpr size_t kNearRepeatSample = 4096;
 // Candidates read per cell: on a surface a cell holds a few standing points per scan (it is at most
-// a sixteenth of the point spacing across when the tolerance is the resolution ε).
+// a stated point spacing across when the tolerance is the resolution ε).
 inline constexpr size_t kNearRepeatCandidates = 64;
 
 }  // namespace scanprep
