@@ -107,12 +107,14 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
     observer_.Admitted(0);
     return Slot(this, arrived, holder);
   }
-  if (static_cast<int>(waiting_.size()) >= options_.max_queued_jobs && !DisplaceForLocked(host)) {
+  const double expected = ExpectedWaitLocked();
+  const double remaining = absl::ToDoubleSeconds(deadline - arrived);
+  // A call that would be refused for its deadline anyway displaces nobody.
+  if (static_cast<int>(waiting_.size()) >= options_.max_queued_jobs &&
+      (expected > remaining || !DisplaceForLocked(host))) {
     observer_.Refused(AdmissionRefusal::kQueueFull);
     return QueueFullErrorLocked(/*displaced=*/false);
   }
-  const double expected = ExpectedWaitLocked();
-  const double remaining = absl::ToDoubleSeconds(deadline - arrived);
   if (expected > remaining) {
     observer_.Refused(AdmissionRefusal::kDeadline);
     return absl::DeadlineExceededError(absl::StrFormat(
