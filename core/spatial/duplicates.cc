@@ -104,12 +104,10 @@ absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const Ca
 
   DuplicateGroups groups;
   groups.group_of.resize(n);
-  std::vector<uint32_t> standing;
   for (size_t i = 0; i < n; ++i) {
     if (first[i] == i) {
       groups.group_of[i] = static_cast<uint32_t>(groups.multiplicity.size());
       groups.multiplicity.push_back(1);
-      standing.push_back(static_cast<uint32_t>(i));
     } else {
       groups.group_of[i] = groups.group_of[first[i]];  // first[i] < i: already numbered
       ++groups.multiplicity[groups.group_of[i]];
@@ -117,7 +115,7 @@ absl::StatusOr<DuplicateGroups> FindDuplicates(const PointCloud& cloud, const Ca
   }
   first = {};
   SCANPREP_ASSIGN_OR_RETURN(groups.repeated_per_scan,
-                            CountNearRepeats(cloud, standing, edge, cancel));
+                            CountNearRepeats(cloud, GroupFirsts(groups), edge, cancel));
   for (const uint64_t repeated : groups.repeated_per_scan) {
     groups.coincident_across_scans += repeated;
   }

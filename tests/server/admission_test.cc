@@ -366,6 +366,23 @@ class HeldCall {
   bool has_report_ = false;
 };
 
+// `calls` calls of `host` on a server with one slot: the first runs, the rest queue in order (each
+// seen in scanprep_jobs_queued). Fewer are returned when one does not get there.
+std::vector<std::unique_ptr<HeldCall>> HoldTheSlotAndQueue(v1::ScanPrep::Stub& stub, int metrics,
+                                                           const std::string& host, int calls) {
+  std::vector<std::unique_ptr<HeldCall>> held;
+  for (int c = 0; c < calls; ++c) {
+    held.push_back(std::make_unique<HeldCall>(stub, host));
+    const bool there = c == 0 ? held.back()->WaitUntilRunning()
+                              : WaitForSample(metrics, "scanprep_jobs_queued", c);
+    if (!there) {
+      held.pop_back();
+      break;
+    }
+  }
+  return held;
+}
+
 grpc::Status SmallJob(v1::ScanPrep::Stub& stub, std::optional<absl::Duration> timeout = {}) {
   grpc::ClientContext context;
   if (timeout) context.set_deadline(absl::ToChronoTime(absl::Now() + *timeout));
@@ -566,12 +583,9 @@ TEST(Admission, HostsForwardedByATrustedProxyTakeTurnsForTheSlot) {
     InProcessServer server(options);
     const int metrics = server.server().metrics_port();
     auto stub = server.Stub();
-    HeldCall running(*stub, "203.0.113.1");
-    ASSERT_TRUE(running.WaitUntilRunning());
-    HeldCall a2(*stub, "203.0.113.1");
-    ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 1));
-    HeldCall a3(*stub, "203.0.113.1");
-    ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 2));
+    const auto a = HoldTheSlotAndQueue(*stub, metrics, "203.0.113.1", 3);
+    ASSERT_EQ(a.size(), 3u);
+    HeldCall &running = *a[0], &a2 = *a[1], &a3 = *a[2];
     HeldCall b(*stub, "203.0.113.2");
     ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 3));
 
@@ -594,12 +608,9 @@ TEST(Admission, ASecondHostGetsAPlaceInAQueueAnotherHostFilled) {
   InProcessServer server(options);
   const int metrics = server.server().metrics_port();
   auto stub = server.Stub();
-  HeldCall running(*stub, "203.0.113.1");
-  ASSERT_TRUE(running.WaitUntilRunning());
-  HeldCall a2(*stub, "203.0.113.1");
-  ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 1));
-  HeldCall a3(*stub, "203.0.113.1");
-  ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 2));
+  const auto a = HoldTheSlotAndQueue(*stub, metrics, "203.0.113.1", 3);
+  ASSERT_EQ(a.size(), 3u);
+  HeldCall &running = *a[0], &a2 = *a[1], &a3 = *a[2];
   HeldCall b(*stub, "203.0.113.2");
   const grpc::Status displaced = a3.Finish();
   EXPECT_EQ(displaced.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
