@@ -88,13 +88,15 @@ ABSL_FLAG(double, sensor_rotation_tolerance_deg, 0.05,
           "ScanprepSensorPairMisaligned fires; exported as "
           "scanprep_sensor_rotation_tolerance_degrees");
 ABSL_FLAG(int, max_concurrent_jobs, 4,
-          "jobs holding a slot (uploading, processing, downloading) at once; further calls queue");
+          "jobs holding a slot (processing, downloading) at once; a call takes one after its "
+          "upload, and waits for it");
 ABSL_FLAG(int, max_queued_jobs, 8,
-          "calls that may wait for a slot; beyond that a call ends at once with "
-          "RESOURCE_EXHAUSTED");
+          "calls beyond --max_concurrent_jobs that may be admitted, uploading or waiting for a "
+          "slot; beyond that a call ends at once with RESOURCE_EXHAUSTED");
 ABSL_FLAG(uint64_t, memory_capacity, 0,
-          "bytes the running jobs' estimated memory may take together (docs/server.md, "
-          "\"Admission control\"); a call waits until its job fits, a job that never can is "
+          "bytes the admitted jobs may reserve together, uploads their data, running jobs their "
+          "estimate (docs/server.md, \"Admission control\"); a call waits until it fits, a job "
+          "that never can is "
           "refused. 0 = the container's memory limit (cgroup) minus 128 MiB for the server, else "
           "half the RAM");
 ABSL_FLAG(bool, memory_guard, true,
@@ -124,13 +126,15 @@ ABSL_FLAG(absl::Duration, header_timeout, absl::Seconds(10),
 ABSL_FLAG(absl::Duration, idle_timeout, absl::Seconds(30),
           "a Process call whose next upload message has not arrived this long after the previous "
           "one, or whose client has not read a response this long after it was written, is "
-          "cancelled (time queued for a slot does not count)");
+          "cancelled (time waiting for memory or a slot does not count)");
 ABSL_FLAG(double, min_upload_rate, 64 * 1024,
-          "bytes per second a Process upload must average from its admission on, after a first "
-          "--idle_timeout; a slower one is cancelled (0 = no minimum)");
+          "bytes per second a Process upload must keep up with from its admission on, after a "
+          "first --idle_timeout, judged over a sliding window of twice --idle_timeout; a slower "
+          "one is cancelled (0 = no minimum)");
 ABSL_FLAG(double, min_download_rate, 64 * 1024,
-          "result bytes per second a Process client must read, averaged from the download's "
-          "start, after a first --idle_timeout; a slower one is cancelled (0 = no minimum)");
+          "result bytes per second a Process client must read from the download's start, after a "
+          "first --idle_timeout, judged over a sliding window of twice --idle_timeout; a slower "
+          "one is cancelled (0 = no minimum)");
 ABSL_FLAG(absl::Duration, max_connection_age, absl::InfiniteDuration(),
           "a client connection older than this is sent GOAWAY, so the client reconnects and "
           "re-resolves DNS, reaching replicas added since (e.g. 300s behind an autoscaler; "

@@ -117,7 +117,7 @@ ScanPrepServer::ScanPrepServer(const ServerOptions& options)
       runner_(options.threads, options.on_progress),
       guard_(options.memory_guard, admission_, runner_, metrics_, log_),
       service_(options.limits, options.timeouts, options.trusted_proxies, admission_, runner_,
-               metrics_, peers_, log_) {
+               metrics_, peers_, log_, options.on_slot) {
   metrics_.SetDefaultTimeBudget(options.limits.default_budget_seconds);
 }
 

@@ -71,6 +71,7 @@ struct ServerOptions {
   int max_log_lines_per_second = CallLog::kMaxLinesPerSecond;  // beyond: dropped and counted
   SensorMetricsOptions sensor_metrics;  // per-sensor health metrics (sensor_metrics.h)
   ProgressHook on_progress;             // test hook, see ProgressHook
+  SlotHook on_slot;                     // test hook, see SlotHook
 };
 
 class ScanPrepServer {

@@ -199,11 +199,9 @@ bool ScanPrepService::SendStageProgress(Stream* stream, IdleWatch::Call& watch,
   return Send(stream, watch, response);
 }
 
-uint64_t ScanPrepService::ReserveAhead(const JobAssembler& assembler) const {
-  return EstimateJobBytes(
-      std::min<uint64_t>(assembler.total_points(),
-                         assembler.points_received() + limits_.max_chunk_points),
-      assembler.options().params);
+uint64_t ScanPrepService::UploadBytes(const Stream& stream, const JobAssembler& assembler) const {
+  return stream.held_bytes() + assembler.PeakBytesWith(limits_.max_chunk_points) +
+         kJobOverheadBytes;
 }
 
 grpc::Status ScanPrepService::Refuse(const absl::Status& status) {
@@ -220,14 +218,15 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
                                          CallRecord& record) {
   // Declared so that they are destroyed in this order: the job's data, then the memory it freed
   // is returned to the system, then the slot frees its reservation.
-  std::optional<AdmissionQueue::Slot> slot;
+  std::optional<AdmissionQueue::Ticket> ticket;
   const ReturnFreedMemoryOnExit return_freed_memory;
   absl::StatusOr<AssembledJob> job = absl::UnknownError("not uploaded");
   IdleWatch::Call watch = idle_.Watch(context);
   // By hand: the status macros take absl::Status, and these are the call's grpc::Status.
-  if (grpc::Status s = Upload(context, stream, watch, record, slot, job); !s.ok()) return s;
-  // The whole claim (Upload reserved it), for the memory guard's message.
-  const uint64_t reservation = slot->reserved_bytes();
+  if (grpc::Status s = Upload(context, stream, watch, record, ticket, job); !s.ok()) return s;
+  if (grpc::Status s = TakeSlot(context, watch, *ticket, job->job_id); !s.ok()) return s;
+  // The whole claim (TakeSlot reserved it), for the memory guard's message.
+  const uint64_t reservation = ticket->reserved_bytes();
   std::shared_ptr<RunningJob> running =
       runner_.Start(std::move(job->cloud), std::move(job->options), reservation);
   if (grpc::Status s = Relay(context, stream, watch, *running); !s.ok()) return s;
@@ -237,11 +236,11 @@ grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* s
 
 grpc::Status ScanPrepService::Upload(grpc::ServerContext* context, Stream* stream,
                                      IdleWatch::Call& watch, CallRecord& record,
-                                     std::optional<AdmissionQueue::Slot>& slot,
+                                     std::optional<AdmissionQueue::Ticket>& ticket,
                                      absl::StatusOr<AssembledJob>& job) {
   // Validates each message as it arrives; the first error ends the call without reading the
-  // rest. The call queues for a slot once its header is valid, before any points arrive, and
-  // reserves its job's memory as the points arrive (admission.h).
+  // rest. The call takes a ticket once its header is valid, before any points arrive, and
+  // reserves memory for its data as the points arrive (admission.h); it holds no slot.
   absl::Time upload_start;
   const std::function<bool()> cancelled = [context] { return context->IsCancelled(); };
   JobAssembler assembler(limits_);
@@ -256,28 +255,30 @@ grpc::Status ScanPrepService::Upload(grpc::ServerContext* context, Stream* strea
     record.job_id = assembler.job_id();
     record.points = assembler.points_received();
     if (!added.ok()) return Refuse(added);
-    watch.Pause();            // waiting for a slot or memory is the server's time, not the client's
-    if (!slot.has_value()) {  // the assembler accepts only a header first
-      auto admitted = admission_.Admit(
-          record.client,
-          stream->held_bytes() +
-              EstimateJobBytes(assembler.total_points(), assembler.options().params),
-          stream->held_bytes() + ReserveAhead(assembler), CallDeadline(*context), cancelled);
+    watch.Pause();              // waiting for memory is the server's time, not the client's
+    if (!ticket.has_value()) {  // the assembler accepts only a header first
+      auto admitted =
+          admission_.Admit(record.client,
+                           stream->held_bytes() + EstimateJobBytes(assembler.total_points(),
+                                                                   assembler.options().params),
+                           UploadBytes(*stream, assembler), CallDeadline(*context), cancelled);
       if (!admitted.ok()) {
         // Cancelled while waiting: by the client, or by gRPC because the deadline passed.
         return admitted.status().code() == absl::StatusCode::kCancelled
-                   ? Gone(*context, "the wait for a slot")
+                   ? Gone(*context, "the wait for memory")
                    : ToGrpc(admitted.status());
       }
-      slot.emplace(std::move(*admitted));
+      ticket.emplace(std::move(*admitted));
       upload_start = absl::Now();
       watch.ExpectRate(IdleWatch::Direction::kUpload, timeouts_.min_upload_rate, timeouts_.idle,
                        "min_upload_rate");
       watch.Expect(timeouts_.idle, "idle_timeout", "the first chunk did not arrive");
       continue;
     }
-    if (!slot->Reserve(stream->held_bytes() + ReserveAhead(assembler), cancelled).ok()) {
-      return Gone(*context, "the wait for memory");
+    if (absl::Status reserved = ticket->Reserve(UploadBytes(*stream, assembler), cancelled);
+        !reserved.ok()) {
+      return reserved.code() == absl::StatusCode::kCancelled ? Gone(*context, "the wait for memory")
+                                                             : ToGrpc(reserved);
     }
     const uint64_t received = assembler.points_received();
     const double fraction = static_cast<double>(received) / assembler.total_points();
@@ -291,19 +292,24 @@ grpc::Status ScanPrepService::Upload(grpc::ServerContext* context, Stream* strea
   if (context->IsCancelled()) return Ended(*context, watch, "upload");
   job = assembler.Finish();
   if (!job.ok()) return Refuse(job.status());
-  // Every point arrived, so this reserves nothing more unless the job sent fewer points than
-  // declared; either way it never runs on less than its whole claim.
-  if (!slot->Reserve(slot->claim_bytes(), cancelled).ok()) {
-    return Gone(*context, "the wait for memory");
-  }
   metrics_.PhaseEnded(Phase::kUpload, absl::ToDoubleSeconds(absl::Now() - upload_start));
   return grpc::Status::OK;
+}
+
+grpc::Status ScanPrepService::TakeSlot(grpc::ServerContext* context, IdleWatch::Call& watch,
+                                       AdmissionQueue::Ticket& ticket, const std::string& job_id) {
+  // The job never runs on less than its whole claim; the client waits (the call is paused).
+  watch.StopRate();  // the upload's; the wait and the processing are the server's time
+  const std::function<bool()> cancelled = [context] { return context->IsCancelled(); };
+  const absl::Status taken = ticket.TakeSlot(cancelled);
+  if (taken.code() == absl::StatusCode::kCancelled) return Gone(*context, "the wait for a slot");
+  if (taken.ok() && on_slot_) on_slot_(job_id, cancelled);
+  return ToGrpc(taken);
 }
 
 grpc::Status ScanPrepService::Relay(grpc::ServerContext* context, Stream* stream,
                                     IdleWatch::Call& watch, RunningJob& running) {
   // The job runs on the shared arena; this thread only relays progress and cancellation.
-  watch.StopRate();  // the upload's; processing is the server's time
   bool client_gone = false;
   for (bool done = false; !done;) {
     done = running.WaitFor(kPollInterval);

@@ -30,12 +30,18 @@ struct StreamTimeouts {
   absl::Duration header = absl::Seconds(10);  // from the call's start to its header
   // Between later upload messages; and the longest one response may wait to be read.
   absl::Duration idle = absl::Seconds(30);
-  // Bytes per second the upload must average from its admission on, after a first `idle`.
+  // Bytes per second the upload must keep up with from its admission on, after a first `idle`,
+  // judged over a sliding window of twice `idle` (IdleWatch::Call::ExpectRate).
   double min_upload_rate = 64 * 1024;
-  // Result bytes per second the client must read, averaged from the download's start, after a
-  // first `idle`.
+  // Result bytes per second the client must read from the download's start, judged alike.
   double min_download_rate = 64 * 1024;
 };
+
+// TEST HOOK (ServerOptions::on_slot): runs on a Process call's thread once its job holds a slot,
+// before the job starts, with the job's id; a test blocks in it, until `cancelled()`, to hold
+// the slot.
+using SlotHook =
+    std::function<void(std::string_view job_id, const std::function<bool()>& cancelled)>;
 
 class ScanPrepService final : public v1::ScanPrep::Service {
  public:
@@ -43,7 +49,7 @@ class ScanPrepService final : public v1::ScanPrep::Service {
   // (client_identity.h).
   ScanPrepService(JobLimits limits, StreamTimeouts timeouts, std::vector<Cidr> trusted_proxies,
                   AdmissionQueue& admission, JobRunner& runner, ServiceMetrics& metrics,
-                  PeerLimiter& peers, CallLog& log)
+                  PeerLimiter& peers, CallLog& log, SlotHook on_slot = {})
       : limits_(std::move(limits)),
         timeouts_(timeouts),
         trusted_proxies_(std::move(trusted_proxies)),
@@ -51,7 +57,8 @@ class ScanPrepService final : public v1::ScanPrep::Service {
         runner_(runner),
         metrics_(metrics),
         peers_(peers),
-        log_(log) {}
+        log_(log),
+        on_slot_(std::move(on_slot)) {}
 
   grpc::Status Process(
       grpc::ServerContext* context,
@@ -72,14 +79,17 @@ class ScanPrepService final : public v1::ScanPrep::Service {
   };
   // A job call (Process or ProcessUnary, through `stream`) from its per-host cap to its log line.
   grpc::Status Serve(grpc::ServerContext* context, Stream* stream);
-  // A Process call's phases: upload (validated as it arrives, a slot taken once the header is
-  // valid), processing (progress relayed, cancellation passed on), download (points, report,
-  // end). Each returns OK to go on, else the call's status.
-  // One IdleWatch::Call watches the client through all three.
+  // A Process call's phases: upload (validated as it arrives, a ticket taken once the header is
+  // valid and a slot once the data has arrived), processing (progress relayed, cancellation passed
+  // on), download (points, report, end). Each returns OK to go on, else the call's status. One
+  // IdleWatch::Call watches the client through all three.
   grpc::Status ProcessJob(grpc::ServerContext* context, Stream* stream, CallRecord& record);
   grpc::Status Upload(grpc::ServerContext* context, Stream* stream, IdleWatch::Call& watch,
-                      CallRecord& record, std::optional<AdmissionQueue::Slot>& slot,
+                      CallRecord& record, std::optional<AdmissionQueue::Ticket>& ticket,
                       absl::StatusOr<AssembledJob>& job);
+  // After the upload: waits for a slot with the job's whole claim reserved.
+  grpc::Status TakeSlot(grpc::ServerContext* context, IdleWatch::Call& watch,
+                        AdmissionQueue::Ticket& ticket, const std::string& job_id);
   grpc::Status Relay(grpc::ServerContext* context, Stream* stream, IdleWatch::Call& watch,
                      RunningJob& running);
   grpc::Status Download(grpc::ServerContext* context, Stream* stream, IdleWatch::Call& watch,
@@ -106,10 +116,11 @@ class ScanPrepService final : public v1::ScanPrep::Service {
   // else Gone.
   grpc::Status Ended(const grpc::ServerContext& context, const IdleWatch::Call& watch,
                      std::string_view phase) const;
-  // What a job must have reserved before its next message is read: the estimate for the points
-  // received so far and one more chunk at the largest size, at most the whole declared job (plus
-  // what its stream holds, JobStream::held_bytes).
-  uint64_t ReserveAhead(const JobAssembler& assembler) const;
+  // What an upload must have reserved before its next message is read: its arrays as they grow
+  // by one more chunk at the largest size (JobAssembler::PeakBytesWith), one message with gRPC's
+  // buffers (kJobOverheadBytes) and what its stream holds (JobStream::held_bytes). Its data, not
+  // the declared job's estimate, which it reserves only when it takes its slot.
+  uint64_t UploadBytes(const Stream& stream, const JobAssembler& assembler) const;
   // The status for a job the assembler refused, counted as a rejection.
   grpc::Status Refuse(const absl::Status& status);
 
@@ -122,6 +133,7 @@ class ScanPrepService final : public v1::ScanPrep::Service {
   ServiceMetrics& metrics_;
   PeerLimiter& peers_;
   CallLog& log_;
+  const SlotHook on_slot_;
 };
 
 }  // namespace scanprep::server

@@ -44,50 +44,91 @@ AdmissionQueue::AdmissionQueue(AdmissionOptions options, AdmissionObserver& obse
   PublishLocked();
 }
 
-AdmissionQueue::Slot::~Slot() {
-  if (queue_ != nullptr) queue_->Release(since_, holder_);
+AdmissionQueue::Ticket::~Ticket() {
+  if (queue_ != nullptr) queue_->Release(holder_);
 }
 
-uint64_t AdmissionQueue::Slot::claim_bytes() const {
+uint64_t AdmissionQueue::Ticket::claim_bytes() const {
   std::lock_guard lock(queue_->mu_);
   return holder_->claim;
 }
 
-uint64_t AdmissionQueue::Slot::reserved_bytes() const {
+uint64_t AdmissionQueue::Ticket::reserved_bytes() const {
   std::lock_guard lock(queue_->mu_);
   return holder_->reserved;
 }
 
-absl::Status AdmissionQueue::Slot::Reserve(uint64_t bytes, const std::function<bool()>& cancelled) {
-  AdmissionQueue& q = *queue_;
-  std::unique_lock lock(q.mu_);
-  Waiter self{.claim = holder_->claim,
-              .reserve = std::min(bytes, holder_->claim),
-              .holds_slot = true,
-              .holder = holder_};
-  if (self.reserve <= holder_->reserved) return absl::OkStatus();
-  if (q.FitsLocked(self)) {  // any safe reservation may go first (GrantLocked)
-    q.reserved_bytes_ += self.reserve - holder_->reserved;
-    holder_->reserved = self.reserve;
-    q.PublishLocked();
+absl::Status AdmissionQueue::Ticket::Reserve(uint64_t bytes,
+                                             const std::function<bool()>& cancelled) {
+  std::unique_lock lock(queue_->mu_);
+  return queue_->ReserveLocked(lock, holder_, bytes, cancelled);
+}
+
+absl::Status AdmissionQueue::ReserveLocked(std::unique_lock<std::mutex>& lock,
+                                           std::list<Holder>::iterator holder, uint64_t bytes,
+                                           const std::function<bool()>& cancelled) {
+  if (absl::Status ended = EndedLocked(*holder); !ended.ok()) return ended;
+  Waiter self{.holder = holder, .reserve = std::min(bytes, holder->claim)};
+  if (self.reserve <= holder->reserved) return absl::OkStatus();
+  if (FitsLocked(self)) {  // any safe reservation may go first (GrantLocked)
+    GrantToLocked(self);
+    PublishLocked();
     return absl::OkStatus();
   }
-  const auto position = q.growing_.insert(q.growing_.end(), &self);
-  q.WaitLocked(lock, self, cancelled);
-  if (self.granted) return absl::OkStatus();  // GrantLocked took it off the list
-  q.growing_.erase(position);
-  q.GrantLocked();  // the reservations behind it may be safe now
-  q.PublishLocked();
+  const auto position = growing_.insert(growing_.end(), &self);
+  WaitLocked(lock, self, cancelled);
+  if (self.granted) return absl::OkStatus();         // GrantLocked took it off the list
+  if (!holder->displaced) growing_.erase(position);  // else DisplaceForLocked did
+  GrantLocked();                                     // the reservations behind it may be safe now
+  PublishLocked();
+  if (absl::Status ended = EndedLocked(*holder); !ended.ok()) return ended;
   return absl::CancelledError(
       "the call was cancelled or its deadline passed while it waited for memory");
 }
 
-absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& host,
-                                                           uint64_t claim_bytes,
-                                                           uint64_t reserve_bytes,
-                                                           absl::Time deadline,
-                                                           const std::function<bool()>& cancelled) {
-  const absl::Time arrived = options_.now();
+absl::Status AdmissionQueue::Ticket::TakeSlot(const std::function<bool()>& cancelled) {
+  AdmissionQueue& q = *queue_;
+  const absl::Time arrived = q.options_.now();
+  std::unique_lock lock(q.mu_);
+  if (absl::Status ended = q.EndedLocked(*holder_); !ended.ok()) return ended;
+  Waiter self{.holder = holder_, .reserve = holder_->claim, .wants_slot = true};
+  if (q.waiting_.empty() && q.FitsLocked(self)) {
+    q.GrantToLocked(self);
+    q.PublishLocked();
+    q.observer_.Admitted(0);
+    return absl::OkStatus();
+  }
+  const auto position = q.waiting_.insert(q.waiting_.end(), &self);
+  q.PublishLocked();
+  q.WaitLocked(lock, self, cancelled);
+  if (self.granted) {  // GrantLocked already moved it from the queue to a slot
+    q.observer_.Admitted(absl::ToDoubleSeconds(q.options_.now() - arrived));
+    return absl::OkStatus();
+  }
+  if (!holder_->displaced) q.waiting_.erase(position);  // DisplaceForLocked took it off
+  if (q.waiting_for_memory_ == &self) q.waiting_for_memory_ = nullptr;
+  q.GrantLocked();  // the calls behind it may fit now
+  q.PublishLocked();
+  if (absl::Status ended = q.EndedLocked(*holder_); !ended.ok()) return ended;
+  return absl::CancelledError("the call was cancelled or its deadline passed while queued");
+}
+
+absl::Status AdmissionQueue::EndedLocked(const Holder& holder) const {
+  if (holder.processing) return absl::OkStatus();
+  if (holder.displaced) {
+    observer_.Refused(AdmissionRefusal::kQueueFull);
+    return QueueFullErrorLocked(/*displaced=*/true);
+  }
+  if (draining_) {
+    observer_.Refused(AdmissionRefusal::kDraining);
+    return DrainingError();
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<AdmissionQueue::Ticket> AdmissionQueue::Admit(
+    const std::string& host, uint64_t claim_bytes, uint64_t reserve_bytes, absl::Time deadline,
+    const std::function<bool()>& cancelled) {
   std::unique_lock lock(mu_);
   if (draining_) {
     observer_.Refused(AdmissionRefusal::kDraining);
@@ -97,20 +138,13 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
     observer_.Refused(AdmissionRefusal::kMemory);
     return ExceedsCapacityError(claim_bytes, options_.memory_capacity_bytes);
   }
-  Waiter self{.claim = claim_bytes, .reserve = std::min(reserve_bytes, claim_bytes), .host = host};
-  if (waiting_.empty() && FitsLocked(self)) {
-    reserved_bytes_ += self.reserve;
-    const auto holder = holders_.insert(holders_.end(), Holder{claim_bytes, self.reserve, host});
-    AddCallLocked(host);
-    hosts_[host].last_served = ++grants_;
-    PublishLocked();
-    observer_.Admitted(0);
-    return Slot(this, arrived, holder);
-  }
-  const double expected = ExpectedWaitLocked();
-  const double remaining = absl::ToDoubleSeconds(deadline - arrived);
+  // Only a call that would wait for a slot is held to its deadline here: one that finds a slot
+  // free, or a ticket uploading ahead of it, is not.
+  const bool slot_free = waiting_.empty() && processing_ < options_.max_concurrent_jobs;
+  const double expected = slot_free ? 0 : ExpectedWaitLocked();
+  const double remaining = absl::ToDoubleSeconds(deadline - options_.now());
   // A call that would be refused for its deadline anyway displaces nobody.
-  if (static_cast<int>(waiting_.size()) >= options_.max_queued_jobs &&
+  if (tickets_ >= options_.max_concurrent_jobs + options_.max_queued_jobs &&
       (expected > remaining || !DisplaceForLocked(host))) {
     observer_.Refused(AdmissionRefusal::kQueueFull);
     return QueueFullErrorLocked(/*displaced=*/false);
@@ -121,79 +155,73 @@ absl::StatusOr<AdmissionQueue::Slot> AdmissionQueue::Admit(const std::string& ho
         "expected wait %.3g s exceeds the deadline %.3g s (%d jobs queued, mean job time %.3g s)",
         expected, std::max(0.0, remaining), static_cast<int>(waiting_.size()), mean_hold_seconds_));
   }
-
-  const auto position = waiting_.insert(waiting_.end(), &self);
+  const auto holder = holders_.insert(holders_.end(), Holder{.claim = claim_bytes, .host = host});
+  ++tickets_;
   AddCallLocked(host);
   PublishLocked();
-  WaitLocked(lock, self, cancelled);
-  if (self.granted) {  // GrantLocked already moved it from the queue to a slot
-    observer_.Admitted(absl::ToDoubleSeconds(options_.now() - arrived));
-    return Slot(this, options_.now(), self.holder);
-  }
-  if (self.displaced) {  // DisplaceForLocked already took it off the queue
-    observer_.Refused(AdmissionRefusal::kQueueFull);
-    return QueueFullErrorLocked(/*displaced=*/true);
-  }
-  waiting_.erase(position);
-  EndCallLocked(host);
-  if (waiting_for_memory_ == &self) waiting_for_memory_ = nullptr;
-  GrantLocked();  // the calls behind it may fit now
-  PublishLocked();
-  if (draining_) {
-    observer_.Refused(AdmissionRefusal::kDraining);
-    return DrainingError();
-  }
-  return absl::CancelledError("the call was cancelled or its deadline passed while queued");
+  Ticket ticket(this, holder);
+  const absl::Status reserved = ReserveLocked(lock, holder, reserve_bytes, cancelled);
+  lock.unlock();                        // the ticket's destructor takes the lock
+  if (!reserved.ok()) return reserved;  // and returns what it took
+  return ticket;
 }
 
 bool AdmissionQueue::DisplaceForLocked(const std::string& host) {
   const auto mine = hosts_.find(host);
   int most = (mine == hosts_.end() ? 0 : mine->second.calls) + 1;
-  auto victim = waiting_.rend();
-  for (auto it = waiting_.rbegin(); it != waiting_.rend(); ++it) {  // newest first
-    if (*it == waiting_for_memory_) continue;                       // it keeps its turn
-    const int calls = hosts_.at((*it)->host).calls;
+  auto victim = holders_.rend();
+  for (auto it = holders_.rbegin(); it != holders_.rend(); ++it) {  // newest first
+    // A call with a slot keeps it, and the one kept waiting for memory keeps its turn.
+    if (it->processing || it->displaced ||
+        (waiting_for_memory_ != nullptr && waiting_for_memory_->holder == std::next(it).base())) {
+      continue;
+    }
+    const int calls = hosts_.at(it->host).calls;
     if (calls > most) {
       most = calls;
       victim = it;
     }
   }
-  if (victim == waiting_.rend()) return false;
-  Waiter* displaced = *victim;
-  waiting_.erase(std::next(victim).base());
-  EndCallLocked(displaced->host);
+  if (victim == holders_.rend()) return false;
+  const auto displaced = std::next(victim).base();
   displaced->displaced = true;
+  --tickets_;
+  EndCallLocked(displaced->host);
+  const auto of_victim = [&](const Waiter* w) { return w->holder == displaced; };
+  waiting_.remove_if(of_victim);
+  growing_.remove_if(of_victim);
   changed_.notify_all();
   return true;
 }
 
 absl::Status AdmissionQueue::QueueFullErrorLocked(bool displaced) const {
+  const int queued = static_cast<int>(waiting_.size());
   // Retry once the queue can be expected to have moved; at least a second, so that refused
   // clients do not hammer a server that has not finished a job yet.
-  const int in_flight = static_cast<int>(holders_.size());
   return WithReason(
       absl::ResourceExhaustedError(absl::StrCat(
           displaced ? "this call's place in the queue went to a call of another client host, "
                       "which held or awaited fewer jobs than yours (hosts keep equal shares of "
                       "the queue when they contend): "
                     : "",
-          in_flight >= options_.max_concurrent_jobs
-              ? absl::StrCat("the server is running its limit of ", options_.max_concurrent_jobs,
-                             " concurrent jobs (max_concurrent_jobs)")
-              : absl::StrCat("the server's ", in_flight, " running jobs hold ",
-                             FormatMiB(reserved_bytes_), " of its ",
+          "the server holds its limit of ", options_.max_concurrent_jobs + options_.max_queued_jobs,
+          " jobs (max_concurrent_jobs ", options_.max_concurrent_jobs, " + max_queued_jobs ",
+          options_.max_queued_jobs, "): ", processing_, " running, ", queued,
+          " waiting for a slot, ", tickets_ - processing_ - queued, " uploading",
+          processing_ < options_.max_concurrent_jobs && queued > 0
+              ? absl::StrCat(", the jobs reserving ", FormatMiB(reserved_bytes_), " of its ",
                              FormatMiB(options_.memory_capacity_bytes),
-                             " memory capacity (memory_capacity)"),
-          " and its queue of ", options_.max_queued_jobs,
-          " waiting jobs (max_queued_jobs) is full; retry later or on another replica")),
+                             " memory capacity (memory_capacity)")
+              : "",
+          "; the queue is full, retry later or on another replica")),
       "QUEUE_FULL", absl::Seconds(std::max(1.0, ExpectedWaitLocked())));
 }
 
 void AdmissionQueue::WaitLocked(std::unique_lock<std::mutex>& lock, Waiter& self,
                                 const std::function<bool()>& cancelled) {
-  // A holder keeps its slot through a drain: only calls still waiting for one are released.
+  // A call with a slot keeps it through a drain: only calls without one are released.
   const auto done = [&] {
-    return self.granted || self.displaced || (draining_ && !self.holds_slot);
+    return self.granted || self.holder->displaced || (draining_ && !self.holder->processing);
   };
   while (!done()) {
     if (changed_.wait_for(lock, kPollInterval, done)) break;
@@ -201,46 +229,49 @@ void AdmissionQueue::WaitLocked(std::unique_lock<std::mutex>& lock, Waiter& self
   }
 }
 
-void AdmissionQueue::Release(absl::Time since, std::list<Holder>::iterator holder) {
-  const double held = absl::ToDoubleSeconds(options_.now() - since);
+void AdmissionQueue::Release(std::list<Holder>::iterator holder) {
+  const absl::Time now = options_.now();
   std::lock_guard lock(mu_);
-  mean_hold_seconds_ =
-      have_mean_ ? (1 - options_.mean_weight) * mean_hold_seconds_ + options_.mean_weight * held
-                 : held;
-  have_mean_ = true;
+  if (holder->processing) {
+    const double held = absl::ToDoubleSeconds(now - holder->since);
+    mean_hold_seconds_ =
+        have_mean_ ? (1 - options_.mean_weight) * mean_hold_seconds_ + options_.mean_weight * held
+                   : held;
+    have_mean_ = true;
+    --processing_;
+  }
   reserved_bytes_ -= holder->reserved;
-  EndCallLocked(holder->host);
+  if (!holder->displaced) {  // DisplaceForLocked already ended its call
+    --tickets_;
+    EndCallLocked(holder->host);
+  }
   holders_.erase(holder);
   GrantLocked();
   PublishLocked();
 }
 
 bool AdmissionQueue::FitsLocked(const Waiter& waiter) const {
-  if (!waiter.holds_slot && static_cast<int>(holders_.size()) >= options_.max_concurrent_jobs) {
-    return false;
-  }
-  const uint64_t extra = waiter.reserve - (waiter.holds_slot ? waiter.holder->reserved : 0);
+  if (waiter.wants_slot && processing_ >= options_.max_concurrent_jobs) return false;
+  const uint64_t extra = waiter.reserve - waiter.holder->reserved;
   return extra <= options_.memory_capacity_bytes - reserved_bytes_ && SafeLocked(waiter);
 }
 
 bool AdmissionQueue::SafeLocked(const Waiter& waiter) const {
-  // What each holder still needs and what it returns when done, with the waiter's request in
-  // place. Served smallest need first: if any order lets every holder finish, that one does (the
-  // free bytes only grow as holders finish).
+  // What each ticket still needs and what it returns when done, with the waiter's request in
+  // place. Served smallest need first: if any order lets every ticket finish, that one does (the
+  // free bytes only grow as tickets finish). A displaced ticket needs nothing more.
   struct Claim {
     uint64_t need;
     uint64_t reserved;
   };
   std::vector<Claim> claims;
-  claims.reserve(holders_.size() + 1);
-  for (auto it = holders_.begin(); it != holders_.end(); ++it) {
-    const uint64_t reserved =
-        waiter.holds_slot && it == waiter.holder ? waiter.reserve : it->reserved;
-    claims.push_back({it->claim - reserved, reserved});
-  }
-  if (!waiter.holds_slot) claims.push_back({waiter.claim - waiter.reserve, waiter.reserve});
+  claims.reserve(holders_.size());
   uint64_t reserved = 0;
-  for (const Claim& c : claims) reserved += c.reserved;
+  for (auto it = holders_.begin(); it != holders_.end(); ++it) {
+    const uint64_t r = it == waiter.holder ? waiter.reserve : it->reserved;
+    claims.push_back({it->displaced ? 0 : it->claim - r, r});
+    reserved += r;
+  }
   std::sort(claims.begin(), claims.end(),
             [](const Claim& a, const Claim& b) { return a.need < b.need; });
   uint64_t free = options_.memory_capacity_bytes - reserved;
@@ -251,19 +282,29 @@ bool AdmissionQueue::SafeLocked(const Waiter& waiter) const {
   return true;
 }
 
+void AdmissionQueue::GrantToLocked(Waiter& waiter) {
+  Holder& holder = *waiter.holder;
+  reserved_bytes_ += waiter.reserve - holder.reserved;
+  holder.reserved = waiter.reserve;
+  if (waiter.wants_slot) {
+    holder.processing = true;
+    holder.since = options_.now();
+    ++processing_;
+    hosts_[holder.host].last_served = ++grants_;
+  }
+  waiter.granted = true;
+}
+
 void AdmissionQueue::GrantLocked() {
   bool granted = false;
-  // Reservations first, any that is safe: their holders run once their claims are complete, and
-  // free everything when done.
+  // Reservations first, any that is safe: their tickets take slots once their claims are
+  // complete, and free everything when done.
   for (auto it = growing_.begin(); it != growing_.end();) {
-    Waiter* next = *it;
-    if (!FitsLocked(*next)) {
+    if (!FitsLocked(**it)) {
       ++it;
       continue;
     }
-    reserved_bytes_ += next->reserve - next->holder->reserved;
-    next->holder->reserved = next->reserve;
-    next->granted = true;
+    GrantToLocked(**it);
     it = growing_.erase(it);
     granted = true;
   }
@@ -275,17 +316,12 @@ void AdmissionQueue::GrantLocked() {
     if (!FitsLocked(*next)) {
       // A free slot but not the memory: the call keeps its turn until the memory is free, even
       // against hosts that arrive meanwhile and would rank before it.
-      if (static_cast<int>(holders_.size()) < options_.max_concurrent_jobs) {
-        waiting_for_memory_ = next;
-      }
+      if (processing_ < options_.max_concurrent_jobs) waiting_for_memory_ = next;
       break;
     }
     waiting_.erase(it);
     if (waiting_for_memory_ == next) waiting_for_memory_ = nullptr;
-    reserved_bytes_ += next->reserve;
-    next->holder = holders_.insert(holders_.end(), Holder{next->claim, next->reserve, next->host});
-    hosts_[next->host].last_served = ++grants_;
-    next->granted = true;
+    GrantToLocked(*next);
     granted = true;
   }
   if (granted) changed_.notify_all();
@@ -296,11 +332,11 @@ std::list<AdmissionQueue::Waiter*>::iterator AdmissionQueue::NextLocked() {
     return std::find(waiting_.begin(), waiting_.end(), waiting_for_memory_);
   }
   // waiting_ is in arrival order, so the first call of the least recently served host is both
-  // that host's oldest and, on a tie, the oldest host's. At most max_queued_jobs to look at.
+  // that host's oldest and, on a tie, the oldest host's. At most every ticket to look at.
   auto best = waiting_.begin();
-  uint64_t best_served = hosts_.at((*best)->host).last_served;
+  uint64_t best_served = hosts_.at((*best)->holder->host).last_served;
   for (auto it = std::next(best); it != waiting_.end(); ++it) {
-    const uint64_t served = hosts_.at((*it)->host).last_served;
+    const uint64_t served = hosts_.at((*it)->holder->host).last_served;
     if (served < best_served) {
       best = it;
       best_served = served;
@@ -324,7 +360,7 @@ void AdmissionQueue::Drain() {
 
 int AdmissionQueue::in_flight() const {
   std::lock_guard lock(mu_);
-  return static_cast<int>(holders_.size());
+  return processing_;
 }
 
 uint64_t AdmissionQueue::memory_reserved_bytes() const {
@@ -335,6 +371,11 @@ uint64_t AdmissionQueue::memory_reserved_bytes() const {
 int AdmissionQueue::queued() const {
   std::lock_guard lock(mu_);
   return static_cast<int>(waiting_.size());
+}
+
+int AdmissionQueue::uploading() const {
+  std::lock_guard lock(mu_);
+  return tickets_ - processing_ - static_cast<int>(waiting_.size());
 }
 
 double AdmissionQueue::ExpectedWaitSeconds() const {
@@ -348,8 +389,8 @@ double AdmissionQueue::ExpectedWaitLocked() const {
 }
 
 void AdmissionQueue::PublishLocked() {
-  observer_.AdmissionChanged(static_cast<int>(holders_.size()), static_cast<int>(waiting_.size()),
-                             reserved_bytes_);
+  const int queued = static_cast<int>(waiting_.size());
+  observer_.AdmissionChanged(processing_, queued, tickets_ - processing_ - queued, reserved_bytes_);
 }
 
 }  // namespace scanprep::server

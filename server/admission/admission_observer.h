@@ -16,9 +16,10 @@ class AdmissionObserver {
 
   // The queue's configuration, once when it is made.
   virtual void AdmissionConfigured(int max_queued_jobs, uint64_t memory_capacity_bytes) = 0;
-  // After every change: the calls holding a slot and those waiting for one, and the estimated
-  // bytes the holders reserved.
-  virtual void AdmissionChanged(int in_flight, int queued, uint64_t reserved_bytes) = 0;
+  // After every change: the calls holding a slot, those waiting for one after their upload and
+  // those uploading, and the estimated bytes they reserved together.
+  virtual void AdmissionChanged(int in_flight, int queued, int uploading,
+                                uint64_t reserved_bytes) = 0;
   // A call got its slot after `waited_seconds` in the queue (0 when one was free at once).
   virtual void Admitted(double waited_seconds) = 0;
   virtual void Refused(AdmissionRefusal why) = 0;

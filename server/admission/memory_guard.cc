@@ -39,7 +39,7 @@ absl::Status ReservationExceeded(uint64_t used, uint64_t reserved, const Running
   absl::Status status = absl::ResourceExhaustedError(absl::StrCat(
       "the job took more memory than it reserved: the server's resident memory reached ",
       FormatMiB(used), " above its idle baseline, more than the ", FormatMiB(reserved),
-      " reserved by the jobs holding a slot plus ", FormatMiB(kMemoryGuardTripBytes),
+      " reserved by the admitted jobs plus ", FormatMiB(kMemoryGuardTripBytes),
       " (a quarter of the memory guard's margin of ", FormatMiB(kMemoryGuardMarginBytes),
       "); this job reserved ", FormatMiB(job.reservation_bytes()),
       " estimated from its point count",

@@ -58,16 +58,17 @@ inline constexpr double kShareOfRam = 0.5;
 // takes more than its reservation plus this margin. Measured as the server's resident memory
 // (/proc/self/statm, what the container's limit and VmHWM count) above its idle baseline (the
 // resident memory at startup, then whenever no call holds a reservation), sampled every
-// kMemoryGuardPeriodMs against the sum of the reservations of the calls holding a slot. The guard
-// ends a job once that sum is crossed by a quarter of the margin (kMemoryGuardTripBytes); the
-// other three quarters, 48 MiB, cover what the job's stage still allocates after the crossing:
-// in the sampling period, and until it next looks at its cancel token (within 0.2 s, but an
-// array a stage allocates in one step lands whole). Measured in subprocess_test
-// (MemoryGuardHoldsAJobToItsReservation, a 1 M-point job reserving 17.8 MB that needs about
-// 150): the server peaked 45-49 MB above idle, 28-31 MB over the reservation, six runs on two
-// cores shared with compilers, 2026-11-26 (at a trip of half the margin, the largest step after
-// the crossing was 33 MiB); without the guard 149-156 MB. With the 128 MiB kServerOwnBytes over
-// the capacity, the margin and the idle server (20 MiB) fit under the container's limit.
+// kMemoryGuardPeriodMs against the sum of the reservations of the admitted calls (uploads their
+// data, jobs with a slot their estimate). The guard ends a job once that sum is crossed by a
+// quarter of the margin (kMemoryGuardTripBytes); the other three quarters, 48 MiB, cover what the
+// job's stage still allocates after the crossing: in the sampling period, and until it next looks
+// at its cancel token (within 0.2 s, but an array a stage allocates in one step lands whole).
+// Measured in subprocess_test (MemoryGuardHoldsAJobToItsReservation, a 1 M-point job reserving 17.8
+// MB that needs about 150): the server peaked 45-49 MB above idle, 28-31 MB over the reservation,
+// six runs on two cores shared with compilers, 2026-11-26 (at a trip of half the margin, the
+// largest step after the crossing was 33 MiB); without the guard 149-156 MB. With the 128 MiB
+// kServerOwnBytes over the capacity, the margin and the idle server (20 MiB) fit under the
+// container's limit.
 inline constexpr uint64_t kMemoryGuardMarginBytes = uint64_t{64} << 20;
 inline constexpr uint64_t kMemoryGuardTripBytes = kMemoryGuardMarginBytes / 4;
 inline constexpr int kMemoryGuardPeriodMs = 10;
@@ -87,7 +88,7 @@ uint64_t BytesPerPoint(const ParamOverrides& params);
 // The memory a job of `points` points reserves while it holds a slot.
 uint64_t EstimateJobBytes(uint64_t points, const ParamOverrides& params);
 
-// What the jobs holding a slot may reserve together.
+// What the admitted jobs may reserve together.
 struct MemoryCapacity {
   uint64_t bytes = 0;
   std::string source;  // how it was derived, for the startup log

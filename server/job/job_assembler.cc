@@ -326,6 +326,14 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
   }
 
   PointCloud& cloud = job_.cloud;
+  // Grown here, by the rule PeakBytesWith counts, not by push_back's own.
+  if (const uint64_t capacity = CapacityFor(cloud.size() + n); capacity > cloud.x.capacity()) {
+    for (std::vector<float>* a : {&cloud.x, &cloud.y, &cloud.z}) a->reserve(capacity);
+    cloud.scan.reserve(capacity);
+    if (has_scanline_) cloud.scanline.reserve(capacity);
+    if (has_quality_) cloud.quality.reserve(capacity);
+    if (has_intensity_) cloud.intensity.reserve(capacity);
+  }
   for (size_t i = 0; i < n; ++i) {
     const Eigen::Vector3d p(chunk.xyz(3 * i), chunk.xyz(3 * i + 1), chunk.xyz(3 * i + 2));
     const uint32_t scan = chunk.scan_index_size() > 0 ? chunk.scan_index(i) : 0;
@@ -343,6 +351,29 @@ absl::Status JobAssembler::AddChunk(const v1::PointChunk& chunk) {
   }
   job_.points_received += n;
   return absl::OkStatus();
+}
+
+uint64_t JobAssembler::CapacityFor(uint64_t points) const {
+  const uint64_t capacity = job_.cloud.x.capacity();
+  if (points <= capacity) return capacity;
+  return std::min(total_points_, std::max(points, 2 * capacity));
+}
+
+uint64_t JobAssembler::BytesPerHeldPoint() const {
+  constexpr uint64_t kBytes = sizeof(float);  // each array's element: float or uint32_t
+  if (!layout_known_) return 7 * kBytes;
+  return kBytes * (4 + has_scanline_ + has_quality_ + has_intensity_);
+}
+
+uint64_t JobAssembler::PeakBytesWith(uint64_t more) const {
+  const uint64_t held = job_.cloud.x.capacity();
+  const uint64_t grown = CapacityFor(job_.cloud.size() + more);
+  const uint64_t points = grown > held ? held + grown : held;
+  // A left-out point's position is 8 bytes; push_back's growth at most triples the peak.
+  const uint64_t positions = 3 * sizeof(uint64_t) * (job_.points_invalid + more);
+  // Finish adds the flags, a byte a point.
+  const uint64_t flags = job_.cloud.size() + more;
+  return points * BytesPerHeldPoint() + positions + flags;
 }
 
 namespace {

@@ -107,6 +107,12 @@ class JobAssembler {
   uint64_t total_points() const { return total_points_; }
   // The pipeline options of the accepted header.
   const PipelineOptions& options() const { return job_.options; }
+  // What the upload's arrays may hold once `more` points more have arrived: their storage, and
+  // while they grow (together, doubling up to the declared total) the old storage beside the new,
+  // plus the upload positions of left-out points and the flags Finish adds. Admission reserves it
+  // (a ticket's memory while its call uploads), so it must never fall short of what the arrays
+  // take.
+  uint64_t PeakBytesWith(uint64_t more) const;
 
  private:
   absl::Status AddHeader(const v1::JobHeader& header);
@@ -115,6 +121,10 @@ class JobAssembler {
   // The resolved plan's estimated work within max_plan_cost (JOB_TOO_COSTLY).
   absl::Status CheckCost() const;
   absl::Status AddChunk(const v1::PointChunk& chunk);
+  // The arrays' capacity once they hold `points`: doubling, at most the declared total.
+  uint64_t CapacityFor(uint64_t points) const;
+  // Bytes per point of the arrays the chunks carry (all of them until the first chunk says).
+  uint64_t BytesPerHeldPoint() const;
   absl::Status CheckChunk(const v1::PointChunk& chunk, size_t n) const;
   // Leaves out point `point` of the chunk being read (of scan `scan`, as sent `sent`, local
   // coordinates `local_mm`) when it is not finite, out of range or unrepresentable (a float, as

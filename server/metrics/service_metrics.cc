@@ -131,13 +131,18 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r, const SensorMetricsOptions&
       bytes_sent_(r.AddCounter("scanprep_bytes_sent_total",
                                "Serialized size of the Process response messages sent.")
                       .WithLabels({})),
-      in_flight_(r.AddGauge("scanprep_jobs_in_flight",
-                            "Jobs holding a slot: uploading, processing or downloading.")
-                     .WithLabels({})),
-      queued_(r.AddGauge("scanprep_jobs_queued", "Jobs waiting for a slot.").WithLabels({})),
-      queue_capacity_(
-          r.AddGauge("scanprep_queue_capacity", "Jobs that may wait for a slot (max_queued_jobs).")
+      in_flight_(
+          r.AddGauge("scanprep_jobs_in_flight", "Jobs holding a slot: processing or downloading.")
               .WithLabels({})),
+      queued_(r.AddGauge("scanprep_jobs_queued", "Jobs uploaded and waiting for a slot.")
+                  .WithLabels({})),
+      uploading_(
+          r.AddGauge("scanprep_jobs_uploading", "Jobs admitted and uploading (they hold no slot).")
+              .WithLabels({})),
+      queue_capacity_(r.AddGauge("scanprep_queue_capacity",
+                                 "Jobs that may upload or wait for a slot beyond the slots "
+                                 "(max_queued_jobs).")
+                          .WithLabels({})),
       default_time_budget_(
           r.AddGauge("scanprep_budget_seconds",
                      "The server's default total cycle-time budget per job; 0 = none.")
@@ -147,7 +152,8 @@ ServiceMetrics::ServiceMetrics(metrics::Registry& r, const SensorMetricsOptions&
                      "Memory the running jobs' estimates may reserve (--memory_capacity).")
               .WithLabels({})),
       memory_reserved_(r.AddGauge("scanprep_memory_reserved_bytes",
-                                  "Estimated memory of the jobs holding a slot.")
+                                  "Memory the admitted jobs reserved: their data so far while "
+                                  "uploading, their estimate once they hold a slot.")
                            .WithLabels({})),
       memory_guard_trips_(
           r.AddCounter("scanprep_memory_guard_trips_total",
@@ -190,9 +196,11 @@ void ServiceMetrics::AdmissionConfigured(int max_queued_jobs, uint64_t memory_ca
   memory_capacity_.Set(static_cast<double>(memory_capacity_bytes));
 }
 
-void ServiceMetrics::AdmissionChanged(int in_flight, int queued, uint64_t reserved_bytes) {
+void ServiceMetrics::AdmissionChanged(int in_flight, int queued, int uploading,
+                                      uint64_t reserved_bytes) {
   in_flight_.Set(in_flight);
   queued_.Set(queued);
+  uploading_.Set(uploading);
   memory_reserved_.Set(static_cast<double>(reserved_bytes));
 }
 

@@ -62,7 +62,7 @@ class ServiceMetrics : public AdmissionObserver {
   // compare against them), the jobs holding a slot and waiting for one with the bytes they
   // reserved, the queue phase (also a zero wait for a free slot), refusals and memory guard trips.
   void AdmissionConfigured(int max_queued_jobs, uint64_t memory_capacity_bytes) override;
-  void AdmissionChanged(int in_flight, int queued, uint64_t reserved_bytes) override;
+  void AdmissionChanged(int in_flight, int queued, int uploading, uint64_t reserved_bytes) override;
   void Admitted(double waited_seconds) override;
   void Refused(AdmissionRefusal why) override;
   void MemoryGuardTripped() override;
@@ -104,6 +104,7 @@ class ServiceMetrics : public AdmissionObserver {
   metrics::Counter& bytes_sent_;
   metrics::Gauge& in_flight_;
   metrics::Gauge& queued_;
+  metrics::Gauge& uploading_;
   metrics::Gauge& queue_capacity_;
   metrics::Gauge& default_time_budget_;
   metrics::Gauge& memory_capacity_;  // exported under its older name, scanprep_memory_budget_bytes

@@ -13,12 +13,12 @@ std::string IdleWatch::Entry::Expired(absl::Time now) const {
     return absl::StrCat(overdue, " within ", absl::FormatDuration(limit), " (", limit_name, ")");
   }
   return absl::StrFormat(
-      "%s %d bytes in %.1f s of waiting for the client since %s, under the minimum of %.0f "
-      "bytes/s after the first %s (%s)",
+      "%s %d bytes in %.1f s of waiting for the client since %s, falling behind the minimum of "
+      "%.0f bytes/s judged over a sliding window of %s (%s)",
       direction == Direction::kUpload ? "the upload sent" : "the client read", rate_bytes,
       absl::ToDoubleSeconds(now - rate_since),
       direction == Direction::kUpload ? "it was admitted" : "the download began", min_rate,
-      absl::FormatDuration(rate_grace), rate_name);
+      absl::FormatDuration(rate_window), rate_name);
 }
 
 IdleWatch::IdleWatch() : thread_([this] { Run(); }) {}
@@ -51,14 +51,15 @@ void IdleWatch::Call::Expect(absl::Duration limit, std::string_view limit_name,
     const absl::Time now = absl::Now();
     if (e.paused_since != absl::InfiniteFuture()) {
       e.rate_since += now - e.paused_since;
+      e.rate_due += now - e.paused_since;
       e.paused_since = absl::InfiniteFuture();
     }
     e.idle_due = now + limit;
     e.due = e.idle_due;
     if (e.min_rate > 0) {
-      const absl::Time rate_due = e.rate_since + e.rate_grace +
-                                  absl::Seconds(static_cast<double>(e.rate_bytes) / e.min_rate);
-      e.due = std::min(e.due, rate_due);
+      // At most one window of credit from here, where the client's time starts again.
+      e.rate_due = std::min(e.rate_due, now + e.rate_window);
+      e.due = std::min(e.due, e.rate_due);
     }
     e.limit = limit;
     e.limit_name = std::string(limit_name);
@@ -74,8 +75,9 @@ void IdleWatch::Call::ExpectRate(Direction direction, double bytes_per_second, a
   entry_->min_rate = bytes_per_second;
   entry_->rate_name = std::string(limit_name);
   entry_->rate_since = absl::Now();
+  entry_->rate_due = entry_->rate_since + grace;
   entry_->paused_since = absl::InfiniteFuture();
-  entry_->rate_grace = grace;
+  entry_->rate_window = kCreditGraces * grace;
   entry_->rate_bytes = 0;
 }
 
@@ -86,7 +88,9 @@ void IdleWatch::Call::StopRate() {
 
 void IdleWatch::Call::Transferred(uint64_t bytes) {
   std::lock_guard lock(watch_->mu_);
-  entry_->rate_bytes += bytes;
+  Entry& e = *entry_;
+  e.rate_bytes += bytes;
+  if (e.min_rate > 0) e.rate_due += absl::Seconds(static_cast<double>(bytes) / e.min_rate);
 }
 
 void IdleWatch::Call::Pause() {

@@ -23,6 +23,8 @@ namespace scanprep::server {
 
 class IdleWatch {
  public:
+  // A minimum rate's window, in first periods of grace (see Entry::rate_due).
+  static constexpr int kCreditGraces = 2;
   // Which way the bytes counted against a minimum rate move.
   enum class Direction { kUpload, kDownload };
 
@@ -34,15 +36,20 @@ class IdleWatch {
     absl::Time idle_due = absl::InfiniteFuture();
     absl::Duration limit;
     std::string limit_name;
-    // The minimum average rate, once set: `rate_bytes` must have moved by
-    // rate_since + rate_grace + rate_bytes / min_rate, where rate_since moves on by the time the
-    // call spent paused (the server's time, not the client's).
+    // The minimum rate, once set, as a deadline: the bytes moved so far are due by `rate_due`,
+    // which each byte moves on by 1 / min_rate, and a pause (the server's time, not the
+    // client's) by its length, but which each Expect brings back to at most one `rate_window`
+    // past then: a client that sent fast at first banks at most one window of credit, so the
+    // rate is judged over a sliding window, not averaged since the start. The window is
+    // kCreditGraces first periods, so a client that stops altogether meets the idle limit
+    // first, which names what it did not send or read.
     double min_rate = 0;  // bytes per second; 0 = none
     Direction direction = Direction::kUpload;
     std::string rate_name;
-    absl::Time rate_since;
+    absl::Time rate_since;  // when the rate was set, moved on by the pauses (for the reason)
+    absl::Time rate_due = absl::InfiniteFuture();
     absl::Time paused_since = absl::InfiniteFuture();  // InfiniteFuture: not paused
-    absl::Duration rate_grace;
+    absl::Duration rate_window;
     uint64_t rate_bytes = 0;
     std::string reason;  // set when the watch cancelled the call
     // Why the call is ended when `due` passed at `now`: the idle or the rate limit.
@@ -65,10 +72,10 @@ class IdleWatch {
     // written) must happen within `limit` (the server's `limit_name`), or the call is cancelled;
     // `overdue` says what is late then, e.g. "the header did not arrive".
     void Expect(absl::Duration limit, std::string_view limit_name, std::string overdue);
-    // From now on the transfer in `direction` must also average at least `bytes_per_second` (the
-    // server's `limit_name`; 0 = no minimum), measured after a first `grace`: a client that keeps
-    // every gap under the idle limit but sends or reads next to nothing is ended too. Takes effect
-    // at the next Expect.
+    // From now on the transfer in `direction` must also keep up with `bytes_per_second` (the
+    // server's `limit_name`; 0 = no minimum) after a first `grace`, judged over a sliding window
+    // of kCreditGraces × `grace`: a client that keeps every gap under the idle limit but sends or
+    // reads next to nothing is ended too, however fast it began. Takes effect at the next Expect.
     void ExpectRate(Direction direction, double bytes_per_second, absl::Duration grace,
                     std::string_view limit_name);
     // No minimum rate from now on (the server is busy, not the client).

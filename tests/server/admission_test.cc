@@ -3,6 +3,7 @@
 // is exact), then through the real service with jobs held open by clients that sent a header and
 // a chunk and wait. Every wait is bounded; no sleep decides an outcome.
 #include <future>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -11,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "absl/cleanup/cleanup.h"
+#include "core/base/status_macros.h"
 #include "server/admission/admission.h"
 #include "server/transport/cidr.h"
 #include "tests/server/metrics_scrape.h"
@@ -54,23 +56,23 @@ class QueueUnderTest {
     std::lock_guard lock(mu_);
     now_ += d;
   }
-  // Claims `bytes` and reserves all of them at once; every call comes from one client host
-  // unless a test names another.
-  absl::StatusOr<AdmissionQueue::Slot> AdmitNow(uint64_t bytes = 0,
-                                                const std::string& host = "host") {
-    return queue_.Admit(host, bytes, bytes, absl::InfiniteFuture(), [] { return false; });
+  // A call that claims `bytes`, uploads at once and takes a slot with all of them reserved;
+  // every call comes from one client host unless a test names another.
+  absl::StatusOr<AdmissionQueue::Ticket> AdmitNow(uint64_t bytes = 0,
+                                                  const std::string& host = "host") {
+    return AdmitAndTakeSlot(host, bytes, absl::InfiniteFuture(), [] { return false; });
   }
-  // Admit on another thread; the future resolves when the call got a slot or failed.
-  std::future<absl::StatusOr<AdmissionQueue::Slot>> AdmitAsync(
+  // AdmitNow on another thread; the future resolves when the call got a slot or failed.
+  std::future<absl::StatusOr<AdmissionQueue::Ticket>> AdmitAsync(
       absl::Time deadline = absl::InfiniteFuture(), std::atomic<bool>* cancelled = nullptr,
       uint64_t bytes = 0, std::string host = "host") {
     return std::async(std::launch::async, [this, deadline, cancelled, bytes, host] {
-      return queue_.Admit(host, bytes, bytes, deadline,
-                          [cancelled] { return cancelled != nullptr && cancelled->load(); });
+      return AdmitAndTakeSlot(host, bytes, deadline,
+                              [cancelled] { return cancelled != nullptr && cancelled->load(); });
     });
   }
   // Admit `bytes` on another thread and wait until the call is queued (or already decided).
-  std::future<absl::StatusOr<AdmissionQueue::Slot>> AdmitQueued(
+  std::future<absl::StatusOr<AdmissionQueue::Ticket>> AdmitQueued(
       uint64_t bytes, std::atomic<bool>* cancelled = nullptr, const std::string& host = "host") {
     const int before = queue_.queued();
     auto f = AdmitAsync(absl::InfiniteFuture(), cancelled, bytes, host);
@@ -79,6 +81,14 @@ class QueueUnderTest {
              f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
     }));
     return f;
+  }
+  absl::StatusOr<AdmissionQueue::Ticket> AdmitAndTakeSlot(const std::string& host, uint64_t bytes,
+                                                          absl::Time deadline,
+                                                          const std::function<bool()>& cancelled) {
+    auto ticket = queue_.Admit(host, bytes, 0, deadline, cancelled);
+    if (!ticket.ok()) return ticket;
+    SCANPREP_RETURN_IF_ERROR(ticket->TakeSlot(cancelled));
+    return ticket;
   }
   double Metric(const std::string& key) {
     const auto samples = ParseSamples(registry_.Serialize());
@@ -115,8 +125,8 @@ TEST(AdmissionQueue, RunsUpToTheLimitQueuesUpToTheCapacityRefusesTheRest) {
   auto refused = q.AdmitNow();
   EXPECT_EQ(refused.status().code(), absl::StatusCode::kResourceExhausted);
   EXPECT_THAT(refused.status().message(),
-              HasSubstr("limit of 2 concurrent jobs (max_concurrent_jobs) and its queue of 1 "
-                        "waiting jobs (max_queued_jobs) is full"));
+              HasSubstr("its limit of 3 jobs (max_concurrent_jobs 2 + max_queued_jobs 1): 2 "
+                        "running, 1 waiting for a slot, 0 uploading; the queue is full"));
   EXPECT_EQ(q.Metric("scanprep_jobs_rejected_total{reason=\"queue_full\"}"), 1);
   EXPECT_FALSE(Ready(waiting));
 
@@ -158,7 +168,7 @@ TEST(AdmissionQueue, HostsThatContendTakeTurnsLeastRecentlyServedFirst) {
   auto running = q.AdmitNow(0, "A");
   ASSERT_TRUE(running.ok());
   std::atomic<bool> give_up{false};  // so that a failed test ends instead of waiting forever
-  std::vector<std::future<absl::StatusOr<AdmissionQueue::Slot>>> a;
+  std::vector<std::future<absl::StatusOr<AdmissionQueue::Ticket>>> a;
   for (int i = 0; i < 3; ++i) a.push_back(q.AdmitQueued(0, &give_up, "A"));
   auto b = q.AdmitQueued(0, &give_up, "B");
   absl::Cleanup end_waits = [&] { give_up = true; };  // before the futures wait for their calls
@@ -191,7 +201,7 @@ TEST(AdmissionQueue, OneHostAloneMayTakeEverySlotAndQueuePlace) {
   EXPECT_EQ(q.queue().queued(), 2);
   const auto refused = q.AdmitNow(0, "A");
   EXPECT_EQ(refused.status().code(), absl::StatusCode::kResourceExhausted);
-  EXPECT_THAT(refused.status().message(), HasSubstr("(max_queued_jobs) is full"));
+  EXPECT_THAT(refused.status().message(), HasSubstr("the queue is full"));
   { auto release = std::move(*first); }
   EXPECT_TRUE(third.get().ok());
   { auto release = std::move(*second); }
@@ -205,7 +215,7 @@ TEST(AdmissionQueue, OneHostAloneMayTakeEverySlotAndQueuePlace) {
 TEST(AdmissionQueue, AHostThatFloodsTheQueueGivesPlacesToAnotherUntilTheyAreEven) {
   QueueUnderTest q(/*max_concurrent=*/2, /*max_queued=*/4);
   std::atomic<bool> give_up{false};
-  std::vector<std::future<absl::StatusOr<AdmissionQueue::Slot>>> a, b;
+  std::vector<std::future<absl::StatusOr<AdmissionQueue::Ticket>>> a, b;
   absl::Cleanup end_waits = [&] { give_up = true; };  // before the futures wait for their calls
   auto a1 = q.AdmitNow(0, "A");
   auto a2 = q.AdmitNow(0, "A");
@@ -327,23 +337,60 @@ TEST(AdmissionQueue, DrainingReleasesWaitingCallsAndRefusesNewOnesButKeepsRunnin
 
 // --- Through the service -------------------------------------------------------------------
 
-// A Process call that sent its header and one chunk and then waits; Finish() completes it,
-// Cancel() ends it. `forwarded_for`, when set, is sent as x-forwarded-for.
+// Holds each job whose id starts with "held" in its slot until the test releases it or the call
+// is cancelled (ServerOptions::on_slot), so slots are kept busy without timing.
+class SlotGate {
+ public:
+  server::SlotHook Hook() {
+    return [this](std::string_view id, const std::function<bool()>& cancelled) {
+      if (!id.starts_with("held")) return;
+      std::unique_lock lock(mu_);
+      holding_.insert(std::string(id));
+      changed_.notify_all();
+      while (!released_.contains(std::string(id)) && !cancelled()) {
+        changed_.wait_for(lock, std::chrono::milliseconds(5));
+      }
+      holding_.erase(std::string(id));
+    };
+  }
+  // True once job `id` holds its slot (at most 10 s).
+  bool WaitUntilHolding(const std::string& id) {
+    std::unique_lock lock(mu_);
+    return changed_.wait_for(lock, std::chrono::seconds(10), [&] { return holding_.contains(id); });
+  }
+  void Release(const std::string& id) {
+    std::lock_guard lock(mu_);
+    released_.insert(id);
+    changed_.notify_all();
+  }
+
+ private:
+  std::mutex mu_;
+  std::condition_variable changed_;
+  std::set<std::string> holding_, released_;
+};
+
+// A Process call that uploaded a whole job and is held by `gate` once it has a slot; Finish()
+// lets it run to its end, Cancel() ends it. `forwarded_for`, when set, is sent as
+// x-forwarded-for.
 class HeldCall {
  public:
-  explicit HeldCall(v1::ScanPrep::Stub& stub, const std::string& forwarded_for = "")
-      : stream_(Start(stub, context_, forwarded_for)) {
-    stream_->Write(HeaderRequest(SimpleHeader(), 100));
-    stream_->Write(ChunkRequest(LineChunk(100)));
-  }
-  // True once the server acknowledged the chunk, i.e. the call holds a slot.
-  bool WaitUntilRunning() {
-    v1::ProcessResponse ack;
-    return stream_->Read(&ack) && ack.progress().phase() == v1::Progress::PHASE_UPLOAD;
-  }
-  grpc::Status Finish() {
-    stream_->Write(EndRequest({ChunkRequest(LineChunk(100))}));
+  HeldCall(v1::ScanPrep::Stub& stub, SlotGate& gate, const std::string& forwarded_for = "")
+      : gate_(gate), id_(absl::StrCat("held-", next_id_++)) {
+    if (!forwarded_for.empty()) context_.AddMetadata("x-forwarded-for", forwarded_for);
+    stream_ = stub.Process(&context_);
+    v1::JobHeader header = SimpleHeader();
+    header.set_job_id(id_);
+    std::vector<v1::ProcessRequest> requests = {HeaderRequest(header, 100),
+                                                ChunkRequest(LineChunk(100))};
+    requests.push_back(EndRequest(requests));
+    for (const v1::ProcessRequest& r : requests) stream_->Write(r);
     stream_->WritesDone();
+  }
+  // True once the call holds a slot.
+  bool WaitUntilRunning() { return gate_.WaitUntilHolding(id_); }
+  grpc::Status Finish() {
+    gate_.Release(id_);
     v1::ProcessResponse response;
     while (stream_->Read(&response)) has_report_ |= response.has_report();
     return stream_->Finish();
@@ -355,12 +402,9 @@ class HeldCall {
   bool has_report() const { return has_report_; }
 
  private:
-  static std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> Start(
-      v1::ScanPrep::Stub& stub, grpc::ClientContext& context, const std::string& forwarded_for) {
-    if (!forwarded_for.empty()) context.AddMetadata("x-forwarded-for", forwarded_for);
-    return stub.Process(&context);
-  }
-
+  static inline std::atomic<int> next_id_{0};
+  SlotGate& gate_;
+  const std::string id_;
   grpc::ClientContext context_;
   std::unique_ptr<grpc::ClientReaderWriter<v1::ProcessRequest, v1::ProcessResponse>> stream_;
   bool has_report_ = false;
@@ -368,11 +412,12 @@ class HeldCall {
 
 // `calls` calls of `host` on a server with one slot: the first runs, the rest queue in order (each
 // seen in scanprep_jobs_queued). Fewer are returned when one does not get there.
-std::vector<std::unique_ptr<HeldCall>> HoldTheSlotAndQueue(v1::ScanPrep::Stub& stub, int metrics,
-                                                           const std::string& host, int calls) {
+std::vector<std::unique_ptr<HeldCall>> HoldTheSlotAndQueue(v1::ScanPrep::Stub& stub, SlotGate& gate,
+                                                           int metrics, const std::string& host,
+                                                           int calls) {
   std::vector<std::unique_ptr<HeldCall>> held;
   for (int c = 0; c < calls; ++c) {
-    held.push_back(std::make_unique<HeldCall>(stub, host));
+    held.push_back(std::make_unique<HeldCall>(stub, gate, host));
     const bool there = c == 0 ? held.back()->WaitUntilRunning()
                               : WaitForSample(metrics, "scanprep_jobs_queued", c);
     if (!there) {
@@ -397,11 +442,12 @@ grpc::Status SmallJob(v1::ScanPrep::Stub& stub, std::optional<absl::Duration> ti
   return stream->Finish();
 }
 
-server::ServerOptions Options(int max_concurrent, int max_queued) {
+server::ServerOptions Options(int max_concurrent, int max_queued, SlotGate& gate) {
   server::ServerOptions options;
   options.max_concurrent_jobs = max_concurrent;
   options.max_queued_jobs = max_queued;
   options.metrics_listen = "127.0.0.1:0";
+  options.on_slot = gate.Hook();
   return options;
 }
 
@@ -459,24 +505,25 @@ TEST(AdmissionQueue, ALargeJobAtTheHeadIsNotOvertakenBySmallOnesThatWouldFit) {
   // 600 + 100 would fit, but the 800-byte call came first.
   auto small = q.AdmitQueued(100);
   EXPECT_EQ(q.queue().queued(), 2);
-  // The queue (4 places) fills behind them: the refusal names the memory, not the slots.
-  auto third = q.AdmitQueued(100);
-  auto fourth = q.AdmitQueued(100);
+  // The tickets (4 slots + 4 places) fill behind them: the refusal names the memory, not the
+  // slots.
+  std::vector<std::future<absl::StatusOr<AdmissionQueue::Ticket>>> more;
+  for (int i = 0; i < 5; ++i) more.push_back(q.AdmitQueued(100));
   EXPECT_THAT(q.AdmitNow(100).status().message(),
-              HasSubstr("the server's 1 running jobs hold 0 MiB of its 0 MiB memory capacity "
-                        "(memory_capacity) and its queue of 4 waiting jobs (max_queued_jobs) is "
-                        "full"));
+              HasSubstr("1 running, 7 waiting for a slot, 0 uploading, the jobs reserving 0 MiB "
+                        "of its 0 MiB memory capacity (memory_capacity); the queue is full"));
   EXPECT_EQ(q.queue().in_flight(), 1);
   EXPECT_FALSE(Ready(small));
 
   { auto release = std::move(*running); }
-  // Both fit now (800 + 100), in arrival order.
+  // Three fit now (800 + 100 + 100), in arrival order.
   auto large_slot = large.get();
   auto small_slot = small.get();
-  auto third_slot = third.get();
+  auto third_slot = more[0].get();
   ASSERT_TRUE(large_slot.ok() && small_slot.ok() && third_slot.ok());
   EXPECT_EQ(q.queue().memory_reserved_bytes(), 1'000u);
-  EXPECT_EQ(q.queue().queued(), 1);  // the fourth waits for 100 more bytes
+  EXPECT_EQ(q.queue().queued(), 4);  // the rest wait for 100 more bytes each
+  q.queue().Drain();                 // and are released
 }
 
 TEST(AdmissionQueue, WhenTheHeadOfTheQueueLeavesTheCallsBehindItThatFitAreAdmitted) {
@@ -547,11 +594,13 @@ TEST(AdmissionQueue, AReservationThatCouldLeaveNoClaimAbleToFinishWaits) {
   EXPECT_EQ(q.queue().memory_reserved_bytes(), 500u);
 }
 
-TEST(Admission, AQueuedCallWaitsBeforeItsUploadAndRunsWhenTheSlotFrees) {
-  InProcessServer server(Options(1, 1));
+// A call uploads while the slot is busy (it holds no slot meanwhile) and then waits for it.
+TEST(Admission, ACallUploadsThenWaitsForTheSlotAndRunsWhenItFrees) {
+  SlotGate gate;
+  InProcessServer server(Options(1, 1, gate));
   const int metrics = server.server().metrics_port();
   auto stub = server.Stub();
-  HeldCall held(*stub);
+  HeldCall held(*stub, gate);
   ASSERT_TRUE(held.WaitUntilRunning());
 
   auto queued = std::async(std::launch::async, [&] { return SmallJob(*stub); });
@@ -559,7 +608,7 @@ TEST(Admission, AQueuedCallWaitsBeforeItsUploadAndRunsWhenTheSlotFrees) {
 
   const grpc::Status refused = SmallJob(*stub);
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
-  EXPECT_THAT(refused.error_message(), HasSubstr("(max_queued_jobs) is full"));
+  EXPECT_THAT(refused.error_message(), HasSubstr("the queue is full"));
   EXPECT_FALSE(Ready(queued));
 
   EXPECT_TRUE(held.Finish().ok());
@@ -578,15 +627,16 @@ TEST(Admission, AQueuedCallWaitsBeforeItsUploadAndRunsWhenTheSlotFrees) {
 TEST(Admission, HostsForwardedByATrustedProxyTakeTurnsForTheSlot) {
   for (const bool trusted : {true, false}) {
     SCOPED_TRACE(trusted ? "trusted proxy" : "untrusted peer");
-    server::ServerOptions options = Options(1, 8);
+    SlotGate gate;
+    server::ServerOptions options = Options(1, 8, gate);
     options.trusted_proxies = *server::ParseCidrList(trusted ? "127.0.0.0/8" : "10.0.0.0/8");
     InProcessServer server(options);
     const int metrics = server.server().metrics_port();
     auto stub = server.Stub();
-    const auto a = HoldTheSlotAndQueue(*stub, metrics, "203.0.113.1", 3);
+    const auto a = HoldTheSlotAndQueue(*stub, gate, metrics, "203.0.113.1", 3);
     ASSERT_EQ(a.size(), 3u);
     HeldCall &running = *a[0], &a2 = *a[1], &a3 = *a[2];
-    HeldCall b(*stub, "203.0.113.2");
+    HeldCall b(*stub, gate, "203.0.113.2");
     ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 3));
 
     HeldCall& next = trusted ? b : a2;
@@ -603,15 +653,16 @@ TEST(Admission, HostsForwardedByATrustedProxyTakeTurnsForTheSlot) {
 // longer refuses a second host QUEUE_FULL; the second host's call takes the first host's newest
 // place and runs when the slot frees.
 TEST(Admission, ASecondHostGetsAPlaceInAQueueAnotherHostFilled) {
-  server::ServerOptions options = Options(1, 2);
+  SlotGate gate;
+  server::ServerOptions options = Options(1, 2, gate);
   options.trusted_proxies = *server::ParseCidrList("127.0.0.0/8");
   InProcessServer server(options);
   const int metrics = server.server().metrics_port();
   auto stub = server.Stub();
-  const auto a = HoldTheSlotAndQueue(*stub, metrics, "203.0.113.1", 3);
+  const auto a = HoldTheSlotAndQueue(*stub, gate, metrics, "203.0.113.1", 3);
   ASSERT_EQ(a.size(), 3u);
   HeldCall &running = *a[0], &a2 = *a[1], &a3 = *a[2];
-  HeldCall b(*stub, "203.0.113.2");
+  HeldCall b(*stub, gate, "203.0.113.2");
   const grpc::Status displaced = a3.Finish();
   EXPECT_EQ(displaced.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(displaced.error_message(), HasSubstr("went to a call of another client host"));
@@ -625,16 +676,17 @@ TEST(Admission, ASecondHostGetsAPlaceInAQueueAnotherHostFilled) {
 }
 
 TEST(Admission, ACallWhoseDeadlineIsShorterThanTheExpectedWaitFailsAtOnce) {
-  InProcessServer server(Options(1, 2));
+  SlotGate gate;
+  InProcessServer server(Options(1, 2, gate));
   auto stub = server.Stub();
   {
     // One job that held its slot for at least a second: the mean job time is >= 1 s.
-    HeldCall slow(*stub);
+    HeldCall slow(*stub, gate);
     ASSERT_TRUE(slow.WaitUntilRunning());
     std::this_thread::sleep_for(std::chrono::seconds(1));
     ASSERT_TRUE(slow.Finish().ok());
   }
-  HeldCall held(*stub);
+  HeldCall held(*stub, gate);
   ASSERT_TRUE(held.WaitUntilRunning());
   const grpc::Status status = SmallJob(*stub, absl::Milliseconds(500));
   EXPECT_EQ(status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
@@ -648,12 +700,13 @@ TEST(Admission, ACallWhoseDeadlineIsShorterThanTheExpectedWaitFailsAtOnce) {
 
 TEST(Admission, ADeadlineThatPassesInTheQueueIsLoggedAsSuch) {
   std::ostringstream log;
-  server::ServerOptions options = Options(1, 1);
+  SlotGate gate;
+  server::ServerOptions options = Options(1, 1, gate);
   options.log = &log;
   auto server = std::make_unique<InProcessServer>(options);
   auto stub = server->Stub();
   {
-    HeldCall held(*stub);
+    HeldCall held(*stub, gate);
     ASSERT_TRUE(held.WaitUntilRunning());
     // No job has ended yet, so no expected wait refuses it up front: it waits, and its deadline
     // passes in the queue.
@@ -696,7 +749,8 @@ int HealthStatus(const std::string& target, const std::string& service = "") {
 
 // Load balancers and Kubernetes probes ask by the service's full name as often as by "".
 TEST(Admission, HealthAnswersForTheServerAndByServiceName) {
-  InProcessServer server(Options(1, 1));
+  SlotGate gate;
+  InProcessServer server(Options(1, 1, gate));
   EXPECT_EQ(HealthStatus(server.target()), 1);
   EXPECT_EQ(HealthStatus(server.target(), "scanprep.v1.ScanPrep"), 1);
   EXPECT_EQ(HealthStatus(server.target(), "scanprep.v1.NoSuchService"), -5);
@@ -706,11 +760,12 @@ TEST(Admission, HealthAnswersForTheServerAndByServiceName) {
 }
 
 TEST(Admission, DrainingReportsNotServingRefusesNewAndQueuedCallsAndFinishesRunningOnes) {
-  InProcessServer server(Options(1, 1));
+  SlotGate gate;
+  InProcessServer server(Options(1, 1, gate));
   const int metrics = server.server().metrics_port();
   auto stub = server.Stub();
   EXPECT_EQ(HealthStatus(server.target()), 1);
-  HeldCall held(*stub);
+  HeldCall held(*stub, gate);
   ASSERT_TRUE(held.WaitUntilRunning());
   auto queued = std::async(std::launch::async, [&] { return SmallJob(*stub); });
   ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 1));

@@ -95,8 +95,8 @@ TEST(Limits, CallsPerPeerCountEveryCallInProgressFromOneHost) {
   EXPECT_TRUE(next.ok()) << next.error_message();
 }
 
-// The default server (no per-host cap) on 2 slots: one host's second concurrent job holds the
-// second slot rather than being refused, and its third queues.
+// The default server (no per-host cap) on 2 slots: one host's second concurrent job is admitted
+// rather than being refused.
 TEST(Limits, OneHostAloneMayUseEverySlot) {
   server::ServerOptions options{.max_concurrent_jobs = 2};
   options.listen = "127.0.0.1:0";
@@ -105,7 +105,7 @@ TEST(Limits, OneHostAloneMayUseEverySlot) {
   ASSERT_TRUE(server.ok()) << server.status();
   auto stub = v1::ScanPrep::NewStub(grpc::CreateChannel(
       absl::StrCat("127.0.0.1:", (*server)->port()), grpc::InsecureChannelCredentials()));
-  // Each acknowledged chunk came after the call's admission: both hold a slot.
+  // Each acknowledged chunk came after the call's admission: both are admitted.
   OpenCall first(*stub), second(*stub);
   EXPECT_TRUE(first.open()) << first.refused.error_message();
   EXPECT_TRUE(second.open()) << second.refused.error_message();
@@ -186,7 +186,7 @@ TEST(Limits, ASlowUploaderIsEndedByTheIdleTimeoutWhileAnotherClientsJobCompletes
   const absl::Time quiet_since = absl::Now();
   ASSERT_TRUE(slow->Write(ChunkRequest(LineChunk(100))));
   v1::ProcessResponse ack;
-  ASSERT_TRUE(slow->Read(&ack));  // acknowledged: the slow call holds the only slot
+  ASSERT_TRUE(slow->Read(&ack));  // acknowledged: the slow call is admitted (it holds no slot)
   absl::Time slow_ended;
   std::thread slow_reader([&] {
     v1::ProcessResponse response;
@@ -206,10 +206,9 @@ TEST(Limits, ASlowUploaderIsEndedByTheIdleTimeoutWhileAnotherClientsJobCompletes
   EXPECT_EQ(slow->Finish().error_code(), grpc::StatusCode::CANCELLED);
   EXPECT_GE(slow_ended - quiet_since, absl::Milliseconds(500));
   EXPECT_LT(slow_ended - quiet_since, absl::Seconds(5));
-  // It waited for the slot the slow call held. Measured from quiet_since, not against slow_ended:
-  // the slot is free once the server ended the slow call, and under load the other client can
-  // see its report before the slow client's reader thread runs (0.2 ms early in a ctest -j2 run).
-  EXPECT_GE(other_done - quiet_since, absl::Milliseconds(500));
+  // It did not wait for the slow call: an upload holds no slot (issue 39 finding 2; before, it
+  // held the only one and the other job waited the 500 ms for it to be ended).
+  EXPECT_LT(other_done, slow_ended);
   server.reset();  // every call logged
   // Named with the real cause and peer, though the client only saw its call cancelled.
   EXPECT_THAT(log.str(), HasSubstr("W process peer=ipv4:127.0.0.1:"));
@@ -268,8 +267,9 @@ TEST(Limits, AnUploadUnderTheMinimumRateIsEndedThoughNoGapReachesTheIdleLimit) {
   EXPECT_GE(slow.elapsed, absl::Milliseconds(500));
   EXPECT_LT(slow.elapsed, absl::Milliseconds(1400));
   EXPECT_THAT(log.str(), HasSubstr("DEADLINE_EXCEEDED: \"the upload sent "));
-  EXPECT_THAT(log.str(), HasSubstr("under the minimum of 20000 bytes/s after the first 500ms "
-                                   "(min_upload_rate); the server ended the call\""));
+  EXPECT_THAT(log.str(), HasSubstr("falling behind the minimum of 20000 bytes/s judged over a "
+                                   "sliding window of 1s (min_upload_rate); the server ended "
+                                   "the call\""));
 }
 
 TEST(Limits, ScansPerJobAreCheckedBeforeAnyScanIsBuilt) {

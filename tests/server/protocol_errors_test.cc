@@ -281,7 +281,7 @@ TEST(ProtocolLimits, CallsBeyondTheConcurrencyLimitAreRefusedAtOnce) {
   InProcessServer server(options);
   auto stub = server.Stub();
 
-  // Hold the only slot: an open upload whose first chunk the server acknowledged.
+  // Hold the only ticket: an open upload whose first chunk the server acknowledged.
   grpc::ClientContext held;
   auto stream = stub->Process(&held);
   ASSERT_TRUE(stream->Write(HeaderRequest(SimpleHeader(), 100)));
@@ -293,9 +293,10 @@ TEST(ProtocolLimits, CallsBeyondTheConcurrencyLimitAreRefusedAtOnce) {
       RawCall(*stub, {HeaderRequest(SimpleHeader()), ChunkRequest(LineChunk(100))});
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(refused.error_message(),
-              HasSubstr("limit of 1 concurrent jobs (max_concurrent_jobs)"));
+              HasSubstr("its limit of 1 jobs (max_concurrent_jobs 1 + max_queued_jobs 0): 0 "
+                        "running, 0 waiting for a slot, 1 uploading"));
 
-  // The held call completes normally, and frees its slot.
+  // The held call completes normally, and frees its ticket.
   ASSERT_TRUE(stream->Write(EndRequest({ChunkRequest(LineChunk(100))})));
   stream->WritesDone();
   while (stream->Read(&ack)) {

@@ -146,7 +146,8 @@ inline v1::PointChunk LineChunk(size_t n) {
   return chunk;
 }
 
-// A call that holds a slot (and a per-host place) until it is destroyed.
+// A call that holds a ticket (admission.h: one of max_concurrent_jobs + max_queued_jobs) and a
+// per-host place, uploading, until it is destroyed.
 class HeldCall {
  public:
   explicit HeldCall(v1::ScanPrep::Stub& stub) : stream_(stub.Process(&context_)) {
