@@ -28,6 +28,7 @@
 #include "absl/flags/usage_config.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "absl/synchronization/notification.h"
 #include "absl/time/time.h"
 #include "core/base/status_macros.h"
@@ -77,9 +78,18 @@ ABSL_FLAG(std::string, metrics_listen, ":9464",
           "[HOST]:PORT of the Prometheus /metrics endpoint: without HOST, --listen's host (so a "
           "server on loopback keeps its metrics there too); port 0 = any free port; empty = off");
 ABSL_FLAG(int, max_sensors, 64,
-          "distinct ScanHeader.sensor_id values that get their own `sensor` label in the "
-          "scanprep_sensor_* metrics; later sensors share sensor=\"other\" (counted in "
-          "scanprep_sensor_labels_folded_total)");
+          "ScanHeader.sensor_id values besides --sensor_allowlist's that hold their own `sensor` "
+          "label in the scanprep_sensor_* metrics at once: a new sensor takes the label of the "
+          "least recently reported one, whose series go (scanprep_sensor_labels_evicted_total). "
+          "0 = only the allow-listed sensors have labels, the others share sensor=\"other\"");
+ABSL_FLAG(std::string, sensor_allowlist, "",
+          "comma-separated sensor ids that always have their own `sensor` label, never evicted "
+          "and not counted in --max_sensors (the plant's own sensors, so that no client's ids "
+          "can push them out)");
+ABSL_FLAG(int, max_sensor_pairs, 256,
+          "sensor pairs that hold their own `sensor_pair` label at once, by recency like "
+          "--max_sensors, whatever the scans per job (pairs of two allow-listed sensors are not "
+          "counted); the others share sensor_pair=\"other\"");
 ABSL_FLAG(double, sensor_tolerance_mm, 0.05,
           "a sensor pair's |residual median| or misalignment translation (mm) beyond which "
           "ScanprepSensorPairMisaligned fires; exported as scanprep_sensor_tolerance_mm");
@@ -291,6 +301,9 @@ absl::StatusOr<Startup> StartupFromFlags() {
   SCANPREP_RETURN_IF_ERROR(CheckConnectionOptions(options.connection));
   options.sensor_metrics = {
       .max_sensors = absl::GetFlag(FLAGS_max_sensors),
+      .max_sensor_pairs = absl::GetFlag(FLAGS_max_sensor_pairs),
+      .sensor_allowlist =
+          absl::StrSplit(absl::GetFlag(FLAGS_sensor_allowlist), ',', absl::SkipEmpty()),
       .tolerance_mm = absl::GetFlag(FLAGS_sensor_tolerance_mm),
       .rotation_tolerance_deg = absl::GetFlag(FLAGS_sensor_rotation_tolerance_deg)};
   SCANPREP_RETURN_IF_ERROR(CheckSensorMetricsOptions(options.sensor_metrics));

@@ -69,8 +69,14 @@ class Family {
         factory_(std::move(factory)) {}
 
   // The series for these label values (in the order of the label names), created on first use.
-  // The reference stays valid for the registry's lifetime.
+  // The reference stays valid until Remove(values).
   Metric& WithLabels(const std::vector<std::string>& values);
+  // Drops the series of these label values, if any (a label value given up to bound the
+  // cardinality: server/metrics/sensor_metrics.h); a later WithLabels starts it afresh.
+  void Remove(const std::vector<std::string>& values) {
+    std::lock_guard lock(mu_);
+    series_.erase(values);
+  }
 
   const std::string& name() const { return name_; }
   const std::string& help() const { return help_; }

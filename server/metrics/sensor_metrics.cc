@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "server/metrics/sensor_metrics.h"
 
+#include <algorithm>
 #include <array>
 #include <map>
 #include <optional>
@@ -43,9 +44,19 @@ class JobMeans {
 }  // namespace
 
 absl::Status CheckSensorMetricsOptions(const SensorMetricsOptions& options) {
-  if (options.max_sensors < 0) {
+  if (options.max_sensors < 0 || options.max_sensor_pairs < 0) {
     return absl::InvalidArgumentError(
-        absl::StrCat("--max_sensors must be 0 or more, got ", options.max_sensors));
+        absl::StrCat("--max_sensors and --max_sensor_pairs must be 0 or more, got ",
+                     options.max_sensors, " and ", options.max_sensor_pairs));
+  }
+  for (const std::string& id : options.sensor_allowlist) {
+    const bool valid = !id.empty() && id.size() <= kMaxSensorIdBytes &&
+                       std::all_of(id.begin(), id.end(), IsSensorIdChar) && id != kFoldedSensor;
+    if (!valid) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "--sensor_allowlist: \"", id, "\" is not a sensor id (1 to ", kMaxSensorIdBytes,
+          " bytes of [A-Za-z0-9._:-], not \"", kFoldedSensor, "\")"));
+    }
   }
   // !(x > 0) also refuses NaN.
   if (!(options.tolerance_mm > 0) || !(options.rotation_tolerance_deg > 0)) {
@@ -57,7 +68,9 @@ absl::Status CheckSensorMetricsOptions(const SensorMetricsOptions& options) {
 }
 
 SensorMetrics::SensorMetrics(metrics::Registry& r, const SensorMetricsOptions& options)
-    : max_sensors_(options.max_sensors),
+    : allowed_(options.sensor_allowlist.begin(), options.sensor_allowlist.end()),
+      sensor_slots_(options.max_sensors),
+      pair_slots_(options.max_sensor_pairs),
       noise_(r.AddGauge("scanprep_sensor_noise_mm",
                         "Measured noise sigma-hat of the sensor's scans in its last job (median "
                         "RMS residual of the normal fits, mm; mean over the job's scans).",
@@ -75,9 +88,19 @@ SensorMetrics::SensorMetrics(metrics::Registry& r, const SensorMetricsOptions& o
       scans_(r.AddCounter("scanprep_sensor_scans_total",
                           "Scans of the sensor whose health was reported.", {"sensor"})),
       folded_(r.AddCounter("scanprep_sensor_labels_folded_total",
-                           "Scan health reports exported under sensor=\"other\" because "
-                           "--max_sensors sensors already had their own label.")
+                           "Scan health reports exported under sensor=\"other\": the sensor "
+                           "is not allow-listed and the job's other sensors held every one of "
+                           "the --max_sensors labels.")
                   .WithLabels({})),
+      evicted_(r.AddCounter("scanprep_sensor_labels_evicted_total",
+                            "Sensors whose label (and series) went to a newer sensor: the least "
+                            "recently reported of --max_sensors.")
+                   .WithLabels({})),
+      pairs_evicted_(r.AddCounter("scanprep_sensor_pair_labels_evicted_total",
+                                  "Sensor pairs whose label (and series) went to a newer pair (the "
+                                  "least recently reported of --max_sensor_pairs) or with an "
+                                  "evicted sensor.")
+                         .WithLabels({})),
       residual_median_(
           r.AddGauge("scanprep_sensor_pair_residual_median_mm",
                      "Median signed point-to-plane distance of the moving sensor's "
@@ -111,14 +134,47 @@ std::string SensorMetrics::Label(const std::string& sensor_id) {
   for (char& c : label) {
     if (!IsSensorIdChar(c)) c = '_';
   }
-  if (labelled_.contains(label)) return label;
-  if (static_cast<int>(labelled_.size()) >= max_sensors_) return kFoldedSensor;
-  labelled_.insert(label);
+  if (label == kFoldedSensor || allowed_.contains(label)) return label;
+  const metrics::LabelSlots::Use use = sensor_slots_.Take(label, job_);
+  if (!use.held) return kFoldedSensor;
+  if (use.evicted) Evict(*use.evicted);
   return label;
+}
+
+std::string SensorMetrics::PairLabel(const std::string& fixed, const std::string& moving) {
+  if (fixed == kFoldedSensor || moving == kFoldedSensor) return kFoldedSensor;
+  const std::string label = fixed + "|" + moving;
+  if (allowed_.contains(fixed) && allowed_.contains(moving)) return label;
+  const metrics::LabelSlots::Use use = pair_slots_.Take(label, job_);
+  if (!use.held) return kFoldedSensor;
+  if (use.evicted) EvictPair(*use.evicted);
+  return label;
+}
+
+void SensorMetrics::Evict(const std::string& sensor) {
+  evicted_.Inc();
+  for (auto* family : {&noise_, &noise_ratio_, &outlier_share_, &last_report_}) {
+    family->Remove({sensor});
+  }
+  scans_.Remove({sensor});
+  // '|' is not a sensor id character: the pair labels naming the sensor are exactly these.
+  const std::string as_fixed = sensor + "|", as_moving = "|" + sensor;
+  const std::vector<std::string> pairs = pair_slots_.ReleaseIf([&](const std::string& pair) {
+    return pair.starts_with(as_fixed) || pair.ends_with(as_moving);
+  });
+  for (const std::string& pair : pairs) EvictPair(pair);
+}
+
+void SensorMetrics::EvictPair(const std::string& pair) {
+  pairs_evicted_.Inc();
+  for (auto* family : {&residual_median_, &residual_spread_, &translation_, &rotation_}) {
+    family->Remove({pair});
+  }
 }
 
 void SensorMetrics::Record(const HealthReport& health, double unix_seconds) {
   std::lock_guard lock(mu_);
+  ++job_;
   std::vector<std::string> label_of_scan(health.scans.size());
   JobMeans<3> sensors;
   for (size_t i = 0; i < health.scans.size(); ++i) {
@@ -140,9 +196,7 @@ void SensorMetrics::Record(const HealthReport& health, double unix_seconds) {
     const std::string& fixed = label_of_scan[pair.fixed];
     const std::string& moving = label_of_scan[pair.moving];
     if (fixed.empty() || moving.empty()) continue;
-    const std::string label = fixed == kFoldedSensor || moving == kFoldedSensor
-                                  ? std::string(kFoldedSensor)
-                                  : fixed + "|" + moving;
+    const std::string label = PairLabel(fixed, moving);
     pairs.Add(label, {pair.residual_median_mm, pair.residual_spread_mm, pair.translation_mm.norm(),
                       pair.rotation_deg.norm()});
   }
