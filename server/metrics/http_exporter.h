@@ -4,12 +4,19 @@
 // Event-driven (poll) rather than a thread per connection: with cpp-httplib's worker pool, every
 // accepted connection waited for a worker, so 2,000 idle sockets (or 64 sending a byte every
 // 0.5 s) queued each scrape behind them until it timed out. Here a connection costs a slot in
-// the poll set until it has sent its request and taken its answer, within kExchangeDeadline of
-// being accepted however it trickles; at most kMaxConnections are open, and a new one past that
-// closes the oldest (the nearest to its deadline anyway), so a flood of idle sockets can delay a
-// scrape by one poll round, not turn it away. Each answer closes its connection (no keep-alive):
-// a scraper reconnects per scrape, which costs a handshake on the cluster network, and no client
+// the poll set: it must send its request within kRequestDeadlineMs of being accepted however it
+// trickles; at most kMaxConnections are open, and a new one past that closes the oldest still
+// reading or waiting (never one being answered), so a flood of idle sockets can delay a scrape
+// by one poll round, not turn it away. Each answer closes its connection (no keep-alive): a
+// scraper reconnects per scrape, which costs a handshake on the cluster network, and no client
 // can hold a connection between requests.
+//
+// Clients that send a request and never read (issue 39 finding 6: 2,000 of them made scrapes of
+// a 1.3 MB body take 4.9-7.4 s, and truncated 2 of 8, because each was rendered its own body and
+// held the loop): the body is rendered once per poll round and shared by every answer started
+// in it; at most kMaxAnswering answers are written at once (each pins socket buffers), the rest
+// wait in arrival order; an answer must be taken within kWriteDeadlineMs, and one whose client
+// has taken nothing for kStalledMs gives its place to a waiting request.
 #pragma once
 
 #include <memory>
@@ -23,10 +30,17 @@ namespace scanprep::metrics {
 
 class HttpExporter {
  public:
-  // How long a connection may take from its accept to having sent its request and taken the
-  // whole answer (a scrape's request arrives in one segment, its answer is tens of kB).
-  static constexpr int kExchangeDeadlineMs = 2'000;
+  // How long a connection may take from its accept to having sent its request (a scrape's
+  // request arrives in one segment) and, once its answer started, to taking all of it (a few
+  // hundred kB at most: the sensor series are bounded, docs/server.md).
+  static constexpr int kRequestDeadlineMs = 2'000;
+  static constexpr int kWriteDeadlineMs = 2'000;
   static constexpr int kMaxConnections = 256;
+  // Answers being written at once, and how long one may stall while a request waits for its
+  // place: a scraper reading over a cluster network never stops for 100 ms mid-answer, a client
+  // that never reads stops at once.
+  static constexpr int kMaxAnswering = 64;
+  static constexpr int kStalledMs = 100;
   // A request header longer than this is refused (431) and its connection closed.
   static constexpr size_t kMaxRequestBytes = 8 * 1024;
 
