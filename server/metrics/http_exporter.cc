@@ -223,6 +223,8 @@ void StartAnswers(std::list<Connection>& connections, const Registry& registry,
 // must not be cut short by new arrivals).
 void Accept(int listener, std::list<Connection>& connections, Clock::time_point now) {
   for (int fd; (fd = accept4(listener, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC)) >= 0;) {
+    setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &HttpExporter::kSendBufferBytes,
+               sizeof(HttpExporter::kSendBufferBytes));
     connections.push_back(
         {.fd = fd, .deadline = now + std::chrono::milliseconds(HttpExporter::kRequestDeadlineMs)});
     if (connections.size() <= HttpExporter::kMaxConnections) continue;

@@ -41,6 +41,11 @@ class HttpExporter {
   // that never reads stops at once.
   static constexpr int kMaxAnswering = 64;
   static constexpr int kStalledMs = 100;
+  // The kernel's send buffer of a connection, fixed: autotuning grows it to megabytes for a
+  // client that never reads (a loopback one took 3.9 MB of an answer), so the memory such
+  // clients pin is kMaxAnswering times this and their windows, and a large answer stalls
+  // instead of vanishing into their buffers. 128 KB in flight still fills a 1 Gbit/s link at 1 ms.
+  static constexpr int kSendBufferBytes = 64 * 1024;  // the kernel doubles it
   // A request header longer than this is refused (431) and its connection closed.
   static constexpr size_t kMaxRequestBytes = 8 * 1024;
 
