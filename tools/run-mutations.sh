@@ -14,7 +14,9 @@
 # Environment: BUILD_DIR (default build; reused, configured Release if new), MUTATION_TIMEOUT
 # (seconds for one mutation's test run, default 300; a hang counts as a kill), MUTATION_BASELINE
 # (0: skip the unmutated suite's run, for a build whose suite has just passed), MUTATION_BUDGET
-# (seconds; default none: every selected mutation runs).
+# (seconds; default none: every selected mutation runs), MUTATION_TARGETS (the executables the
+# baseline and the closing build make; default the core suite's: a run of server mutations that
+# name their tests needs only those, with MUTATION_BASELINE=0).
 #
 # With a budget (CI's, .ci/run: the whole list takes about 30 minutes on two cores, more than CI
 # can give it) the mutations run in an order that puts first what a change can have broken, and
@@ -107,6 +109,7 @@ suite_regex=$(test_suite_regex "${sources[@]}")
 
 [[ -f $build_dir/build.ninja ]] ||
   cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+if [[ -n ${MUTATION_TARGETS:-} ]]; then read -ra targets <<<"$MUTATION_TARGETS"; fi
 build() { ninja -C "$build_dir" "${targets[@]}" >"$work/build.log" 2>&1; }
 # A mutation naming the executables that kill it builds and runs only those (a whole-suite
 # relink per mutation would cost CI most of its budget); its first failing test is the killer.
