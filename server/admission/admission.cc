@@ -67,7 +67,7 @@ absl::Status AdmissionQueue::Ticket::Reserve(uint64_t bytes,
 absl::Status AdmissionQueue::ReserveLocked(std::unique_lock<std::mutex>& lock,
                                            std::list<Holder>::iterator holder, uint64_t bytes,
                                            const std::function<bool()>& cancelled) {
-  if (absl::Status ended = EndedLocked(*holder); !ended.ok()) return ended;
+  if (absl::Status ended = DisplacedLocked(*holder); !ended.ok()) return ended;
   Waiter self{.holder = holder, .reserve = std::min(bytes, holder->claim)};
   if (self.reserve <= holder->reserved) return absl::OkStatus();
   if (FitsLocked(self)) {  // any safe reservation may go first (GrantLocked)
@@ -81,7 +81,7 @@ absl::Status AdmissionQueue::ReserveLocked(std::unique_lock<std::mutex>& lock,
   if (!holder->displaced) growing_.erase(position);  // else DisplaceForLocked did
   GrantLocked();                                     // the reservations behind it may be safe now
   PublishLocked();
-  if (absl::Status ended = EndedLocked(*holder); !ended.ok()) return ended;
+  if (absl::Status ended = DisplacedLocked(*holder); !ended.ok()) return ended;
   return absl::CancelledError(
       "the call was cancelled or its deadline passed while it waited for memory");
 }
@@ -90,7 +90,7 @@ absl::Status AdmissionQueue::Ticket::TakeSlot(const std::function<bool()>& cance
   AdmissionQueue& q = *queue_;
   const absl::Time arrived = q.options_.now();
   std::unique_lock lock(q.mu_);
-  if (absl::Status ended = q.EndedLocked(*holder_); !ended.ok()) return ended;
+  if (absl::Status ended = q.DisplacedLocked(*holder_); !ended.ok()) return ended;
   Waiter self{.holder = holder_, .reserve = holder_->claim, .wants_slot = true};
   if (q.waiting_.empty() && q.FitsLocked(self)) {
     q.GrantToLocked(self);
@@ -99,6 +99,7 @@ absl::Status AdmissionQueue::Ticket::TakeSlot(const std::function<bool()>& cance
     return absl::OkStatus();
   }
   const auto position = q.waiting_.insert(q.waiting_.end(), &self);
+  q.GrantLocked();  // its turn may come before the calls that could not go (a host's first)
   q.PublishLocked();
   q.WaitLocked(lock, self, cancelled);
   if (self.granted) {  // GrantLocked already moved it from the queue to a slot
@@ -109,21 +110,14 @@ absl::Status AdmissionQueue::Ticket::TakeSlot(const std::function<bool()>& cance
   if (q.waiting_for_memory_ == &self) q.waiting_for_memory_ = nullptr;
   q.GrantLocked();  // the calls behind it may fit now
   q.PublishLocked();
-  if (absl::Status ended = q.EndedLocked(*holder_); !ended.ok()) return ended;
+  if (absl::Status ended = q.DisplacedLocked(*holder_); !ended.ok()) return ended;
   return absl::CancelledError("the call was cancelled or its deadline passed while queued");
 }
 
-absl::Status AdmissionQueue::EndedLocked(const Holder& holder) const {
-  if (holder.processing) return absl::OkStatus();
-  if (holder.displaced) {
-    observer_.Refused(AdmissionRefusal::kQueueFull);
-    return QueueFullErrorLocked(/*displaced=*/true);
-  }
-  if (draining_) {
-    observer_.Refused(AdmissionRefusal::kDraining);
-    return DrainingError();
-  }
-  return absl::OkStatus();
+absl::Status AdmissionQueue::DisplacedLocked(const Holder& holder) const {
+  if (!holder.displaced) return absl::OkStatus();
+  observer_.Refused(AdmissionRefusal::kQueueFull);
+  return QueueFullErrorLocked(/*displaced=*/true);
 }
 
 absl::StatusOr<AdmissionQueue::Ticket> AdmissionQueue::Admit(
@@ -219,10 +213,7 @@ absl::Status AdmissionQueue::QueueFullErrorLocked(bool displaced) const {
 
 void AdmissionQueue::WaitLocked(std::unique_lock<std::mutex>& lock, Waiter& self,
                                 const std::function<bool()>& cancelled) {
-  // A call with a slot keeps it through a drain: only calls without one are released.
-  const auto done = [&] {
-    return self.granted || self.holder->displaced || (draining_ && !self.holder->processing);
-  };
+  const auto done = [&] { return self.granted || self.holder->displaced; };
   while (!done()) {
     if (changed_.wait_for(lock, kPollInterval, done)) break;
     if (cancelled()) break;
@@ -310,14 +301,25 @@ void AdmissionQueue::GrantLocked() {
   }
   // Only the call whose turn it is may take what is free: one behind it that would fit waits
   // too, or a stream of small jobs could hold a large one back forever.
-  while (!draining_ && !waiting_.empty()) {
+  while (!waiting_.empty()) {
     const auto it = NextLocked();
     Waiter* next = *it;
+    if (processing_ >= options_.max_concurrent_jobs) break;
     if (!FitsLocked(*next)) {
       // A free slot but not the memory: the call keeps its turn until the memory is free, even
-      // against hosts that arrive meanwhile and would rank before it.
-      if (processing_ < options_.max_concurrent_jobs) waiting_for_memory_ = next;
-      break;
+      // against hosts that arrive meanwhile and would rank before it, as long as the running
+      // jobs' memory would be enough. Beyond that only the calls waiting with it hold what it
+      // needs, and they cannot run before it: the first of them that fits goes, or they would
+      // all wait for each other.
+      waiting_for_memory_ = next;
+      if (RunningJobsMakeRoomLocked(*next)) break;
+      const auto other = std::find_if(waiting_.begin(), waiting_.end(),
+                                      [&](const Waiter* w) { return w != next && FitsLocked(*w); });
+      if (other == waiting_.end()) break;
+      GrantToLocked(**other);
+      waiting_.erase(other);
+      granted = true;
+      continue;
     }
     waiting_.erase(it);
     if (waiting_for_memory_ == next) waiting_for_memory_ = nullptr;
@@ -325,6 +327,12 @@ void AdmissionQueue::GrantLocked() {
     granted = true;
   }
   if (granted) changed_.notify_all();
+}
+
+bool AdmissionQueue::RunningJobsMakeRoomLocked(const Waiter& waiter) const {
+  uint64_t room = options_.memory_capacity_bytes - reserved_bytes_;
+  for (const Holder& h : holders_) room += h.processing ? h.reserved : 0;
+  return waiter.reserve - waiter.holder->reserved <= room;
 }
 
 std::list<AdmissionQueue::Waiter*>::iterator AdmissionQueue::NextLocked() {

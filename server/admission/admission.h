@@ -19,8 +19,10 @@
 // in some order, each returning all of it when done (the banker's algorithm for one resource), so
 // calls waiting for each other's memory can never deadlock. The call whose turn it is is served
 // first even when a smaller one behind it would fit, and keeps its turn while it waits for memory
-// (no host's turn comes before it then), so a large job is not starved; a job whose claim exceeds
-// the whole capacity is refused at once.
+// (no host's turn comes before it then), so a large job is not starved; only when the running
+// jobs' memory would not make room for it do the calls waiting with it that fit go first, since
+// what it needs is then theirs (their uploaded data). A job whose claim exceeds the whole
+// capacity is refused at once.
 #pragma once
 
 #include <condition_variable>
@@ -78,8 +80,7 @@ class AdmissionQueue {
 
     // Raises this call's reservation to `bytes` (at most its claim; a lower value changes
     // nothing), waiting while that is unsafe (see above). CANCELLED when `cancelled()` turns true
-    // while waiting (polled); QUEUE_FULL once the ticket went to another host, UNAVAILABLE once
-    // the server drains (before the call has a slot).
+    // while waiting (polled); QUEUE_FULL once the ticket went to another host.
     absl::Status Reserve(uint64_t bytes, const std::function<bool()>& cancelled);
     // Waits for a slot with the whole claim reserved, in turn between hosts (see above). Fails as
     // Reserve does.
@@ -104,8 +105,8 @@ class AdmissionQueue {
                                uint64_t reserve_bytes, absl::Time deadline,
                                const std::function<bool()>& cancelled);
 
-  // Refuse new calls and release the calls without a slot with UNAVAILABLE (at once when they
-  // wait, at their next Reserve or TakeSlot when they upload); slots held stay valid.
+  // Refuse new calls; the calls already admitted go on (upload, wait for a slot, run), within
+  // the server's grace period: each was sent to this replica and may hold its data.
   void Drain();
 
   int max_concurrent_jobs() const { return options_.max_concurrent_jobs; }
@@ -137,8 +138,8 @@ class AdmissionQueue {
   // Reserve, under the lock.
   absl::Status ReserveLocked(std::unique_lock<std::mutex>& lock, std::list<Holder>::iterator holder,
                              uint64_t bytes, const std::function<bool()>& cancelled);
-  // Why a ticket without a slot cannot go on: displaced, or the drain; OK otherwise.
-  absl::Status EndedLocked(const Holder& holder) const;
+  // QUEUE_FULL for a ticket that went to another host's call; OK otherwise.
+  absl::Status DisplacedLocked(const Holder& holder) const;
   // Whether `waiter` can have what it waits for now: a free slot (when it wants one), and its
   // reservation within the capacity with every claim still able to finish.
   bool FitsLocked(const Waiter& waiter) const;
@@ -147,6 +148,8 @@ class AdmissionQueue {
   bool SafeLocked(const Waiter& waiter) const;
   // Gives `waiter` what it waits for.
   void GrantToLocked(Waiter& waiter);
+  // Whether `waiter` would fit once the jobs holding a slot have returned their memory.
+  bool RunningJobsMakeRoomLocked(const Waiter& waiter) const;
   // The waiting call whose turn it is: the one kept waiting for memory, else the oldest call of
   // the host served least recently (the oldest such host's on a tie).
   std::list<Waiter*>::iterator NextLocked();
@@ -156,8 +159,7 @@ class AdmissionQueue {
   // Counts a ticket of `host`; forgets a host with none left.
   void AddCallLocked(const std::string& host);
   void EndCallLocked(const std::string& host);
-  // Waits until `self` is granted, its ticket is displaced, the drain starts (tickets without a
-  // slot) or `cancelled()`.
+  // Waits until `self` is granted, its ticket is displaced or `cancelled()`.
   void WaitLocked(std::unique_lock<std::mutex>& lock, Waiter& self,
                   const std::function<bool()>& cancelled);
   double ExpectedWaitLocked() const;

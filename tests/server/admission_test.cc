@@ -271,6 +271,30 @@ TEST(AdmissionQueue, ACallWaitingForMemoryKeepsItsTurnAgainstHostsThatArriveLate
   EXPECT_EQ(q.queue().memory_reserved_bytes(), 900u);
 }
 
+// The call whose turn it is needs memory that no running job holds, only a call waiting behind it
+// (its uploaded data): that call goes first, then the large one. Keeping the turn would leave
+// both waiting for each other.
+TEST(AdmissionQueue, ACallOnlyTheWaitingCallsCanMakeRoomForLetsThemGoFirst) {
+  QueueUnderTest q(/*max_concurrent=*/4, /*max_queued=*/4, /*memory_capacity=*/1'000);
+  auto large = q.queue().Admit("B", 950, 50, absl::InfiniteFuture(), [] { return false; });
+  auto small = q.queue().Admit("A", 300, 100, absl::InfiniteFuture(), [] { return false; });
+  ASSERT_TRUE(large.ok() && small.ok());
+  std::atomic<bool> give_up{false};  // so that a failed test ends instead of waiting forever
+  const auto given_up = [&] { return give_up.load(); };
+  auto large_runs = std::async(std::launch::async, [&] { return large->TakeSlot(given_up); });
+  absl::Cleanup end_large = [&] { give_up = true; };  // before the future waits for its call
+  ASSERT_TRUE(Eventually([&] { return q.queue().queued() == 1; }));
+  auto small_runs = std::async(std::launch::async, [&] { return small->TakeSlot(given_up); });
+  absl::Cleanup end_small = [&] { give_up = true; };
+  ASSERT_EQ(small_runs.wait_for(std::chrono::seconds(10)), std::future_status::ready);
+  EXPECT_TRUE(small_runs.get().ok());
+  EXPECT_FALSE(Ready(large_runs));  // 900 more do not fit beside the running 300
+  { auto done = std::move(*small); }
+  ASSERT_EQ(large_runs.wait_for(std::chrono::seconds(10)), std::future_status::ready);
+  EXPECT_TRUE(large_runs.get().ok());
+  EXPECT_EQ(q.queue().memory_reserved_bytes(), 950u);
+}
+
 TEST(AdmissionQueue, ExpectedWaitIsTheRunningMeanHoldTimePerSlotTimesThePosition) {
   QueueUnderTest q(/*max_concurrent=*/2, /*max_queued=*/4);
   EXPECT_EQ(q.queue().ExpectedWaitSeconds(), 0);  // nothing measured yet
@@ -290,8 +314,8 @@ TEST(AdmissionQueue, ExpectedWaitIsTheRunningMeanHoldTimePerSlotTimesThePosition
   auto waiting = q.AdmitAsync();
   ASSERT_TRUE(Eventually([&] { return q.queue().queued() == 1; }));
   EXPECT_DOUBLE_EQ(q.queue().ExpectedWaitSeconds(), 2 * 13.0 / 2);  // one ahead, then itself
-  q.queue().Drain();
-  EXPECT_EQ(waiting.get().status().code(), absl::StatusCode::kUnavailable);
+  { auto release = std::move(*a); }
+  EXPECT_TRUE(waiting.get().ok());
 }
 
 TEST(AdmissionQueue, FailsFastWhenTheExpectedWaitExceedsTheDeadline) {
@@ -319,19 +343,21 @@ TEST(AdmissionQueue, FailsFastWhenTheExpectedWaitExceedsTheDeadline) {
   EXPECT_EQ(q.queue().in_flight(), 1);
 }
 
-TEST(AdmissionQueue, DrainingReleasesWaitingCallsAndRefusesNewOnesButKeepsRunningSlots) {
+// A drain refuses new calls; a call already admitted was sent to this replica and may hold its
+// data, so it still gets its slot (within the server's grace period).
+TEST(AdmissionQueue, DrainingRefusesNewCallsAndLetsAdmittedOnesRun) {
   QueueUnderTest q(1, 2);
   auto running = q.AdmitNow();
   auto waiting = q.AdmitAsync();
   ASSERT_TRUE(Eventually([&] { return q.queue().queued() == 1; }));
   q.queue().Drain();
-  auto released = waiting.get();
-  EXPECT_EQ(released.status().code(), absl::StatusCode::kUnavailable);
-  EXPECT_THAT(released.status().message(), HasSubstr("draining"));
-  EXPECT_EQ(q.AdmitNow().status().code(), absl::StatusCode::kUnavailable);
-  EXPECT_EQ(q.Metric("scanprep_jobs_rejected_total{reason=\"draining\"}"), 2);
-  EXPECT_EQ(q.queue().in_flight(), 1);
+  const auto refused = q.AdmitNow();
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kUnavailable);
+  EXPECT_THAT(refused.status().message(), HasSubstr("draining"));
+  EXPECT_EQ(q.Metric("scanprep_jobs_rejected_total{reason=\"draining\"}"), 1);
+  EXPECT_FALSE(Ready(waiting));
   { auto release = std::move(*running); }
+  EXPECT_TRUE(waiting.get().ok());
   EXPECT_EQ(q.queue().in_flight(), 0);
 }
 
@@ -523,7 +549,6 @@ TEST(AdmissionQueue, ALargeJobAtTheHeadIsNotOvertakenBySmallOnesThatWouldFit) {
   ASSERT_TRUE(large_slot.ok() && small_slot.ok() && third_slot.ok());
   EXPECT_EQ(q.queue().memory_reserved_bytes(), 1'000u);
   EXPECT_EQ(q.queue().queued(), 4);  // the rest wait for 100 more bytes each
-  q.queue().Drain();                 // and are released
 }
 
 TEST(AdmissionQueue, WhenTheHeadOfTheQueueLeavesTheCallsBehindItThatFitAreAdmitted) {
@@ -759,7 +784,7 @@ TEST(Admission, HealthAnswersForTheServerAndByServiceName) {
   EXPECT_EQ(HealthStatus(server.target(), "scanprep.v1.ScanPrep"), 2);
 }
 
-TEST(Admission, DrainingReportsNotServingRefusesNewAndQueuedCallsAndFinishesRunningOnes) {
+TEST(Admission, DrainingReportsNotServingRefusesNewCallsAndFinishesAdmittedOnes) {
   SlotGate gate;
   InProcessServer server(Options(1, 1, gate));
   const int metrics = server.server().metrics_port();
@@ -772,16 +797,15 @@ TEST(Admission, DrainingReportsNotServingRefusesNewAndQueuedCallsAndFinishesRunn
 
   server.server().Drain();
   EXPECT_EQ(HealthStatus(server.target()), 2);
-  const grpc::Status released = queued.get();
-  EXPECT_EQ(released.error_code(), grpc::StatusCode::UNAVAILABLE);
-  EXPECT_THAT(released.error_message(), HasSubstr("draining"));
   const grpc::Status refused = SmallJob(*stub);
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::UNAVAILABLE);
   EXPECT_THAT(refused.error_message(), HasSubstr("retry on another replica"));
+  EXPECT_FALSE(Ready(queued));
 
   EXPECT_TRUE(held.Finish().ok());
   EXPECT_TRUE(held.has_report());
-  EXPECT_EQ(Sample(metrics, "scanprep_jobs_rejected_total{reason=\"draining\"}"), 2);
+  EXPECT_TRUE(queued.get().ok());  // admitted before the drain: it ran
+  EXPECT_EQ(Sample(metrics, "scanprep_jobs_rejected_total{reason=\"draining\"}"), 1);
 }
 
 }  // namespace
