@@ -691,7 +691,7 @@ TEST(Admission, ASecondHostGetsAPlaceInAQueueAnotherHostFilled) {
   const grpc::Status displaced = a3.Finish();
   EXPECT_EQ(displaced.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(displaced.error_message(), HasSubstr("went to a call of another client host"));
-  EXPECT_EQ(Sample(metrics, "scanprep_jobs_queued"), 2);
+  EXPECT_TRUE(WaitForSample(metrics, "scanprep_jobs_queued", 2));  // a2, and b once uploaded
 
   auto b_runs = std::async(std::launch::async, [&] { return b.WaitUntilRunning(); });
   EXPECT_TRUE(running.Finish().ok());
