@@ -201,7 +201,7 @@ absl::Status AdmissionQueue::QueueFullErrorLocked(bool displaced) const {
           "the server holds its limit of ", options_.max_concurrent_jobs + options_.max_queued_jobs,
           " jobs (max_concurrent_jobs ", options_.max_concurrent_jobs, " + max_queued_jobs ",
           options_.max_queued_jobs, "): ", processing_, " running, ", queued,
-          " waiting for a slot, ", tickets_ - processing_ - queued, " uploading",
+          " waiting for a slot, ", UploadingLocked(), " uploading",
           processing_ < options_.max_concurrent_jobs && queued > 0
               ? absl::StrCat(", the jobs reserving ", FormatMiB(reserved_bytes_), " of its ",
                              FormatMiB(options_.memory_capacity_bytes),
@@ -383,6 +383,10 @@ int AdmissionQueue::queued() const {
 
 int AdmissionQueue::uploading() const {
   std::lock_guard lock(mu_);
+  return UploadingLocked();
+}
+
+int AdmissionQueue::UploadingLocked() const {
   return tickets_ - processing_ - static_cast<int>(waiting_.size());
 }
 
@@ -397,8 +401,8 @@ double AdmissionQueue::ExpectedWaitLocked() const {
 }
 
 void AdmissionQueue::PublishLocked() {
-  const int queued = static_cast<int>(waiting_.size());
-  observer_.AdmissionChanged(processing_, queued, tickets_ - processing_ - queued, reserved_bytes_);
+  observer_.AdmissionChanged(processing_, static_cast<int>(waiting_.size()), UploadingLocked(),
+                             reserved_bytes_);
 }
 
 }  // namespace scanprep::server

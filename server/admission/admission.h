@@ -163,6 +163,7 @@ class AdmissionQueue {
   void WaitLocked(std::unique_lock<std::mutex>& lock, Waiter& self,
                   const std::function<bool()>& cancelled);
   double ExpectedWaitLocked() const;
+  int UploadingLocked() const;
   // Max-min fair tickets: with every ticket taken, a call of `host` takes the newest ticket
   // without a slot of the host with the most tickets, when that host has at least two more than
   // `host`; true if it did. The displaced call ends QUEUE_FULL (at once when it waits, at its

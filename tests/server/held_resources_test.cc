@@ -139,40 +139,6 @@ TEST(HeldResources, AClientReadingUnderTheMinimumRateLosesItsSlot) {
                                    "the call\""));
 }
 
-// A memory capacity that holds one job of a million points. One client declares that job and
-// sends a few points at a time, above the minimum upload rate; before the change the declaration
-// reserved the whole capacity at its header, and another client's 100-point job waited into its
-// deadline.
-TEST(HeldResources, ALargeDeclarationSentSlowlyDoesNotStarveASmallJob) {
-  constexpr uint64_t kDeclared = 1'000'000;
-  server::ServerOptions options;
-  options.memory_capacity_bytes = server::EstimateJobBytes(kDeclared, {});
-  options.timeouts.idle = absl::Seconds(5);
-  options.timeouts.min_upload_rate = 100;  // bytes/s; the trickle sends about 6 kB/s
-  auto server = std::make_unique<InProcessServer>(options);
-  auto stub = server->Stub();
-
-  grpc::ClientContext trickle_context;
-  std::unique_ptr<Stream> trickle = stub->Process(&trickle_context);
-  ASSERT_TRUE(trickle->Write(HeaderRequest(SimpleHeader(), kDeclared)));
-  std::atomic<bool> stop{false};
-  std::thread sender([&] {
-    while (!stop && trickle->Write(ChunkRequest(LineChunk(100)))) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    }
-  });
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // admitted, sending
-
-  const SmallJob small = RunSmallJob(*stub, absl::Seconds(5));
-  EXPECT_TRUE(small.status.ok()) << small.status.error_message();
-  EXPECT_TRUE(small.report);
-
-  stop = true;
-  sender.join();
-  trickle_context.TryCancel();
-  trickle->Finish();
-}
-
 // An upload that declares `declared` points and sends 100 of them every 200 ms (about 6 kB/s)
 // until stopped: legal while the minimum upload rate is below that.
 class Trickle {
@@ -198,6 +164,27 @@ class Trickle {
   std::atomic<bool> stop_{false};
   std::thread sender_;
 };
+
+// A memory capacity that holds one job of a million points. One client declares that job and
+// sends a few points at a time, above the minimum upload rate; before the change the declaration
+// reserved the whole capacity at its header, and another client's 100-point job waited into its
+// deadline.
+TEST(HeldResources, ALargeDeclarationSentSlowlyDoesNotStarveASmallJob) {
+  constexpr uint64_t kDeclared = 1'000'000;
+  server::ServerOptions options;
+  options.memory_capacity_bytes = server::EstimateJobBytes(kDeclared, {});
+  options.timeouts.idle = absl::Seconds(5);
+  options.timeouts.min_upload_rate = 100;  // bytes/s; the trickle sends about 6 kB/s
+  auto server = std::make_unique<InProcessServer>(options);
+  auto stub = server->Stub();
+
+  const Trickle trickle(*stub, kDeclared);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // admitted, sending
+
+  const SmallJob small = RunSmallJob(*stub, absl::Seconds(5));
+  EXPECT_TRUE(small.status.ok()) << small.status.error_message();
+  EXPECT_TRUE(small.report);
+}
 
 // Issue 39 finding 2: uploads slower than a job's time but above the minimum rate, one per slot.
 // Before the change each held a slot from its header on, and a small job waited for one into its
