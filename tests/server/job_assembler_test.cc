@@ -86,6 +86,44 @@ TEST(JobAssembler, AppliesUnitAndPoseToPointsAndScannerMetadata) {
   EXPECT_EQ(c.kind, ScannerKind::kLine);
 }
 
+// What admission reserves for an upload (PeakBytesWith, before each message) covers what the
+// arrays then take: the bytes announced before the last chunk, and those for no more points once
+// every point arrived (no growth to hide an undercount behind), are at least the finished
+// cloud's array storage and flags.
+TEST(JobAssembler, TheBytesAnnouncedForTheNextChunkCoverTheArraysItGrows) {
+  constexpr int kChunks = 5, kPoints = 1'000;
+  JobAssembler assembler(JobLimits{});
+  v1::JobHeader h = InchHeader();
+  h.set_total_points(kChunks * kPoints);
+  ASSERT_TRUE(assembler.Add(Header(h)).ok());
+  StreamChecksum checksum;
+  uint64_t announced = 0;
+  for (int c = 0; c < kChunks; ++c) {
+    v1::ProcessRequest chunk;
+    for (int i = 0; i < kPoints; ++i) {
+      for (float v : {0.01f * i, 0.01f * c, 0.f}) chunk.mutable_points()->add_xyz(v);
+      chunk.mutable_points()->add_scanline(c);
+    }
+    announced = assembler.PeakBytesWith(kPoints);
+    ASSERT_TRUE(assembler.Add(chunk).ok());
+    checksum.Add(chunk.points());
+  }
+  const uint64_t holds = assembler.PeakBytesWith(0);
+  v1::ProcessRequest end;
+  *end.mutable_end() = checksum.End();
+  ASSERT_TRUE(assembler.Add(end).ok());
+  auto job = assembler.Finish();
+  ASSERT_TRUE(job.ok()) << job.status();
+  const PointCloud& cloud = job->cloud;
+  const uint64_t held =
+      sizeof(float) * (cloud.x.capacity() + cloud.y.capacity() + cloud.z.capacity() +
+                       cloud.scan.capacity() + cloud.scanline.capacity()) +
+      cloud.flags.capacity();
+  EXPECT_GE(announced, held);
+  EXPECT_GE(holds, held);
+  EXPECT_EQ(cloud.scanline.size(), static_cast<size_t>(kChunks * kPoints));
+}
+
 TEST(JobAssembler, ScannerKindAndBudgetDefaults) {
   v1::JobHeader h;
   h.set_unit(v1::LENGTH_UNIT_MILLIMETRE);
