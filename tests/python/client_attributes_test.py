@@ -2,7 +2,9 @@
 """Nothing a file carries is dropped (issue 40 item 7): the readers keep every per-point field they
 do not otherwise use in Scan.attributes, in the file's type, for the points they keep; process()
 asks for each returned point's position in the upload (JobHeader.return_source_index) and gives
-the attributes back for exactly the points that survive (Result.source_index, .attributes).
+the attributes back for exactly the points that survive (Result.source_index, .attributes); the
+scanner's own per-point arrays that the service carries (scanline, quality, intensity) come back
+as Result.scanline, .quality and .intensity, each surviving point's uploaded value.
 
 The readers' and the result decoder's tests need no server; the end-to-end ones run against a
 real scanprep-server ($SCANPREP_SERVER, tests/CMakeLists.txt) with a plane whose colour encodes
@@ -232,6 +234,51 @@ class ResultDecodingTest(unittest.TestCase):
 
     def test_not_asked_none_sent(self):
         self.assertIsNone(_result(iter(result_stream([])[1:]), None, None, 0).source_index)
+
+
+def scanner_stream(n, **arrays):
+    """A hand-made result of n points in one packed chunk carrying the given scanner arrays
+    (scanline, quality, intensity: name=values), CRC-32 in the proto's field order."""
+    chunk = pb.PointChunk(xyz_packed=np.arange(3 * n, dtype="<f4").tobytes(),
+                          scan_index_packed=np.zeros(n, "<u4").tobytes(), flags=bytes(n))
+    crc = zlib.crc32(chunk.scan_index_packed, zlib.crc32(chunk.xyz_packed))
+    for name, dtype in (("scanline", "<u4"), ("quality", "<f4"), ("intensity", "<f4")):
+        if name in arrays:
+            setattr(chunk, f"{name}_packed", np.asarray(arrays[name], dtype).tobytes())
+            crc = zlib.crc32(getattr(chunk, f"{name}_packed"), crc)
+    crc = zlib.crc32(chunk.flags, crc)
+    messages = [pb.ProcessResponse(points=chunk)] if n else []
+    return messages + [pb.ProcessResponse(report=pb.Report()),
+                       pb.ProcessResponse(end=pb.StreamEnd(points=n, crc32=crc))]
+
+
+class ScannerArraysDecodingTest(unittest.TestCase):
+    def test_each_array_in_its_wire_type(self):
+        result = _result(iter(scanner_stream(3, scanline=[7, 8, 4294967295],
+                                             quality=[0.5, 1, 0], intensity=[10.5, -2, 3e6])),
+                         None, None, 0)
+        self.assertEqual(result.scanline.dtype, np.uint32)
+        self.assertEqual(result.quality.dtype, np.float32)
+        self.assertEqual(result.intensity.dtype, np.float32)
+        self.assertEqual(result.scanline.tolist(), [7, 8, 4294967295])
+        self.assertEqual(result.quality.tolist(), [0.5, 1, 0])
+        self.assertEqual(result.intensity.tolist(), [10.5, -2, 3e6])
+        self.assertIsNone(result.normals)
+
+    def test_absent_is_none_and_sent_with_no_point_back_is_empty(self):
+        result = _result(iter(scanner_stream(2, intensity=[1, 2])), None, None, 0)
+        self.assertIsNone(result.scanline)
+        self.assertIsNone(result.quality)
+        empty = _result(iter(scanner_stream(0)), None, None, 0, sent=["quality", "intensity"])
+        self.assertEqual((empty.quality.dtype, empty.quality.shape), (np.float32, (0,)))
+        self.assertEqual((empty.intensity.dtype, empty.intensity.shape), (np.float32, (0,)))
+        self.assertIsNone(empty.scanline)
+
+    def test_an_array_not_one_value_per_point_is_data_loss(self):
+        for arrays in ({"intensity": [1, 2]}, {"scanline": [1, 2, 3, 4]}):
+            with self.assertRaises(ScanprepError) as caught:
+                _result(iter(scanner_stream(3, **arrays)), None, None, 0)
+            self.assertEqual(caught.exception.code, grpc.StatusCode.DATA_LOSS)
 
 
 class KeepEveryThird(pb_grpc.ScanPrepServicer):
@@ -465,6 +512,112 @@ class EndToEndTest(unittest.TestCase):
         scans, _, _, _ = coloured_plane()
         self.assertIsNotNone(self.client.health(scans, unit="mm"))
         self.assertFalse(self.headers[-1].return_source_index)
+
+
+def scanner_plane():
+    """coloured_plane's scans without their attributes, each point with its own scanline (its
+    grid row), a random intensity and a random quality in [0.3, 1]. Returns the scans, all points
+    uploaded, those three arrays over the upload (the ground truth), the spike's and the NaN
+    row's positions."""
+    scans, uploaded, spike, nan_row = coloured_plane()
+    rng = np.random.default_rng(5)
+    truth = {"scanline": np.concatenate([s.scanline for s in scans]).astype(np.uint32),
+             "intensity": rng.uniform(0, 4095, len(uploaded)).astype(np.float32),
+             "quality": rng.uniform(0.3, 1.0, len(uploaded)).astype(np.float32)}
+    start = 0
+    for scan in scans:
+        rows = slice(start, start + len(scan.points))
+        scan.attributes = {}
+        scan.intensity, scan.quality = truth["intensity"][rows], truth["quality"][rows]
+        start = rows.stop
+    return scans, uploaded, truth, spike, nan_row
+
+
+class ScannerArraysEndToEndTest(unittest.TestCase):
+    """Through a real server: Result.scanline, .quality and .intensity are, for each returned
+    point, the values uploaded at its source_index (ground truth from the input)."""
+
+    @classmethod
+    def setUpClass(cls):
+        server = cls.enterClassContext(LocalServer())
+        cls.client = cls.enterClassContext(Client(server.target, timeout=120))
+
+    def process(self, scans, **options):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            return self.client.process(scans, unit="mm", return_source_index=True, **options)
+
+    def assert_uploaded_values(self, result, truth):
+        n = len(result.points)
+        self.assertEqual(len(result.source_index), n)
+        for name, dtype in (("scanline", np.uint32), ("quality", np.float32),
+                            ("intensity", np.float32)):
+            values = getattr(result, name)
+            self.assertIsNotNone(values, name)
+            self.assertEqual((values.dtype, values.shape), (np.dtype(dtype), (n,)), name)
+            np.testing.assert_array_equal(values, truth[name][result.source_index], name)
+        self.assertTrue(np.all((result.quality >= 0) & (result.quality <= 1)))  # scanprep.proto
+
+    def test_default_plan_returns_each_surviving_points_own_values(self):
+        scans, uploaded, truth, spike, nan_row = scanner_plane()
+        result = self.process(scans)
+        self.assert_uploaded_values(result, truth)
+        # Not the whole upload in order: the spike was removed and the plane thinned.
+        self.assertNotIn(spike, set(result.source_index))
+        self.assertNotIn(nan_row, set(result.source_index))
+        self.assertGreater(len(result.points), 100)
+        self.assertLess(len(result.points), len(uploaded) - 2)
+
+    def test_include_removed_gives_the_removed_points_their_values_too(self):
+        scans, uploaded, truth, spike, nan_row = scanner_plane()
+        result = self.process(scans, stages=["outliers"], include_removed=True)
+        np.testing.assert_array_equal(result.source_index,
+                                      np.delete(np.arange(len(uploaded)), nan_row))
+        self.assert_uploaded_values(result, truth)
+        at_spike = np.flatnonzero(result.source_index == spike)[0]
+        self.assertTrue(result.flags[at_spike] & 1)  # REMOVED_OUTLIER, its intensity kept
+        self.assertEqual(result.intensity[at_spike], truth["intensity"][spike])
+
+    def test_repeated_result_arrays_give_the_same(self):
+        scans, _, truth, _, _ = scanner_plane()
+        packed = self.process(scans, stages=["outliers"])
+        repeated = self.process(scans, stages=["outliers"],
+                                _result_arrays=pb.ARRAY_ENCODING_REPEATED)
+        self.assert_uploaded_values(repeated, truth)
+        for name in ("scanline", "quality", "intensity"):
+            np.testing.assert_array_equal(getattr(repeated, name), getattr(packed, name))
+
+    def test_from_a_ply_file(self):
+        # The reader's scanline, confidence (quality) and intensity properties, sent and back.
+        scans, uploaded, truth, _, nan_row = scanner_plane()
+        keep = np.delete(np.arange(len(uploaded)), nan_row)  # a file row needs a position
+        records = np.zeros(len(keep), [("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
+                                       ("scanline", "<u4"), ("confidence", "<f4"),
+                                       ("intensity", "<f4")])
+        records["x"], records["y"], records["z"] = uploaded[keep].T
+        records["scanline"], records["confidence"] = truth["scanline"][keep], truth["quality"][keep]
+        records["intensity"] = truth["intensity"][keep]
+        with tempfile.TemporaryDirectory() as tmp:
+            path = pathlib.Path(tmp) / "plane.ply"
+            path.write_bytes((f"ply\nformat binary_little_endian 1.0\nelement vertex {len(keep)}\n"
+                              "property float x\nproperty float y\nproperty float z\n"
+                              "property uint scanline\nproperty float confidence\n"
+                              "property float intensity\nend_header\n").encode() +
+                             records.tobytes())
+            scan = read_scan(path)
+        scan.scanline_spacing, scan.uncertainty, scan.view_direction = 0.5, 0.01, (0, 0, 1)
+        result = self.process([scan])
+        self.assert_uploaded_values(result, {name: truth[name][keep] for name in truth})
+
+    def test_control_a_job_without_them_gets_none(self):
+        scans, _, _, _, _ = scanner_plane()
+        for scan in scans:
+            scan.scanline = scan.quality = scan.intensity = None
+        result = self.process(scans, stages=["outliers"])
+        self.assertGreater(len(result.points), 0)
+        self.assertIsNone(result.scanline)
+        self.assertIsNone(result.quality)
+        self.assertIsNone(result.intensity)
 
 
 if __name__ == "__main__":

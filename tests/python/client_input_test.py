@@ -53,6 +53,14 @@ class InputChecksTest(unittest.TestCase):
                                   scanline=-np.ones(len(points), np.int64))],
                             r"scan 0 \('neg'\): scanline: values must be integers")
 
+    def test_a_per_point_array_some_scans_lack(self):
+        # The API takes an optional array in every chunk or in none: without the check the
+        # stream broke (UNKNOWN: Exception iterating requests!).
+        for name in ("scanline", "quality", "intensity"):
+            given = Scan(points=plane(), scan_id="with", **{name: np.ones(400, np.uint32)})
+            self.assert_refused([given, Scan(points=plane(), scan_id="without")],
+                                rf"scan 1 \('without'\): {name}: None, but scan 0 has it")
+
     def test_vectors_and_poses(self):
         self.assert_refused([Scan(points=plane(), scan_id="v", view_direction=(0, 1))],
                             r"scan 0 \('v'\): view_direction")

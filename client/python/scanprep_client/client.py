@@ -26,6 +26,9 @@ _CHUNK_POINTS = 32768  # the service's recommended chunk size (GetInfo().limits)
 # --strict (a test holds them equal).
 STRICT_WARNING_CODES = ("UNIT_SUSPECT", "NOISE_ABOVE_UNCERTAINTY", "SCAN_REPEATED",
                         "POINTS_INVALID", "UNIT_UNCHECKED", "SCANLINES_IMPLAUSIBLE")
+# The optional per-point arrays a scan sends and the result gives back (Result's fields by the same
+# names), with their wire types.
+_SCANNER_ARRAYS = {"scanline": "<u4", "quality": "<f4", "intensity": "<f4"}
 T = TypeVar("T")
 
 
@@ -88,6 +91,13 @@ class Result:
     # The scans' attributes for the returned points, by name: those every scan of the job has with
     # one dtype (and shape per point); any other is left out with a warning.
     attributes: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
+    # The scanner's per-point arrays the job sent (Scan.scanline, .quality, .intensity), as the
+    # service returns them for each returned point (PointChunk): carried through unchanged by
+    # every stage. One value per point (0 values for a result of no point); None when the job's
+    # scans had none, as normals is None when none came back.
+    scanline: Optional[np.ndarray] = None    # uint32
+    quality: Optional[np.ndarray] = None     # float32 in [0, 1], 1 = trustworthy
+    intensity: Optional[np.ndarray] = None   # float32
 
     @property
     def kept(self) -> np.ndarray:
@@ -181,10 +191,10 @@ def check_scans(scans: Sequence[Scan]) -> None:
     """Raises ValueError naming the scan and the field for what the service could not take, before
     anything is sent (a wrongly shaped array would otherwise break the request stream and surface
     as gRPC's "Exception iterating requests!"): points that are not a non-empty n×3 numeric array
-    with a finite point, per-point arrays (scanline, quality, intensity) of another length than
-    the points, scanlines that are not integers in [0, 2³²), vectors that are not 3 finite
-    numbers, a to_common that is not ((qx, qy, qz, qw), (tx, ty, tz)), attributes that are not a
-    dict of arrays with one value per point."""
+    with a finite point, per-point arrays (scanline, quality, intensity) of another length than the
+    points or given for some scans only, scanlines that are not integers in [0, 2³²), vectors that
+    are not 3 finite numbers, a to_common that is not ((qx, qy, qz, qw), (tx, ty, tz)), attributes
+    that are not a dict of arrays with one value per point."""
     if isinstance(scans, Scan) or not all(isinstance(s, Scan) for s in scans):
         raise ValueError("scans: a sequence of Scan (one scan: [scan])")
     if not scans:
@@ -236,6 +246,12 @@ def check_scans(scans: Sequence[Scan]) -> None:
             raise ValueError(f"{where}: points_unmeasured: {scan.points_unmeasured!r} (expected "
                              "a count)")
         _check_attributes(scan.attributes, len(points), where)
+    for name in _SCANNER_ARRAYS:  # every chunk carries the array or none does (as the API)
+        given = [getattr(scan, name) is not None for scan in scans]
+        if any(given) and not all(given):
+            i = given.index(False)
+            raise ValueError(f"scan {i} ({scans[i].scan_id!r}): {name}: None, but scan "
+                             f"{given.index(True)} has it (every scan of a job has it or none)")
 
 
 def _check_attributes(attributes, count: int, where: str) -> None:
@@ -470,6 +486,7 @@ class Client:
         points_back = _result_arrays != pb.ARRAY_ENCODING_NONE
         want_index = points_back and (return_source_index or any(s.attributes for s in scans))
         names = _shared_attributes(scans) if want_index else []
+        sent = [name for name in _SCANNER_ARRAYS if getattr(scans[0], name) is not None]
         header = _header(scans, offsets, origin, unit, stages, params, preset, include_removed,
                          labels, budget_seconds, job_id, dict.fromkeys(codes), _result_arrays,
                          want_index)
@@ -477,7 +494,8 @@ class Client:
         def attempt(seconds: float) -> Result:
             responses = self._stub.Process(_requests(header, scans, offsets, chunk_points),
                                            timeout=seconds)
-            return _result(responses, origin, progress, header.total_points if want_index else 0)
+            return _result(responses, origin, progress, header.total_points if want_index else 0,
+                           sent)
         result = self._call(attempt, timeout)
         if result.source_index is not None:
             result.attributes = _gather(scans, names, result.source_index)
@@ -527,12 +545,28 @@ def _source_index(parts: list[bytes], points: int, uploaded: int) -> Optional[np
     return index.astype(np.uint32)
 
 
+def _per_point(parts: dict[str, list[bytes]], name: str, dtype: str, points: int,
+               per_point: int = 1) -> Optional[np.ndarray]:
+    """One optional array of the result, typed and without a copy (a view of the received bytes);
+    None when no chunk carried it. An array that is not per_point values for each of the points
+    (present in some chunks only, or cut) is DATA_LOSS, as a bad checksum is."""
+    if not parts[name]:
+        return None
+    values = np.frombuffer(b"".join(parts[name]), dtype=dtype)
+    if len(values) != per_point * points:
+        raise ScanprepError(grpc.StatusCode.DATA_LOSS,
+                            f"the result's {name} has {len(values)} values for {points} points")
+    return values.reshape(-1, per_point) if per_point > 1 else values
+
+
 def _result(responses: Iterator[pb.ProcessResponse], origin: Optional[np.ndarray],
-            progress: Optional[Callable[[pb.Progress], None]], uploaded: int) -> Result:
+            progress: Optional[Callable[[pb.Progress], None]], uploaded: int,
+            sent: Sequence[str] = ()) -> Result:
     """The Result of one job's response stream, its checksum verified; with uploaded (the job's
-    total_points) > 0 the job asked for source_index."""
-    parts: dict[str, list[bytes]] = {"xyz": [], "normal": [], "scan_index": [],
-                                     "source_index": []}
+    total_points) > 0 the job asked for source_index. sent names the scanner arrays the job
+    uploaded (scanline, quality, intensity): each is an empty array when no point came back."""
+    parts: dict[str, list[bytes]] = {name: [] for name, _ in _RESULT_ARRAYS}
+    parts["source_index"] = []
     flags: list[bytes] = []
     report = end = None
     crc = 0
@@ -543,7 +577,7 @@ def _result(responses: Iterator[pb.ProcessResponse], origin: Optional[np.ndarray
             for name, dtype in _RESULT_ARRAYS:  # the checksum's order: field numbers, then flags
                 data = _array_bytes(chunk, name, dtype)
                 crc = zlib.crc32(data, crc)
-                if name in parts and data:
+                if data:
                     parts[name].append(data)
             crc = zlib.crc32(chunk.flags, crc)
             flags.append(chunk.flags)
@@ -561,13 +595,22 @@ def _result(responses: Iterator[pb.ProcessResponse], origin: Optional[np.ndarray
         raise ScanprepError(grpc.StatusCode.DATA_LOSS,
                             f"the result arrived incomplete or corrupted: {len(points)} "
                             f"points, end message {end}")
-    normals = (np.frombuffer(b"".join(parts["normal"]), dtype="<f4").reshape(-1, 3)
-               if parts["normal"] else None)
+    normals = _per_point(parts, "normal", "<f4", len(points), 3)
+    scanner = {name: _per_point(parts, name, dtype, len(points))
+               for name, dtype in _SCANNER_ARRAYS.items()}
+    for name in sent:
+        if scanner[name] is None and not len(points):
+            scanner[name] = np.zeros(0, dtype=_SCANNER_ARRAYS[name])
+    flags = np.frombuffer(b"".join(flags), dtype=np.uint8)
+    scan_index = (np.frombuffer(b"".join(parts["scan_index"]), dtype="<u4")
+                  if parts["scan_index"] else np.zeros(len(points), "<u4"))  # absent: one scan
+    if len(flags) != len(points) or len(scan_index) != len(points):
+        raise ScanprepError(grpc.StatusCode.DATA_LOSS,
+                            f"the result has {len(flags)} flags and {len(scan_index)} scan "
+                            f"indices for {len(points)} points")
     if origin is not None:  # the service's local coordinates, back in the caller's frame
         points = points.astype(np.float64) + origin
     source_index = (_source_index(parts["source_index"], len(points), uploaded) if uploaded
                     else None)
-    return Result(points=points, normals=normals,
-                  flags=np.frombuffer(b"".join(flags), dtype=np.uint8),
-                  scan_index=np.frombuffer(b"".join(parts["scan_index"]), dtype="<u4"),
-                  report=report, origin=origin, source_index=source_index)
+    return Result(points=points, normals=normals, flags=flags, scan_index=scan_index,
+                  report=report, origin=origin, source_index=source_index, **scanner)
