@@ -167,10 +167,10 @@ int RunProcess(const ParsedArgs& args) {
   }
   PrintSummary(text, result.report);
   PrintPhases(text, phases);
-  if (!job.points.attributes.empty() && !io::KeepsAttributes(*out_format)) {
-    std::vector<std::string> names;
-    for (const PointAttribute& a : job.points.attributes) names.push_back(a.name);
-    text << "note: " << absl::StrJoin(names, ", ")
+  if (const std::vector<std::string> left_out =
+          io::AttributesLeftOut(*out_format, job.points.attributes);
+      !left_out.empty()) {
+    text << "note: " << absl::StrJoin(left_out, ", ")
          << " left out of the output: LAS has no place for them (write .ply, .pcd or .xyz)\n";
   }
   if (args.Bool(kHealth)) PrintHealth(text, result.report);

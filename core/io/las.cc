@@ -187,25 +187,31 @@ struct AngleRange {
   double min = std::numeric_limits<double>::infinity(), max = -min;
 };
 
-// Where a point data format keeps its red, green, blue (uint16 each); 0 = it has no colour.
+// Where a point data format keeps its red, green, blue (uint16 each) and its GPS time (float64);
+// 0 = it has none.
 constexpr uint16_t kRgbOffset[] = {0, 0, 20, 28, 0, 28, 0, 30, 30, 0, 30};
+constexpr uint16_t kGpsTimeOffset[] = {0, 20, 0, 20, 20, 20, 22, 22, 22, 22, 22};
 
-// The records' colour as the attributes red, green, blue (uint16, as LAS stores them), for the
-// output: no stage reads them.
-void DecodeColour(std::string_view file, const LasLayout& las, PointCloud& cloud) {
-  const uint16_t at = kRgbOffset[las.format];
-  if (at == 0) return;
-  for (int channel = 0; channel < 3; ++channel) {
+// The records' colour as the attributes red, green, blue (uint16, as LAS stores them) and their
+// GPS time as gps_time (float64), for the output: no stage reads them.
+void DecodeAttributes(std::string_view file, const LasLayout& las, PointCloud& cloud) {
+  const auto decode = [&](const char* name, AttributeType type, uint16_t at) {
     PointAttribute& attribute =
-        cloud.attributes.emplace_back(PointAttribute{.name = channel == 0   ? "red"
-                                                             : channel == 1 ? "green"
-                                                                            : "blue",
-                                                     .type = AttributeType::kUint16});
+        cloud.attributes.emplace_back(PointAttribute{.name = name, .type = type});
     attribute.values.resize(las.count);
-    for (uint64_t i = 0; i < las.count; ++i) {
+    const char* p = file.data() + las.offset + at;
+    for (uint64_t i = 0; i < las.count; ++i, p += las.record) {
       attribute.values[i] =
-          Load<uint16_t>(file.data() + las.offset + i * las.record + at + 2 * channel);
+          type == AttributeType::kFloat64 ? Load<double>(p) : double{Load<uint16_t>(p)};
     }
+  };
+  if (const uint16_t at = kRgbOffset[las.format]; at != 0) {
+    decode("red", AttributeType::kUint16, at);
+    decode("green", AttributeType::kUint16, at + 2);
+    decode("blue", AttributeType::kUint16, at + 4);
+  }
+  if (const uint16_t at = kGpsTimeOffset[las.format]; at != 0) {
+    decode("gps_time", AttributeType::kFloat64, at);
   }
 }
 
@@ -258,7 +264,7 @@ absl::StatusOr<PointCloud> ReadLasBytes(std::string_view file, const std::string
                               .offset = {las.shift[0], las.shift[1], las.shift[2]}};
   FlightLines lines;
   SCANPREP_ASSIGN_OR_RETURN(const AngleRange angles, DecodeRecords(file, las, name, lines, cloud));
-  DecodeColour(file, las, cloud);
+  DecodeAttributes(file, las, cloud);
   const std::string stem = std::filesystem::path(name).stem().string();
   cloud.scans.push_back(ScanMeta{.id = stem});
   // Legal arithmetic, but no scanner measures mirrored: said, so a writer's sign slip is seen.
@@ -271,9 +277,13 @@ absl::StatusOr<PointCloud> ReadLasBytes(std::string_view file, const std::string
                                     -las.scale[k], ", the part comes out mirrored"));
   }
   warnings.push_back(absl::StrFormat(
-      "%s: LAS %d.%d, point format %d: scan angle from %.3f to %.3f "
-      "degrees, %d scanlines by scan direction and flight-line edge",
-      name, las.major, las.minor, las.format, angles.min, angles.max, lines.breaks() + 1));
+      "%s: LAS %d.%d, point format %d: scan angle from %.3f to %.3f degrees, %d scanlines by "
+      "scan direction and flight-line edge; not kept: classification, returns, scan angle, user "
+      "data, point source ID%s",
+      name, las.major, las.minor, las.format, angles.min, angles.max, lines.breaks() + 1,
+      las.record > kRecordBytes[las.format]
+          ? absl::StrFormat(", %d extra bytes a record", las.record - kRecordBytes[las.format])
+          : ""));
   warnings.push_back(absl::StrCat(name,
                                   ": LAS carries no sensor origin: give the scan's "
                                   "camera_position or view_direction in a job file"));

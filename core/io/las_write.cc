@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// LAS 1.2 writer, point data format 0: a first pass puts every written point on the grid and checks
-// that LAS can hold it (the header needs the count and bounds before the records), a second writes
-// the records.
+// LAS 1.2 writer, point data format 0 to 3 by the attributes it keeps: a first pass puts every
+// written point on the grid and checks that LAS can hold it (the header needs the count and bounds
+// before the records), a second writes the records.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -20,8 +20,48 @@ namespace scanprep::io {
 namespace {
 
 constexpr size_t kHeaderBytes = 227;  // LAS 1.2's public header; no variable-length records follow
-constexpr size_t kRecordBytes = 20;   // point data format 0
+constexpr size_t kBaseBytes = 20;     // point data format 0; GPS time adds 8, colour 6
 constexpr uint8_t kNoiseClass = 7;    // ASPRS "low point (noise)": what a removed point is
+
+// The attributes a record carries beyond format 0's fields, null where the cloud has none.
+struct Extras {
+  const PointAttribute* gps_time = nullptr;
+  std::array<const PointAttribute*, 3> rgb{};  // all three or none
+  double rgb_scale = 1;                        // 256 for 8-bit channels, as LAS 1.2 asks
+
+  uint8_t format() const { return (gps_time ? 1 : 0) + (rgb[0] ? 2 : 0); }
+  size_t record_bytes() const { return kBaseBytes + (gps_time ? 8 : 0) + (rgb[0] ? 6 : 0); }
+};
+
+const PointAttribute* Named(const std::vector<PointAttribute>& attributes, std::string_view name) {
+  for (const PointAttribute& a : attributes) {
+    if (a.name == name) return &a;
+  }
+  return nullptr;
+}
+
+// Colour LAS can hold: integer channels of at most 16 bits, unsigned or signed.
+bool IsChannel(const PointAttribute* a) {
+  return a != nullptr && IsIntegerAttribute(a->type) && AttributeBytes(a->type) <= 2;
+}
+
+Extras ExtrasOf(const std::vector<PointAttribute>& attributes) {
+  Extras extras;
+  if (const PointAttribute* t = Named(attributes, "gps_time");
+      t != nullptr && !IsIntegerAttribute(t->type)) {
+    extras.gps_time = t;
+  }
+  const std::array<const PointAttribute*, 3> rgb = {
+      Named(attributes, "red"), Named(attributes, "green"), Named(attributes, "blue")};
+  if (std::all_of(rgb.begin(), rgb.end(), IsChannel)) {
+    extras.rgb = rgb;
+    const bool eight_bits = std::all_of(rgb.begin(), rgb.end(), [](const PointAttribute* a) {
+      return AttributeBytes(a->type) == 1;
+    });
+    extras.rgb_scale = eight_bits ? 256 : 1;
+  }
+  return extras;
+}
 
 template <class T>
 void Store(char* at, T value) {
@@ -53,7 +93,7 @@ struct Extent {
 // 0 cannot hold (a coordinate beyond 32 bits of the grid, an intensity that is no 16-bit integer,
 // a scan index beyond the 16-bit point source ID).
 absl::StatusOr<Extent> Measure(const PointCloud& cloud, const CoordinateGrid& grid,
-                               const WriteOptions& options) {
+                               const Extras& extras, const WriteOptions& options) {
   constexpr double kMin = std::numeric_limits<int32_t>::min();
   constexpr double kMax = std::numeric_limits<int32_t>::max();
   Extent extent;
@@ -80,6 +120,16 @@ absl::StatusOr<Extent> Measure(const PointCloud& cloud, const CoordinateGrid& gr
             i, value));
       }
     }
+    for (const PointAttribute* channel : extras.rgb) {
+      if (channel == nullptr) continue;
+      const double value = channel->values[i] * extras.rgb_scale;
+      if (!(value >= 0 && value <= 65535)) {
+        return absl::InvalidArgumentError(absl::StrFormat(
+            "cannot write LAS: point %d %s %g is not a colour from 0 to 65535 (PLY and PCD keep "
+            "any value)",
+            i, channel->name, channel->values[i]));
+      }
+    }
     if (!cloud.scan.empty() && cloud.scan[i] > 65535) {
       return absl::InvalidArgumentError(absl::StrFormat(
           "cannot write LAS: point %d of scan %d: the point source ID holds scans 0 to 65535", i,
@@ -94,7 +144,7 @@ absl::StatusOr<Extent> Measure(const PointCloud& cloud, const CoordinateGrid& gr
   return extent;
 }
 
-std::string Header(const CoordinateGrid& grid, const Extent& extent) {
+std::string Header(const CoordinateGrid& grid, const Extent& extent, const Extras& extras) {
   std::string h(kHeaderBytes, '\0');
   std::memcpy(h.data(), "LASF", 4);
   h[24] = 1, h[25] = 2;  // version 1.2
@@ -103,8 +153,8 @@ std::string Header(const CoordinateGrid& grid, const Extent& extent) {
   std::memcpy(h.data() + 58, kName, sizeof kName - 1);  // generating software
   Store<uint16_t>(h.data() + 94, kHeaderBytes);
   Store<uint32_t>(h.data() + 96, kHeaderBytes);  // the points follow the header
-  h[104] = 0;                                    // point data format 0
-  Store<uint16_t>(h.data() + 105, kRecordBytes);
+  h[104] = static_cast<char>(extras.format());
+  Store<uint16_t>(h.data() + 105, static_cast<uint16_t>(extras.record_bytes()));
   const auto count = static_cast<uint32_t>(extent.count);
   Store<uint32_t>(h.data() + 107, count);
   Store<uint32_t>(h.data() + 111, count);  // every point is return 1 of 1
@@ -119,19 +169,49 @@ std::string Header(const CoordinateGrid& grid, const Extent& extent) {
   return h;
 }
 
+// Point i's record but its scan direction flag (byte 14), which follows the scanlines.
+void WriteRecord(const PointCloud& cloud, const CoordinateGrid& grid, const Extras& extras,
+                 size_t i, char* record) {
+  std::memset(record, 0, extras.record_bytes());
+  for (int k = 0; k < 3; ++k) {
+    Store<int32_t>(record + 4 * k, static_cast<int32_t>(Steps(cloud, grid, i, k)));
+  }
+  if (!cloud.intensity.empty()) Store(record + 12, static_cast<uint16_t>(cloud.intensity[i]));
+  const uint8_t flags = cloud.flags.empty() ? 0 : cloud.flags[i];
+  record[15] = static_cast<char>((flags & kRemovedMask) != 0 ? kNoiseClass : 0);
+  record[17] = static_cast<char>(flags);  // user data: scanprep's flags as the other writers
+  Store<uint16_t>(record + 18, static_cast<uint16_t>(cloud.scan.empty() ? 0 : cloud.scan[i]));
+  char* next = record + kBaseBytes;
+  if (extras.gps_time != nullptr) Store<double>(next, extras.gps_time->values[i]), next += 8;
+  for (int c = 0; c < 3 && extras.rgb[0] != nullptr; ++c) {
+    Store(next + 2 * c, static_cast<uint16_t>(extras.rgb[c]->values[i] * extras.rgb_scale));
+  }
+}
+
 }  // namespace
+
+std::vector<std::string> LasKeeps(const std::vector<PointAttribute>& attributes) {
+  const Extras extras = ExtrasOf(attributes);
+  std::vector<std::string> kept;
+  for (const PointAttribute* channel : extras.rgb) {
+    if (channel != nullptr) kept.push_back(channel->name);
+  }
+  if (extras.gps_time != nullptr) kept.push_back(extras.gps_time->name);
+  return kept;
+}
 
 absl::Status WriteLas(std::ostream& out, const PointCloud& cloud, const WriteOptions& options) {
   SCANPREP_RETURN_IF_ERROR(CheckWritable(cloud, "LAS"));
   const CoordinateGrid grid = GridOf(cloud);
-  SCANPREP_ASSIGN_OR_RETURN(const Extent extent, Measure(cloud, grid, options));
-  const std::string header = Header(grid, extent);
+  const Extras extras = ExtrasOf(cloud.attributes);
+  SCANPREP_ASSIGN_OR_RETURN(const Extent extent, Measure(cloud, grid, extras, options));
+  const std::string header = Header(grid, extent, extras);
   out.write(header.data(), static_cast<std::streamsize>(header.size()));
 
   // ReadLas starts a scanline where the scan direction flag turns, so it turns at each new line.
   bool direction = false, first = true;
   uint64_t line = 0;
-  char record[kRecordBytes];
+  std::string record(extras.record_bytes(), '\0');
   for (size_t i = 0; i < cloud.size() && out; ++i) {
     if (!Written(cloud, i, options)) continue;
     const uint32_t scan = cloud.scan.empty() ? 0 : cloud.scan[i];
@@ -139,17 +219,9 @@ absl::Status WriteLas(std::ostream& out, const PointCloud& cloud, const WriteOpt
         (uint64_t{scan} << 32) | (cloud.has_scanlines() ? cloud.scanline[i] : 0);
     if (!first && this_line != line) direction = !direction;
     first = false, line = this_line;
-    std::memset(record, 0, sizeof record);
-    for (int k = 0; k < 3; ++k) {
-      Store<int32_t>(record + 4 * k, static_cast<int32_t>(Steps(cloud, grid, i, k)));
-    }
-    if (!cloud.intensity.empty()) Store(record + 12, static_cast<uint16_t>(cloud.intensity[i]));
+    WriteRecord(cloud, grid, extras, i, record.data());
     record[14] = static_cast<char>(0x09 | (direction ? 0x40 : 0));  // return 1 of 1
-    const uint8_t flags = cloud.flags.empty() ? 0 : cloud.flags[i];
-    record[15] = static_cast<char>((flags & kRemovedMask) != 0 ? kNoiseClass : 0);
-    record[17] = static_cast<char>(flags);  // user data: scanprep's flags as the other writers
-    Store<uint16_t>(record + 18, static_cast<uint16_t>(scan));
-    out.write(record, sizeof record);
+    out.write(record.data(), static_cast<std::streamsize>(record.size()));
   }
   if (!out) return absl::UnavailableError("cannot write LAS: output stream failed");
   return absl::OkStatus();

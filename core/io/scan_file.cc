@@ -3,6 +3,7 @@
 
 #include <utility>
 
+#include "absl/algorithm/container.h"
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
@@ -87,7 +88,16 @@ absl::StatusOr<ScanFormat> ScanFormatOf(const std::filesystem::path& path) {
 
 bool Writable(ScanFormat format) { return format != ScanFormat::kE57; }
 
-bool KeepsAttributes(ScanFormat format) { return format != ScanFormat::kLas; }
+std::vector<std::string> AttributesLeftOut(ScanFormat format,
+                                           const std::vector<PointAttribute>& attributes) {
+  if (format != ScanFormat::kLas) return {};
+  const std::vector<std::string> kept = LasKeeps(attributes);
+  std::vector<std::string> left_out;
+  for (const PointAttribute& a : attributes) {
+    if (absl::c_find(kept, a.name) == kept.end()) left_out.push_back(a.name);
+  }
+  return left_out;
+}
 
 absl::StatusOr<PointCloud> ReadScanFile(const std::filesystem::path& path,
                                         std::vector<std::string>& warnings,

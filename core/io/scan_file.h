@@ -28,9 +28,10 @@ absl::StatusOr<ScanFormat> ScanFormatOf(const std::filesystem::path& path);
 // Whether WriteScanFile/WriteScanStream can write `format` (PLY, PCD, LAS and XYZ; E57 is read
 // only).
 bool Writable(ScanFormat format);
-// Whether the writer of `format` stores a cloud's attributes under their names (PLY, PCD, XYZ;
-// LAS has no place for a field of any name).
-bool KeepsAttributes(ScanFormat format);
+// The names of `attributes` the writer of `format` has no place for: none for PLY, PCD, XYZ (they
+// store any name), those LasKeeps leaves out for LAS.
+std::vector<std::string> AttributesLeftOut(ScanFormat format,
+                                           const std::vector<PointAttribute>& attributes);
 // The format WriteScanFile writes `path` in: .ply, .pcd, .las, .xyz/.asc/.txt; INVALID_ARGUMENT for
 // any other extension (.pts, .laz, a read-only format) naming the written ones.
 absl::StatusOr<ScanFormat> WritableFormatOf(const std::filesystem::path& path);

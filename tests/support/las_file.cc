@@ -11,6 +11,8 @@ std::string LasFile(int minor, int format, const std::vector<LasPoint>& points, 
   const int sizes[] = {20, 28, 26, 34, 57, 63, 30, 36, 38, 59, 67};
   // The spec's place of red, green, blue in the formats that have them (2, 3, 5, 7, 8, 10).
   const int rgb[] = {0, 0, 20, 28, 0, 28, 0, 30, 30, 0, 30};
+  // The GPS time's place: after the point source ID (byte 20, 22 in formats 6 to 10), except 0, 2.
+  const int gps[] = {0, 20, 0, 20, 20, 20, 22, 22, 22, 22, 22};
   if (record == 0) record = sizes[format];
   const size_t header = minor >= 4 ? 375 : 227;
   const size_t vlr = 54;  // one variable-length record's header, skipped by the offset
@@ -37,6 +39,7 @@ std::string LasFile(int minor, int format, const std::vector<LasPoint>& points, 
       PutAt<uint16_t>(out, at + rgb[format] + 2 * channel,
                       static_cast<uint16_t>(p.intensity + channel + 1));
     }
+    if (gps[format] != 0) PutAt<double>(out, at + gps[format], 1e5 + 0.25 * p.intensity);
     const uint8_t flags = (p.direction ? 0x40 : 0) | (p.edge ? 0x80 : 0);
     if (format >= 6) {
       out[at + 14] = 0x11;                             // return 1 of 1

@@ -25,7 +25,8 @@ struct LasPoint {
 
 // A LAS file of `points` in version 1.`minor`, point format `format`, records of `record` bytes
 // (0 = the format's own size), scale 0.001 and offset (1000, 2000, 3000), one variable-length
-// record before the points. A format with colour has red, green, blue = intensity + 1, + 2, + 3.
+// record before the points. A format with colour has red, green, blue = intensity + 1, + 2, + 3;
+// one with GPS time has 1e5 + intensity / 4 seconds.
 std::string LasFile(int minor, int format, const std::vector<LasPoint>& points, int record = 0);
 
 }  // namespace scanprep::testing

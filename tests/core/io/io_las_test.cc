@@ -135,7 +135,8 @@ TEST(Las, EveryPointFormatReadsTheSameCoordinates) {
     // The formats with colour keep it for the output, from where the spec puts it.
     const bool colour =
         format == 2 || format == 3 || format == 5 || format == 7 || format == 8 || format == 10;
-    ASSERT_EQ(cloud->attributes.size(), colour ? 3u : 0u) << format;
+    const bool gps = format != 0 && format != 2;
+    ASSERT_EQ(cloud->attributes.size(), (colour ? 3u : 0u) + (gps ? 1u : 0u)) << format;
     for (int channel = 0; colour && channel < 3; ++channel) {
       const PointAttribute& a = cloud->attributes[channel];
       EXPECT_EQ(a.name, (std::array<const char*, 3>{"red", "green", "blue"}[channel]));
@@ -143,6 +144,13 @@ TEST(Las, EveryPointFormatReadsTheSameCoordinates) {
       for (size_t i = 0; i < cloud->size(); ++i) {
         EXPECT_EQ(a.values[i], cloud->intensity[i] + channel + 1) << format << " " << i;
       }
+    }
+    if (!gps) continue;
+    const PointAttribute& time = cloud->attributes.back();
+    EXPECT_EQ(time.name, "gps_time");
+    EXPECT_EQ(time.type, AttributeType::kFloat64);
+    for (size_t i = 0; i < cloud->size(); ++i) {
+      EXPECT_EQ(time.values[i], 1e5 + 0.25 * cloud->intensity[i]) << format << " " << i;
     }
   }
 }
@@ -302,7 +310,7 @@ TEST(LasWrite, UtmFileWrittenBackKeepsEveryInteger) {
   ASSERT_EQ(output->substr(0, 4), "LASF");
   EXPECT_EQ((*output)[24], 1);
   EXPECT_EQ((*output)[25], 2);
-  EXPECT_EQ((*output)[104], 0);  // point data format 0
+  EXPECT_EQ((*output)[104], 1);  // point data format 1, as read: the GPS time is kept
   ASSERT_EQ(At<uint32_t>(*output, 107), points.size());
   ASSERT_EQ(output->size(), Record(*output, points.size()));
   for (int k = 0; k < 3; ++k) {
@@ -381,6 +389,73 @@ TEST(LasWrite, ACoordinateBeyondThirtyTwoBitsIsRefusedByName) {
   cloud.intensity = {1, 0.5f};
   EXPECT_THAT(Written(cloud).status().message(),
               HasSubstr("point 1 intensity 0.5 is not an integer from 0 to 65535"));
+}
+
+// Colour and GPS time go where LAS 1.2 puts them: the format follows the attributes the cloud has
+// (1 time, 2 colour, 3 both), each read back as written (8-bit colour scaled to 16 bits as the spec
+// asks), and what LAS has no place for (a temperature) is named by LasKeeps' complement.
+TEST(LasWrite, ColourAndGpsTimeChooseTheFormatAndComeBackAsWritten) {
+  PointCloud base;
+  for (int i = 0; i < 5; ++i) base.x.push_back(i), base.y.push_back(0), base.z.push_back(0);
+  base.FinishLoading();
+  const auto attribute = [](const char* name, AttributeType type, double first) {
+    PointAttribute a{.name = name, .type = type};
+    for (int i = 0; i < 5; ++i) a.values.push_back(first + 10 * i);
+    return a;
+  };
+  const PointAttribute time = attribute("gps_time", AttributeType::kFloat64, 4.0e8 + 0.125);
+  const PointAttribute temperature = attribute("temperature", AttributeType::kFloat32, 20.5);
+  struct Case {
+    std::vector<PointAttribute> attributes;
+    int format;
+    double colour_scale;
+  };
+  const std::vector<PointAttribute> rgb16 = {attribute("red", AttributeType::kUint16, 60000),
+                                             attribute("green", AttributeType::kUint16, 7),
+                                             attribute("blue", AttributeType::kUint16, 300)};
+  const std::vector<PointAttribute> rgb8 = {attribute("red", AttributeType::kUint8, 200),
+                                            attribute("green", AttributeType::kUint8, 0),
+                                            attribute("blue", AttributeType::kUint8, 17)};
+  const std::vector<Case> cases = {
+      {{temperature}, 0, 1},
+      {{time, temperature}, 1, 1},
+      {rgb16, 2, 1},
+      {{rgb8[0], rgb8[1], rgb8[2], time}, 3, 256},
+      {{rgb16[0], rgb16[1]}, 0, 1},  // two channels are no colour
+  };
+  for (const Case& c : cases) {
+    PointCloud cloud = base;
+    cloud.attributes = c.attributes;
+    auto output = Written(cloud);
+    ASSERT_TRUE(output.ok()) << output.status();
+    EXPECT_EQ((*output)[104], c.format);
+    std::vector<std::string> warnings;
+    auto back = Read(*output, warnings);
+    ASSERT_TRUE(back.ok()) << back.status();
+    std::vector<std::string> kept;
+    for (const PointAttribute& a : back->attributes) {
+      kept.push_back(a.name);
+      auto written = std::find_if(c.attributes.begin(), c.attributes.end(),
+                                  [&](const PointAttribute& w) { return w.name == a.name; });
+      ASSERT_NE(written, c.attributes.end()) << a.name;
+      const double scale = a.name == "gps_time" ? 1 : c.colour_scale;
+      for (size_t i = 0; i < 5; ++i) EXPECT_EQ(a.values[i], written->values[i] * scale) << a.name;
+    }
+    EXPECT_EQ(kept, LasKeeps(c.attributes)) << c.format;
+    EXPECT_THAT(
+        AttributesLeftOut(ScanFormat::kLas, c.attributes),
+        ::testing::Contains("temperature").Times(c.attributes.back().name == "temperature"));
+  }
+  PointCloud too_bright = base;
+  too_bright.attributes = rgb16;
+  too_bright.attributes[0].values[3] = 70000;  // a uint16 PLY could not hold it either, but a
+  too_bright.attributes[0].type = AttributeType::kInt32;  // 32-bit field is no LAS colour
+  EXPECT_EQ(Written(too_bright).ok(), true);
+  EXPECT_TRUE(LasKeeps(too_bright.attributes).empty());
+  too_bright.attributes[0].type = AttributeType::kInt16;
+  too_bright.attributes[0].values[3] = -1;
+  EXPECT_THAT(Written(too_bright).status().message(),
+              HasSubstr("point 3 red -1 is not a colour from 0 to 65535"));
 }
 
 }  // namespace
