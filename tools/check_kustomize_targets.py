@@ -4,12 +4,15 @@
 would run it: each `kubectl apply -k DIR` / `kubectl kustomize DIR` in README.md, docs/*.md and
 the comments of deploy/**/kustomization.yaml, plus every kustomization under deploy/ (an
 undocumented one must build too). A target fails when kubectl fails (e.g. "cycle detected" for an
-overlay inside its base) or when an object it renders lacks the recommended labels
-(tools/check_manifests.py: label_findings), or when it lacks what its purpose needs (EXPECTED:
+overlay inside its base), when an object it renders lacks the recommended labels
+(tools/check_manifests.py: label_findings) or a Gateway leg lacks the TLS it needs
+(gateway_tls_findings), or when it lacks what its purpose needs (EXPECTED:
 the base's HPA on CPU only and gRPC admitted only from selected peers, the monitoring overlay's
 queue metric with the adapter config serving it, --trusted_proxies behind the Gateway, the TLS
-and mTLS overlays' cert-manager Certificate, mounted Secret and TLS flags); an EXPECTED target
-that is missing fails too. Exit 0 all built, 1 with one line per failure, 77 (ctest
+and mTLS overlays' cert-manager Certificate, mounted Secret and TLS flags, and for external-tls
+all of these on both of the Gateway's legs: a listener with a cert-manager certificate, and a
+BackendTLSPolicy on the routed Service with the CA and a hostname of the pods' Certificate); an
+EXPECTED target that is missing fails too. Exit 0 all built, 1 with one line per failure, 77 (ctest
 SKIP_RETURN_CODE) when kubectl is not installed."""
 import pathlib
 import re
@@ -18,7 +21,7 @@ import sys
 
 import yaml
 
-from check_manifests import kustomize, label_findings
+from check_manifests import external_tls_purpose, gateway_tls_findings, kustomize, label_findings
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SKIP = 77
@@ -48,6 +51,11 @@ def all_targets(root):
 
 def of_kind(objects, kind):
     return [o for o in objects if o.get("kind") == kind]
+
+
+def trusted_proxies(objects):
+    return [] if any(a.startswith("--trusted_proxies=") for a in args(objects)) else [
+        "no --trusted_proxies: behind the Gateway every MES host is one peer"]
 
 
 def pod_spec(objects):
@@ -115,10 +123,10 @@ EXPECTED = {
         ["the HPA does not scale on scanprep_jobs_queued"]) + (
         [] if "scanprep_jobs_queued" in adapted(o) else
         ["no prometheus-adapter config (ConfigMap config.yaml) serves scanprep_jobs_queued"]),
-    "deploy/kubernetes/overlays/external": lambda o: (
-        [] if any(a.startswith("--trusted_proxies=") for a in args(o)) else
-        ["no --trusted_proxies: behind the Gateway every MES host is one peer"]),
+    "deploy/kubernetes/overlays/external": trusted_proxies,
     "deploy/kubernetes/overlays/tls": lambda o: tls_findings(o, client_ca=False),
+    "deploy/kubernetes/overlays/external-tls": lambda o: (
+        tls_findings(o, client_ca=False) + trusted_proxies(o) + external_tls_purpose(o)),
     "deploy/kubernetes/overlays/mtls": lambda o: tls_findings(o, client_ca=True),
 }
 
@@ -130,7 +138,8 @@ def build(directory, where):
     if not objects:
         return [f"{where}: kubectl kustomize {directory.relative_to(ROOT)} rendered nothing"]
     expected = EXPECTED.get(str(directory.relative_to(ROOT)), lambda o: [])
-    return [f"{where}: {line}" for line in label_findings(objects)] + [
+    return [f"{where}: {line}" for line in label_findings(objects) +
+            gateway_tls_findings(objects)] + [
         f"{where}: {directory.relative_to(ROOT)} {line}" for line in expected(objects)]
 
 

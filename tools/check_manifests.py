@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: Apache-2.0
 """Checks the Kubernetes manifests in deploy/kubernetes/ without a cluster: builds the base and
-every overlay as kustomize would (resources, components, labels, images; an overlay inside its
-base or a file outside a kustomization's directory is refused, as kustomize refuses them) and,
+every overlay as kustomize would (resources, components with their own resources, labels,
+images; an overlay inside its base or a file outside a kustomization's directory is refused, as
+kustomize refuses them) and,
 when kubectl is installed, requires `kubectl kustomize` to build the same objects. It checks each
 object against a schema of the fields it may use (required fields, types, no unknown keys: a typo
 is an error, not a silently ignored field), then what must hold between them and the server:
@@ -27,6 +28,12 @@ is an error, not a silently ignored field), then what must hold between them and
   - TLS: either --plaintext or --tls_cert/--tls_key, not both; the TLS files lie in a mounted
     Secret that a cert-manager Certificate of the build issues; no gRPC probe on a TLS port (the
     kubelet's gRPC probe speaks plaintext only); behind a Gateway, --trusted_proxies is set;
+  - the Gateway's legs: every listener terminates TLS with a certificate (a cert-manager
+    Certificate of the build that issues its Secret names the listener's hostname); a Service a
+    GRPCRoute sends calls to, whose pods serve TLS, has a BackendTLSPolicy and claims no
+    kubernetes.io/h2c; a BackendTLSPolicy targets such a Service, verifies with a CA (a ConfigMap
+    of the build with ca.crt) and a hostname among the dnsNames of the pods' Certificate; and
+    overlays/external-tls renders all of that (PURPOSES);
   - the PrometheusRule and the rules ConfigMap hold exactly deploy/prometheus/alerts.yml, whose
     alerts have severity critical or warning and a runbook_url into docs/deployment.md ("Alert runbooks").
 
@@ -118,6 +125,14 @@ POD_SPEC = {
     "volumes": [{"name!": str, "emptyDir": {"sizeLimit": QUANTITY, "medium": str},
                  "secret": {"secretName!": str}}],
 }
+BACKEND_TLS_POLICY = {
+    "metadata!": METADATA,
+    "spec!": {"targetRefs!": [{"group!": str, "kind!": str, "name!": str, "sectionName": str}],
+              "validation!": {"caCertificateRefs": [{"group!": str, "kind!": str, "name!": str}],
+                              "wellKnownCACertificates": str, "hostname!": str,
+                              "subjectAltNames": [{"type!": str, "hostname": str, "uri": str}]},
+              "options": {"*": str}},
+}
 SCHEMAS = {
     ("apps/v1", "Deployment"): {
         "metadata!": METADATA,
@@ -176,6 +191,9 @@ SCHEMAS = {
                                           "podSelector": LABEL_SELECTOR}],
                                 "ports!": [{"port!": "any", "protocol": str}]}]},
     },
+    # Gateway API v1.4's standard channel; v1.1 to v1.3 serve the same fields as v1alpha3.
+    ("gateway.networking.k8s.io/v1", "BackendTLSPolicy"): BACKEND_TLS_POLICY,
+    ("gateway.networking.k8s.io/v1alpha3", "BackendTLSPolicy"): BACKEND_TLS_POLICY,
     ("gateway.networking.k8s.io/v1", "GRPCRoute"): {
         "metadata!": METADATA,
         "spec!": {"parentRefs!": [{"name!": str, "sectionName": str}],
@@ -192,7 +210,8 @@ KUSTOMIZATION = {"apiVersion!": str, "kind!": str, "resources!": [str], "compone
                  "images": [{"name!": str, "newName": str, "newTag": str}],
                  "configMapGenerator": [{"name!": str, "files!": [str]}],
                  "generatorOptions": {"disableNameSuffixHash": bool}}
-COMPONENT = {"apiVersion!": str, "kind!": str, "labels": LABELS, "patches": PATCHES}
+COMPONENT = {"apiVersion!": str, "kind!": str, "resources": [str], "components": [str],
+             "labels": LABELS, "patches": PATCHES}
 
 
 def check_schema(value, schema, where, findings):
@@ -275,7 +294,16 @@ def build(directory, findings, seen=None):
         return []
     kustomization = load_documents(path)[0]
     check_schema(kustomization, KUSTOMIZATION, rel(path), findings)
-    objects = []
+    return accumulate(directory, kustomization, [], findings, seen)
+
+
+def accumulate(directory, kustomization, objects, findings, seen):
+    """One Kustomization or Component in kustomize's order: its resources join `objects`, then
+    its generators, then its components one after the other (each a kustomization of its own
+    on everything so far: a component listed first does not see what a later one adds), then
+    its patches, labels and images on all of it."""
+    path = directory / "kustomization.yaml"
+    objects = list(objects)
     for resource in kustomization.get("resources", []):
         target = (directory / resource).resolve()
         if target.is_dir():
@@ -306,14 +334,14 @@ def build(directory, findings, seen=None):
                             "metadata": {"name": generator.get("name")}, "data": data},
                            rel(path)))
     for component in kustomization.get("components", []):
-        component_path = (directory / component).resolve() / "kustomization.yaml"
+        component_dir = (directory / component).resolve()
+        component_path = component_dir / "kustomization.yaml"
         if not component_path.exists():
             findings.append(f"{rel(path)}: component {component} does not exist")
             continue
         body = load_documents(component_path)[0]
         check_schema(body, COMPONENT, rel(component_path), findings)
-        apply_patches(body.get("patches", []), objects, rel(component_path), findings)
-        apply_labels(body.get("labels", []), objects)
+        objects = accumulate(component_dir, body, objects, findings, seen)
     apply_patches(kustomization.get("patches", []), objects, rel(path), findings)
     apply_labels(kustomization.get("labels", []), objects)
     for image in kustomization.get("images", []):
@@ -714,6 +742,140 @@ def check_tls(by_kind, findings):
                                     f"by no cert-manager Certificate of this build")
 
 
+def of_kind(bodies, kind):
+    return [b for b in bodies if b.get("kind") == kind]
+
+
+def pod_tls(deployment, certificates):
+    """(whether the pods serve TLS, the dnsNames of the Certificate whose Secret holds their
+    --tls_cert). `certificates`: {secretName: Certificate} of the build."""
+    pod = deployment["spec"]["template"]["spec"]
+    secrets = {v["name"]: v["secret"]["secretName"] for v in pod.get("volumes", [])
+               if "secret" in v}
+    for c in pod.get("containers", []):
+        cert = flag(c.get("args", []), "tls_cert")
+        if cert:
+            mount = next((m for m in c.get("volumeMounts", [])
+                          if cert.startswith(m["mountPath"].rstrip("/") + "/")), None)
+            issued = certificates.get(secrets.get(mount["name"])) if mount else None
+            return True, set(issued["spec"].get("dnsNames", [])) if issued else set()
+    return False, set()
+
+
+def covers(names, hostname):
+    return hostname in names or any(n.startswith("*.") and "." in hostname and
+                                    hostname.split(".", 1)[1] == n[2:] for n in names)
+
+
+def gateway_tls_findings(bodies):
+    """Both legs of a Gateway, on plain manifests (this build's, or kubectl's output): the
+    client's leg terminates TLS on every listener, with a certificate for the listener's
+    hostname where a Certificate of the build issues it; the leg to the pods is TLS, verified,
+    wherever the pods serve TLS (a BackendTLSPolicy on the Service, no kubernetes.io/h2c claim),
+    and a BackendTLSPolicy only targets such a Service, with a CA and a hostname among the
+    dnsNames of the pods' Certificate."""
+    findings = []
+    certificates = {c["spec"]["secretName"]: c for c in of_kind(bodies, "Certificate")}
+    services = {s["metadata"]["name"]: s for s in of_kind(bodies, "Service")}
+    config_maps = {c["metadata"]["name"]: c for c in of_kind(bodies, "ConfigMap")}
+
+    def tls_pods(service):
+        """The dnsNames of the certificates of the TLS pods the Service selects, None if it
+        selects no pods that serve TLS."""
+        names, tls = set(), False
+        for d in of_kind(bodies, "Deployment"):
+            if selects(service["spec"]["selector"],
+                       d["spec"]["template"]["metadata"].get("labels", {})):
+                serves, dns = pod_tls(d, certificates)
+                tls, names = tls or serves, names | dns
+        return names if tls else None
+
+    for g in of_kind(bodies, "Gateway"):
+        for listener in g["spec"]["listeners"]:
+            what = f"Gateway/{g['metadata']['name']}: listener {listener['name']}"
+            refs = listener.get("tls", {}).get("certificateRefs", [])
+            if listener["protocol"] not in ("HTTPS", "TLS") or not refs or listener.get(
+                    "tls", {}).get("mode", "Terminate") != "Terminate":
+                findings.append(f"{what} does not terminate TLS with a certificate "
+                                f"(protocol HTTPS, tls.mode Terminate, certificateRefs): the "
+                                f"MES's calls would cross the network in plaintext")
+            for ref in refs:
+                issued = certificates.get(ref["name"]) if ref.get("kind", "Secret") == \
+                    "Secret" else None
+                if issued and "hostname" in listener and not covers(
+                        issued["spec"].get("dnsNames", []), listener["hostname"]):
+                    findings.append(f"{what}: Certificate/{issued['metadata']['name']} issues "
+                                    f"{ref['name']} for {issued['spec'].get('dnsNames', [])}, "
+                                    f"not the listener's hostname {listener['hostname']}")
+    policies = of_kind(bodies, "BackendTLSPolicy")
+    protected = {ref["name"] for p in policies for ref in p["spec"]["targetRefs"]
+                 if ref["kind"] == "Service" and ref["group"] == ""}
+    routed = {ref["name"] for r in of_kind(bodies, "GRPCRoute") for rule in r["spec"]["rules"]
+              for ref in rule["backendRefs"]}
+    for name, service in services.items():
+        if tls_pods(service) is None:
+            continue
+        if name in routed and name not in protected:
+            findings.append(f"Service/{name}: a GRPCRoute sends calls to it, its pods serve TLS, "
+                            f"and no BackendTLSPolicy targets it: the Gateway would speak "
+                            f"cleartext to a TLS port")
+        for port in service["spec"]["ports"]:
+            if port.get("appProtocol") == "kubernetes.io/h2c":
+                findings.append(f"Service/{name}: port {port['name']} claims kubernetes.io/h2c "
+                                f"(HTTP/2 in cleartext) for pods that serve TLS")
+    for p in policies:
+        what = f"BackendTLSPolicy/{p['metadata']['name']}"
+        validation = p["spec"]["validation"]
+        for ref in p["spec"]["targetRefs"]:
+            service = services.get(ref["name"]) if (ref["kind"], ref["group"]) == (
+                "Service", "") else None
+            names = tls_pods(service) if service else None
+            if service is None:
+                findings.append(f"{what}: target {ref['kind']}/{ref['name']} is no Service here")
+            elif names is None:
+                findings.append(f"{what}: Service/{ref['name']}'s pods serve no TLS: the "
+                                f"Gateway's handshake with them fails")
+            elif validation["hostname"] not in names:
+                findings.append(f"{what}: hostname {validation['hostname']} is no dnsName of the "
+                                f"pods' Certificate ({', '.join(sorted(names)) or 'none'}): the "
+                                f"Gateway refuses their certificate")
+        refs = validation.get("caCertificateRefs", [])
+        if bool(refs) == bool(validation.get("wellKnownCACertificates")):
+            findings.append(f"{what}: needs either caCertificateRefs or wellKnownCACertificates")
+        for ref in refs:
+            if (ref["kind"], ref["group"]) != ("ConfigMap", "") or "ca.crt" not in config_maps.get(
+                    ref["name"], {}).get("data", {}):
+                findings.append(f"{what}: CA {ref['kind']}/{ref['name']} is no ConfigMap of "
+                                f"this build with a ca.crt")
+    return findings
+
+
+def external_tls_purpose(bodies):
+    """What overlays/external-tls is for: a Gateway and GRPCRoute whose listeners present a
+    certificate cert-manager issues, pods that serve TLS (--tls_cert and --tls_key, no
+    --plaintext), and a BackendTLSPolicy. How they fit (the policy on the routed Service, its
+    hostname and CA, no h2c) is gateway_tls_findings', which every build passes."""
+    findings = [f"renders no {kind}" for kind in ("Gateway", "GRPCRoute", "BackendTLSPolicy")
+                if not of_kind(bodies, kind)]
+    issued = {c["spec"]["secretName"] for c in of_kind(bodies, "Certificate")}
+    for g in of_kind(bodies, "Gateway"):
+        for listener in g["spec"]["listeners"]:
+            if not any(ref["name"] in issued
+                       for ref in listener.get("tls", {}).get("certificateRefs", [])):
+                findings.append(f"Gateway/{g['metadata']['name']}: listener {listener['name']} "
+                                f"has no certificateRef to a Secret a cert-manager Certificate "
+                                f"of the build issues")
+    args = [a for d in of_kind(bodies, "Deployment")
+            for c in d["spec"]["template"]["spec"]["containers"] for a in c.get("args", [])]
+    if not (flag(args, "tls_cert") and flag(args, "tls_key")) or "--plaintext" in args:
+        findings.append("the server does not serve TLS (--tls_cert, --tls_key, no --plaintext)")
+    return findings
+
+
+# What a target must render beyond the rules every build keeps: {overlay directory: check}.
+PURPOSES = {"deploy/kubernetes/overlays/external-tls": external_tls_purpose}
+
+
 def alert_findings(groups, runbook_anchors):
     """Each alert: severity critical or warning, a runbook_url into an existing heading of
     docs/deployment.md."""
@@ -738,7 +900,9 @@ def alert_findings(groups, runbook_anchors):
     return findings
 
 
-def check(objects):
+def check(objects, purpose=None, target=""):
+    """Every rule on one build's objects, and `purpose` (PURPOSES): what `target` must
+    render."""
     findings = []
     by_kind = {}
     for obj in objects:
@@ -758,10 +922,20 @@ def check(objects):
     check_network_policy(by_kind, findings)
     check_hpa_metrics(by_kind, findings)
     check_tls(by_kind, findings)
+    bodies = [strip_private(o.body) for o in objects]
+    findings += located(objects, label_findings(bodies) + gateway_tls_findings(bodies))
+    return findings + [f"{target}: {line}" for line in (purpose(bodies) if purpose else [])]
+
+
+def located(objects, lines):
+    """Lines "Kind/name: ..." prefixed with the file the object comes from."""
     sources = {f"{o.body['kind']}/{o.body['metadata']['name']}": o.source for o in objects}
-    findings += [f"{sources[line.split(':')[0]]}: {line}"
-                 for line in label_findings([strip_private(o.body) for o in objects])]
-    return findings
+    return [f"{sources.get(line.split(':')[0], 'build')}: {line}" for line in lines]
+
+
+def judge(directory, objects):
+    """check(), with what the target is for (PURPOSES)."""
+    return check(objects, PURPOSES.get(rel(directory)), rel(directory))
 
 
 def strip_private(value):
@@ -813,13 +987,18 @@ def check_all():
     for directory in targets():
         build_findings = []
         objects = build(directory, build_findings)
-        findings += build_findings + check(objects) + kubectl_findings(directory, objects)
+        findings += build_findings + judge(directory, objects) + kubectl_findings(directory,
+                                                                                  objects)
     return findings
 
 
 # --- self-test: every rule can fail ------------------------------------------------------------
 def first(objects, kind):
     return next(o for o in objects if o.body["kind"] == kind)
+
+
+def named(objects, kind, name):
+    return next(o for o in objects if o.body["kind"] == kind and o.body["metadata"]["name"] == name)
 
 
 def container(objects):
@@ -899,6 +1078,30 @@ OVERLAY_BREAKS = {
     "TLS secret no Certificate issues": ("tls", lambda o: first(o, "Certificate").body["spec"]
                                          .update(secretName="scanprep-old-tls")),
     "plaintext beside TLS": ("mtls", lambda o: container(o)["args"].append("--plaintext")),
+    "no BackendTLSPolicy in front of TLS pods": ("external-tls", lambda o: o.remove(
+        first(o, "BackendTLSPolicy"))),
+    "BackendTLSPolicy hostname not the pods' certificate": ("external-tls", lambda o: first(
+        o, "BackendTLSPolicy").body["spec"]["validation"].update(hostname="scanprep-gateway")),
+    "BackendTLSPolicy on another Service": ("external-tls", lambda o: first(
+        o, "BackendTLSPolicy").body["spec"]["targetRefs"][0].update(name="scanprep")),
+    "BackendTLSPolicy without its CA": ("external-tls", lambda o: o.remove(
+        named(o, "ConfigMap", "scanprep-backend-ca"))),
+    "h2c claimed for TLS pods": ("external-tls", lambda o: named(
+        o, "Service", "scanprep-gateway").body["spec"]["ports"][0].update(
+            appProtocol="kubernetes.io/h2c")),
+    "Gateway listener in plaintext": ("external-tls", lambda o: first(o, "Gateway").body[
+        "spec"].update(listeners=[{"name": "grpc-tls", "protocol": "HTTP", "port": 80}])),
+    "Gateway certificate for another name": ("external-tls", lambda o: named(
+        o, "Certificate", "scanprep-gateway").body["spec"].update(dnsNames=["mes.example.com"])),
+    "Gateway certificate cert-manager does not issue": ("external-tls", lambda o: o.remove(
+        named(o, "Certificate", "scanprep-gateway"))),
+    "pods in plaintext behind a BackendTLSPolicy": ("external-tls", lambda o: container(o).update(
+        args=["--plaintext"] + [a for a in container(o)["args"] if not a.startswith("--tls_")])),
+    "gRPC probe on the TLS port behind the Gateway": ("external-tls", lambda o: container(
+        o).update(livenessProbe={"grpc": {"port": 50051}})),
+    "no --trusted_proxies behind the re-encrypting Gateway": ("external-tls", lambda o: container(
+        o).update(args=[a for a in container(o)["args"]
+                        if not a.startswith("--trusted_proxies=")])),
 }
 
 
@@ -942,7 +1145,7 @@ def self_test():
     for name, directory, fn in cases:
         objects = build(directory, [])
         fn(objects)
-        results.append((name, check(objects)))
+        results.append((name, judge(directory, objects)))
     for name, fn in ALERT_BREAKS.items():
         groups = alert_groups()
         fn(groups)
