@@ -74,6 +74,9 @@ ABSL_FLAG(std::string, trusted_proxies, "",
           "comma-separated CIDR ranges (IPv4 or IPv6, e.g. 10.0.0.0/8,fd00::/8) of proxies whose "
           "x-forwarded-for names the client host: from the right, the first address that is not "
           "itself a trusted proxy. Empty = the direct peer is the client host");
+ABSL_FLAG(std::string, log_format, "text",
+          "the log (stderr) and the startup lines (stdout): text, or json (one object a line, "
+          "for a log collector)");
 ABSL_FLAG(std::string, metrics_listen, ":9464",
           "[HOST]:PORT of the Prometheus /metrics endpoint: without HOST, --listen's host (so a "
           "server on loopback keeps its metrics there too); port 0 = any free port; empty = off");
@@ -170,9 +173,21 @@ struct Startup {
   MemoryLimits memory;
 };
 
+// How the startup and lifecycle lines are written: as the log is (--log_format).
+LogFormat console_format = LogFormat::kText;
+
+// One startup or lifecycle line to `out`: as it is in text, a JSON object (its text the message)
+// in JSON, so that a collector reading both streams parses every line.
+void Say(std::ostream& out, LogLevel level, const std::string& text) {
+  out << (console_format == LogFormat::kText
+              ? text + "\n"
+              : FormatLogLine(console_format, absl::Now(), level, "", {{"message", text}}))
+      << std::flush;
+}
+
 // Every startup error ends the process alike: one line on stderr and exit status 1.
 int Fail(const absl::Status& status) {
-  std::cerr << "scanprep-server: " << status.message() << "\n";
+  Say(std::cerr, LogLevel::kWarning, absl::StrCat("scanprep-server: ", status.message()));
   return 1;
 }
 
@@ -284,6 +299,7 @@ absl::StatusOr<Startup> StartupFromFlags() {
       options.trusted_proxies,
       NamingFlag("--trusted_proxies", ParseCidrList(absl::GetFlag(FLAGS_trusted_proxies))));
   options.log = &std::cerr;
+  options.log_format = console_format;
   options.listen = absl::GetFlag(FLAGS_listen);
   options.metrics_listen = absl::GetFlag(FLAGS_metrics_listen);
   options.max_calls_per_peer = absl::GetFlag(FLAGS_max_calls_per_peer);
@@ -320,14 +336,16 @@ absl::StatusOr<Startup> StartupFromFlags() {
 
 // The actual ports, for callers that asked for port 0, and the memory limits in force.
 void PrintStartup(const ScanPrepServer& server, const Startup& startup) {
-  std::cout << "scanprep-server " SCANPREP_VERSION " listening on port " << server.port() << " ("
-            << startup.transport << ")" << std::endl;
-  std::cout << "scanprep-server: memory capacity " << startup.memory.capacity.bytes << " bytes ("
-            << startup.memory.capacity.source << "), " << BaseBytesPerPoint()
-            << " B/point estimated, max_points_per_job " << startup.memory.max_points_per_job
-            << std::endl;
+  Say(std::cout, LogLevel::kInfo,
+      absl::StrCat("scanprep-server " SCANPREP_VERSION " listening on port ", server.port(), " (",
+                   startup.transport, ")"));
+  Say(std::cout, LogLevel::kInfo,
+      absl::StrCat("scanprep-server: memory capacity ", startup.memory.capacity.bytes, " bytes (",
+                   startup.memory.capacity.source, "), ", BaseBytesPerPoint(),
+                   " B/point estimated, max_points_per_job ", startup.memory.max_points_per_job));
   if (server.metrics_port() != 0) {
-    std::cout << "scanprep-server: metrics on port " << server.metrics_port() << std::endl;
+    Say(std::cout, LogLevel::kInfo,
+        absl::StrCat("scanprep-server: metrics on port ", server.metrics_port()));
   }
 }
 
@@ -340,13 +358,13 @@ absl::Notification* StartExitWatchdog(absl::Duration grace) {
   auto* calls_ended = new absl::Notification;
   std::thread([grace, calls_ended] {
     if (!calls_ended->WaitForNotificationWithTimeout(grace + absl::Milliseconds(900))) {
-      std::cerr << "scanprep-server: calls still running 0.9 s after the grace period; exiting"
-                << std::endl;
+      Say(std::cerr, LogLevel::kWarning,
+          "scanprep-server: calls still running 0.9 s after the grace period; exiting");
       std::_Exit(1);
     }
     absl::SleepFor(absl::Seconds(5));
-    std::cerr << "scanprep-server: still not exited 5 s after the calls ended; exiting"
-              << std::endl;
+    Say(std::cerr, LogLevel::kWarning,
+        "scanprep-server: still not exited 5 s after the calls ended; exiting");
     std::_Exit(1);
   }).detach();
   return calls_ended;
@@ -357,7 +375,8 @@ void ServeUntilStopped(ScanPrepServer& server, const sigset_t& stop_signals) {
   std::thread stopper([&] {
     int signal = 0;
     sigwait(&stop_signals, &signal);
-    std::cout << "scanprep-server: signal " << signal << ", shutting down" << std::endl;
+    Say(std::cout, LogLevel::kInfo,
+        absl::StrCat("scanprep-server: signal ", signal, ", shutting down"));
     const absl::Duration grace = absl::GetFlag(FLAGS_grace_period);
     absl::Notification* calls_ended = StartExitWatchdog(grace);
     server.Shutdown(grace);
@@ -387,6 +406,11 @@ void ServeUntilStopped(ScanPrepServer& server, const sigset_t& stop_signals) {
 int main(int argc, char** argv) {
   namespace server = scanprep::server;
   server::ParseFlags(argc, argv);
+  if (auto format = server::ParseLogFormat(absl::GetFlag(FLAGS_log_format)); !format.ok()) {
+    return server::Fail(format.status());
+  } else {
+    server::console_format = *format;
+  }
   server::UseFixedMmapThreshold();
   const sigset_t stop_signals = server::BlockStopSignals();
   const absl::StatusOr<server::Startup> startup = server::StartupFromFlags();

@@ -108,7 +108,7 @@ void AddConnectionArguments(const ConnectionOptions& c, grpc::ServerBuilder& bui
 
 ScanPrepServer::ScanPrepServer(const ServerOptions& options)
     : metrics_(registry_, options.sensor_metrics),
-      log_(options.log, options.max_log_lines_per_second),
+      log_(options.log, options.max_log_lines_per_second, absl::Now, options.log_format),
       peers_(options.max_calls_per_peer),
       admission_({.max_concurrent_jobs = options.max_concurrent_jobs,
                   .max_queued_jobs = options.max_queued_jobs,

@@ -68,6 +68,7 @@ struct ServerOptions {
   // on the certificate and key.
   bool tls = false;
   std::ostream* log = nullptr;  // where CallLog writes; null = no log
+  LogFormat log_format = LogFormat::kText;
   int max_log_lines_per_second = CallLog::kMaxLinesPerSecond;  // beyond: dropped and counted
   SensorMetricsOptions sensor_metrics;  // per-sensor health metrics (sensor_metrics.h)
   ProgressHook on_progress;             // test hook, see ProgressHook

@@ -38,6 +38,10 @@ absl::Time CallDeadline(const grpc::ServerContext& context) {
 // deadline timer firing first.
 constexpr absl::Duration kDeadlineSkew = absl::Milliseconds(250);
 
+// How much of a client's job id and of an error message a log line keeps.
+constexpr size_t kLoggedJobIdBytes = 64;
+constexpr size_t kLoggedMessageBytes = 300;
+
 using google::protobuf::util::TimeUtil;
 
 // glibc keeps freed memory resident in its per-thread arenas, and the next job's threads may
@@ -149,16 +153,15 @@ void ScanPrepService::LogCall(const std::string& peer, const CallRecord& record,
                               const grpc::Status& status, absl::Duration elapsed) {
   // A client that hangs up is routine; every other failure is worth a look.
   const bool routine = status.ok() || status.error_code() == grpc::StatusCode::CANCELLED;
-  const std::string outcome =
-      status.ok()
-          ? "OK"
-          : absl::StrCat(
-                absl::StatusCodeToString(static_cast<absl::StatusCode>(status.error_code())), ": ",
-                Quoted(status.error_message(), 300));
-  log_.Write(routine ? CallLog::kInfo : CallLog::kWarning,
-             absl::StrCat("process peer=", peer, " client=", record.client,
-                          " job=", Quoted(record.job_id), " points=", record.points, " ", outcome,
-                          " ", absl::StrFormat("%.3fs", absl::ToDoubleSeconds(elapsed))));
+  std::vector<LogField> fields = {
+      {"peer", peer},
+      {"client", record.client},
+      {"job", record.job_id, kLoggedJobIdBytes},
+      {"points", static_cast<int64_t>(record.points)},
+      {"status", absl::StatusCodeToString(static_cast<absl::StatusCode>(status.error_code()))}};
+  if (!status.ok()) fields.push_back({"message", status.error_message(), kLoggedMessageBytes});
+  fields.push_back({"seconds", absl::ToDoubleSeconds(elapsed)});
+  log_.Write(routine ? CallLog::kInfo : CallLog::kWarning, "process", fields);
 }
 
 bool ScanPrepService::Send(Stream* stream, IdleWatch::Call& watch,

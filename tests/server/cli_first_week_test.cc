@@ -8,6 +8,7 @@
 #include <string>
 
 #include <gmock/gmock.h>
+#include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -127,6 +128,42 @@ TEST_F(CliFirstWeek, AJobIdAndLabelsReachTheReportAndTheLog) {
   const CommandResult bad = RunCli(job + " --label serial");
   EXPECT_EQ(bad.exit_code, 2) << bad.output;
   EXPECT_THAT(bad.output, HasSubstr("--label 'serial': expected KEY=VALUE"));
+}
+
+// Logs were plain text, which a plant's collector cannot parse. With --log_format=json every line
+// the server prints (startup on stdout, calls and lifecycle on stderr) is one JSON object, the
+// call's fields typed; the startup lines still name the port as the scripts read it. A format it
+// does not know is refused at startup, naming the flag.
+TEST_F(CliFirstWeek, JsonLogsAreOneObjectALineWithTheCallsFields) {
+  ServerProcess server({"--log_format=json"});
+  ASSERT_GT(server.port(), 0) << server.Log();
+  const CommandResult r =
+      RunCli("process " + scan() + " -o " + at("x.ply") +
+             " --progress off --stages outliers --job_id Prüfteil-8 --server " + server.target());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(server.Terminate(), 0);
+  int calls = 0, lines = 0;
+  const std::vector<std::string> log_lines = absl::StrSplit(server.Log(), '\n', absl::SkipEmpty());
+  for (const std::string& line : log_lines) {
+    google::protobuf::Struct parsed;
+    ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(line, &parsed).ok()) << line;
+    ++lines;
+    const auto& f = parsed.fields();
+    ASSERT_TRUE(f.contains("time") && f.contains("level")) << line;
+    if (!f.contains("event")) continue;
+    ++calls;
+    EXPECT_EQ(f.at("event").string_value(), "process");
+    EXPECT_EQ(f.at("job").string_value(), "Prüfteil-8");
+    EXPECT_EQ(f.at("status").string_value(), "OK");
+    EXPECT_EQ(f.at("points").number_value(), 30 * 30);  // the plane SetUp writes
+    EXPECT_GT(f.at("seconds").number_value(), 0);
+  }
+  EXPECT_EQ(calls, 1);
+  EXPECT_GE(lines, 5);  // listening, memory, metrics, the memory guard, the call, the signal
+  const CommandResult bad =
+      RunCommand(std::string(SCANPREP_SERVER_BINARY) + " --plaintext --log_format=yaml");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_THAT(bad.output, HasSubstr("--log_format=yaml: the log is written as text or json"));
 }
 
 // "unit": "mm" in a job file was refused as `invalid value "mm"`, naming neither the field nor
