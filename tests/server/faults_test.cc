@@ -332,9 +332,12 @@ TEST(Faults, AThousandMalformedCallsKeepMemoryFlatAndAreLogged) {
     if (line.find(" W process peer=ipv4:127.0.0.1:") != std::string::npos) ++warnings;
   }
   EXPECT_EQ(warnings, 1100);
-  EXPECT_THAT(log_text,
-              HasSubstr("INVALID_ARGUMENT: \"chunk 0: quality[7] = 3 is outside [0, 1]\""));
-  EXPECT_THAT(log_text, HasSubstr("RESOURCE_EXHAUSTED: \"chunk 0: 65537 points exceed the limit"));
+  EXPECT_THAT(
+      log_text,
+      HasSubstr("status=INVALID_ARGUMENT message=\"chunk 0: quality[7] = 3 is outside [0, 1]\""));
+  EXPECT_THAT(
+      log_text,
+      HasSubstr("status=RESOURCE_EXHAUSTED message=\"chunk 0: 65537 points exceed the limit"));
   EXPECT_THAT(log_text, HasSubstr(" I process peer=ipv4:127.0.0.1:"));  // the good call
   EXPECT_THAT(log_text, ::testing::Not(HasSubstr("4242")));
 }

@@ -94,9 +94,10 @@ TEST(HeldResources, AClientThatStopsReadingLosesItsSlotToTheNextJob) {
   EXPECT_FALSE(report);
   EXPECT_EQ(stalled->Finish().error_code(), grpc::StatusCode::CANCELLED);
   server.reset();  // every call logged
-  EXPECT_THAT(log.str(),
-              HasSubstr("DEADLINE_EXCEEDED: \"the client did not read the next result chunk "
-                        "within 500ms (idle_timeout); the server ended the call\""));
+  EXPECT_THAT(
+      log.str(),
+      HasSubstr("status=DEADLINE_EXCEEDED message=\"the client did not read the next result chunk "
+                "within 500ms (idle_timeout); the server ended the call\""));
 }
 
 // A reader that takes its result, but slower than --min_download_rate, is ended too, though no
@@ -133,7 +134,7 @@ TEST(HeldResources, AClientReadingUnderTheMinimumRateLosesItsSlot) {
   EXPECT_EQ(slow->Finish().error_code(), grpc::StatusCode::CANCELLED);
   EXPECT_FALSE(report);
   server.reset();
-  EXPECT_THAT(log.str(), HasSubstr("DEADLINE_EXCEEDED: \"the client read "));
+  EXPECT_THAT(log.str(), HasSubstr("status=DEADLINE_EXCEEDED message=\"the client read "));
   EXPECT_THAT(log.str(), HasSubstr("falling behind the minimum of 4194304 bytes/s judged over a "
                                    "sliding window of 2s (min_download_rate); the server ended "
                                    "the call\""));

@@ -212,9 +212,11 @@ TEST(Limits, ASlowUploaderIsEndedByTheIdleTimeoutWhileAnotherClientsJobCompletes
   server.reset();  // every call logged
   // Named with the real cause and peer, though the client only saw its call cancelled.
   EXPECT_THAT(log.str(), HasSubstr("W process peer=ipv4:127.0.0.1:"));
-  EXPECT_THAT(log.str(), HasSubstr("DEADLINE_EXCEEDED: \"the next message after 100 points did not "
-                                   "arrive within 500ms (idle_timeout); the server ended the "
-                                   "call\""));
+  EXPECT_THAT(
+      log.str(),
+      HasSubstr("status=DEADLINE_EXCEEDED message=\"the next message after 100 points did not "
+                "arrive within 500ms (idle_timeout); the server ended the "
+                "call\""));
 }
 
 // An upload of 15 chunks of 10 points, one every 100 ms: every gap is well inside the idle
@@ -266,7 +268,7 @@ TEST(Limits, AnUploadUnderTheMinimumRateIsEndedThoughNoGapReachesTheIdleLimit) {
   // long before the 1.5 s the upload would take.
   EXPECT_GE(slow.elapsed, absl::Milliseconds(500));
   EXPECT_LT(slow.elapsed, absl::Milliseconds(1400));
-  EXPECT_THAT(log.str(), HasSubstr("DEADLINE_EXCEEDED: \"the upload sent "));
+  EXPECT_THAT(log.str(), HasSubstr("status=DEADLINE_EXCEEDED message=\"the upload sent "));
   EXPECT_THAT(log.str(), HasSubstr("falling behind the minimum of 20000 bytes/s judged over a "
                                    "sliding window of 1s (min_upload_rate); the server ended "
                                    "the call\""));
