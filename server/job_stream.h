@@ -28,6 +28,9 @@ class JobStream {
   // header could be checked), for the job's memory reservation.
   virtual uint64_t held_bytes() const = 0;
   virtual const RpcMethod& method() const = 0;
+  // Bytes of the answer still to be sent once the handler returns (a unary answer, which gRPC
+  // sends then); 0 for a stream, whose responses are written before.
+  virtual uint64_t unsent_bytes() const { return 0; }
   // What the call carries that is wrong before any of it is read (a unary request's crc32 that
   // its points do not have); OK for a stream, whose messages are checked as they arrive.
   virtual absl::Status Check() const { return absl::OkStatus(); }
@@ -58,6 +61,7 @@ class UnaryJobStream final : public JobStream {
   bool Read(v1::ProcessRequest* request) override;
   bool Write(const v1::ProcessResponse& response) override;
   uint64_t held_bytes() const override { return held_bytes_; }
+  uint64_t unsent_bytes() const override { return response_.ByteSizeLong(); }
   const RpcMethod& method() const override { return kProcessUnaryRpc; }
   // DATA_LOSS (reason CHECKSUM_MISMATCH) when the request states a crc32 that its points do not
   // have.

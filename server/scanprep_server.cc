@@ -180,14 +180,17 @@ absl::StatusOr<std::unique_ptr<ScanPrepServer>> ScanPrepServer::Start(
       options.credentials != nullptr ? options.credentials : grpc::InsecureServerCredentials(),
       &server->port_);
   builder.SetMaxReceiveMessageSize(static_cast<int>(options.limits.max_message_bytes));
-  // And sent: a ProcessUnary answer (its points with normals) outlives the job's reservation in
-  // gRPC's buffers until the client reads it, so it is held to the same bound.
+  // And sent: a ProcessUnary answer (its points with normals) waits in gRPC's buffers until the
+  // client reads it (holding its call's slot and reservation: UnsentAnswers), one message each way.
   builder.SetMaxSendMessageSize(static_cast<int>(options.limits.max_message_bytes));
   // gRPC sets SO_REUSEPORT by default: a second server on the same port would start silently and
   // take half the connections. Without it the second one fails to start.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   AddConnectionArguments(options.connection, builder);
   builder.RegisterService(&server->service_);
+  std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
+  interceptors.push_back(server->service_.unsent_answers().InterceptorFactory());
+  builder.experimental().SetInterceptorCreators(std::move(interceptors));
   server->server_ = builder.BuildAndStart();
   if (server->server_ == nullptr || server->port_ == 0) {
     return absl::UnavailableError(absl::StrCat("cannot listen on ", options.listen, " (",

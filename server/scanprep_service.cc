@@ -38,10 +38,6 @@ absl::Time CallDeadline(const grpc::ServerContext& context) {
 // deadline timer firing first.
 constexpr absl::Duration kDeadlineSkew = absl::Milliseconds(250);
 
-// How much of a client's job id and of an error message a log line keeps.
-constexpr size_t kLoggedJobIdBytes = 64;
-constexpr size_t kLoggedMessageBytes = 300;
-
 using google::protobuf::util::TimeUtil;
 
 // glibc keeps freed memory resident in its per-thread arenas, and the next job's threads may
@@ -136,11 +132,21 @@ grpc::Status ScanPrepService::Serve(grpc::ServerContext* context, Stream* stream
   } else if (absl::Status corrupted = stream->Check(); !corrupted.ok()) {
     status = Refuse(corrupted);
   } else {
+    std::optional<AdmissionQueue::Ticket> ticket;
     try {
-      status = ProcessJob(context, stream, record);
+      status = ProcessJob(context, stream, record, ticket);
     } catch (const std::bad_alloc&) {
       status = grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
                             "the server ran out of memory holding this job");
+    }
+    if (const uint64_t unsent = stream->unsent_bytes(); status.ok() && unsent > 0) {
+      answers_.Keep(context,
+                    {.ticket = std::move(ticket),
+                     .lease = std::move(*lease),
+                     .peer = peer,
+                     .client = record.client,
+                     .job_id = record.job_id},
+                    unsent);
     }
   }
   const absl::Duration elapsed = absl::Now() - record.start;
@@ -156,7 +162,7 @@ void ScanPrepService::LogCall(const std::string& peer, const CallRecord& record,
   std::vector<LogField> fields = {
       {"peer", peer},
       {"client", record.client},
-      {"job", record.job_id, kLoggedJobIdBytes},
+      {"job", record.job_id, kLoggedClientTextBytes},
       {"points", static_cast<int64_t>(record.points)},
       {"status", absl::StatusCodeToString(static_cast<absl::StatusCode>(status.error_code()))}};
   if (!status.ok()) fields.push_back({"message", status.error_message(), kLoggedMessageBytes});
@@ -218,10 +224,10 @@ grpc::Status ScanPrepService::Refuse(const absl::Status& status) {
 }
 
 grpc::Status ScanPrepService::ProcessJob(grpc::ServerContext* context, Stream* stream,
-                                         CallRecord& record) {
-  // Declared so that they are destroyed in this order: the job's data, then the memory it freed
-  // is returned to the system, then the slot frees its reservation.
-  std::optional<AdmissionQueue::Ticket> ticket;
+                                         CallRecord& record,
+                                         std::optional<AdmissionQueue::Ticket>& ticket) {
+  // Destroyed in this order: the job's data, then the memory it freed is returned to the
+  // system, then (the caller's) the slot frees its reservation.
   const ReturnFreedMemoryOnExit return_freed_memory;
   absl::StatusOr<AssembledJob> job = absl::UnknownError("not uploaded");
   IdleWatch::Call watch = idle_.Watch(context);

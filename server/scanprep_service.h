@@ -18,6 +18,7 @@
 #include "server/transport/call_log.h"
 #include "server/transport/cidr.h"
 #include "server/transport/idle_watch.h"
+#include "server/unsent_answers.h"
 
 namespace scanprep::server {
 
@@ -58,7 +59,12 @@ class ScanPrepService final : public v1::ScanPrep::Service {
         metrics_(metrics),
         peers_(peers),
         log_(log),
-        on_slot_(std::move(on_slot)) {}
+        on_slot_(std::move(on_slot)),
+        answers_(idle_, log, timeouts.idle, timeouts.min_download_rate) {}
+
+  // Holds a unary call's slot, reservation and per-host place until its answer has left
+  // (ServerBuilder::experimental().SetInterceptorCreators takes its interceptor).
+  UnsentAnswers& unsent_answers() { return answers_; }
 
   grpc::Status Process(
       grpc::ServerContext* context,
@@ -83,7 +89,10 @@ class ScanPrepService final : public v1::ScanPrep::Service {
   // valid and a slot once the data has arrived), processing (progress relayed, cancellation passed
   // on), download (points, report, end). Each returns OK to go on, else the call's status. One
   // IdleWatch::Call watches the client through all three.
-  grpc::Status ProcessJob(grpc::ServerContext* context, Stream* stream, CallRecord& record);
+  // `ticket`: the call's place and slot, the caller's so that a unary call keeps it until its
+  // answer has left.
+  grpc::Status ProcessJob(grpc::ServerContext* context, Stream* stream, CallRecord& record,
+                          std::optional<AdmissionQueue::Ticket>& ticket);
   grpc::Status Upload(grpc::ServerContext* context, Stream* stream, IdleWatch::Call& watch,
                       CallRecord& record, std::optional<AdmissionQueue::Ticket>& ticket,
                       absl::StatusOr<AssembledJob>& job);
@@ -134,6 +143,7 @@ class ScanPrepService final : public v1::ScanPrep::Service {
   PeerLimiter& peers_;
   CallLog& log_;
   const SlotHook on_slot_;
+  UnsentAnswers answers_;
 };
 
 }  // namespace scanprep::server

@@ -26,6 +26,10 @@
 namespace scanprep::server {
 
 enum class LogFormat { kText, kJson };
+
+// How much of a client's text (a job id) and of an error message a log line keeps.
+inline constexpr size_t kLoggedClientTextBytes = 64;
+inline constexpr size_t kLoggedMessageBytes = 300;
 // "text" or "json"; INVALID_ARGUMENT naming --log_format and the two otherwise.
 absl::StatusOr<LogFormat> ParseLogFormat(std::string_view name);
 

@@ -7,6 +7,8 @@
 #include <thread>
 
 #include <gmock/gmock.h>
+#include <grpcpp/generic/generic_stub.h>
+#include <grpcpp/support/proto_buffer_writer.h>
 #include <gtest/gtest.h>
 
 #include "server/admission/memory_reservation.h"
@@ -98,6 +100,76 @@ TEST(HeldResources, AClientThatStopsReadingLosesItsSlotToTheNextJob) {
       log.str(),
       HasSubstr("status=DEADLINE_EXCEEDED message=\"the client did not read the next result chunk "
                 "within 500ms (idle_timeout); the server ended the call\""));
+}
+
+// A ProcessUnary answer is sent after its handler returned. A client that never read it kept it
+// (up to --max_message_bytes, twice: the message and its serialized copy) and a server thread
+// while its slot and reservation were already free for the next job, for as long as the
+// connection lasted. The call holds its slot until the answer has left and is ended like a
+// download that is not read: within the idle limit plus the answer's bytes at the minimum rate.
+// The control: a unary call whose client reads gives its slot back with its answer.
+TEST(HeldResources, AUnaryAnswerNobodyReadsHoldsItsSlotUntilTheIdleLimitEndsIt) {
+  server::ServerOptions options;
+  options.max_concurrent_jobs = 1;
+  options.timeouts.idle = absl::Milliseconds(500);
+  options.timeouts.min_download_rate = 4 << 20;  // a 6 MB answer: due within about 2 s
+  options.metrics_listen = "127.0.0.1:0";
+  std::ostringstream log;
+  options.log = &log;
+  auto server = std::make_unique<InProcessServer>(options);
+  const int metrics = server->server().metrics_port();
+
+  // The call as a generic stream: its request written whole, its answer never read. 250,000
+  // points come back as about 6 MB, more than gRPC buffers for a reader that takes nothing.
+  v1::ProcessUnaryRequest request = UnaryRequest(NoisyPlaneWithSpikes(500, 1.f));
+  request.mutable_header()->mutable_options()->add_stages("outliers");
+  grpc::ByteBuffer bytes;
+  bool own = false;
+  const grpc::Status serialized =
+      grpc::GenericSerialize<grpc::ProtoBufferWriter, v1::ProcessUnaryRequest>(request, &bytes,
+                                                                               &own);
+  ASSERT_TRUE(serialized.ok());
+  auto channel = grpc::CreateChannel(server->target(), grpc::InsecureChannelCredentials());
+  grpc::GenericStub generic(channel);
+  grpc::CompletionQueue queue;
+  grpc::ClientContext context;
+  auto call = generic.PrepareCall(&context, "/scanprep.v1.ScanPrep/ProcessUnary", &queue);
+  const auto step = [&](auto&& start) {
+    void* tag = nullptr;
+    bool ok = false;
+    start(reinterpret_cast<void*>(1));
+    return queue.Next(&tag, &ok) && ok;
+  };
+  ASSERT_TRUE(step([&](void* tag) { call->StartCall(tag); }));
+  ASSERT_TRUE(step([&](void* tag) { call->WriteLast(bytes, grpc::WriteOptions(), tag); }));
+
+  // Its job ran and its handler returned (the call's line is logged then), yet it holds its slot.
+  const absl::Time deadline = absl::Now() + absl::Seconds(60);
+  while (log.str().find("status=OK") == std::string::npos && absl::Now() < deadline) {
+    absl::SleepFor(absl::Milliseconds(20));
+  }
+  ASSERT_THAT(log.str(), HasSubstr("status=OK"));
+  EXPECT_EQ(Sample(metrics, "scanprep_jobs_in_flight"), 1);
+  // Until the watch ends it: then the slot is free and the next job runs.
+  ASSERT_TRUE(WaitForSample(metrics, "scanprep_jobs_in_flight", 0));
+  EXPECT_THAT(log.str(), HasSubstr("answer "));
+  EXPECT_THAT(log.str(), HasSubstr("the client did not read its answer of "));
+  const SmallJob next = RunSmallJob(*server->Stub(), absl::Seconds(60));
+  EXPECT_TRUE(next.status.ok()) << next.status.error_message();
+
+  // Control: a client that reads its unary answer (a small one, within a client's default 4 MiB)
+  // leaves nothing held.
+  v1::ProcessUnaryResponse response;
+  grpc::ClientContext read_context;
+  const grpc::Status read = server->Stub()->ProcessUnary(
+      &read_context, UnaryRequest(NoisyPlaneWithSpikes(100, 1.f)), &response);
+  ASSERT_TRUE(read.ok()) << read.error_message();
+  EXPECT_GT(response.points().xyz_packed().size(), 0u);
+  EXPECT_EQ(Sample(metrics, "scanprep_jobs_in_flight"), 0);
+  context.TryCancel();
+  queue.Shutdown();
+  for (void* tag; queue.Next(&tag, &own);) {
+  }
 }
 
 // A reader that takes its result, but slower than --min_download_rate, is ended too, though no

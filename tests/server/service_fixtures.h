@@ -17,6 +17,7 @@
 #include "client/scanprep_client.h"
 #include "core/base/point_cloud.h"
 #include "server/scanprep_server.h"
+#include "wire/chunk_arrays.h"
 #include "wire/stream_checksum.h"
 
 namespace scanprep::testing {
@@ -195,6 +196,23 @@ inline GeneratedScan NoisyPlaneWithSpikes(int side, float spacing, uint32_t seed
   c.scans.push_back(ScanMeta{.id = "plane"});
   c.FinishLoading();
   return g;
+}
+
+// The plane with spikes as one unary request: xyz and scanline, packed.
+inline v1::ProcessUnaryRequest UnaryRequest(const GeneratedScan& scan) {
+  v1::ProcessUnaryRequest request;
+  *request.mutable_header() = SimpleHeader();
+  request.mutable_header()->set_total_points(scan.cloud.size());
+  request.mutable_header()->set_result_arrays(v1::ARRAY_ENCODING_PACKED);
+  v1::PointChunk& points = *request.mutable_points();
+  for (size_t i = 0; i < scan.cloud.size(); ++i) {
+    points.add_xyz(scan.cloud.x[i]);
+    points.add_xyz(scan.cloud.y[i]);
+    points.add_xyz(scan.cloud.z[i]);
+    points.add_scanline(scan.cloud.scanline[i]);
+  }
+  PackArrays(points);
+  return request;
 }
 
 }  // namespace scanprep::testing

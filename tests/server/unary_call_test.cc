@@ -19,23 +19,6 @@ namespace {
 
 using ::testing::HasSubstr;
 
-// The plane with spikes as one unary request: xyz and scanline, packed.
-v1::ProcessUnaryRequest UnaryRequest(const GeneratedScan& scan) {
-  v1::ProcessUnaryRequest request;
-  *request.mutable_header() = SimpleHeader();
-  request.mutable_header()->set_total_points(scan.cloud.size());
-  request.mutable_header()->set_result_arrays(v1::ARRAY_ENCODING_PACKED);
-  v1::PointChunk& points = *request.mutable_points();
-  for (size_t i = 0; i < scan.cloud.size(); ++i) {
-    points.add_xyz(scan.cloud.x[i]);
-    points.add_xyz(scan.cloud.y[i]);
-    points.add_xyz(scan.cloud.z[i]);
-    points.add_scanline(scan.cloud.scanline[i]);
-  }
-  PackArrays(points);
-  return request;
-}
-
 grpc::Status CallUnary(const InProcessServer& server, const v1::ProcessUnaryRequest& request,
                        v1::ProcessUnaryResponse& response) {
   grpc::ClientContext context;
