@@ -2,13 +2,17 @@
 # SPDX-License-Identifier: Apache-2.0
 """The README's CLI example as a new user runs it (issue 40: it failed as written from the repo
 root): its server command, then its CLI block with bash from a copy of the repo root (links to
-build/ and client/, ../shared beside it), so that the files it writes stay out of the source tree.
+build/ and client/, ../shared beside it), so that the files it writes stay out of the source tree;
+then its Node.js line against the same server, where node and the example's packages are there
+(tools/install-deps.sh installs them; CI=true requires them).
 Usage: readme_cli_test.py BUILD_DIR. Exits 77 (skipped) without ../shared/data or when port 50051,
 the one the README names, is taken."""
 
+import os
 import pathlib
 import re
 import shlex
+import shutil
 import socket
 import subprocess
 import sys
@@ -20,12 +24,21 @@ SHARED = ROOT.parent / "shared"
 PORT = 50051
 
 
-def blocks() -> tuple[str, str]:
-    """The server's command line and the CLI block after it."""
+def blocks() -> tuple[str, str, str]:
+    """The server's command line, the CLI block after it and the Node.js block."""
     sh = re.findall(r"```sh\n(.*?)```", (ROOT / "README.md").read_text(), re.S)
     servers = [i for i, b in enumerate(sh) if b.startswith("build/server/scanprep-server")]
     assert servers and servers[0] + 1 < len(sh), "README: no server command and CLI block"
-    return sh[servers[0]].split("#")[0].strip(), sh[servers[0] + 1]
+    node = [b for b in sh if b.startswith("node ")]
+    assert node, "README: no Node.js block"
+    return sh[servers[0]].split("#")[0].strip(), sh[servers[0] + 1], node[0]
+
+
+def node_ready() -> bool:
+    ready = shutil.which("node") is not None and (
+        ROOT / "client/examples/node/node_modules/@grpc/grpc-js").is_dir()
+    assert ready or os.environ.get("CI") != "true", "node or the example's packages are missing"
+    return ready
 
 
 def port_free() -> bool:
@@ -41,7 +54,7 @@ def main() -> int:
     if not port_free():
         print(f"skipped: port {PORT}, which the README names, is taken")
         return 77
-    server_line, cli_block = blocks()
+    server_line, cli_block, node_block = blocks()
     assert f"127.0.0.1:{PORT}" in server_line, server_line
     with tempfile.TemporaryDirectory() as tmp:
         repo = pathlib.Path(tmp) / "scanprep"
@@ -58,6 +71,9 @@ def main() -> int:
                 time.sleep(0.1)
             run = subprocess.run(["bash", "-euo", "pipefail", "-c", cli_block], cwd=repo,
                                  capture_output=True, text=True, timeout=600)
+            node = subprocess.run(["bash", "-euo", "pipefail", "-c", node_block], cwd=ROOT,
+                                  capture_output=True, text=True,
+                                  timeout=120) if node_ready() else None
         finally:
             server.terminate()
             server.wait(timeout=60)
@@ -72,7 +88,14 @@ def main() -> int:
         if "bun000" not in run.stdout:
             print("FAILED: health printed no table for bun000")
             return 1
-    print("the README's server command and CLI block ran as written")
+        if node is not None:
+            print(node.stdout, node.stderr)
+            if node.returncode != 0 or "65 points sent, 64 returned" not in node.stdout:
+                print("FAILED: the README's Node.js line did not remove the plate's spike")
+                return 1
+        else:
+            print("the README's Node.js line not run: node or its packages are missing")
+    print("the README's server command, CLI block and Node.js line ran as written")
     return 0
 
 
