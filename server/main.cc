@@ -44,6 +44,9 @@ ABSL_FLAG(std::string, tls_cert, "", "PEM certificate chain of the gRPC port (TL
 ABSL_FLAG(std::string, tls_key, "", "PEM private key of --tls_cert");
 ABSL_FLAG(std::string, tls_client_ca, "",
           "PEM CA bundle: clients must present a certificate it signed (mutual TLS)");
+ABSL_FLAG(absl::Duration, tls_reload_interval, absl::Minutes(1),
+          "how often the three TLS files are read again: a renewed certificate is served without "
+          "a restart (at least 1s)");
 ABSL_FLAG(bool, plaintext, false,
           "serve the gRPC port unencrypted and unauthenticated; without it the server needs the "
           "TLS flags and refuses to start");
@@ -288,6 +291,7 @@ absl::StatusOr<Startup> StartupFromFlags() {
                                 .tls_key = absl::GetFlag(FLAGS_tls_key),
                                 .tls_client_ca = absl::GetFlag(FLAGS_tls_client_ca),
                                 .plaintext = absl::GetFlag(FLAGS_plaintext),
+                                .reload_interval = absl::GetFlag(FLAGS_tls_reload_interval),
                             }));
   Startup startup;
   startup.transport = transport.description;

@@ -1,6 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "server/transport/transport_security.h"
 
+#include <utility>
+
+#include <grpcpp/security/tls_certificate_provider.h>
+#include <grpcpp/security/tls_credentials_options.h>
+
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 #include "core/io/read_file.h"
@@ -38,21 +43,28 @@ absl::StatusOr<Transport> TransportFromFlags(const TransportFlags& flags) {
     return absl::InvalidArgumentError(
         "TLS needs both --tls_cert and --tls_key (--tls_client_ca alone is not enough)");
   }
-  grpc::SslServerCredentialsOptions::PemKeyCertPair pair;
-  SCANPREP_ASSIGN_OR_RETURN(pair.cert_chain, ReadPemFile(flags.tls_cert, "tls_cert"));
-  SCANPREP_ASSIGN_OR_RETURN(pair.private_key, ReadPemFile(flags.tls_key, "tls_key"));
-
-  grpc::SslServerCredentialsOptions options;
-  options.pem_key_cert_pairs.push_back(std::move(pair));
-  if (flags.tls_client_ca.empty()) {
-    options.client_certificate_request = GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE;
-    return Transport{grpc::SslServerCredentials(options), "TLS"};
+  // Read once here, so that a missing or unreadable file fails at startup naming its flag.
+  for (const auto& [path, flag] :
+       {std::pair{flags.tls_cert, "tls_cert"}, std::pair{flags.tls_key, "tls_key"},
+        std::pair{flags.tls_client_ca, "tls_client_ca"}}) {
+    if (!path.empty()) SCANPREP_RETURN_IF_ERROR(ReadPemFile(path, flag).status());
   }
-  SCANPREP_ASSIGN_OR_RETURN(options.pem_root_certs,
-                            ReadPemFile(flags.tls_client_ca, "tls_client_ca"));
-  options.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
-  return Transport{grpc::SslServerCredentials(options),
-                   "mutual TLS (client certificates required and verified)"};
+  if (!(flags.reload_interval >= absl::Seconds(1) && flags.reload_interval <= absl::Hours(24))) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--tls_reload_interval=", absl::FormatDuration(flags.reload_interval),
+                     ": the TLS files are read again every 1s to 24h"));
+  }
+  const auto seconds = static_cast<unsigned>(absl::ToInt64Seconds(flags.reload_interval));
+  const bool mutual = !flags.tls_client_ca.empty();
+  auto files = std::make_shared<grpc::experimental::FileWatcherCertificateProvider>(
+      flags.tls_key, flags.tls_cert, flags.tls_client_ca, seconds);
+  grpc::experimental::TlsServerCredentialsOptions options(files);
+  options.watch_identity_key_cert_pairs();
+  if (mutual) options.watch_root_certs();
+  options.set_cert_request_type(mutual ? GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY
+                                       : GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE);
+  return Transport{grpc::experimental::TlsServerCredentials(options),
+                   mutual ? "mutual TLS (client certificates required and verified)" : "TLS"};
 }
 
 }  // namespace scanprep::server

@@ -9,6 +9,7 @@
 #include <grpcpp/security/server_credentials.h>
 
 #include "absl/status/statusor.h"
+#include "absl/time/time.h"
 
 namespace scanprep::server {
 
@@ -17,6 +18,9 @@ struct TransportFlags {
   std::string tls_key;        // PEM private key of tls_cert
   std::string tls_client_ca;  // PEM CA bundle; set = clients must present a certificate it signed
   bool plaintext = false;     // serve without TLS; must be asked for, never a fallback
+  // How often the three files are read again, so that a renewed certificate (cert-manager
+  // rewrites its Secret's files) is served without a restart; gRPC reads at most once a second.
+  absl::Duration reload_interval = absl::Minutes(1);
 };
 
 struct Transport {
@@ -27,7 +31,9 @@ struct Transport {
 // The credentials the flags ask for. INVALID_ARGUMENT naming the flag when they contradict each
 // other (--plaintext with a TLS flag, a certificate without its key, a client CA without a server
 // certificate) or when none is given; the file reader's status, naming the flag, when a file
-// cannot be read.
+// cannot be read. TLS credentials read the files again every reload_interval (gRPC's
+// FileWatcherCertificateProvider): new connections get the renewed certificate, and a file that
+// cannot be read then keeps the last good one.
 absl::StatusOr<Transport> TransportFromFlags(const TransportFlags& flags);
 
 }  // namespace scanprep::server

@@ -20,7 +20,8 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-// The files under one directory: ca, server, client, other_ca, other_client (.pem and .key).
+// The files under one directory: ca, server, client, other_ca, other_client, other_server (.pem
+// and .key).
 class Certificates {
  public:
   Certificates()
@@ -32,7 +33,8 @@ class Certificates {
                                           "extendedKeyUsage=clientAuth\n";
     ok_ = MakeCa("ca") && MakeCa("other_ca") && MakeLeaf("server", "ca", "server.ext") &&
           MakeLeaf("client", "ca", "client.ext") &&
-          MakeLeaf("other_client", "other_ca", "client.ext");
+          MakeLeaf("other_client", "other_ca", "client.ext") &&
+          MakeLeaf("other_server", "other_ca", "server.ext");
   }
   ~Certificates() { fs::remove_all(dir_); }
 
@@ -180,6 +182,50 @@ TEST(ServerTls, WithoutAClientCaAnyTlsClientIsServed) {
   EXPECT_EQ(
       client::ScanPrepClient::Connect(server.target()).GetInfo(absl::Seconds(10)).status().code(),
       absl::StatusCode::kUnavailable);
+}
+
+// A certificate that cert-manager renews was served only after a restart: the files are read again
+// every --tls_reload_interval. The server's files are swapped (by rename, as a Secret's volume
+// is) for a certificate of another CA: within seconds a client of that CA is served and one of the
+// first CA is refused, as before the swap the other way round.
+TEST(ServerTls, ARenewedCertificateIsServedWithoutARestart) {
+  Certificates certs;
+  ASSERT_TRUE(certs.ok()) << certs.log();
+  const fs::path dir = fs::path(certs.pem("server")).parent_path();
+  const auto install = [&](const std::string& name) {
+    for (const char* ext : {".pem", ".key"}) {
+      fs::copy_file(dir / (name + ext), dir / (std::string("next") + ext),
+                    fs::copy_options::overwrite_existing);
+      fs::rename(dir / (std::string("next") + ext), dir / (std::string("live") + ext));
+    }
+  };
+  install("server");
+  auto transport = server::TransportFromFlags({.tls_cert = (dir / "live.pem").string(),
+                                               .tls_key = (dir / "live.key").string(),
+                                               .reload_interval = absl::Seconds(1)});
+  ASSERT_TRUE(transport.ok()) << transport.status();
+  InProcessServer server(Secured(transport->credentials));
+  const auto served = [&](const std::string& ca) {
+    return client::ScanPrepClient::Connect(server.target(), Credentials({.ca = certs.pem(ca)}))
+        .GetInfo(absl::Seconds(10))
+        .ok();
+  };
+  EXPECT_TRUE(served("ca"));
+  EXPECT_FALSE(served("other_ca"));
+  install("other_server");
+  bool renewed = false;
+  for (int i = 0; i < 50 && !renewed; ++i) {
+    absl::SleepFor(absl::Milliseconds(200));
+    renewed = served("other_ca");
+  }
+  EXPECT_TRUE(renewed) << "the renewed certificate was not served within 10 s";
+  EXPECT_FALSE(served("ca"));
+  const auto never = server::TransportFromFlags({.tls_cert = certs.pem("server"),
+                                                 .tls_key = certs.key("server"),
+                                                 .reload_interval = absl::ZeroDuration()});
+  EXPECT_EQ(never.status().message(),
+            "--tls_reload_interval=0: the TLS files are read again every "
+            "1s to 24h");
 }
 
 TEST(TransportFlags, PlaintextOnlyWhenAskedForAndContradictionsAreRefused) {
