@@ -2,6 +2,8 @@
 #include "core/base/point_attributes.h"
 
 #include <algorithm>
+#include <bit>
+#include <cstring>
 
 namespace scanprep {
 
@@ -22,6 +24,84 @@ int AttributeBytes(AttributeType type) {
       return 8;
   }
   return 8;
+}
+
+namespace {
+
+template <class T>
+double Load(const uint8_t* at) {
+  T value;
+  std::memcpy(&value, at, sizeof value);
+  return static_cast<double>(value);
+}
+
+template <class T>
+void Store(uint8_t* at, double value) {
+  const T stored = static_cast<T>(value);
+  std::memcpy(at, &stored, sizeof stored);
+}
+
+}  // namespace
+
+double PointAttribute::Value(size_t i) const {
+  const uint8_t* at = data.data() + i * AttributeBytes(type);
+  switch (type) {
+    case AttributeType::kInt8:
+      return Load<int8_t>(at);
+    case AttributeType::kUint8:
+      return Load<uint8_t>(at);
+    case AttributeType::kInt16:
+      return Load<int16_t>(at);
+    case AttributeType::kUint16:
+      return Load<uint16_t>(at);
+    case AttributeType::kInt32:
+      return Load<int32_t>(at);
+    case AttributeType::kUint32:
+    case AttributeType::kFloat32Bits:  // the bit pattern as an integer
+      return Load<uint32_t>(at);
+    case AttributeType::kFloat32:
+      return Load<float>(at);
+    case AttributeType::kFloat64:
+      return Load<double>(at);
+  }
+  return 0;
+}
+
+void PointAttribute::Set(size_t i, double value) {
+  uint8_t* at = data.data() + i * AttributeBytes(type);
+  switch (type) {
+    case AttributeType::kInt8:
+      return Store<int8_t>(at, value);
+    case AttributeType::kUint8:
+      return Store<uint8_t>(at, value);
+    case AttributeType::kInt16:
+      return Store<int16_t>(at, value);
+    case AttributeType::kUint16:
+      return Store<uint16_t>(at, value);
+    case AttributeType::kInt32:
+      return Store<int32_t>(at, value);
+    case AttributeType::kUint32:
+    case AttributeType::kFloat32Bits:
+      return Store<uint32_t>(at, value);
+    case AttributeType::kFloat32:
+      return Store<float>(at, value);
+    case AttributeType::kFloat64:
+      return Store<double>(at, value);
+  }
+}
+
+void PointAttribute::Append(double value) {
+  const size_t n = size();
+  Resize(n + 1);
+  Set(n, value);
+}
+
+void PointAttribute::ConvertTo(AttributeType to) {
+  PointAttribute converted{.type = to};
+  converted.Resize(size());
+  for (size_t i = 0; i < size(); ++i) converted.Set(i, Value(i));
+  type = to;
+  data = std::move(converted.data);
 }
 
 bool IsIntegerAttribute(AttributeType type) {
@@ -56,7 +136,7 @@ std::vector<PointAttribute> JoinAttributes(
       if (kept == joined.end() || kept->type != a.type) {
         left_out[p].push_back(a.name);
       } else {
-        kept->values.insert(kept->values.end(), a.values.begin(), a.values.end());
+        kept->data.insert(kept->data.end(), a.data.begin(), a.data.end());
       }
     }
   }
@@ -71,8 +151,12 @@ std::vector<PointAttribute> GatherAttributes(const std::vector<PointAttribute>& 
     PointAttribute& gathered = out.emplace_back();
     gathered.name = attribute.name;
     gathered.type = attribute.type;
-    gathered.values.reserve(positions.size());
-    for (uint32_t p : positions) gathered.values.push_back(attribute.values[p]);
+    const size_t bytes = AttributeBytes(attribute.type);
+    gathered.data.resize(positions.size() * bytes);
+    for (size_t k = 0; k < positions.size(); ++k) {
+      std::memcpy(gathered.data.data() + k * bytes, attribute.data.data() + positions[k] * bytes,
+                  bytes);
+    }
   }
   return out;
 }

@@ -13,10 +13,11 @@
 namespace scanprep::io {
 namespace {
 
-template <class T>
-absl::Status CheckSize(const std::vector<T>& values, const char* field, size_t n, bool optional,
+// `values`: a per-point array or an attribute (both have size()).
+template <class Values>
+absl::Status CheckSize(const Values& values, const char* field, size_t n, bool optional,
                        const char* format) {
-  if (values.size() == n || (optional && values.empty())) return absl::OkStatus();
+  if (values.size() == n || (optional && values.size() == 0)) return absl::OkStatus();
   return absl::InvalidArgumentError(absl::StrCat("cannot write ", format, ": cloud.", field,
                                                  " has ", values.size(), " entries for ", n,
                                                  " points"));
@@ -39,7 +40,7 @@ absl::Status CheckWritable(const PointCloud& cloud, const char* format) {
     SCANPREP_RETURN_IF_ERROR(s);
   }
   for (const PointAttribute& attribute : cloud.attributes) {
-    SCANPREP_RETURN_IF_ERROR(CheckSize(attribute.values, attribute.name.c_str(), n, false, format));
+    SCANPREP_RETURN_IF_ERROR(CheckSize(attribute, attribute.name.c_str(), n, false, format));
   }
   return absl::OkStatus();
 }

@@ -494,7 +494,7 @@ absl::StatusOr<ScanPoints> ReadScan(std::string_view logical, uint64_t page_size
     ++out.count;
     if (c.intensity) out.intensity.push_back(static_cast<float>((*c.intensity)[i]));
     for (size_t a = 0; a < c.others.size(); ++a) {
-      out.attributes[a].values.push_back(columns.values[c.others[a]][i]);
+      out.attributes[a].Append(columns.values[c.others[a]][i]);
     }
     if (!line.empty()) out.line.push_back(line[k]);
   }

@@ -198,12 +198,11 @@ void DecodeAttributes(std::string_view file, const LasLayout& las, PointCloud& c
   const auto decode = [&](const char* name, AttributeType type, uint16_t at) {
     PointAttribute& attribute =
         cloud.attributes.emplace_back(PointAttribute{.name = name, .type = type});
-    attribute.values.resize(las.count);
+    attribute.Resize(las.count);
     const char* p = file.data() + las.offset + at;
     for (uint64_t i = 0; i < las.count; ++i, p += las.record) {
-      attribute.values[i] = type == AttributeType::kFloat64
-                                ? Load<double>(p)
-                                : static_cast<double>(Load<uint16_t>(p));
+      attribute.Set(i, type == AttributeType::kFloat64 ? Load<double>(p)
+                                                       : static_cast<double>(Load<uint16_t>(p)));
     }
   };
   if (const uint16_t at = kRgbOffset[las.format]; at != 0) {

@@ -122,12 +122,12 @@ absl::StatusOr<Extent> Measure(const PointCloud& cloud, const CoordinateGrid& gr
     }
     for (const PointAttribute* channel : extras.rgb) {
       if (channel == nullptr) continue;
-      const double value = channel->values[i] * extras.rgb_scale;
+      const double value = channel->Value(i) * extras.rgb_scale;
       if (!(value >= 0 && value <= 65535)) {
         return absl::InvalidArgumentError(absl::StrFormat(
             "cannot write LAS: point %d %s %g is not a colour from 0 to 65535 (PLY and PCD keep "
             "any value)",
-            i, channel->name, channel->values[i]));
+            i, channel->name, channel->Value(i)));
       }
     }
     if (!cloud.scan.empty() && cloud.scan[i] > 65535) {
@@ -182,9 +182,9 @@ void WriteRecord(const PointCloud& cloud, const CoordinateGrid& grid, const Extr
   record[17] = static_cast<char>(flags);  // user data: scanprep's flags as the other writers
   Store<uint16_t>(record + 18, static_cast<uint16_t>(cloud.scan.empty() ? 0 : cloud.scan[i]));
   char* next = record + kBaseBytes;
-  if (extras.gps_time != nullptr) Store<double>(next, extras.gps_time->values[i]), next += 8;
+  if (extras.gps_time != nullptr) Store<double>(next, extras.gps_time->Value(i)), next += 8;
   for (int c = 0; c < 3 && extras.rgb[0] != nullptr; ++c) {
-    Store(next + 2 * c, static_cast<uint16_t>(extras.rgb[c]->values[i] * extras.rgb_scale));
+    Store(next + 2 * c, static_cast<uint16_t>(extras.rgb[c]->Value(i) * extras.rgb_scale));
   }
 }
 

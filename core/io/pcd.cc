@@ -335,7 +335,7 @@ absl::Status ReadPoints(const Header& header, const Layout& layout, Source& sour
       } else {
         SCANPREP_RETURN_IF_ERROR(source.Get(layout.attribute_fields[a], attribute));
       }
-      cloud.attributes[a].values.push_back(attribute);
+      cloud.attributes[a].Append(attribute);
     }
     if (flags) cloud.flags.push_back(static_cast<uint8_t>(raw[kFlags]));
     if (organised) {

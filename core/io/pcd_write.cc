@@ -84,7 +84,7 @@ absl::Status WritePcd(std::ostream& out, const PointCloud& cloud, const WriteOpt
     Append(record, cloud.flags.empty() ? uint8_t{0} : cloud.flags[i]);
     if (scanlines) Append(record, cloud.scanline[i]);
     for (const PointAttribute& a : cloud.attributes) {
-      PutAttributeValue(a.type, a.values[i], [&](auto v) { Append(record, v); });
+      PutAttributeValue(a.type, a.Value(i), [&](auto v) { Append(record, v); });
     }
     out.write(record.data(), static_cast<std::streamsize>(record.size()));
   }

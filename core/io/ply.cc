@@ -307,7 +307,7 @@ class VertexBuilder {
     if (has[static_cast<size_t>(Slot::kScan)]) c.scan.resize(n);
     if (has[static_cast<size_t>(Slot::kScanline)] || builder.grid_ != nullptr) c.scanline.resize(n);
     if (has[static_cast<size_t>(Slot::kFlags)]) builder.flags_.resize(n);
-    for (PointAttribute& attribute : c.attributes) attribute.values.resize(n);
+    for (PointAttribute& attribute : c.attributes) attribute.Resize(n);
     return builder;
   }
 
@@ -317,7 +317,7 @@ class VertexBuilder {
       case Slot::kSkip:
         return nullptr;
       case Slot::kAttribute:
-        cloud_.attributes[attribute_of_[property]].values[i] = value;
+        cloud_.attributes[attribute_of_[property]].Set(i, value);
         return nullptr;
       case Slot::kX:
         return StoreCoordinate(0, i, value);
@@ -444,7 +444,10 @@ class VertexBuilder {
     compact(cloud_.x), compact(cloud_.y), compact(cloud_.z), compact(cloud_.scan);
     compact(cloud_.scanline), compact(cloud_.quality), compact(cloud_.intensity);
     compact(cloud_.nx), compact(cloud_.ny), compact(cloud_.nz), compact(cloud_.flags);
-    for (PointAttribute& attribute : cloud_.attributes) compact(attribute.values);
+    for (PointAttribute& attribute : cloud_.attributes) {
+      for (size_t k = 0; k < kept.size(); ++k) attribute.Set(k, attribute.Value(kept[k]));
+      attribute.Resize(kept.size());
+    }
   }
 
   PointCloud cloud_;

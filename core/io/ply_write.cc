@@ -84,7 +84,7 @@ absl::Status WritePly(std::ostream& out, const PointCloud& cloud, const WriteOpt
       if (!cloud.quality.empty()) pack.Put(cloud.quality[i]);
       if (!cloud.intensity.empty()) pack.Put(cloud.intensity[i]);
       for (const PointAttribute& attribute : cloud.attributes) {
-        PutAttributeValue(attribute.type, attribute.values[i], [&](auto v) { pack.Put(v); });
+        PutAttributeValue(attribute.type, attribute.Value(i), [&](auto v) { pack.Put(v); });
       }
     }
     out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));

@@ -165,24 +165,28 @@ absl::Status ReadPoint(const PointLine& line, const Columns& columns, PointCloud
   }
   for (size_t a = 0; a < columns.others.size(); ++a) {
     SCANPREP_RETURN_IF_ERROR(line.Number(columns.others[a].first, value));
-    cloud.attributes[a].values.push_back(value);
+    cloud.attributes[a].Append(value);
   }
   return absl::OkStatus();
 }
 
 // Text has no types: each attribute gets the narrowest that holds all its values exactly, so a
 // colour column of 0..255 is written back to PLY or PCD as uchar.
-AttributeType TextAttributeType(const std::vector<double>& values) {
+AttributeType TextAttributeType(const PointAttribute& values) {
+  const auto all = [&](auto&& holds) {
+    for (size_t i = 0; i < values.size(); ++i) {
+      if (!holds(values.Value(i))) return false;
+    }
+    return true;
+  };
   const auto within = [&](double lo, double hi) {
-    return std::all_of(values.begin(), values.end(),
-                       [&](double v) { return v >= lo && v <= hi && v == std::floor(v); });
+    return all([&](double v) { return v >= lo && v <= hi && v == std::floor(v); });
   };
   if (within(0, UINT8_MAX)) return AttributeType::kUint8;
   if (within(0, UINT16_MAX)) return AttributeType::kUint16;
   if (within(INT32_MIN, INT32_MAX)) return AttributeType::kInt32;
-  const bool floats = std::all_of(values.begin(), values.end(), [](double v) {
-    return std::isnan(v) || static_cast<double>(static_cast<float>(v)) == v;
-  });
+  const bool floats = all(
+      [](double v) { return std::isnan(v) || static_cast<double>(static_cast<float>(v)) == v; });
   return floats ? AttributeType::kFloat32 : AttributeType::kFloat64;
 }
 
@@ -239,7 +243,7 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
         "point to keep them for the output"));
   }
   for (PointAttribute& attribute : cloud.attributes) {
-    attribute.type = TextAttributeType(attribute.values);
+    attribute.ConvertTo(TextAttributeType(attribute));
   }
   SCANPREP_RETURN_IF_ERROR(wide.Narrow(cloud, name));
   const uint64_t rows = cloud.size() + unmeasured.count();

@@ -39,9 +39,9 @@ absl::Status WriteXyz(std::ostream& out, const PointCloud& cloud, const WriteOpt
     if (scanlines) absl::StrAppend(&line, " ", cloud.scanline[i]);
     for (const PointAttribute& a : cloud.attributes) {
       if (a.type == AttributeType::kFloat32) {
-        absl::StrAppendFormat(&line, " %.9g", a.values[i]);
+        absl::StrAppendFormat(&line, " %.9g", a.Value(i));
       } else {
-        absl::StrAppendFormat(&line, " %.17g", a.values[i]);
+        absl::StrAppendFormat(&line, " %.17g", a.Value(i));
       }
     }
     line += '\n';

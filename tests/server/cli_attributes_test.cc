@@ -81,9 +81,9 @@ void ExpectFieldsOfTheirOwnPoints(const std::string& path, bool las = false) {
   const double scale = las ? 256 : 1;
   ASSERT_GT(out->size(), 100u);  // the flat plate is thinned (simplification), not emptied
   for (size_t k = 0; k < out->size(); ++k) {
-    const int i = static_cast<int>((red->values[k] + 256 * green->values[k]) / scale);
+    const int i = static_cast<int>((red->Value(k) + 256 * green->Value(k)) / scale);
     ASSERT_NE(i, kSpike) << "the removed spike's colour came back";
-    if (!las) EXPECT_EQ(temperature->values[k], 0.25 * i) << k;
+    if (!las) EXPECT_EQ(temperature->Value(k), 0.25 * i) << k;
     // Smoothing moves a point of the flat plate along its normal (z), and not far; LAS holds
     // coordinates on a 1 µm grid.
     EXPECT_NEAR(out->x[k] + out->origin.x(), InputPoint(i).x(), las ? 5e-4 : 0) << k;

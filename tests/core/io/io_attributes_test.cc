@@ -13,11 +13,13 @@
 #include "core/io/pcd.h"
 #include "core/io/ply.h"
 #include "core/io/xyz.h"
+#include "tests/support/attribute_values.h"
 
 namespace scanprep::io {
 namespace {
 
 using ::testing::HasSubstr;
+using testing::Values;
 
 // Three vertices, the second without a position; uchar colour, a signed short and a double, and
 // a list property no array can hold.
@@ -41,13 +43,13 @@ void ExpectKnownAttributes(const PointCloud& cloud) {
   ASSERT_EQ(cloud.attributes.size(), 3u);
   EXPECT_EQ(cloud.attributes[0].name, "red");
   EXPECT_EQ(cloud.attributes[0].type, AttributeType::kUint8);
-  EXPECT_EQ(cloud.attributes[0].values, (std::vector<double>{255, 17}));  // the NaN row left out
+  EXPECT_EQ(Values(cloud.attributes[0]), (std::vector<double>{255, 17}));  // the NaN row left out
   EXPECT_EQ(cloud.attributes[1].name, "offset");
   EXPECT_EQ(cloud.attributes[1].type, AttributeType::kInt16);
-  EXPECT_EQ(cloud.attributes[1].values, (std::vector<double>{-300, 32767}));
+  EXPECT_EQ(Values(cloud.attributes[1]), (std::vector<double>{-300, 32767}));
   EXPECT_EQ(cloud.attributes[2].name, "stamp");
   EXPECT_EQ(cloud.attributes[2].type, AttributeType::kFloat64);
-  EXPECT_EQ(cloud.attributes[2].values, (std::vector<double>{1e15, 0.125}));
+  EXPECT_EQ(Values(cloud.attributes[2]), (std::vector<double>{1e15, 0.125}));
 }
 
 TEST(Attributes, PlyKeepsEveryScalarPropertyInItsType) {
@@ -105,7 +107,7 @@ TEST(Attributes, PcdPackedColourKeepsItsBits) {
     ASSERT_TRUE(cloud.ok()) << cloud.status();
     ASSERT_EQ(cloud->attributes.size(), 1u);
     EXPECT_EQ(cloud->attributes[0].type, AttributeType::kFloat32Bits);
-    EXPECT_EQ(cloud->attributes[0].values[0], kColour);
+    EXPECT_EQ(cloud->attributes[0].Value(0), kColour);
     std::stringstream out;
     ASSERT_TRUE(WritePcd(out, *cloud).ok());
     const std::string written = out.str();
@@ -127,9 +129,9 @@ TEST(Attributes, XyzKeepsNamedColumnsAndNamesTheOthers) {
   ASSERT_TRUE(cloud.ok()) << cloud.status();
   ASSERT_EQ(cloud->attributes.size(), 2u);
   EXPECT_EQ(cloud->attributes[0].type, AttributeType::kUint8);
-  EXPECT_EQ(cloud->attributes[0].values, (std::vector<double>{255, 0}));
+  EXPECT_EQ(Values(cloud->attributes[0]), (std::vector<double>{255, 0}));
   EXPECT_EQ(cloud->attributes[1].type, AttributeType::kFloat32);
-  EXPECT_EQ(cloud->attributes[1].values, (std::vector<double>{0.5, -2}));
+  EXPECT_EQ(Values(cloud->attributes[1]), (std::vector<double>{0.5, -2}));
   std::stringstream written;
   ASSERT_TRUE(WriteXyz(written, *cloud).ok());
   EXPECT_THAT(written.str(), HasSubstr("# columns: x y z flags red temperature\n1 2 3 0 255 0.5"));

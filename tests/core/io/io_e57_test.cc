@@ -280,8 +280,8 @@ TEST(E57, OtherFieldsAreKeptForTheOutput) {
   EXPECT_EQ(cloud->attributes[1].type, AttributeType::kFloat64);
   for (size_t k = 0; k < cloud->size(); ++k) {
     const int i = k < 7 ? static_cast<int>(k) : static_cast<int>(k) + 1;  // record 7 invalid
-    EXPECT_EQ(cloud->attributes[0].values[k], 5 * i) << k;
-    EXPECT_EQ(cloud->attributes[1].values[k], 1e9 + 0.5 * i) << k;
+    EXPECT_EQ(cloud->attributes[0].Value(k), 5 * i) << k;
+    EXPECT_EQ(cloud->attributes[1].Value(k), 1e9 + 0.5 * i) << k;
   }
 }
 

@@ -142,7 +142,7 @@ TEST(Las, EveryPointFormatReadsTheSameCoordinates) {
       EXPECT_EQ(a.name, (std::array<const char*, 3>{"red", "green", "blue"}[channel]));
       EXPECT_EQ(a.type, AttributeType::kUint16);
       for (size_t i = 0; i < cloud->size(); ++i) {
-        EXPECT_EQ(a.values[i], cloud->intensity[i] + channel + 1) << format << " " << i;
+        EXPECT_EQ(a.Value(i), cloud->intensity[i] + channel + 1) << format << " " << i;
       }
     }
     if (!gps) continue;
@@ -150,7 +150,7 @@ TEST(Las, EveryPointFormatReadsTheSameCoordinates) {
     EXPECT_EQ(time.name, "gps_time");
     EXPECT_EQ(time.type, AttributeType::kFloat64);
     for (size_t i = 0; i < cloud->size(); ++i) {
-      EXPECT_EQ(time.values[i], 1e5 + 0.25 * cloud->intensity[i]) << format << " " << i;
+      EXPECT_EQ(time.Value(i), 1e5 + 0.25 * cloud->intensity[i]) << format << " " << i;
     }
   }
 }
@@ -400,7 +400,7 @@ TEST(LasWrite, ColourAndGpsTimeChooseTheFormatAndComeBackAsWritten) {
   base.FinishLoading();
   const auto attribute = [](const char* name, AttributeType type, double first) {
     PointAttribute a{.name = name, .type = type};
-    for (int i = 0; i < 5; ++i) a.values.push_back(first + 10 * i);
+    for (int i = 0; i < 5; ++i) a.Append(first + 10 * i);
     return a;
   };
   const PointAttribute time = attribute("gps_time", AttributeType::kFloat64, 4.0e8 + 0.125);
@@ -439,7 +439,7 @@ TEST(LasWrite, ColourAndGpsTimeChooseTheFormatAndComeBackAsWritten) {
                                   [&](const PointAttribute& w) { return w.name == a.name; });
       ASSERT_NE(written, c.attributes.end()) << a.name;
       const double scale = a.name == "gps_time" ? 1 : c.colour_scale;
-      for (size_t i = 0; i < 5; ++i) EXPECT_EQ(a.values[i], written->values[i] * scale) << a.name;
+      for (size_t i = 0; i < 5; ++i) EXPECT_EQ(a.Value(i), written->Value(i) * scale) << a.name;
     }
     EXPECT_EQ(kept, LasKeeps(c.attributes)) << c.format;
     EXPECT_THAT(
@@ -448,12 +448,12 @@ TEST(LasWrite, ColourAndGpsTimeChooseTheFormatAndComeBackAsWritten) {
   }
   PointCloud too_bright = base;
   too_bright.attributes = rgb16;
-  too_bright.attributes[0].values[3] = 70000;  // a uint16 PLY could not hold it either, but a
-  too_bright.attributes[0].type = AttributeType::kInt32;  // 32-bit field is no LAS colour
+  too_bright.attributes[0].ConvertTo(AttributeType::kInt32);  // a 32-bit field is no LAS colour
+  too_bright.attributes[0].Set(3, 70000);
   EXPECT_EQ(Written(too_bright).ok(), true);
   EXPECT_TRUE(LasKeeps(too_bright.attributes).empty());
-  too_bright.attributes[0].type = AttributeType::kInt16;
-  too_bright.attributes[0].values[3] = -1;
+  too_bright.attributes[0] = attribute("red", AttributeType::kInt16, 0);  // 16 bits, signed
+  too_bright.attributes[0].Set(3, -1);
   EXPECT_THAT(Written(too_bright).status().message(),
               HasSubstr("point 3 red -1 is not a colour from 0 to 65535"));
 }

@@ -171,8 +171,8 @@ void ExpectKnownPoints(const Read& r) {
   EXPECT_EQ(c.attributes[1].name, "curvature");
   EXPECT_EQ(c.attributes[1].type, AttributeType::kFloat64);
   for (size_t i = 0; i < points.size(); ++i) {
-    EXPECT_EQ(c.attributes[0].values[i], points[i].rgb) << i;
-    EXPECT_EQ(c.attributes[1].values[i], points[i].curvature) << i;
+    EXPECT_EQ(c.attributes[0].Value(i), points[i].rgb) << i;
+    EXPECT_EQ(c.attributes[1].Value(i), points[i].curvature) << i;
   }
 }
 
@@ -354,7 +354,7 @@ TEST(PcdSharedData, OrganisedStereoTableScene) {
   EXPECT_TRUE(HasWarning(r, "97920 of 307200 points have no measurement"));
   ASSERT_EQ(r.cloud->attributes.size(), 1u);  // the colour, for the output
   EXPECT_EQ(r.cloud->attributes[0].name, "rgba");
-  EXPECT_EQ(r.cloud->attributes[0].values.size(), 209280u);
+  EXPECT_EQ(r.cloud->attributes[0].size(), 209280u);
   std::vector<uint32_t> rows = r.cloud->scanline;
   EXPECT_TRUE(std::is_sorted(rows.begin(), rows.end()));
   rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
