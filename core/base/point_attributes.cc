@@ -28,66 +28,49 @@ int AttributeBytes(AttributeType type) {
 
 namespace {
 
-template <class T>
-double Load(const uint8_t* at) {
-  T value;
-  std::memcpy(&value, at, sizeof value);
-  return static_cast<double>(value);
-}
-
-template <class T>
-void Store(uint8_t* at, double value) {
-  const T stored = static_cast<T>(value);
-  std::memcpy(at, &stored, sizeof stored);
+// Calls f(T{}) with T the C type a value of `type` is stored as: kFloat32Bits as the integer of
+// its bit pattern. Value and Set share it, so the two cannot disagree on a type's storage.
+template <class F>
+auto WithStorageType(AttributeType type, F&& f) {
+  switch (type) {
+    case AttributeType::kInt8:
+      return f(int8_t{});
+    case AttributeType::kUint8:
+      return f(uint8_t{});
+    case AttributeType::kInt16:
+      return f(int16_t{});
+    case AttributeType::kUint16:
+      return f(uint16_t{});
+    case AttributeType::kInt32:
+      return f(int32_t{});
+    case AttributeType::kUint32:
+    case AttributeType::kFloat32Bits:
+      return f(uint32_t{});
+    case AttributeType::kFloat32:
+      return f(float{});
+    case AttributeType::kFloat64:
+      break;
+  }
+  return f(double{});
 }
 
 }  // namespace
 
 double PointAttribute::Value(size_t i) const {
   const uint8_t* at = data.data() + i * AttributeBytes(type);
-  switch (type) {
-    case AttributeType::kInt8:
-      return Load<int8_t>(at);
-    case AttributeType::kUint8:
-      return Load<uint8_t>(at);
-    case AttributeType::kInt16:
-      return Load<int16_t>(at);
-    case AttributeType::kUint16:
-      return Load<uint16_t>(at);
-    case AttributeType::kInt32:
-      return Load<int32_t>(at);
-    case AttributeType::kUint32:
-    case AttributeType::kFloat32Bits:  // the bit pattern as an integer
-      return Load<uint32_t>(at);
-    case AttributeType::kFloat32:
-      return Load<float>(at);
-    case AttributeType::kFloat64:
-      return Load<double>(at);
-  }
-  return 0;
+  return WithStorageType(type, [&](auto zero) {
+    decltype(zero) value;
+    std::memcpy(&value, at, sizeof value);
+    return static_cast<double>(value);
+  });
 }
 
 void PointAttribute::Set(size_t i, double value) {
   uint8_t* at = data.data() + i * AttributeBytes(type);
-  switch (type) {
-    case AttributeType::kInt8:
-      return Store<int8_t>(at, value);
-    case AttributeType::kUint8:
-      return Store<uint8_t>(at, value);
-    case AttributeType::kInt16:
-      return Store<int16_t>(at, value);
-    case AttributeType::kUint16:
-      return Store<uint16_t>(at, value);
-    case AttributeType::kInt32:
-      return Store<int32_t>(at, value);
-    case AttributeType::kUint32:
-    case AttributeType::kFloat32Bits:
-      return Store<uint32_t>(at, value);
-    case AttributeType::kFloat32:
-      return Store<float>(at, value);
-    case AttributeType::kFloat64:
-      return Store<double>(at, value);
-  }
+  WithStorageType(type, [&](auto zero) {
+    const auto stored = static_cast<decltype(zero)>(value);
+    std::memcpy(at, &stored, sizeof stored);
+  });
 }
 
 void PointAttribute::Append(double value) {
