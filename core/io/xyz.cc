@@ -212,7 +212,8 @@ absl::StatusOr<PointCloud> ParseXyz(std::string_view text, const std::string& na
       if (named) {
         columns = *named;
         for (const auto& [column, attribute] : columns.others) {
-          cloud.attributes.push_back({.name = attribute});
+          // Read as double, then stored in the narrowest type that holds every value.
+          cloud.attributes.push_back({.name = attribute, .type = AttributeType::kFloat64});
         }
       }
     }

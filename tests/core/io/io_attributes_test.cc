@@ -123,18 +123,22 @@ TEST(Attributes, PcdPackedColourKeepsItsBits) {
 TEST(Attributes, XyzKeepsNamedColumnsAndNamesTheOthers) {
   std::vector<std::string> warnings;
   std::stringstream named(
-      "# columns: x y z red temperature\n1 2 3 255 0.5\nnan 0 0 1 1\n"
-      "4 5 6 0 -2\n");
+      "# columns: x y z red temperature time\n1 2 3 255 0.5 0.1\nnan 0 0 1 1 1\n"
+      "4 5 6 0 -2 123456789.125\n");
   auto cloud = ReadXyz(named, "named.xyz", warnings);
   ASSERT_TRUE(cloud.ok()) << cloud.status();
-  ASSERT_EQ(cloud->attributes.size(), 2u);
+  ASSERT_EQ(cloud->attributes.size(), 3u);
+  // A column float cannot hold is kept in double, every digit of it.
+  EXPECT_EQ(cloud->attributes[2].type, AttributeType::kFloat64);
+  EXPECT_EQ(Values(cloud->attributes[2]), (std::vector<double>{0.1, 123456789.125}));
   EXPECT_EQ(cloud->attributes[0].type, AttributeType::kUint8);
   EXPECT_EQ(Values(cloud->attributes[0]), (std::vector<double>{255, 0}));
   EXPECT_EQ(cloud->attributes[1].type, AttributeType::kFloat32);
   EXPECT_EQ(Values(cloud->attributes[1]), (std::vector<double>{0.5, -2}));
   std::stringstream written;
   ASSERT_TRUE(WriteXyz(written, *cloud).ok());
-  EXPECT_THAT(written.str(), HasSubstr("# columns: x y z flags red temperature\n1 2 3 0 255 0.5"));
+  EXPECT_THAT(written.str(),
+              HasSubstr("# columns: x y z flags red temperature time\n1 2 3 0 255 0.5 0.1"));
   std::stringstream unnamed("1 2 3 9 9\n4 5 6 9\n");
   warnings.clear();
   cloud = ReadXyz(unnamed, "unnamed.xyz", warnings);
