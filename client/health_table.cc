@@ -2,6 +2,7 @@
 #include "client/health_table.h"
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "absl/strings/str_cat.h"
@@ -44,6 +45,17 @@ std::string Components(const v1::PairHealth& pair, char prefix, const v1::Vec3& 
   return absl::StrJoin(cells, "/");
 }
 
+// The standard errors of a misalignment vector as "x/y/z", each to `decimals` after scaling by
+// `scale`, unconstrained components included (they say why); "inf" where the overlap holds
+// nothing along one.
+std::string StandardErrors(const v1::Vec3& v, double scale, int decimals) {
+  std::vector<std::string> cells;
+  for (const double value : {v.x(), v.y(), v.z()}) {
+    cells.push_back(std::isinf(value) ? "inf" : absl::StrFormat("%.*f", decimals, scale * value));
+  }
+  return absl::StrJoin(cells, "/");
+}
+
 // Wide enough for the longest scan id (file stems such as "happyStandRight_264"), at least 16.
 int IdWidth(const v1::HealthReport& health) {
   size_t width = 16;
@@ -72,17 +84,18 @@ void PrintScans(std::ostream& out, const v1::HealthReport& health) {
 
 void PrintPairs(std::ostream& out, const v1::HealthReport& health) {
   const int w = IdWidth(health);
-  out << absl::StrFormat("%-*s %-*s %9s %10s %10s  %-26s %-26s %s\n", w, "fixed", w, "moving",
-                         "overlap", "median_um", "spread_um", "translation_um x/y/z",
-                         "rotation_deg x/y/z", "unconstrained");
+  out << absl::StrFormat("%-*s %-*s %9s %10s %10s  %-26s %-22s %-26s %-22s %s\n", w, "fixed", w,
+                         "moving", "overlap", "median_um", "spread_um", "translation_um x/y/z",
+                         "se_um x/y/z", "rotation_deg x/y/z", "se_deg x/y/z", "unconstrained");
   for (const v1::PairHealth& p : health.pairs()) {
     std::string free = absl::StrJoin(p.unconstrained(), ",");
     if (!p.note().empty()) free = absl::StrCat(free.empty() ? "" : free + " ", "(", p.note(), ")");
     out << absl::StrFormat(
-        "%-*s %-*s %9d %10.2f %10.2f  %-26s %-26s %s\n", w, p.fixed_scan_id(), w,
+        "%-*s %-*s %9d %10.2f %10.2f  %-26s %-22s %-26s %-22s %s\n", w, p.fixed_scan_id(), w,
         p.moving_scan_id(), p.overlap_points(), 1000 * p.residual_median_mm(),
         1000 * p.residual_spread_mm(), Components(p, 't', p.translation_mm(), 1000, 2),
-        Components(p, 'r', p.rotation_deg(), 1, 4), free.empty() ? kUnset : free);
+        StandardErrors(p.translation_se_mm(), 1000, 2), Components(p, 'r', p.rotation_deg(), 1, 4),
+        StandardErrors(p.rotation_se_deg(), 1, 4), free.empty() ? kUnset : free);
   }
 }
 

@@ -128,6 +128,8 @@ void HealthToProto(const HealthReport& health, v1::HealthReport* out) {
     *p->mutable_translation_mm() = ToProto(pair.translation_mm);
     *p->mutable_rotation_deg() = ToProto(pair.rotation_deg);
     *p->mutable_centre() = ToProto(pair.centre);
+    *p->mutable_translation_se_mm() = ToProto(pair.translation_se_mm);
+    *p->mutable_rotation_se_deg() = ToProto(pair.rotation_se_deg);
     for (size_t k = 0; k < kMisalignmentAxes.size(); ++k) {
       if (!pair.constrained[k]) p->add_unconstrained(kMisalignmentAxes[k]);
     }

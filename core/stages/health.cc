@@ -48,14 +48,12 @@ std::optional<double> ShareOf(uint64_t count, uint64_t points, bool known) {
   return Fraction(double(count), double(points));
 }
 
-absl::StatusOr<std::vector<ScanHealth>> ScanHealths(const PointCloud& cloud, const PointMeasures& m,
+// `noise`: each scan's σ̂ (MeasuredScanNoise).
+absl::StatusOr<std::vector<ScanHealth>> ScanHealths(const PointCloud& cloud,
+                                                    const std::vector<std::optional<double>>& noise,
                                                     const RemovalStagesRun& ran,
                                                     const CancelToken& cancel) {
   const size_t scans = cloud.scans.size();
-  // The sensor's noise over every point it measured well: the merged-away ones included (a scan
-  // another sees better may lose most of its points to the merge).
-  SCANPREP_ASSIGN_OR_RETURN(const std::vector<std::optional<double>> noise,
-                            MeasuredScanNoise(cloud, m, scans, cancel, kRemovedOutlier));
   std::vector<uint64_t> points(scans), outliers(scans), merged(scans);
   for (size_t i = 0; i < cloud.size(); ++i) {
     const uint32_t s = cloud.scan[i];
@@ -149,8 +147,14 @@ Plane LocalPlane(const PointCloud& cloud, const Neighbourhoods& nb, uint32_t j) 
 // the sums do not depend on the threads).
 absl::StatusOr<std::map<uint32_t, std::vector<Correspondence>>> FindCorrespondences(
     const PointCloud& cloud, const PointMeasures& m, const Neighbourhoods& nb,
-    const std::vector<float>& reach, std::span<const uint32_t> points, const CancelToken& cancel) {
-  const std::vector<float>& fit_rms = m.fit_rms;
+    const std::vector<float>& reach, const std::vector<float>& least_noise,
+    std::span<const uint32_t> points, const CancelToken& cancel) {
+  // A point's noise: its fit's residual, but never below its scan's median fit. A fit far below it
+  // stood on points nearly in a line (a face seen at a grazing angle, a scanline or two across
+  // it): its residual says nothing about the noise and its normal little about the face, and
+  // weighted by the inverse of such a residual a few thousand of them outweighed the whole overlap
+  // and held a translation at 0 with a standard error of 0.1 µm.
+  const auto noise = [&](uint32_t i) { return std::max(m.fit_rms[i], least_noise[cloud.scan[i]]); };
   std::mutex mu;
   std::map<size_t, std::vector<Correspondence>> blocks;
   SCANPREP_RETURN_IF_ERROR(ParallelFor(points.size(), cancel, [&](size_t begin, size_t end) {
@@ -178,7 +182,7 @@ absl::StatusOr<std::map<uint32_t, std::vector<Correspondence>>> FindCorresponden
       }
       for (const auto& [j, tangential] : best) {
         const Plane plane = LocalPlane(cloud, nb, j);
-        found.push_back({i, j, plane.normal, plane.offset, std::hypot(fit_rms[i], fit_rms[j])});
+        found.push_back({i, j, plane.normal, plane.offset, std::hypot(noise(i), noise(j))});
       }
     }
     std::lock_guard lock(mu);
@@ -210,17 +214,21 @@ std::vector<std::vector<uint32_t>> PointsPerScan(const PointCloud& cloud) {
 
 absl::StatusOr<std::vector<PairHealth>> PairHealths(const PointCloud& cloud, const PointMeasures& m,
                                                     const Neighbourhoods& nb,
+                                                    const std::vector<std::optional<double>>& noise,
                                                     const HealthSettings& params,
                                                     const CancelToken& cancel) {
   const MisalignmentSettings settings{.min_points = params.min_overlap_points,
-                                      .flat_ratio = params.flat_ratio};
+                                      .max_standard_error = params.max_standard_error};
   const double spacings = params.max_pair_distance;
   std::vector<PairHealth> out;
   if (cloud.scans.size() < 2) return out;
   // A scan's spacing: the coarser of Δp and, for a line scanner, Δs.
   SCANPREP_ASSIGN_OR_RETURN(const std::vector<double> spacing,
                             ScanPointSpacing(cloud, &nb, cancel));
-  std::vector<float> reach(cloud.scans.size());
+  std::vector<float> reach(cloud.scans.size()), least_noise(cloud.scans.size());
+  for (size_t s = 0; s < least_noise.size(); ++s) {
+    least_noise[s] = static_cast<float>(noise[s].value_or(0));
+  }
   for (size_t s = 0; s < reach.size(); ++s) {
     const double ds = cloud.kind == ScannerKind::kLine ? cloud.scans[s].scanline_spacing : 0.0;
     reach[s] = static_cast<float>(spacings * std::max(spacing[s], ds));
@@ -229,8 +237,8 @@ absl::StatusOr<std::vector<PairHealth>> PairHealths(const PointCloud& cloud, con
   // where k scans overlap), not the job's.
   const std::vector<std::vector<uint32_t>> points = PointsPerScan(cloud);
   for (uint32_t moving = 1; moving < points.size(); ++moving) {
-    SCANPREP_ASSIGN_OR_RETURN(auto by_fixed,
-                              FindCorrespondences(cloud, m, nb, reach, points[moving], cancel));
+    SCANPREP_ASSIGN_OR_RETURN(auto by_fixed, FindCorrespondences(cloud, m, nb, reach, least_noise,
+                                                                 points[moving], cancel));
     for (const auto& [fixed, matches] : by_fixed) {
       SCANPREP_RETURN_IF_ERROR(cancel.Check());
       SCANPREP_ASSIGN_OR_RETURN(
@@ -284,9 +292,14 @@ absl::StatusOr<HealthReport> MeasureHealth(const PointCloud& cloud, const PointM
   if (m.fit_rms.size() != cloud.size()) {
     return absl::InternalError("health: the normals stage left no fit residuals");
   }
+  // The sensor's noise over every point it measured well: the merged-away ones included (a scan
+  // another sees better may lose most of its points to the merge).
+  SCANPREP_ASSIGN_OR_RETURN(
+      const std::vector<std::optional<double>> noise,
+      MeasuredScanNoise(cloud, m, cloud.scans.size(), out.cancel(), kRemovedOutlier));
   HealthReport health;
-  SCANPREP_ASSIGN_OR_RETURN(health.pairs, PairHealths(cloud, m, nb, settings, out.cancel()));
-  SCANPREP_ASSIGN_OR_RETURN(health.scans, ScanHealths(cloud, m, ran, out.cancel()));
+  SCANPREP_ASSIGN_OR_RETURN(health.pairs, PairHealths(cloud, m, nb, noise, settings, out.cancel()));
+  SCANPREP_ASSIGN_OR_RETURN(health.scans, ScanHealths(cloud, noise, ran, out.cancel()));
   out.Record("health.pairs", static_cast<double>(health.pairs.size()));
   if (const size_t left_out = KeepLargestOverlaps(health.pairs); left_out > 0) {
     out.Record("health.pairs_left_out", static_cast<double>(left_out));
@@ -299,9 +312,9 @@ const ParamTable<HealthSettings>& HealthParams() {
   static const ParamTable<S> table = {
       param::Integer(&S::min_overlap_points, "health.min_overlap_points", 1000, Closed(6, 1e4),
                      "fewer overlap points than this: a pair's misalignment is not solved"),
-      param::Real(&S::flat_ratio, "health.flat_ratio", 0.01, Open(0, 1),
-                  "eigenvalues of the overlap's JᵀJ below this fraction of the largest leave "
-                  "their direction unconstrained (flat or narrow overlaps)"),
+      param::Real(&S::max_standard_error, "health.max_standard_error", 0.05, Open(0, 1),
+                  "a misalignment component whose standard error exceeds this share of the "
+                  "pair's residual spread is unconstrained (flat or narrow overlaps)"),
       param::Real(&S::max_pair_distance, "health.max_pair_distance", 2, LeftOpen(0, 100),
                   "farthest a fixed scan's point may lie from a moving one to give it a plane, "
                   "in the fixed scan's spacings (the coarser of Δp and Δs)"),

@@ -21,7 +21,8 @@ StageInfo HealthStageInfo();
 // The parameters (HealthParams() declares them).
 struct HealthSettings {
   size_t min_overlap_points = 0;  // fewer: nothing of the pair is solved
-  double flat_ratio = 0;          // eigenvalue fraction below which a direction is unconstrained
+  double max_standard_error = 0;  // share of the residual spread a constrained component's
+                                  // standard error may reach
   double max_pair_distance = 0;   // farthest partner, in the fixed scan's spacings
 };
 const ParamTable<HealthSettings>& HealthParams();

@@ -58,6 +58,12 @@ struct PairHealth {
   // (too small, or too flat in that direction) is flagged in `constrained` and reported as 0.
   Eigen::Vector3d translation_mm = Eigen::Vector3d::Zero();
   Eigen::Vector3d rotation_deg = Eigen::Vector3d::Zero();
+  // Each component's standard error, from the least-squares covariance (the whitened residuals'
+  // spread squared times (JᵀJ)⁻¹, or the jackknife's over groups of the overlap where that is
+  // larger), in the component's unit; given for unconstrained ones too, infinite where the
+  // overlap holds nothing at all along the component.
+  Eigen::Vector3d translation_se_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d rotation_se_deg = Eigen::Vector3d::Zero();
   std::array<bool, 6> constrained{};  // kMisalignmentAxes order
   // Why a component is unconstrained, e.g. "overlap too small (812 points < 1000)" or
   // "too flat to constrain tx, ty, rz"; empty when all six are constrained.

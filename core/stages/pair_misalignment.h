@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // How one scan lies against another where they overlap: the signed point-to-plane residuals of
 // the moving scan's points against the fixed scan's local planes, and the rigid misalignment
-// they imply, solved only in the directions the overlap's shape constrains (docs/health.md).
+// they imply, with each component's standard error; a component the overlap's shape does not
+// constrain to a share of the noise is flagged (docs/health.md).
 #pragma once
 
 #include <cstddef>
@@ -29,9 +30,9 @@ struct Correspondence {
 
 struct MisalignmentSettings {
   size_t min_points = 1000;  // fewer correspondences: nothing is constrained
-  // An eigen-direction of JᵀJ (rotations scaled by the overlap's extent) whose eigenvalue is
-  // below this fraction of the largest is unconstrained.
-  double flat_ratio = 0.01;
+  // A component whose standard error exceeds this share of the pair's residual spread is
+  // unconstrained (rotations as lengths at the overlap's extent).
+  double max_standard_error = 0.05;
 };
 
 // The robust spread of residuals whose median absolute deviation is `mad`: 1.4826·MAD, which is

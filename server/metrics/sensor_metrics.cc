@@ -41,6 +41,17 @@ class JobMeans {
   std::map<std::string, Sums> by_label_;
 };
 
+// The largest of `errors` over the pair's constrained components (`first` the index of errors.x
+// in kMisalignmentAxes); none when no component is constrained.
+std::optional<double> LargestConstrained(const PairHealth& pair, const Eigen::Vector3d& errors,
+                                         size_t first) {
+  std::optional<double> largest;
+  for (size_t k = 0; k < 3; ++k) {
+    if (pair.constrained[first + k]) largest = std::max(largest.value_or(0), errors[k]);
+  }
+  return largest;
+}
+
 }  // namespace
 
 absl::Status CheckSensorMetricsOptions(const SensorMetricsOptions& options) {
@@ -116,7 +127,16 @@ SensorMetrics::SensorMetrics(metrics::Registry& r, const SensorMetricsOptions& o
       rotation_(r.AddGauge("scanprep_sensor_pair_rotation_degrees",
                            "Angle of the estimated rigid misalignment's rotation between the "
                            "pair's scans, last job (degrees; unconstrained components as 0).",
-                           {"sensor_pair"})) {
+                           {"sensor_pair"})),
+      translation_se_(
+          r.AddGauge("scanprep_sensor_pair_translation_standard_error_mm",
+                     "Largest standard error of the misalignment's constrained translation "
+                     "components, last job (mm; absent when none is constrained).",
+                     {"sensor_pair"})),
+      rotation_se_(r.AddGauge("scanprep_sensor_pair_rotation_standard_error_degrees",
+                              "Largest standard error of the misalignment's constrained rotation "
+                              "components, last job (degrees; absent when none is constrained).",
+                              {"sensor_pair"})) {
   r.AddGauge("scanprep_sensor_tolerance_mm",
              "What a sensor pair's |residual median| and misalignment translation may reach "
              "(--sensor_tolerance_mm).")
@@ -167,7 +187,8 @@ void SensorMetrics::Evict(const std::string& sensor) {
 
 void SensorMetrics::EvictPair(const std::string& pair) {
   pairs_evicted_.Inc();
-  for (auto* family : {&residual_median_, &residual_spread_, &translation_, &rotation_}) {
+  for (auto* family : {&residual_median_, &residual_spread_, &translation_, &rotation_,
+                       &translation_se_, &rotation_se_}) {
     family->Remove({pair});
   }
 }
@@ -190,7 +211,7 @@ void SensorMetrics::Record(const HealthReport& health, double unix_seconds) {
     last_report_.WithLabels({label}).Set(unix_seconds);
   }
 
-  JobMeans<4> pairs;
+  JobMeans<6> pairs;
   for (const PairHealth& pair : health.pairs) {
     if (pair.fixed >= label_of_scan.size() || pair.moving >= label_of_scan.size()) continue;
     const std::string& fixed = label_of_scan[pair.fixed];
@@ -198,9 +219,11 @@ void SensorMetrics::Record(const HealthReport& health, double unix_seconds) {
     if (fixed.empty() || moving.empty()) continue;
     const std::string label = PairLabel(fixed, moving);
     pairs.Add(label, {pair.residual_median_mm, pair.residual_spread_mm, pair.translation_mm.norm(),
-                      pair.rotation_deg.norm()});
+                      pair.rotation_deg.norm(), LargestConstrained(pair, pair.translation_se_mm, 0),
+                      LargestConstrained(pair, pair.rotation_se_deg, 3)});
   }
-  pairs.SetGauges({&residual_median_, &residual_spread_, &translation_, &rotation_});
+  pairs.SetGauges({&residual_median_, &residual_spread_, &translation_, &rotation_,
+                   &translation_se_, &rotation_se_});
 }
 
 }  // namespace scanprep::server

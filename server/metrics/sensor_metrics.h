@@ -81,6 +81,8 @@ class SensorMetrics {
   metrics::Family<metrics::Gauge>& residual_spread_;
   metrics::Family<metrics::Gauge>& translation_;
   metrics::Family<metrics::Gauge>& rotation_;
+  metrics::Family<metrics::Gauge>& translation_se_;
+  metrics::Family<metrics::Gauge>& rotation_se_;
 };
 
 }  // namespace scanprep::server

@@ -2,6 +2,7 @@
 // `scanprep health` and `process --health` print the report's health (issue 32) from a
 // hand-made Report: each value in the unit its header names, unset values and unconstrained
 // components as "-", never as a 0 that would read as "no misalignment".
+#include <limits>
 #include <sstream>
 #include <string>
 
@@ -61,6 +62,12 @@ v1::Report TwoScansOnePair() {
   pair.mutable_translation_mm()->set_y(-0.0155);
   pair.mutable_rotation_deg()->set_x(0.0125);
   pair.mutable_rotation_deg()->set_z(-0.05);
+  pair.mutable_translation_se_mm()->set_x(0.0001);
+  pair.mutable_translation_se_mm()->set_y(0.00035);
+  pair.mutable_translation_se_mm()->set_z(0.0042);
+  pair.mutable_rotation_se_deg()->set_x(0.0004);
+  pair.mutable_rotation_se_deg()->set_y(std::numeric_limits<double>::infinity());
+  pair.mutable_rotation_se_deg()->set_z(0.002);
   pair.add_unconstrained("tz");
   pair.add_unconstrained("ry");
   pair.set_note("too flat to constrain tz, ry");
@@ -82,13 +89,15 @@ TEST(HealthTable, PairRowInMicrometresAndDegreesWithUnconstrainedAsDash) {
   // After the pairs' header: the scans' table has a row starting with "left" too.
   const std::vector<std::string> pair =
       Row(text.substr(text.find("health of overlapping pairs")), "left");
-  ASSERT_GE(pair.size(), 8u) << text;
+  ASSERT_GE(pair.size(), 10u) << text;
   EXPECT_EQ(pair[1], "right");
   EXPECT_EQ(pair[2], "5321");
-  EXPECT_EQ(pair[3], "-4.20");             // median, µm
-  EXPECT_EQ(pair[4], "10.50");             // spread, µm
-  EXPECT_EQ(pair[5], "2.00/-15.50/-");     // translation µm; tz unconstrained
-  EXPECT_EQ(pair[6], "0.0125/-/-0.0500");  // rotation deg; ry unconstrained
+  EXPECT_EQ(pair[3], "-4.20");              // median, µm
+  EXPECT_EQ(pair[4], "10.50");              // spread, µm
+  EXPECT_EQ(pair[5], "2.00/-15.50/-");      // translation µm; tz unconstrained
+  EXPECT_EQ(pair[6], "0.10/0.35/4.20");     // its standard errors, µm, tz's too
+  EXPECT_EQ(pair[7], "0.0125/-/-0.0500");   // rotation deg; ry unconstrained
+  EXPECT_EQ(pair[8], "0.0004/inf/0.0020");  // nothing at all along ry
   EXPECT_THAT(text, HasSubstr("tz,ry (too flat to constrain tz, ry)"));
 }
 

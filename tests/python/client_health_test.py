@@ -32,6 +32,8 @@ class HealthFromReportTest(unittest.TestCase):
                                        residual_spread_mm=0.0105, note="too flat to constrain tz")
         pair.translation_mm.x, pair.translation_mm.y = 0.002, -0.0155
         pair.rotation_deg.x = 0.0125
+        pair.translation_se_mm.x, pair.translation_se_mm.z = 0.0001, 0.0042
+        pair.rotation_se_deg.y = float("inf")
         pair.unconstrained.extend(["tz", "ry"])
 
         health = result_with(report).health
@@ -49,6 +51,8 @@ class HealthFromReportTest(unittest.TestCase):
         self.assertAlmostEqual(p.residual_median_mm, -0.0042)
         self.assertEqual(p.translation_mm, (0.002, -0.0155, None))  # tz unconstrained
         self.assertEqual(p.rotation_deg, (0.0125, None, 0.0))       # ry unconstrained
+        self.assertEqual(p.translation_se_mm, (0.0001, 0.0, 0.0042))  # tz's too
+        self.assertEqual(p.rotation_se_deg, (0.0, float("inf"), 0.0))
         self.assertEqual(p.unconstrained, ("tz", "ry"))
         self.assertEqual(p.note, "too flat to constrain tz")
 
@@ -95,6 +99,9 @@ class HealthFromServerTest(unittest.TestCase):
         # b lies 20 µm above a along a's normal (toward the camera): the residual and tz say so.
         self.assertAlmostEqual(pair.residual_median_mm, step_mm, delta=0.003)
         self.assertAlmostEqual(pair.translation_mm[2], step_mm, delta=0.004)
+        # Known to a fraction of a µm (28,800 points of 5 µm noise), within its two errors.
+        self.assertLess(pair.translation_se_mm[2], 0.0005)
+        self.assertAlmostEqual(pair.translation_mm[2], step_mm, delta=2 * pair.translation_se_mm[2])
         # A plane cannot fix a slide within itself nor a turn about its normal.
         self.assertTrue({"tx", "ty", "rz"} <= set(pair.unconstrained), pair.unconstrained)
         self.assertEqual(pair.translation_mm[:2], (None, None))

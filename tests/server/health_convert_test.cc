@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // The wire side of scanner health (issue 32): ScanHeader.sensor_id is checked where the header's
 // other fields are, and the core HealthReport reaches Report.health field by field.
+#include <cmath>
+#include <limits>
 #include <string>
 
 #include <gmock/gmock.h>
@@ -78,6 +80,8 @@ TEST(HealthToProto, EveryFieldReachesTheReport) {
   pair.centre = {1, 2, 3};
   pair.translation_mm = {0.002, 0, -0.005};
   pair.rotation_deg = {0.01, 0.02, 0};
+  pair.translation_se_mm = {0.0001, 0.004, 0.0002};
+  pair.rotation_se_deg = {0.001, 0.002, std::numeric_limits<double>::infinity()};
   pair.constrained = {true, false, true, true, true, false};
   pair.note = "too flat to constrain ty, rz";
   health.pairs = {pair};
@@ -116,6 +120,10 @@ TEST(HealthToProto, EveryFieldReachesTheReport) {
   EXPECT_DOUBLE_EQ(p.translation_mm().z(), -0.005);
   EXPECT_DOUBLE_EQ(p.rotation_deg().y(), 0.02);
   EXPECT_DOUBLE_EQ(p.centre().z(), 3);
+  EXPECT_DOUBLE_EQ(p.translation_se_mm().x(), 0.0001);
+  EXPECT_DOUBLE_EQ(p.translation_se_mm().y(), 0.004);
+  EXPECT_DOUBLE_EQ(p.rotation_se_deg().y(), 0.002);
+  EXPECT_TRUE(std::isinf(p.rotation_se_deg().z()));
   EXPECT_THAT(p.unconstrained(), ::testing::ElementsAre("ty", "rz"));
   EXPECT_EQ(p.note(), "too flat to constrain ty, rz");
 }

@@ -3,6 +3,7 @@
 // registry, read back from its text exposition as Prometheus would scrape it; and a job of two
 // simulated sensors through the service, its /metrics scraped.
 #include <cstdio>
+#include <limits>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -50,6 +51,10 @@ TEST(SensorMetrics, AJobsHealthIsExportedPerSensorAndPair) {
   pair.residual_spread_mm = 0.012;
   pair.translation_mm = {0.003, 0, 0.004};
   pair.rotation_deg = {0, 0.02, 0};
+  // ty is unconstrained: its error, the largest, is not the translation's.
+  pair.constrained = {true, false, true, true, true, false};
+  pair.translation_se_mm = {0.0002, 0.05, 0.0001};
+  pair.rotation_se_deg = {0.001, 0.003, std::numeric_limits<double>::infinity()};
   PairHealth unnamed = pair;  // scan 3 has no sensor id: not exported
   unnamed.moving = 3;
   health.pairs = {pair, unnamed};
@@ -70,6 +75,8 @@ TEST(SensorMetrics, AJobsHealthIsExportedPerSensorAndPair) {
   EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_pair_residual_spread_mm" + pair_key), 0.012);
   EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_pair_translation_mm" + pair_key), 0.005);
   EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_pair_rotation_degrees" + pair_key), 0.02);
+  EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_pair_translation_standard_error_mm" + pair_key), 0.0002);
+  EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_pair_rotation_standard_error_degrees" + pair_key), 0.003);
   EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_tolerance_mm"), 0.02);
   EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_rotation_tolerance_degrees"), 0.01);
   EXPECT_DOUBLE_EQ(s.at("scanprep_sensor_labels_folded_total"), 0);

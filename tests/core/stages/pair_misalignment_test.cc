@@ -32,8 +32,9 @@ struct Patch {
 };
 
 // Fixed points on z = 0 (scan 0), each matched with a moving point (scan 1) `shift` mm above it
-// plus N(0, σ), or kGlintHeight σ above it for every kGlintEvery-th match.
-Patch FlatPatchShiftedBy(double shift) {
+// plus N(0, σ), or kGlintHeight σ above it for every kGlintEvery-th match; each match states its
+// noise as `stated_sigma`.
+Patch FlatPatchShiftedBy(double shift, double stated_sigma = kSigma) {
   Patch patch;
   PointCloud& c = patch.cloud;
   std::mt19937 random(11);
@@ -51,7 +52,7 @@ Patch FlatPatchShiftedBy(double shift) {
     const double up = i % kGlintEvery == 0 ? kGlintHeight * kSigma : shift + noise(random);
     const uint32_t fixed = add(x, y, 0, 0);
     patch.matches.push_back(
-        {.moving = add(x, y, up, 1), .fixed = fixed, .sigma = static_cast<float>(kSigma)});
+        {.moving = add(x, y, up, 1), .fixed = fixed, .sigma = static_cast<float>(stated_sigma)});
   }
   c.scans.resize(2);
   c.FinishLoading();
@@ -83,6 +84,27 @@ TEST(PairMisalignment, TheRobustCutFollowsTheSurfaceToAnyShiftAndDropsTheGlints)
     EXPECT_NEAR(pair.rotation_deg.y(), 0, kTiltNoiseDeg * 4);
     EXPECT_FALSE(pair.constrained[0] || pair.constrained[1] || pair.constrained[5]);
     EXPECT_EQ(pair.note, "too flat to constrain tx, ty, rz");
+  }
+}
+
+void ExpectStandardErrors(const PairHealth& pair) {
+  const double along_normal = kSigma / std::sqrt(kPoints * 0.9);
+  EXPECT_NEAR(pair.translation_se_mm.z(), along_normal, 0.2 * along_normal);
+  EXPECT_NEAR(pair.rotation_se_deg.x(), kTiltNoiseDeg, 0.2 * kTiltNoiseDeg);
+  EXPECT_NEAR(pair.rotation_se_deg.y(), kTiltNoiseDeg, 0.2 * kTiltNoiseDeg);
+  for (int k : {0, 1}) EXPECT_GT(pair.translation_se_mm[k], 100 * along_normal);
+  EXPECT_GT(pair.rotation_se_deg.z(), 100 * kTiltNoiseDeg);
+}
+
+// Independent residuals of a known σ: each standard error is what least squares gives for that
+// noise, σ/√(surface matches) along the normal and kTiltNoiseDeg for the two tilts (within 20 %:
+// the jackknife's own spread over 32 groups is about 13 %), whatever noise the matches state
+// (the residuals' spread says how far off that is); the in-plane components are flagged with
+// standard errors far beyond the limit (the normal equations hold nothing along them).
+TEST(PairMisalignment, StandardErrorsAreTheNoiseOverTheRootOfTheMatches) {
+  for (double stated : {kSigma, 2 * kSigma}) {
+    SCOPED_TRACE(testing::Message() << "stated σ " << stated << " mm");
+    ExpectStandardErrors(Estimate(FlatPatchShiftedBy(0.01, stated)));
   }
 }
 
