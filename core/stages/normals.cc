@@ -12,10 +12,11 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/parallel.h"
 #include "core/base/status_macros.h"
-#include "core/spatial/local_moments.h"
+#include "core/spatial/ball_fit.h"
 #include "core/stages/mitra_radius.h"
 #include "core/stages/neighbourhoods_stage.h"
 #include "core/stages/normal_orientation.h"
+#include "core/stages/own_scan_noise.h"
 #include "core/stages/stage_context.h"
 #include "core/stages/stage_names.h"
 #include "core/stages/unit_plausibility.h"
@@ -46,21 +47,6 @@ void Gather(const PointCloud& cloud, const Neighbourhoods& nb, size_t i, float r
   if (per_scan) {
     std::erase_if(matches, [&](const auto& m) { return cloud.scan[m.first] != cloud.scan[i]; });
   }
-}
-
-// Eq. (4): weights exp(−‖p_j − p‖²/(2h²)), h = factor·r, moments relative to p.
-LocalFrame Fit(const PointCloud& cloud, size_t i, float r, double h_factor,
-               const RadiusMatches& matches) {
-  const double h = h_factor * r;
-  const double inv_two_h2 = h > 0 ? 1.0 / (2 * h * h) : 0.0;
-  const Eigen::Vector3d p = cloud.point(i).cast<double>();
-  MomentAccumulator moments;
-  for (const auto& [j, d2] : matches) {
-    // A weight needs no more than float precision, and expf is several times cheaper.
-    const float w = std::exp(static_cast<float>(-d2 * inv_two_h2));
-    moments.Add(cloud.point(j).cast<double>() - p, w);
-  }
-  return moments.Solve();
 }
 
 // Every unremoved point's normal, surface variation and fit residual, and the ball radius it
@@ -115,7 +101,7 @@ absl::StatusOr<size_t> FitNormals(PointCloud& cloud, PointMeasures& m, const Nei
             r *= OwnScanWidening(own, nb.k());
             Gather(cloud, nb, i, r, per_scan, scratch.matches);
           }
-          const LocalFrame frame = Fit(cloud, i, r, settings.params.h_factor, scratch.matches);
+          const LocalFrame frame = FitBall(cloud, i, settings.params.h_factor * r, scratch.matches);
           radius[i] = r;
           if (!frame.valid) {
             no_normal[i] = 1;
@@ -206,6 +192,11 @@ absl::Status EstimateNormals(PointCloud& cloud, PointMeasures& m, const Neighbou
   std::vector<float> radius(cloud.size(), 0.f);
   SCANPREP_ASSIGN_OR_RETURN(const size_t invalid,
                             FitNormals(cloud, m, nb, settings, out.cancel(), radius));
+  SCANPREP_ASSIGN_OR_RETURN(m.own_scan_noise,
+                            OwnScanNoise(cloud, nb, params.h_factor, out.cancel()));
+  out.Record("normals.scans_noise_from_own_points",
+             static_cast<double>(std::count_if(m.own_scan_noise.begin(), m.own_scan_noise.end(),
+                                               [](const auto& v) { return v.has_value(); })));
   out.Progress(0.5);  // the normals are fitted; orientation follows
   OrientationCounts counts;
   SCANPREP_RETURN_IF_ERROR(OrientNormals(cloud, nb, settings.orientation_k, out.cancel(), counts));

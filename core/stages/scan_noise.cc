@@ -20,6 +20,10 @@ absl::StatusOr<std::vector<std::optional<double>>> MeasuredScanNoise(const Point
   std::vector<std::optional<double>> noise(scans);
   // `scans` may exceed the cloud's (callers ask for at least one): those have no points.
   for (size_t s = 0; s < std::min(scans, residuals.size()); ++s) {
+    if (s < m.own_scan_noise.size() && m.own_scan_noise[s]) {
+      noise[s] = m.own_scan_noise[s];
+      continue;
+    }
     std::vector<float>& r = residuals[s];
     if (r.size() < kMinNoiseSamples) continue;
     const float median = UpperMedian(r);

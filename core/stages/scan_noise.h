@@ -19,7 +19,9 @@ namespace scanprep {
 inline constexpr size_t kMinNoiseSamples = 32;
 
 // σ̂ per scan (`scans` entries), or nothing where fewer than kMinNoiseSamples fits are valid;
-// over the points not removed for a reason in `skip`. In parallel; CANCELLED when `cancel` fires.
+// over the points not removed for a reason in `skip`; where other scans lie over a scan, the
+// normals stage's own-point measure (PointMeasures::own_scan_noise). In parallel; CANCELLED when
+// `cancel` fires.
 absl::StatusOr<std::vector<std::optional<double>>> MeasuredScanNoise(const PointCloud& cloud,
                                                                      const PointMeasures& m,
                                                                      size_t scans,
