@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -42,6 +43,11 @@ struct ScanHealth {
 inline constexpr std::array<const char*, 6> kMisalignmentAxes = {"tx", "ty", "tz",
                                                                  "rx", "ry", "rz"};
 
+// A standard error of a component nothing was solved for.
+inline Eigen::Vector3d Unknown() {
+  return Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+}
+
 // One pair of scans that overlap. `moving`'s points are compared with `fixed`'s local planes;
 // every signed distance and the misalignment say where `moving` lies relative to `fixed`.
 struct PairHealth {
@@ -61,9 +67,9 @@ struct PairHealth {
   // Each component's standard error, from the least-squares covariance (the whitened residuals'
   // spread squared times (JᵀJ)⁻¹, or the jackknife's over groups of the overlap where that is
   // larger), in the component's unit; given for unconstrained ones too, infinite where the
-  // overlap holds nothing at all along the component.
-  Eigen::Vector3d translation_se_mm = Eigen::Vector3d::Zero();
-  Eigen::Vector3d rotation_se_deg = Eigen::Vector3d::Zero();
+  // overlap holds nothing at all along the component, or the pair is too small to be solved.
+  Eigen::Vector3d translation_se_mm = Unknown();
+  Eigen::Vector3d rotation_se_deg = Unknown();
   std::array<bool, 6> constrained{};  // kMisalignmentAxes order
   // Why a component is unconstrained, e.g. "overlap too small (812 points < 1000)" or
   // "too flat to constrain tx, ty, rz"; empty when all six are constrained.

@@ -227,6 +227,9 @@ TEST(Health, TooSmallAnOverlapConstrainsNothing) {
   ASSERT_LT(pair.overlap_points, 10'000u);
   EXPECT_EQ(pair.constrained, (std::array<bool, 6>{}));
   EXPECT_EQ(pair.translation_mm, Eigen::Vector3d::Zero());
+  // Nothing was solved: no component is stated as known (a 0 would read "exactly").
+  EXPECT_TRUE(pair.translation_se_mm.array().isInf().all());
+  EXPECT_TRUE(pair.rotation_se_deg.array().isInf().all());
   EXPECT_EQ(pair.note,
             "overlap too small (" + std::to_string(pair.overlap_points) + " points < 10000)");
 }
