@@ -76,7 +76,7 @@ struct Solution {
 
 // Least squares in the eigen-directions of JᵀJ whose eigenvalue is not numerically zero; an axis
 // with a share in the others cannot be solved at all and is set to 0. How well each solved axis is
-// known is its variance, from `inverse` (SolvedAxes), not a rule about eigenvalue ratios: a weak
+// known is its variance, from `inverse` (SetMotion), not a rule about eigenvalue ratios: a weak
 // direction that mixes two axes inflates both their variances, however the mix is shared.
 Solution SolveConstrained(const Matrix6d& h, const Vector6d& g) {
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(h);
