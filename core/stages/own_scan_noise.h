@@ -26,10 +26,10 @@ namespace scanprep {
 inline constexpr double kOwnShareForNormalsFits = 0.25;
 
 // Per scan: the median RMS residual of own-point fits (the normals stage's ball, r_p = max(r_min,
-// d_k of the scan's own points), Gaussian h = `h_factor`·r_p, at most its nearest
-// kSamplePointsPerNeighbour·(k + 1)) over a strided sample of the scan's points, for the scans
-// below kOwnShareForNormalsFits; nothing for the others, nor where fewer than kMinNoiseSamples fits
-// were valid. `measured`: how many scans have a value. CANCELLED when `cancel` fires.
+// d_k of the scan's own points), Gaussian h = `h_factor`·r_p, at most
+// kSamplePointsPerNeighbour·(k + 1) of them, evenly over the ball) over a strided sample of the
+// scan's points, for the scans below kOwnShareForNormalsFits; nothing for the others, nor where
+// fewer than kMinNoiseSamples fits were valid. CANCELLED when `cancel` fires.
 absl::StatusOr<std::vector<std::optional<double>>> OwnScanNoise(const PointCloud& cloud,
                                                                 const Neighbourhoods& nb,
                                                                 double h_factor,
