@@ -29,31 +29,30 @@ std::string ViewingAngles(const v1::ScanHealth& scan) {
                          scan.viewing_angle_percentiles_deg(2));
 }
 
-// x, y, z of a misalignment vector as "x/y/z" (`prefix` "t" or "r" names the components), each to
-// `decimals` after scaling by `scale`; a component the overlap cannot constrain is "-".
-std::string Components(const v1::PairHealth& pair, char prefix, const v1::Vec3& v, double scale,
-                       int decimals) {
-  const double values[] = {v.x(), v.y(), v.z()};
-  const char axes[] = {'x', 'y', 'z'};
-  std::vector<std::string> cells;
-  for (int a = 0; a < 3; ++a) {
-    const std::string name = {prefix, axes[a]};
-    const bool free = std::find(pair.unconstrained().begin(), pair.unconstrained().end(), name) !=
-                      pair.unconstrained().end();
-    cells.push_back(free ? kUnset : absl::StrFormat("%.*f", decimals, scale * values[a]));
-  }
-  return absl::StrJoin(cells, "/");
+// x, y, z of `v` as "x/y/z", each cell cell(axis, value).
+template <typename Cell>
+std::string Xyz(const v1::Vec3& v, Cell cell) {
+  return absl::StrJoin({cell('x', v.x()), cell('y', v.y()), cell('z', v.z())}, "/");
 }
 
-// The standard errors of a misalignment vector as "x/y/z", each to `decimals` after scaling by
-// `scale`, unconstrained components included (they say why); "inf" where the overlap holds
-// nothing along one.
+// A misalignment vector (`prefix` "t" or "r" names the components), each to `decimals` after
+// scaling by `scale`; a component the overlap cannot constrain is "-".
+std::string Components(const v1::PairHealth& pair, char prefix, const v1::Vec3& v, double scale,
+                       int decimals) {
+  return Xyz(v, [&](char axis, double value) -> std::string {
+    const std::string name = {prefix, axis};
+    const bool free = std::find(pair.unconstrained().begin(), pair.unconstrained().end(), name) !=
+                      pair.unconstrained().end();
+    return free ? kUnset : absl::StrFormat("%.*f", decimals, scale * value);
+  });
+}
+
+// The standard errors of a misalignment vector, unconstrained components included (they say
+// why); "inf" where the overlap holds nothing along one.
 std::string StandardErrors(const v1::Vec3& v, double scale, int decimals) {
-  std::vector<std::string> cells;
-  for (const double value : {v.x(), v.y(), v.z()}) {
-    cells.push_back(std::isinf(value) ? "inf" : absl::StrFormat("%.*f", decimals, scale * value));
-  }
-  return absl::StrJoin(cells, "/");
+  return Xyz(v, [&](char, double value) -> std::string {
+    return std::isinf(value) ? "inf" : absl::StrFormat("%.*f", decimals, scale * value);
+  });
 }
 
 // Wide enough for the longest scan id (file stems such as "happyStandRight_264"), at least 16.

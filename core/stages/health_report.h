@@ -43,8 +43,8 @@ struct ScanHealth {
 inline constexpr std::array<const char*, 6> kMisalignmentAxes = {"tx", "ty", "tz",
                                                                  "rx", "ry", "rz"};
 
-// A standard error of a component nothing was solved for.
-inline Eigen::Vector3d Unknown() {
+// The standard errors of components nothing was solved for.
+inline Eigen::Vector3d UnsolvedErrors() {
   return Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
 }
 
@@ -68,8 +68,8 @@ struct PairHealth {
   // spread squared times (JᵀJ)⁻¹, or the jackknife's over groups of the overlap where that is
   // larger), in the component's unit; given for unconstrained ones too, infinite where the
   // overlap holds nothing at all along the component, or the pair is too small to be solved.
-  Eigen::Vector3d translation_se_mm = Unknown();
-  Eigen::Vector3d rotation_se_deg = Unknown();
+  Eigen::Vector3d translation_se_mm = UnsolvedErrors();
+  Eigen::Vector3d rotation_se_deg = UnsolvedErrors();
   std::array<bool, 6> constrained{};  // kMisalignmentAxes order
   // Why a component is unconstrained, e.g. "overlap too small (812 points < 1000)" or
   // "too flat to constrain tx, ty, rz"; empty when all six are constrained.

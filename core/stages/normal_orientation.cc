@@ -14,6 +14,7 @@
 #include "core/base/free_memory.h"
 #include "core/base/parallel.h"
 #include "core/base/status_macros.h"
+#include "core/base/stride.h"
 
 namespace scanprep {
 namespace {
@@ -102,14 +103,6 @@ constexpr size_t kPartners = 4;
 // A bridge starts from a point of the smaller component and ends at its nearest of at most this
 // many points of the larger one (a kd-tree, whose build is not cancellable).
 constexpr size_t kBridgeTargets = 65536;
-
-// Up to `cap` of `points`, evenly strided.
-std::vector<uint32_t> Stride(std::span<const uint32_t> points, size_t cap) {
-  if (points.size() <= cap) return {points.begin(), points.end()};
-  std::vector<uint32_t> out(cap);
-  for (size_t t = 0; t < cap; ++t) out[t] = points[t * points.size() / cap];
-  return out;
-}
 
 // Components that the full k-NN graph links (fragments of one surface split by a gap the
 // orientation graph's fewer neighbours do not cross): per point its nearest neighbour in another

@@ -10,6 +10,7 @@
 #include "core/base/parallel.h"
 #include "core/base/per_scan_values.h"
 #include "core/base/status_macros.h"
+#include "core/base/stride.h"
 #include "core/spatial/ball_fit.h"
 #include "core/stages/scan_noise.h"
 
@@ -23,17 +24,15 @@ constexpr size_t kMaxCandidates = 65536;
 // Searches widen the radius this many times at most (×2 each) before a sample is given up.
 constexpr int kWidenings = 4;
 
-// Up to `per_scan[s]` points of each scan, evenly strided over its index order.
-std::vector<std::vector<uint32_t>> StridedSamples(const PointCloud& cloud,
-                                                  const std::vector<size_t>& per_scan) {
+// Up to `cap` points of each scan, evenly strided over its index order.
+std::vector<std::vector<uint32_t>> StridedSamples(const PointCloud& cloud, size_t cap) {
   const std::vector<size_t> count = ScanPointCounts(cloud);
   std::vector<std::vector<uint32_t>> samples(cloud.scans.size());
   std::vector<size_t> seen(cloud.scans.size(), 0);
   for (uint32_t i = 0; i < cloud.size(); ++i) {
     const uint32_t s = cloud.scan[i];
-    if (per_scan[s] == 0) continue;
-    const size_t stride = std::max<size_t>(1, count[s] / per_scan[s]);
-    if (seen[s]++ % stride == 0 && samples[s].size() < per_scan[s]) samples[s].push_back(i);
+    const size_t stride = std::max<size_t>(1, count[s] / cap);
+    if (seen[s]++ % stride == 0 && samples[s].size() < cap) samples[s].push_back(i);
   }
   return samples;
 }
@@ -82,14 +81,9 @@ std::optional<float> OwnFitResidual(const PointCloud& cloud, const Neighbourhood
   if (r > radius && !OwnWithin(cloud, nb, i, r, own)) return std::nullopt;
   const float r2 = r * r;
   std::erase_if(own, [&](const auto& m) { return m.second > r2; });
-  // As the normals stage's sampled ball: at most the cap, evenly over the ball (every step-th by
-  // distance keeps the distances' spread), not the nearest, whose smaller disc fits tighter.
-  const size_t cap = kSamplePointsPerNeighbour * (k + 1);
-  if (own.size() > cap) {
-    const double step = double(own.size()) / double(cap);
-    for (size_t m = 0; m < cap; ++m) own[m] = own[static_cast<size_t>(double(m) * step)];
-    own.resize(cap);
-  }
+  // As the normals stage's sampled ball: at most the cap, evenly over the ball (strided by
+  // distance, which keeps the distances' spread), not the nearest, whose smaller disc fits tighter.
+  own = Stride(own, kSamplePointsPerNeighbour * (k + 1));
   const LocalFrame frame = FitBall(cloud, i, h_factor * r, own);
   if (!frame.valid) return std::nullopt;
   return static_cast<float>(std::sqrt(std::max(0.0, frame.eigenvalues[0])));
@@ -104,25 +98,24 @@ absl::StatusOr<std::vector<std::optional<double>>> OwnScanNoise(const PointCloud
   const size_t scans = cloud.scans.size();
   std::vector<std::optional<double>> noise(scans);
   if (scans < 2) return noise;
-  // Which scans' k-NN lists are mostly other scans', judged on a first small sample.
-  const size_t per_scan_probe = kMinSamplesPerScan;
-  std::vector<std::vector<uint32_t>> probe =
-      StridedSamples(cloud, std::vector<size_t>(scans, per_scan_probe));
-  std::vector<size_t> wanted(scans, 0);
-  size_t overlapped = 0;
+  // One pass over the points for every scan's sample; which scans' k-NN lists are mostly other
+  // scans' is judged on a smaller even part of it.
+  const std::vector<std::vector<uint32_t>> candidates = StridedSamples(cloud, kMaxSamplesPerScan);
+  std::vector<bool> overlapped(scans, false);
   for (size_t s = 0; s < scans; ++s) {
+    const std::vector<uint32_t> probe = Stride(candidates[s], kMinSamplesPerScan);
     double share = 0;
-    for (const uint32_t i : probe[s]) share += OwnShare(cloud, nb, i);
-    if (!probe[s].empty() && share < kOwnShareForNormalsFits * double(probe[s].size())) {
-      wanted[s] = 1;
-      ++overlapped;
-    }
+    for (const uint32_t i : probe) share += OwnShare(cloud, nb, i);
+    overlapped[s] = !probe.empty() && share < kOwnShareForNormalsFits * double(probe.size());
   }
-  if (overlapped == 0) return noise;
+  const size_t measured = std::count(overlapped.begin(), overlapped.end(), true);
+  if (measured == 0) return noise;
   const size_t per_scan =
-      std::clamp(kSampleBudget / overlapped, kMinSamplesPerScan, kMaxSamplesPerScan);
-  for (size_t& w : wanted) w *= per_scan;
-  const std::vector<std::vector<uint32_t>> samples = StridedSamples(cloud, wanted);
+      std::clamp(kSampleBudget / measured, kMinSamplesPerScan, kMaxSamplesPerScan);
+  std::vector<std::vector<uint32_t>> samples(scans);
+  for (size_t s = 0; s < scans; ++s) {
+    if (overlapped[s]) samples[s] = Stride(candidates[s], per_scan);
+  }
   std::vector<uint32_t> flat;
   for (const auto& s : samples) flat.insert(flat.end(), s.begin(), s.end());
   std::vector<float> residual(flat.size(), -1.f);
