@@ -92,6 +92,19 @@ absl::Status CheckSensorId(std::string_view id, std::string_view field) {
   return absl::OkStatus();
 }
 
+void RegistrationToProto(const ScanRegistration& scan, v1::ScanRegistration* out) {
+  out->set_scan_id(scan.scan_id);
+  out->set_reference(scan.reference);
+  *out->mutable_translation_mm() = ToProto(scan.translation_mm);
+  *out->mutable_rotation_deg() = ToProto(scan.rotation_deg);
+  *out->mutable_centre() = ToProto(scan.centre);
+  out->set_constrained_directions(scan.constrained_directions);
+  out->set_residual_before_mm(scan.residual_before_mm.value_or(0));
+  out->set_residual_after_mm(scan.residual_after_mm.value_or(0));
+  out->set_iterations(scan.iterations);
+  out->set_bound_exceeded(scan.bound_exceeded);
+}
+
 void HealthToProto(const HealthReport& health, v1::HealthReport* out) {
   for (const ScanHealth& scan : health.scans) {
     v1::ScanHealth* s = out->add_scans();
@@ -295,6 +308,9 @@ void ReportToProto(const PipelineReport& report, v1::Report* out) {
   out->set_estimated_plan_cost(report.estimated_plan_cost);
   for (const Warning& w : report.warnings) AddWarning(w, out);
   if (report.health) HealthToProto(*report.health, out->mutable_health());
+  for (const ScanRegistration& scan : report.registration) {
+    RegistrationToProto(scan, out->add_registration());
+  }
 }
 
 absl::StatusOr<std::set<WarningCode>> FailOnFromProto(const v1::PipelineOptions& options) {

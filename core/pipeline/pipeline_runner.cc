@@ -144,6 +144,8 @@ absl::Status PipelineRunner::RunStage(size_t index) {
     done_weight_ += info.cost_weight;
     shared_.stages_run.push_back(info.name);
     if (shared_.health) report_.health = *std::exchange(shared_.health, std::nullopt);
+    if (!shared_.registration.empty())
+      report_.registration = std::exchange(shared_.registration, {});
   }
   return status;
 }

@@ -14,6 +14,7 @@
 #include "core/stages/correction.h"
 #include "core/stages/neighbourhoods_stage.h"
 #include "core/stages/normals.h"
+#include "core/stages/registration.h"
 #include "core/stages/smoothing.h"
 #include "core/stages/stage_names.h"
 
@@ -51,8 +52,12 @@ constexpr double kCorrectionFull = 6;
 constexpr double kKExponentBalls = 0.45;
 constexpr double kKExponentFull = 0.8;
 constexpr double kKExponentLists = 0.3;
+// Rounds the registration of the simulated job runs (steps and the last measure).
+constexpr double kTypicalRegistrationRounds = 4;
 
-bool ReadsLists(std::string_view stage) { return stage == sn::kMeasures || stage == sn::kHealth; }
+bool ReadsLists(std::string_view stage) {
+  return stage == sn::kMeasures || stage == sn::kRegistration || stage == sn::kHealth;
+}
 
 // "name=value" for each of `names` the request set.
 std::string Cause(const ParamOverrides& params, std::initializer_list<std::string_view> names) {
@@ -143,6 +148,14 @@ PlanCost EstimatePlanCost(const Plan& plan) {
       if (t.stage == stage->name && (fill == nullptr || t.multiplier > fill->multiplier)) fill = &t;
     }
     if (fill != nullptr) cost.terms.push_back(*fill);
+    // Registration's cost_weight is its time at the default plan, which converges in a few
+    // steps; more allowed steps cost at most that many rounds more.
+    if (stage->name == sn::kRegistration) {
+      const auto& table = RegistrationParams();
+      Add(cost.terms, sn::kRegistration,
+          Cause(params, {table.Name(&RegistrationSettings::max_iterations)}),
+          table.Read(params).max_iterations / kTypicalRegistrationRounds);
+    }
     // Each smoothing pass costs the first one's time again.
     if (stage->name == sn::kSmoothing) {
       Add(cost.terms, sn::kSmoothing,

@@ -2,6 +2,8 @@
 #pragma once
 
 #include <cstddef>
+#include <optional>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "core/base/point_cloud.h"
@@ -33,8 +35,19 @@ struct RemovalStagesRun {
   bool correction = false;
 };
 
-// The stage: every scan's figures and every overlapping pair's, from `m`'s normal fits.
-absl::StatusOr<HealthReport> MeasureHealth(const PointCloud& cloud, const PointMeasures& m,
-                                           const Neighbourhoods& nb, const HealthSettings& settings,
-                                           const RemovalStagesRun& ran, StageReporter& out);
+// Every overlapping pair's residuals and misalignment (fixed < moving), at the points' present
+// positions, from `m`'s normal fits.
+absl::StatusOr<std::vector<PairHealth>> MeasurePairs(const PointCloud& cloud,
+                                                     const PointMeasures& m,
+                                                     const Neighbourhoods& nb,
+                                                     const HealthSettings& settings,
+                                                     const CancelToken& cancel);
+
+// The stage: every scan's figures and every overlapping pair's, from `m`'s normal fits. The pairs
+// are `measured_pairs` where the registration stage measured them before it moved the scans (so
+// the report shows the sensors' misalignment, not what is left of it), else measured here.
+absl::StatusOr<HealthReport> MeasureHealth(
+    const PointCloud& cloud, const PointMeasures& m, const Neighbourhoods& nb,
+    const HealthSettings& settings, const RemovalStagesRun& ran, StageReporter& out,
+    std::optional<std::vector<PairHealth>> measured_pairs = std::nullopt);
 }  // namespace scanprep

@@ -32,6 +32,9 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 // An eigenvalue of JᵀJ below this share of the largest is rounding, not information.
 constexpr double kNumericallyZero = 1e-12;
+// A constrained component whose least-squares correlation with an unconstrained one exceeds this
+// is unconstrained too (SetMotion).
+constexpr double kMaxCorrelation = 0.5;
 // Points more than this many robust spreads off the median residual are left out of a pass.
 constexpr double kRejectSpreads = 3.0;
 
@@ -67,22 +70,13 @@ struct Row {
   double d = 0;
 };
 
-struct Solution {
-  Vector6d x = Vector6d::Zero();  // (t, ω·L)
-  // (JᵀJ)⁺ over the eigen-directions solved: x's covariance per unit whitened residual variance.
-  Matrix6d inverse = Matrix6d::Zero();
-  std::array<bool, 6> solvable{};  // no share in a direction left out
-};
+}  // namespace
 
-// Least squares in the eigen-directions of JᵀJ whose eigenvalue is not numerically zero; an axis
-// with a share in the others cannot be solved at all and is set to 0. How well each solved axis is
-// known is its variance, from `inverse` (SetMotion), not a rule about eigenvalue ratios: a weak
-// direction that mixes two axes inflates both their variances, however the mix is shared.
-Solution SolveConstrained(const Matrix6d& h, const Vector6d& g) {
+LeastSquares SolveLeastSquares(const Matrix6d& h, const Vector6d& g) {
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(h);
   const Vector6d& lambda = eigen.eigenvalues();  // ascending
   const double largest = lambda[5];
-  Solution s;
+  LeastSquares s;
   Vector6d left_out_share = Vector6d::Zero();
   for (int e = 0; e < 6; ++e) {
     const auto v = eigen.eigenvectors().col(e);
@@ -99,6 +93,8 @@ Solution SolveConstrained(const Matrix6d& h, const Vector6d& g) {
   }
   return s;
 }
+
+namespace {
 
 // Signed distance of m's moving point from its fixed plane (mm).
 double Residual(const PointCloud& cloud, const Correspondence& m) {
@@ -191,8 +187,8 @@ absl::StatusOr<GroupedEquations> Pass(std::span<const Correspondence> matches, M
   return sum;
 }
 
-Solution Solve(const NormalEquations& e) {
-  return SolveConstrained(e.h.selfadjointView<Eigen::Lower>(), e.g);
+LeastSquares Solve(const NormalEquations& e) {
+  return SolveLeastSquares(e.h.selfadjointView<Eigen::Lower>(), e.g);
 }
 
 // The jackknife's variance of each component: (G − 1)/G · Σ (x₋g − x̄)² over the G groups that
@@ -243,7 +239,7 @@ absl::StatusOr<std::vector<uint8_t>> Groups(std::span<const Correspondence> matc
 // The least-squares motion of two passes, the normal equations of the second, and the spread of
 // the whitened residuals it leaves.
 struct Fitted {
-  Solution solution;
+  LeastSquares solution;
   GroupedEquations equations;
   double unit_spread = 0;
 };
@@ -278,7 +274,7 @@ absl::StatusOr<Fitted> FitTwice(std::span<const Correspondence> matches, MakeRow
 // whose standard error exceeds `limit` (mm, rotations as lengths at the overlap's extent) is
 // flagged and reported as 0.
 void SetMotion(const Fitted& fitted, double to_degrees, double limit, PairHealth& pair) {
-  const Solution& s = fitted.solution;
+  const LeastSquares& s = fitted.solution;
   // x's variance: the larger of the least-squares covariance's (the whitened residuals' spread
   // squared times (JᵀJ)⁺; each row was divided by its expected noise, so the spread is 1 when the
   // fits state the noise rightly) and the jackknife's over groups of the overlap.
@@ -294,6 +290,26 @@ void SetMotion(const Fitted& fitted, double to_degrees, double limit, PairHealth
   pair.rotation_se_deg = standard_error.tail<3>() * to_degrees;
   for (int k = 0; k < 6; ++k) {
     pair.constrained[k] = s.solvable[k] && standard_error[k] <= limit;
+  }
+  // A component correlated with one left out carries that one's error: the +x/−x pair's ty,
+  // known to 1 µm but 83 % correlated with the tx its overlap cannot see, read 3-5 of its errors
+  // off a pose that was right. Left out too, until none is.
+  for (bool dropped = true; dropped;) {
+    dropped = false;
+    for (int k = 0; k < 6; ++k) {
+      if (!pair.constrained[k]) continue;
+      for (int u = 0; u < 6; ++u) {
+        if (pair.constrained[u] || !s.solvable[u]) continue;
+        const double product = s.inverse(k, k) * s.inverse(u, u);
+        if (product > 0 && std::abs(s.inverse(k, u)) > kMaxCorrelation * std::sqrt(product)) {
+          pair.constrained[k] = false;
+          dropped = true;
+          break;
+        }
+      }
+    }
+  }
+  for (int k = 0; k < 6; ++k) {
     if (!pair.constrained[k]) (k < 3 ? pair.translation_mm[k] : pair.rotation_deg[k - 3]) = 0;
   }
 }
@@ -312,7 +328,7 @@ absl::StatusOr<PairHealth> EstimatePairHealth(const PointCloud& cloud, uint32_t 
                                               uint32_t moving_scan,
                                               std::span<const Correspondence> matches,
                                               const MisalignmentSettings& settings,
-                                              const CancelToken& cancel) {
+                                              const CancelToken& cancel, PairEquations* equations) {
   PairHealth pair{.fixed = fixed_scan, .moving = moving_scan, .overlap_points = matches.size()};
   if (matches.empty()) return pair;
   const double n = static_cast<double>(matches.size());
@@ -361,6 +377,13 @@ absl::StatusOr<PairHealth> EstimatePairHealth(const PointCloud& cloud, uint32_t 
   SCANPREP_ASSIGN_OR_RETURN(const Fitted fitted, FitTwice(matches, row, group, cancel));
   SetMotion(fitted, inv_extent * (180 / std::numbers::pi), settings.max_standard_error * raw.spread,
             pair);
+  if (equations != nullptr) {
+    const NormalEquations total = fitted.equations.Total();
+    equations->h = total.h.selfadjointView<Eigen::Lower>();
+    equations->g = total.g;
+    equations->extent = extent;
+    equations->unit_spread = fitted.unit_spread;
+  }
   if (const std::string loose = Unconstrained(pair.constrained); !loose.empty()) {
     pair.note = "too flat to constrain " + loose;
   }

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/stages/health_report.h"
+#include "core/stages/registration_report.h"
 #include "core/stages/warning.h"
 
 namespace scanprep {
@@ -37,6 +38,9 @@ struct PipelineReport {
   std::vector<Warning> warnings;
   // Scanner health, when the plan ran the "health" stage.
   std::optional<HealthReport> health;
+  // When the plan ran the "registration" stage: one per scan that overlaps another enough to be
+  // measured, in scan order.
+  std::vector<ScanRegistration> registration;
   // The plan's estimated work over the default plan's (core/pipeline/plan_cost.h).
   double estimated_plan_cost = 1;
 };

@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -40,6 +41,11 @@ struct SharedState {
   std::vector<std::string_view> stages_run;
   // Set by the "health" stage; the runner moves it into PipelineReport::health.
   std::optional<HealthReport> health;
+  // The pairs' misalignment as the "registration" stage found it before it moved the scans; the
+  // "health" stage reports these, so a sensor's drift stays visible after registration.
+  std::optional<std::vector<PairHealth>> pairs_before_registration;
+  // Set by the "registration" stage; the runner moves it into PipelineReport::registration.
+  std::vector<ScanRegistration> registration;
 };
 
 class StageContext {
@@ -92,6 +98,13 @@ class StageContext {
   bool Ran(std::string_view name) const;
   // The job's health report (the "health" stage's result).
   void SetHealth(HealthReport health) { shared_.health = std::move(health); }
+  void SetRegistration(std::vector<PairHealth> pairs_before, std::vector<ScanRegistration> scans) {
+    shared_.pairs_before_registration = std::move(pairs_before);
+    shared_.registration = std::move(scans);
+  }
+  std::optional<std::vector<PairHealth>> TakePairsBeforeRegistration() {
+    return std::exchange(shared_.pairs_before_registration, std::nullopt);
+  }
   size_t duplicates_collapsed() const {
     return shared_.duplicates ? shared_.duplicates->collapsed() : 0;
   }

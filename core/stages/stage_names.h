@@ -15,6 +15,7 @@ inline constexpr std::string_view kOutliers = "outliers";
 inline constexpr std::string_view kSurfaceSpikes = "surface_spikes";  // internal: after LoOP
 inline constexpr std::string_view kNormals = "normals";
 inline constexpr std::string_view kMeasures = "measures";
+inline constexpr std::string_view kRegistration = "registration";
 inline constexpr std::string_view kCorrection = "correction";
 inline constexpr std::string_view kHealth = "health";
 inline constexpr std::string_view kSmoothing = "smoothing";

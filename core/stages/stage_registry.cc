@@ -8,6 +8,7 @@
 #include "core/stages/neighbourhoods_stage.h"
 #include "core/stages/normals.h"
 #include "core/stages/outliers.h"
+#include "core/stages/registration.h"
 #include "core/stages/simplification.h"
 #include "core/stages/smoothing.h"
 #include "core/stages/stage.h"
@@ -16,9 +17,9 @@ namespace scanprep {
 
 const std::vector<StageInfo>& StageRegistry() {
   static const std::vector<StageInfo> registry = {
-      NeighbourhoodsStageInfo(), OutliersStageInfo(),       NormalsStageInfo(),
-      MeasuresStageInfo(),       CorrectionStageInfo(),     HealthStageInfo(),
-      SmoothingStageInfo(),      SimplificationStageInfo(),
+      NeighbourhoodsStageInfo(), OutliersStageInfo(),     NormalsStageInfo(),
+      MeasuresStageInfo(),       RegistrationStageInfo(), CorrectionStageInfo(),
+      HealthStageInfo(),         SmoothingStageInfo(),    SimplificationStageInfo(),
   };
   return registry;
 }

@@ -42,7 +42,8 @@ namespace scanprep {
   X(kScanRepeated, "SCAN_REPEATED")                                         \
   X(kPointsInvalid, "POINTS_INVALID")                                       \
   X(kUnitUnchecked, "UNIT_UNCHECKED")                                       \
-  X(kScanlinesImplausible, "SCANLINES_IMPLAUSIBLE")
+  X(kScanlinesImplausible, "SCANLINES_IMPLAUSIBLE")                         \
+  X(kRegistrationBoundExceeded, "REGISTRATION_BOUND_EXCEEDED")
 
 enum class WarningCode {
 #define SCANPREP_WARNING_ENUMERATOR(code, name) code,

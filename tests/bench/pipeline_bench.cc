@@ -81,6 +81,9 @@ BENCHMARK_CAPTURE(RunPipelineCase, normals, std::string("normals"))->Apply(Sizes
 BENCHMARK_CAPTURE(RunPipelineCase, measures, std::string("measures"))
     ->Apply(Sizes)
     ->UseManualTime();
+BENCHMARK_CAPTURE(RunPipelineCase, registration, std::string("registration"))
+    ->Apply(Sizes)
+    ->UseManualTime();
 BENCHMARK_CAPTURE(RunPipelineCase, correction, std::string("correction"))
     ->Apply(Sizes)
     ->UseManualTime();

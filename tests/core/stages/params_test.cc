@@ -24,9 +24,9 @@ namespace {
 
 using sim::Part;
 
-const std::vector<std::string> kAllStages = {"neighbourhoods", "outliers",      "normals",
-                                             "measures",       "correction",    "health",
-                                             "smoothing",      "simplification"};
+const std::vector<std::string> kAllStages = {"neighbourhoods", "outliers",     "normals",
+                                             "measures",       "registration", "correction",
+                                             "health",         "smoothing",    "simplification"};
 
 // Two overlapping scans of the box (so correction has work), about 3,000 points with spikes.
 const PointCloud& SmallCloud() {
