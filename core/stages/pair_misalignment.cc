@@ -23,6 +23,7 @@
 #include "absl/strings/str_join.h"
 #include "core/base/parallel.h"
 #include "core/base/status_macros.h"
+#include "core/spatial/centroid.h"
 
 namespace scanprep {
 namespace {
@@ -331,31 +332,13 @@ absl::StatusOr<PairHealth> EstimatePairHealth(const PointCloud& cloud, uint32_t 
                                               const CancelToken& cancel, PairEquations* equations) {
   PairHealth pair{.fixed = fixed_scan, .moving = moving_scan, .overlap_points = matches.size()};
   if (matches.empty()) return pair;
-  const double n = static_cast<double>(matches.size());
   // A concrete vector: an Eigen expression returned would refer to the point gone with the call.
   const auto moving = [&](size_t i) -> Eigen::Vector3d {
     return cloud.point(matches[i].moving).cast<double>();
   };
-  Eigen::Vector3d centre;
-  SCANPREP_RETURN_IF_ERROR(ParallelSum(
-      matches.size(), cancel, Eigen::Vector3d::Zero().eval(),
-      [&](size_t begin, size_t end) -> Eigen::Vector3d {
-        Eigen::Vector3d part = Eigen::Vector3d::Zero();
-        for (size_t i = begin; i < end; ++i) part += moving(i);
-        return part;
-      },
-      centre));
-  centre /= n;
-  double squared_extent = 0;
-  SCANPREP_RETURN_IF_ERROR(ParallelSum(
-      matches.size(), cancel, 0.0,
-      [&](size_t begin, size_t end) {
-        double part = 0;
-        for (size_t i = begin; i < end; ++i) part += (moving(i) - centre).squaredNorm();
-        return part;
-      },
-      squared_extent));
-  const double extent = std::sqrt(squared_extent / n);
+  SCANPREP_ASSIGN_OR_RETURN(const Centroid overlap, CentroidOf(matches.size(), moving, cancel));
+  const Eigen::Vector3d centre = overlap.centre;
+  const double extent = overlap.rms_extent;
   const double inv_extent = extent > 0 ? 1 / extent : 0;
 
   std::vector<double> residuals;

@@ -27,6 +27,7 @@
 #include "core/base/per_scan_values.h"
 #include "core/base/status_macros.h"
 #include "core/base/stride.h"
+#include "core/spatial/centroid.h"
 #include "core/stages/health.h"
 #include "core/stages/pair_matches.h"
 #include "core/stages/pair_misalignment.h"
@@ -93,27 +94,10 @@ absl::StatusOr<Frame> FrameOf(const PointCloud& cloud,
   for (const auto& points : sampled) all.insert(all.end(), points.begin(), points.end());
   Frame frame;
   if (all.empty()) return frame;
-  const auto at = [&](size_t i) { return cloud.point(all[i]).cast<double>().eval(); };
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  SCANPREP_RETURN_IF_ERROR(ParallelSum(
-      all.size(), cancel, Eigen::Vector3d::Zero().eval(),
-      [&](size_t begin, size_t end) -> Eigen::Vector3d {
-        Eigen::Vector3d part = Eigen::Vector3d::Zero();
-        for (size_t i = begin; i < end; ++i) part += at(i);
-        return part;
-      },
-      sum));
-  frame.centre = sum / double(all.size());
-  double squared = 0;
-  SCANPREP_RETURN_IF_ERROR(ParallelSum(
-      all.size(), cancel, 0.0,
-      [&](size_t begin, size_t end) {
-        double part = 0;
-        for (size_t i = begin; i < end; ++i) part += (at(i) - frame.centre).squaredNorm();
-        return part;
-      },
-      squared));
-  frame.extent = std::max(std::sqrt(squared / double(all.size())), 1e-6);
+  const auto at = [&](size_t i) -> Eigen::Vector3d { return cloud.point(all[i]).cast<double>(); };
+  SCANPREP_ASSIGN_OR_RETURN(const Centroid c, CentroidOf(all.size(), at, cancel));
+  frame.centre = c.centre;
+  frame.extent = std::max(c.rms_extent, 1e-6);
   return frame;
 }
 
