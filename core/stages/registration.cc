@@ -1,13 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 // Registration: the health stage's point-to-plane normal equations, iterated. Every round finds
-// each scan's partners again from the shared k-NN lists at the points' present positions, fits
-// every overlapping pair robustly (pair_misalignment.h) about one centre for the whole job, and
-// solves all scans' motions together, each group of overlapping scans' largest held fixed. A
-// scan moves only along the eigen-directions of its own normal equations whose standard error is
-// within health.max_standard_error of its residual spread: correlated components (a ty that only
-// a tilt about z explains) move together or not at all, and a direction the overlap cannot see
-// stays as the scanner put it. A scan whose correction grows beyond registration.max_correction
-// spacings is put back where it was (a pose that wrong is not a fine registration's to fix).
+// each scan's partners again from the shared k-NN lists at the points' present positions, measures
+// every overlapping pair as health does (pair_misalignment.h), and solves all scans' motions
+// together in one frame for the job, each group of overlapping scans' largest held fixed. A pair
+// says only what it constrains: its normal equations' Schur complement over the components whose
+// standard error is within registration.max_standard_error of its residual spread, the others left
+// free. So correlated components move together, and a direction no overlap sees stays as the
+// scanner put it. A scan whose correction grows beyond registration.max_correction spacings is put
+// back where it was (a pose that wrong is not a fine registration's to fix).
 #include "core/stages/registration.h"
 
 #include <algorithm>
