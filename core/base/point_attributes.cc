@@ -3,7 +3,10 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstring>
+#include <limits>
+#include <type_traits>
 
 namespace scanprep {
 
@@ -90,6 +93,20 @@ void PointAttribute::ConvertTo(AttributeType to) {
 bool IsIntegerAttribute(AttributeType type) {
   return type != AttributeType::kFloat32 && type != AttributeType::kFloat64 &&
          type != AttributeType::kFloat32Bits;
+}
+
+bool HoldsValue(AttributeType type, double value) {
+  if (type == AttributeType::kFloat64) return true;
+  return WithStorageType(type, [&](auto zero) {
+    using T = decltype(zero);
+    using Limits = std::numeric_limits<T>;
+    if constexpr (std::is_floating_point_v<T>) {
+      return !std::isfinite(value) || std::abs(value) <= static_cast<double>(Limits::max());
+    } else {
+      return value == std::trunc(value) && value >= static_cast<double>(Limits::min()) &&
+             value <= static_cast<double>(Limits::max());
+    }
+  });
 }
 
 bool IsSignedAttribute(AttributeType type) {

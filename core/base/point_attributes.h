@@ -40,6 +40,8 @@ struct PointAttribute {
 
   size_t size() const { return data.size() / AttributeBytes(type); }
   double Value(size_t i) const;
+  // `value` must be one of the type's values (HoldsValue): a reader checks what a file's text
+  // says before it stores it, as converting a double outside a type's range is undefined.
   void Set(size_t i, double value);
   void Append(double value);
   void Resize(size_t n) { data.resize(n * AttributeBytes(type)); }
@@ -47,6 +49,9 @@ struct PointAttribute {
   void ConvertTo(AttributeType to);
 };
 bool IsIntegerAttribute(AttributeType type);
+// Whether `value` is one of `type`'s values: an integer type's integers in its range; a float
+// within float's range (or not finite; rounded to the nearest float); kFloat32Bits a uint32.
+bool HoldsValue(AttributeType type, double value);
 bool IsSignedAttribute(AttributeType type);
 
 // The attributes of clouds joined end to end (a job's files, an E57 file's scans): those every

@@ -256,6 +256,13 @@ absl::StatusOr<std::vector<double>> Decode(Field& f, uint64_t count, const std::
     }
     const uint64_t raw = static_cast<uint64_t>((window >> (bit % 8)) & mask);
     const int64_t value = static_cast<int64_t>(static_cast<uint64_t>(f.minimum) + raw);
+    // The bit width rounds the range up to a power of two (and a 64-bit one wraps); a record
+    // outside the prototype's range is a broken file, which its attribute type could not hold.
+    if (value < f.minimum || value > f.maximum) {
+      return absl::InvalidArgumentError(absl::StrCat(what, " field ", f.name, " record ", i, ": ",
+                                                     value, " is outside its range [", f.minimum,
+                                                     ", ", f.maximum, "]"));
+    }
     values[i] = f.kind == Field::kInteger ? static_cast<double>(value)
                                           : static_cast<double>(value) * f.scale + f.offset;
   }

@@ -87,6 +87,27 @@ double DecodeBinary(const Field& field, const char* p) {
 
 // Binary records, point after point; or, for binary_compressed, every field's values for all
 // points before the next field's (`soa`).
+// The attribute type of a PCD TYPE and SIZE: none for 8-byte integers, which a double does not
+// hold exactly.
+std::optional<AttributeType> StorageTypeOf(char type, uint32_t size) {
+  switch (type) {
+    case 'F':
+      return size == 4   ? std::optional(AttributeType::kFloat32)
+             : size == 8 ? std::optional(AttributeType::kFloat64)
+                         : std::nullopt;
+    case 'I':
+      return size == 1   ? std::optional(AttributeType::kInt8)
+             : size == 2 ? std::optional(AttributeType::kInt16)
+             : size == 4 ? std::optional(AttributeType::kInt32)
+                         : std::nullopt;
+    default:
+      return size == 1   ? std::optional(AttributeType::kUint8)
+             : size == 2 ? std::optional(AttributeType::kUint16)
+             : size == 4 ? std::optional(AttributeType::kUint32)
+                         : std::nullopt;
+  }
+}
+
 class BinarySource {
  public:
   BinarySource(std::string_view bytes, const Header& header, bool soa)
@@ -161,9 +182,16 @@ class AsciiSource {
   absl::Status Get(size_t f, double& out) const {
     const Field& field = header_.fields[f];
     const std::string_view token = values_[field.value_index];
-    if (ParseDouble(token, out)) return absl::OkStatus();
-    return Error(
-        absl::StrCat("field '", field.name, "' value '", std::string(token), "' is not a number"));
+    if (!ParseDouble(token, out)) {
+      return Error(absl::StrCat("field '", field.name, "' value '", std::string(token),
+                                "' is not a number"));
+    }
+    // 8-byte integers have no attribute type; no slot or attribute takes them.
+    const std::optional<AttributeType> type = StorageTypeOf(field.type, field.size);
+    if (!type || HoldsValue(*type, out)) return absl::OkStatus();
+    return Error(absl::StrCat("field '", field.name, "' value '", std::string(token),
+                              "' is not a value of its TYPE ", std::string(1, field.type), " SIZE ",
+                              field.size));
   }
 
   // A packed colour: PCL writes a float "rgb" in ASCII as the integer of its bits; a float's
@@ -203,28 +231,13 @@ class AsciiSource {
   std::vector<std::string_view> values_;
 };
 
-// The attribute type of a field of one value that a double holds exactly (not 8-byte integers).
+// The attribute type of a field of one value that a double holds exactly.
 std::optional<AttributeType> AttributeTypeOf(const Field& field) {
   if (field.count != 1) return std::nullopt;
-  switch (field.type) {
-    case 'F':
-      if (field.size == 4 && (field.name == "rgb" || field.name == "rgba")) {
-        return AttributeType::kFloat32Bits;  // PCL's packed colour
-      }
-      return field.size == 4   ? std::optional(AttributeType::kFloat32)
-             : field.size == 8 ? std::optional(AttributeType::kFloat64)
-                               : std::nullopt;
-    case 'I':
-      return field.size == 1   ? std::optional(AttributeType::kInt8)
-             : field.size == 2 ? std::optional(AttributeType::kInt16)
-             : field.size == 4 ? std::optional(AttributeType::kInt32)
-                               : std::nullopt;
-    default:
-      return field.size == 1   ? std::optional(AttributeType::kUint8)
-             : field.size == 2 ? std::optional(AttributeType::kUint16)
-             : field.size == 4 ? std::optional(AttributeType::kUint32)
-                               : std::nullopt;
+  if (field.type == 'F' && field.size == 4 && (field.name == "rgb" || field.name == "rgba")) {
+    return AttributeType::kFloat32Bits;  // PCL's packed colour
   }
+  return StorageTypeOf(field.type, field.size);
 }
 
 // Which field feeds each slot and each attribute (the other fields of one value: rgb, label,

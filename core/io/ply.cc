@@ -316,9 +316,14 @@ class VertexBuilder {
     switch (slots_[property]) {
       case Slot::kSkip:
         return nullptr;
-      case Slot::kAttribute:
-        cloud_.attributes[attribute_of_[property]].Set(i, value);
+      case Slot::kAttribute: {
+        // An ASCII file's text may say what its type cannot hold (300 for a uchar); a binary
+        // one's bytes cannot.
+        PointAttribute& attribute = cloud_.attributes[attribute_of_[property]];
+        if (!HoldsValue(attribute.type, value)) return "not a value of the property's type";
+        attribute.Set(i, value);
         return nullptr;
+      }
       case Slot::kX:
         return StoreCoordinate(0, i, value);
       case Slot::kY:

@@ -4,6 +4,8 @@
 // held in its own type's bytes.
 #include "core/base/point_attributes.h"
 
+#include <cmath>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -63,6 +65,7 @@ TEST(PointAttributes, EachValueTakesItsTypesBytesAndKeepsItsValue) {
       {AttributeType::kFloat64, 8, {1e300, -0.1, 5e-324}},
   };
   for (const Case& c : cases) {
+    for (double v : c.values) EXPECT_TRUE(HoldsValue(c.type, v)) << v;
     const PointAttribute a = MakeAttribute("v", c.type, c.values);
     EXPECT_EQ(a.data.size(), c.values.size() * c.bytes);
     EXPECT_EQ(Values(a), c.values);
@@ -71,6 +74,27 @@ TEST(PointAttributes, EachValueTakesItsTypesBytesAndKeepsItsValue) {
     EXPECT_EQ(Values(wide), c.values);
     EXPECT_EQ(wide.data.size(), 8 * c.values.size());
   }
+}
+
+// A value a type cannot hold: just past each extreme, a fraction for an integer type, NaN for an
+// integer type, beyond float's range for a float (converting any of them is undefined).
+TEST(PointAttributes, HoldsValueRefusesWhatTheTypeCannotHold) {
+  const std::vector<std::pair<AttributeType, std::vector<double>>> cases = {
+      {AttributeType::kInt8, {-129, 128, 0.5}},
+      {AttributeType::kUint8, {-1, 256, NAN}},
+      {AttributeType::kInt16, {-32769, 32768}},
+      {AttributeType::kUint16, {-1, 65536}},
+      {AttributeType::kInt32, {-2147483649.0, 2147483648.0, 1.5}},
+      {AttributeType::kUint32, {-1, 4294967296.0, INFINITY}},
+      {AttributeType::kFloat32, {3.5e38, -1e39}},
+      {AttributeType::kFloat32Bits, {-1, 4294967296.0, 0.25}},
+  };
+  for (const auto& [type, values] : cases) {
+    for (double v : values) EXPECT_FALSE(HoldsValue(type, v)) << static_cast<int>(type) << " " << v;
+  }
+  EXPECT_TRUE(HoldsValue(AttributeType::kFloat32, INFINITY));  // a float's own values
+  EXPECT_TRUE(HoldsValue(AttributeType::kFloat32, NAN));
+  EXPECT_TRUE(HoldsValue(AttributeType::kFloat64, 1e308));
 }
 
 }  // namespace

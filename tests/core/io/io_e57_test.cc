@@ -446,6 +446,18 @@ TEST(E57, DamagedTruncatedAndHostileFilesAreRefusedByName) {
   status = Read(E57File({no_xyz}), warnings).status();
   EXPECT_THAT(status.message(), HasSubstr("neither cartesianX/Y/Z nor sphericalRange"));
 
+  // 8 bits hold 0..255 but the prototype says at most 200: the attribute type (uchar) is chosen
+  // from that range, so a record above it is refused, not cast (ply/pcd_fuzzer found the cast).
+  Scan out_of_range = scan;
+  std::vector<int64_t> red(200, 5);
+  red[123] = 250;
+  out_of_range.columns.push_back(Integers("colorRed", red, 0, 200));
+  status = Read(E57File({out_of_range}), warnings).status();
+  EXPECT_THAT(status.message(), HasSubstr("field colorRed record 123: 250 is outside its range"));
+  red[123] = 200;  // control: the maximum itself is a value
+  out_of_range.columns.back() = Integers("colorRed", red, 0, 200);
+  EXPECT_TRUE(Read(E57File({out_of_range}), warnings).ok());
+
   status = Read("ASTM-E58" + good.substr(8), warnings).status();
   EXPECT_THAT(status.message(), HasSubstr("no 'ASTM-E57' signature"));
 }
