@@ -45,8 +45,6 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 // standard errors at this count are a small share of a micrometre, and a round costs the same
 // at 1 M points a scan as at 100 M.
 constexpr size_t kMaxPointsPerRound = 65536;
-// A round whose Σ residual RMS² fell by less than this share of the last one's ends the iterations.
-constexpr double kLeastImprovement = 1e-4;
 // A pair whose sampled matches are fewer than this is not fitted, whatever they stand for.
 constexpr size_t kMinMatches = 64;
 // The joint solve: Gauss-Seidel over the scans' 6x6 blocks until no motion changes by more than
@@ -423,13 +421,6 @@ class Registrar {
       state_[s].report.residual_after_mm = rms[s];
     }
     if (round == settings_.max_iterations) return false;
-    // A step that lowered the residuals by less than kLeastImprovement ends the iterations: on
-    // the simulated parts the rounds after it moved no component beyond max(10 %, 1 µm) of the
-    // truth and cost a round each (7-10 steps a job became 1-5).
-    double squared = 0;
-    for (const auto& r : rms) squared += r ? *r * *r : 0;
-    if (round > 0 && squared >= last_squared_ * (1 - kLeastImprovement)) return false;
-    last_squared_ = squared;
     const std::vector<bool> reference = References(fits, points_);
     const std::vector<ScanBlock> blocks = Blocks(fits, scans);
     const std::vector<Vector6d> x = SolveJointly(fits, blocks, reference);
@@ -498,7 +489,6 @@ class Registrar {
   Frame frame_;
   std::vector<ScanState> state_;
   int steps_ = 0;
-  double last_squared_ = 0;  // the last round's Σ residual RMS² over the scans
 };
 
 }  // namespace
