@@ -85,8 +85,6 @@ double DecodeBinary(const Field& field, const char* p) {
   }
 }
 
-// Binary records, point after point; or, for binary_compressed, every field's values for all
-// points before the next field's (`soa`).
 // The attribute type of a PCD TYPE and SIZE: none for 8-byte integers, which a double does not
 // hold exactly.
 std::optional<AttributeType> StorageTypeOf(char type, uint32_t size) {
@@ -108,6 +106,8 @@ std::optional<AttributeType> StorageTypeOf(char type, uint32_t size) {
   }
 }
 
+// Binary records, point after point; or, for binary_compressed, every field's values for all
+// points before the next field's (`soa`).
 class BinarySource {
  public:
   BinarySource(std::string_view bytes, const Header& header, bool soa)
