@@ -33,9 +33,6 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 // An eigenvalue of JᵀJ below this share of the largest is rounding, not information.
 constexpr double kNumericallyZero = 1e-12;
-// A constrained component whose least-squares correlation with an unconstrained one exceeds this
-// is unconstrained too (SetMotion).
-constexpr double kMaxCorrelation = 0.5;
 // Points more than this many robust spreads off the median residual are left out of a pass.
 constexpr double kRejectSpreads = 3.0;
 
@@ -291,24 +288,6 @@ void SetMotion(const Fitted& fitted, double to_degrees, double limit, PairHealth
   pair.rotation_se_deg = standard_error.tail<3>() * to_degrees;
   for (int k = 0; k < 6; ++k) {
     pair.constrained[k] = s.solvable[k] && standard_error[k] <= limit;
-  }
-  // A component correlated with one left out carries that one's error: the +x/−x pair's ty,
-  // known to 1 µm but 83 % correlated with the tx its overlap cannot see, read 3-5 of its errors
-  // off a pose that was right. Left out too, until none is.
-  for (bool dropped = true; dropped;) {
-    dropped = false;
-    for (int k = 0; k < 6; ++k) {
-      if (!pair.constrained[k]) continue;
-      for (int u = 0; u < 6; ++u) {
-        if (pair.constrained[u] || !s.solvable[u]) continue;
-        const double product = s.inverse(k, k) * s.inverse(u, u);
-        if (product > 0 && std::abs(s.inverse(k, u)) > kMaxCorrelation * std::sqrt(product)) {
-          pair.constrained[k] = false;
-          dropped = true;
-          break;
-        }
-      }
-    }
   }
   for (int k = 0; k < 6; ++k) {
     if (!pair.constrained[k]) (k < 3 ? pair.translation_mm[k] : pair.rotation_deg[k - 3]) = 0;
