@@ -266,9 +266,11 @@ TEST(Registration, ScansThatDoNotOverlapStay) {
 }
 
 // The real scans with their .conf poses are not made worse: the residual of every scan that moved
-// against the others does not grow (measured: the bunny pair 1 %, the Happy Buddha's five scans
-// 41-49 % smaller). A match's noise taken from its fit alone, below its scan's σ̂, makes the
-// Buddha's 24° and 336° scans worse.
+// against the others does not grow (measured: the bunny pair 1 %). The Happy Buddha's .conf
+// poses are off by more than its noise: Open3D's point-to-plane ICP, pair by pair, cuts the
+// pairs' spread by 30-57 % (docs/health.md, Real scans), and the stage cuts every scan's residual
+// by more than a third (measured 41-49 %). A match's noise taken from its fit alone, below its
+// scan's σ̂, leaves three of them at 25-31 %.
 TEST(Registration, RealScansAreNotMadeWorse) {
   SCANPREP_REQUIRE_SHARED_DATA(data);
   struct Job {
@@ -276,14 +278,16 @@ TEST(Registration, RealScansAreNotMadeWorse) {
     const char* conf;
     std::vector<std::string> scans;
     double scanline_spacing_mm;
+    double least_cut;  // the share of every scan's residual registration removes, at least
   };
   const std::vector<Job> jobs = {
-      {"stanford_bunny_range_scans", "bun.conf", {"bun000", "bun045"}, 0.82},
+      {"stanford_bunny_range_scans", "bun.conf", {"bun000", "bun045"}, 0.82, 0},
       {"stanford_happy_stand_range_scans",
        "happyStandRight.conf",
        {"happyStandRight_24", "happyStandRight_264", "happyStandRight_288", "happyStandRight_312",
         "happyStandRight_336"},
-       0.38},
+       0.38,
+       1.0 / 3},
   };
   for (const Job& job : jobs) {
     PointCloud cloud =
@@ -297,7 +301,7 @@ TEST(Registration, RealScansAreNotMadeWorse) {
                   scan.constrained_directions, scan.bound_exceeded ? ", put back" : "");
       // A scan put back is judged by the others, which moved toward each other and away from it.
       if (scan.bound_exceeded) continue;
-      EXPECT_LE(*scan.residual_after_mm, *scan.residual_before_mm);
+      EXPECT_LE(*scan.residual_after_mm, (1 - job.least_cut) * *scan.residual_before_mm);
     }
   }
 }
