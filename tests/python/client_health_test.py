@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: Apache-2.0
 """The Python client's scanner health (issue 32): Result.health from a hand-made Report (units,
-unset values and unconstrained components as None), and against a real scanprep-server
-($SCANPREP_SERVER) two overlapping planes from two named sensors, one raised by a known step."""
+unset values and unconstrained components as None) and the typed report's registration from one,
+and against a real scanprep-server ($SCANPREP_SERVER) two overlapping planes from two named
+sensors, one raised by a known step."""
 
 import os
 import unittest
@@ -9,7 +10,7 @@ import unittest
 import numpy as np
 
 from scanprep.v1 import scanprep_pb2 as pb
-from scanprep_client import Client, Result, Scan
+from scanprep_client import Client, Result, Scan, ScanRegistration
 
 from local_server import LocalServer
 
@@ -58,6 +59,39 @@ class HealthFromReportTest(unittest.TestCase):
 
     def test_a_report_without_health_has_none(self):
         self.assertIsNone(result_with(pb.Report()).health)
+
+
+class RegistrationFromReportTest(unittest.TestCase):
+    def test_every_field_of_a_reference_and_a_moved_scan(self):
+        report = pb.Report()
+        report.registration.add(scan_id="336", reference=True, constrained_directions=6,
+                                residual_before_mm=0.186, residual_after_mm=0.097, iterations=9)
+        report.registration.add(scan_id="24", translation_mm=pb.Vec3(x=0.012, y=-0.034, z=0.056),
+                                rotation_deg=pb.Vec3(x=0.01, y=-0.02, z=0.03),
+                                centre=pb.Vec3(x=-12.5, y=40.25, z=310.0),
+                                constrained_directions=5, residual_before_mm=0.221,
+                                residual_after_mm=0.130, iterations=7, bound_exceeded=False)
+
+        reference, scan = result_with(report).typed_report.registration
+        self.assertEqual(reference, ScanRegistration(
+            scan_id="336", reference=True, translation_mm=(0.0, 0.0, 0.0),
+            rotation_deg=(0.0, 0.0, 0.0), centre=(0.0, 0.0, 0.0), constrained_directions=6,
+            residual_before_mm=0.186, residual_after_mm=0.097, iterations=9,
+            bound_exceeded=False))
+        self.assertEqual(scan, ScanRegistration(
+            scan_id="24", reference=False, translation_mm=(0.012, -0.034, 0.056),
+            rotation_deg=(0.01, -0.02, 0.03), centre=(-12.5, 40.25, 310.0),
+            constrained_directions=5, residual_before_mm=0.221, residual_after_mm=0.130,
+            iterations=7, bound_exceeded=False))
+
+    def test_a_scan_put_back_says_so(self):
+        report = pb.Report()
+        report.registration.add(scan_id="far", bound_exceeded=True)
+        (scan,) = result_with(report).typed_report.registration
+        self.assertTrue(scan.bound_exceeded)
+
+    def test_a_report_without_registration_has_an_empty_tuple(self):
+        self.assertEqual(result_with(pb.Report()).typed_report.registration, ())
 
 
 def plane(seed: int, z: float) -> np.ndarray:

@@ -13,9 +13,11 @@ from scanprep_client.client import (STRICT_WARNING_CODES, Client, Flag, Result, 
 from scanprep_client.errors import ScanprepError
 from scanprep_client.health import Health, PairHealth, ScanHealth
 from scanprep_client.readers import read_conf, read_scan, read_scans
+from scanprep_client.registration import ScanRegistration
 from scanprep_client.report import Budget, Report, Stage, Warning
 from scanprep_client.retry import RetryPolicy
 
 __all__ = ["Budget", "Client", "Flag", "Health", "PairHealth", "Report", "Result", "RetryPolicy",
-           "Scan", "ScanHealth", "ScanprepError", "Stage", "STRICT_WARNING_CODES", "Warning",
-           "check_scans", "local_origin", "read_conf", "read_scan", "read_scans"]
+           "Scan", "ScanHealth", "ScanRegistration", "ScanprepError", "Stage",
+           "STRICT_WARNING_CODES", "Warning", "check_scans", "local_origin", "read_conf",
+           "read_scan", "read_scans"]

@@ -11,6 +11,7 @@ from typing import Optional
 
 from scanprep.v1 import scanprep_pb2 as pb
 from scanprep_client.health import Health, health_from_report
+from scanprep_client.registration import ScanRegistration, registration_from_report
 
 
 def _outcome(value: int) -> str:
@@ -65,6 +66,7 @@ class Report:
     server_version: str
     estimated_plan_cost: float
     health: Optional[Health]   # None when the "health" stage did not run
+    registration: tuple[ScanRegistration, ...]  # empty when the "registration" stage did not run
 
     def stage(self, name: str) -> Stage:
         """The stage of that name (KeyError when it did not run)."""
@@ -102,4 +104,5 @@ def report_from_pb(report: pb.Report) -> Report:
         budget=Budget(seconds=report.budget_seconds, outcome=_outcome(report.budget_outcome),
                       processing_seconds=report.processing_seconds),
         preset=report.preset, labels=dict(report.labels), server_version=report.server_version,
-        estimated_plan_cost=report.estimated_plan_cost, health=health_from_report(report))
+        estimated_plan_cost=report.estimated_plan_cost, health=health_from_report(report),
+        registration=registration_from_report(report))
