@@ -99,8 +99,8 @@ void RegistrationToProto(const ScanRegistration& scan, v1::ScanRegistration* out
   *out->mutable_rotation_deg() = ToProto(scan.rotation_deg);
   *out->mutable_centre() = ToProto(scan.centre);
   out->set_constrained_directions(scan.constrained_directions);
-  out->set_residual_before_mm(scan.residual_before_mm.value_or(0));
-  out->set_residual_after_mm(scan.residual_after_mm.value_or(0));
+  if (scan.residual_before_mm) out->set_residual_before_mm(*scan.residual_before_mm);
+  if (scan.residual_after_mm) out->set_residual_after_mm(*scan.residual_after_mm);
   out->set_iterations(scan.iterations);
   out->set_bound_exceeded(scan.bound_exceeded);
 }

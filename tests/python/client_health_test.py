@@ -89,6 +89,9 @@ class RegistrationFromReportTest(unittest.TestCase):
         report.registration.add(scan_id="far", bound_exceeded=True)
         (scan,) = result_with(report).typed_report.registration
         self.assertTrue(scan.bound_exceeded)
+        # Nothing measured is None, not a residual of 0 (which would read as a perfect fit).
+        self.assertIsNone(scan.residual_before_mm)
+        self.assertIsNone(scan.residual_after_mm)
 
     def test_a_report_without_registration_has_an_empty_tuple(self):
         self.assertEqual(result_with(pb.Report()).typed_report.registration, ())

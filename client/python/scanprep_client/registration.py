@@ -7,8 +7,11 @@ report states them."""
 from __future__ import annotations
 
 import dataclasses
+from typing import Optional
 
 from scanprep.v1 import scanprep_pb2 as pb
+
+from scanprep_client.health import _optional, _xyz
 
 
 @dataclasses.dataclass(frozen=True)
@@ -24,17 +27,13 @@ class ScanRegistration:
     # The directions of its motion (of six) its overlaps constrain; it moved along these only.
     constrained_directions: int
     # Robust RMS distance of its points from the other scans' local planes, before the first step
-    # and after the last.
-    residual_before_mm: float
-    residual_after_mm: float
+    # and after the last; None where no other scan overlaps it enough to measure.
+    residual_before_mm: Optional[float]
+    residual_after_mm: Optional[float]
     iterations: int  # steps applied
     # The correction it needed exceeded registration.max_correction: left where it was (warning
     # REGISTRATION_BOUND_EXCEEDED).
     bound_exceeded: bool
-
-
-def _xyz(vector: pb.Vec3) -> tuple[float, float, float]:
-    return (vector.x, vector.y, vector.z)
 
 
 def registration_from_report(report: pb.Report) -> tuple[ScanRegistration, ...]:
@@ -44,6 +43,7 @@ def registration_from_report(report: pb.Report) -> tuple[ScanRegistration, ...]:
         scan_id=r.scan_id, reference=r.reference, translation_mm=_xyz(r.translation_mm),
         rotation_deg=_xyz(r.rotation_deg), centre=_xyz(r.centre),
         constrained_directions=r.constrained_directions,
-        residual_before_mm=r.residual_before_mm, residual_after_mm=r.residual_after_mm,
+        residual_before_mm=_optional(r, "residual_before_mm"),
+        residual_after_mm=_optional(r, "residual_after_mm"),
         iterations=r.iterations, bound_exceeded=r.bound_exceeded)
         for r in report.registration)
