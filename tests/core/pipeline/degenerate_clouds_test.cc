@@ -18,8 +18,9 @@
 namespace scanprep {
 namespace {
 
-const std::vector<std::string> kAllStages = {"outliers", "normals",   "measures",      "correction",
-                                             "health",   "smoothing", "simplification"};
+const std::vector<std::string> kAllStages = {"outliers",     "normals",       "measures",
+                                             "registration", "correction",    "health",
+                                             "smoothing",    "simplification"};
 
 // A line-scanner scan seen from +z with the given scanline spacing.
 ScanMeta TopViewScan(const std::string& id, double scanline_spacing) {

@@ -10,13 +10,13 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
-#include <random>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "core/sim/scan_simulator.h"
 #include "core/stages/health.h"
+#include "tests/support/misregistration.h"
 #include "tests/support/stage_call.h"
 #include "tests/support/test_data.h"
 
@@ -49,16 +49,6 @@ Registered Register(PointCloud& cloud, const ParamOverrides& params = {}) {
   EXPECT_TRUE(report.ok()) << report.status();
   if (report.ok()) out.report = *std::move(report);
   return out;
-}
-
-// A rigid motion of `shift_mm` in a random direction and `deg` about a random axis.
-Eigen::Isometry3d RandomMotion(std::mt19937& random, double shift_mm, double deg) {
-  std::normal_distribution<double> normal;
-  const Eigen::Vector3d axis(normal(random), normal(random), normal(random));
-  const Eigen::Vector3d direction(normal(random), normal(random), normal(random));
-  Eigen::Isometry3d m(Eigen::AngleAxisd(deg * kDegree, axis.normalized()));
-  m.translation() = direction.normalized() * shift_mm;
-  return m;
 }
 
 // The motion the stage applied to a scan, in the frame's absolute coordinates.
@@ -128,15 +118,7 @@ void Judge(const sim::SimulatedCloud& sim, const std::vector<Eigen::Isometry3d>&
 }
 
 sim::SimulatedCloud Misregistered(Part part, uint64_t seed, std::vector<Eigen::Isometry3d>& truth) {
-  std::mt19937 random(static_cast<unsigned>(seed));
-  std::uniform_real_distribution<double> shift(0.005, 0.1), deg(0.005, 0.1);
-  std::vector<sim::SimSensor> sensors = sim::ThreeOverlappingSensors(part);
-  truth.assign(sensors.size(), Eigen::Isometry3d::Identity());
-  for (size_t s = 1; s < sensors.size(); ++s) {
-    truth[s] = RandomMotion(random, shift(random), deg(random));
-    sensors[s].misregistration = truth[s];
-  }
-  return sim::SimulateWithPointCount(part, sensors, kPoints, 0, seed);
+  return testing::Misregistered(part, seed, kPoints, truth);
 }
 
 // Every component health calls constrained is within, the top face's and the rest (36 of 36 on
