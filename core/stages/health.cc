@@ -98,7 +98,6 @@ absl::StatusOr<std::vector<ScanHealth>> ScanHealths(const PointCloud& cloud,
 
 absl::StatusOr<std::vector<PairHealth>> PairHealths(const PointCloud& cloud, const PointMeasures& m,
                                                     const Neighbourhoods& nb,
-                                                    const std::vector<std::optional<double>>& noise,
                                                     const HealthSettings& params,
                                                     const CancelToken& cancel) {
   const MisalignmentSettings settings{.min_points = params.min_overlap_points,
@@ -106,7 +105,7 @@ absl::StatusOr<std::vector<PairHealth>> PairHealths(const PointCloud& cloud, con
   std::vector<PairHealth> out;
   if (cloud.scans.size() < 2) return out;
   SCANPREP_ASSIGN_OR_RETURN(const PairSearch search,
-                            MakePairSearch(cloud, nb, noise, params.max_pair_distance, cancel));
+                            MakePairSearch(cloud, nb, params.max_pair_distance, cancel));
   // One moving scan at a time: the correspondences held at once are one scan's (up to k a point
   // where k scans overlap), not the job's.
   const std::vector<std::vector<uint32_t>> points = PointsPerScan(cloud);
@@ -177,9 +176,7 @@ absl::StatusOr<std::vector<PairHealth>> MeasurePairs(const PointCloud& cloud,
                                                      const Neighbourhoods& nb,
                                                      const HealthSettings& settings,
                                                      const CancelToken& cancel) {
-  SCANPREP_ASSIGN_OR_RETURN(const std::vector<std::optional<double>> noise,
-                            SensorNoise(cloud, m, cancel));
-  return PairHealths(cloud, m, nb, noise, settings, cancel);
+  return PairHealths(cloud, m, nb, settings, cancel);
 }
 
 absl::StatusOr<HealthReport> MeasureHealth(const PointCloud& cloud, const PointMeasures& m,
@@ -192,8 +189,7 @@ absl::StatusOr<HealthReport> MeasureHealth(const PointCloud& cloud, const PointM
   if (measured_pairs) {
     health.pairs = *std::move(measured_pairs);
   } else {
-    SCANPREP_ASSIGN_OR_RETURN(health.pairs,
-                              PairHealths(cloud, m, nb, noise, settings, out.cancel()));
+    SCANPREP_ASSIGN_OR_RETURN(health.pairs, PairHealths(cloud, m, nb, settings, out.cancel()));
   }
   SCANPREP_ASSIGN_OR_RETURN(health.scans, ScanHealths(cloud, noise, ran, out.cancel()));
   out.Record("health.pairs", static_cast<double>(health.pairs.size()));

@@ -73,13 +73,6 @@ absl::StatusOr<std::map<uint32_t, std::vector<Correspondence>>> FindCorresponden
     const PointCloud& cloud, const PointMeasures& m, const Neighbourhoods& nb,
     const PairSearch& search, std::span<const uint32_t> points, const CancelToken& cancel) {
   const std::vector<float>& reach = search.reach;
-  const std::vector<float>& least_noise = search.least_noise;
-  // A point's noise: its fit's residual, but never below its scan's median fit. A fit far below it
-  // stood on points nearly in a line (a face seen at a grazing angle, a scanline or two across
-  // it): its residual says nothing about the noise and its normal little about the face, and
-  // weighted by the inverse of such a residual a few thousand of them outweighed the whole overlap
-  // and held a translation at 0 with a standard error of 0.1 µm.
-  const auto noise = [&](uint32_t i) { return std::max(m.fit_rms[i], least_noise[cloud.scan[i]]); };
   std::mutex mu;
   std::map<size_t, std::vector<Correspondence>> blocks;
   SCANPREP_RETURN_IF_ERROR(ParallelFor(points.size(), cancel, [&](size_t begin, size_t end) {
@@ -108,7 +101,7 @@ absl::StatusOr<std::map<uint32_t, std::vector<Correspondence>>> FindCorresponden
       for (const auto& [j, tangential] : best) {
         const Plane plane = LocalPlane(cloud, nb, j);
         if (std::abs(plane.normal.dot(cloud.normal(i))) < kMinNormalCosine) continue;
-        found.push_back({i, j, plane.normal, plane.offset, std::hypot(noise(i), noise(j))});
+        found.push_back({i, j, plane.normal, plane.offset, std::hypot(m.fit_rms[i], m.fit_rms[j])});
       }
     }
     std::lock_guard lock(mu);
@@ -138,18 +131,15 @@ std::vector<std::vector<uint32_t>> PointsPerScan(const PointCloud& cloud) {
 }
 
 absl::StatusOr<PairSearch> MakePairSearch(const PointCloud& cloud, const Neighbourhoods& nb,
-                                          const std::vector<std::optional<double>>& noise,
                                           double max_pair_distance, const CancelToken& cancel) {
   PairSearch search;
   SCANPREP_ASSIGN_OR_RETURN(search.spacing, ScanPointSpacing(cloud, &nb, cancel));
   const size_t scans = cloud.scans.size();
   search.reach.resize(scans);
-  search.least_noise.resize(scans);
   for (size_t s = 0; s < scans; ++s) {
     const double ds = cloud.kind == ScannerKind::kLine ? cloud.scans[s].scanline_spacing : 0.0;
     search.spacing[s] = std::max(search.spacing[s], ds);
     search.reach[s] = static_cast<float>(max_pair_distance * search.spacing[s]);
-    search.least_noise[s] = static_cast<float>(noise[s].value_or(0));
   }
   return search;
 }

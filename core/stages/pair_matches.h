@@ -20,17 +20,14 @@
 namespace scanprep {
 
 // Per scan, what the partner search needs: how far a partner may lie along its tangent plane
-// (mm), the least noise a match of the scan states (its σ̂), and its spacing (the coarser of Δp
-// and, for a line scanner, Δs).
+// (mm) and its spacing (the coarser of Δp and, for a line scanner, Δs).
 struct PairSearch {
   std::vector<float> reach;
-  std::vector<float> least_noise;
   std::vector<double> spacing;
 };
 
-// `noise`: each scan's σ̂ (MeasuredScanNoise); `max_pair_distance`: the reach in spacings.
+// `max_pair_distance`: the reach in spacings.
 absl::StatusOr<PairSearch> MakePairSearch(const PointCloud& cloud, const Neighbourhoods& nb,
-                                          const std::vector<std::optional<double>>& noise,
                                           double max_pair_distance, const CancelToken& cancel);
 
 // The correspondences of the moving scan whose points are `points`, per fixed scan (a lower-

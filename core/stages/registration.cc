@@ -31,7 +31,6 @@
 #include "core/stages/health.h"
 #include "core/stages/pair_matches.h"
 #include "core/stages/pair_misalignment.h"
-#include "core/stages/scan_noise.h"
 #include "core/stages/stage_context.h"
 #include "core/stages/stage_names.h"
 
@@ -392,10 +391,8 @@ class Registrar {
   // kMaxPointsPerRound) and the frame every pair is written in.
   absl::Status Prepare() {
     const size_t scans = cloud_.scans.size();
-    SCANPREP_ASSIGN_OR_RETURN(const std::vector<std::optional<double>> noise,
-                              MeasuredScanNoise(cloud_, m_, scans, out_.cancel(), kRemovedOutlier));
-    SCANPREP_ASSIGN_OR_RETURN(
-        search_, MakePairSearch(cloud_, nb_, noise, pairs_.max_pair_distance, out_.cancel()));
+    SCANPREP_ASSIGN_OR_RETURN(search_,
+                              MakePairSearch(cloud_, nb_, pairs_.max_pair_distance, out_.cancel()));
     points_ = ScanPointCounts(cloud_);
     sampled_ = PointsPerScan(cloud_);
     stride_.resize(scans);

@@ -251,8 +251,7 @@ TEST(Registration, ScansThatDoNotOverlapStay) {
 // against the others does not grow (measured: the bunny pair 1 %). The Happy Buddha's .conf
 // poses are off by more than its noise: Open3D's point-to-plane ICP, pair by pair, cuts the
 // pairs' spread by 30-57 % (docs/health.md, Real scans), and the stage cuts every scan's residual
-// by more than a third (measured 41-49 %). A match's noise taken from its fit alone, below its
-// scan's σ̂, leaves three of them at 25-31 %.
+// by more than a third (measured 43-53 %).
 TEST(Registration, RealScansAreNotMadeWorse) {
   SCANPREP_REQUIRE_SHARED_DATA(data);
   struct Job {
