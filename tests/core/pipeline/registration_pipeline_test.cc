@@ -130,8 +130,8 @@ TEST(RegistrationPipeline, HostileMixesAsThreeScansEndWithAResultAndStayWhereThe
           scan.constrained_directions, scan.residual_before_mm.value_or(-1),
           scan.residual_after_mm.value_or(-1), scan.bound_exceeded ? ", put back" : "");
       // Noise moves a right scan a fraction of a micrometre (measured at most 0.3 µm); seed 3's
-      // far part at 2.2 m moved one 18 µm and grew every residual fourfold until a step that
-      // made the residuals grow was undone.
+      // far part at 2.2 m moved one 18 µm and grew every residual fourfold while a step that made
+      // the residuals grow was kept (and a match's noise floored at its scan's σ̂).
       EXPECT_LE(1000 * scan.translation_mm.norm(), 1.0) << scan.scan;
       ASSERT_TRUE(scan.residual_before_mm && scan.residual_after_mm) << scan.scan;
       // Within noise (measured at most 1 % larger): the stage keeps a step only where the
