@@ -33,6 +33,7 @@ cases=(
   "correction radius ×100|correction.radius_scale=100" "correction 1000 rounds|correction.rounds=1000"
   "correction both|correction.radius_scale=100 correction.rounds=1000"
   "smoothing 3 passes|smoothing.iterations=3" "smoothing 7 passes|smoothing.iterations=7"
+  "registration 100 steps|registration.max_iterations=100"
   "correction ×100 + min radius|correction.radius_scale=100 $minr"
   "correction ×100 + k 64|correction.radius_scale=100 $k64"
   "k 64 + min radius|$k64 $minr" "k 64 + 7 passes|$k64 smoothing.iterations=7"

@@ -23,7 +23,7 @@ namespace scanprep {
 
 std::vector<std::string> DefaultStages() {
   using namespace stage_names;
-  return List({kOutliers, kCorrection, kHealth, kSmoothing, kSimplification});
+  return List({kOutliers, kRegistration, kCorrection, kHealth, kSmoothing, kSimplification});
 }
 
 absl::Status ValidateOptions(const PipelineOptions& options) {

@@ -52,8 +52,6 @@ constexpr double kCorrectionFull = 6;
 constexpr double kKExponentBalls = 0.45;
 constexpr double kKExponentFull = 0.8;
 constexpr double kKExponentLists = 0.3;
-// Rounds the registration of the simulated job runs (steps and the last measure).
-constexpr double kTypicalRegistrationRounds = 4;
 
 bool ReadsLists(std::string_view stage) {
   return stage == sn::kMeasures || stage == sn::kRegistration || stage == sn::kHealth;
@@ -148,13 +146,13 @@ PlanCost EstimatePlanCost(const Plan& plan) {
       if (t.stage == stage->name && (fill == nullptr || t.multiplier > fill->multiplier)) fill = &t;
     }
     if (fill != nullptr) cost.terms.push_back(*fill);
-    // Registration's cost_weight is its time at the default plan, which converges in a few
-    // steps; more allowed steps cost at most that many rounds more.
+    // Registration's cost_weight is its time in the default plan; a job that allows more steps
+    // is judged at its bound, each step a round of the same cost.
     if (stage->name == sn::kRegistration) {
       const auto& table = RegistrationParams();
       Add(cost.terms, sn::kRegistration,
           Cause(params, {table.Name(&RegistrationSettings::max_iterations)}),
-          table.Read(params).max_iterations / kTypicalRegistrationRounds);
+          static_cast<double>(table.Read(params).max_iterations) / table.Read({}).max_iterations);
     }
     // Each smoothing pass costs the first one's time again.
     if (stage->name == sn::kSmoothing) {

@@ -228,7 +228,7 @@ StageInfo HealthStageInfo() {
                 {stage_names::kNeighbourhoods, stage_names::kNormals, stage_names::kMeasures});
           },
       .work_per_point = 1,
-      .cost_weight = 0.35,
+      .cost_weight = 0.06,
   };
 }
 

@@ -608,7 +608,7 @@ StageInfo RegistrationStageInfo() {
                 {stage_names::kNeighbourhoods, stage_names::kNormals, stage_names::kMeasures});
           },
       .work_per_point = 1,
-      .cost_weight = 0.5,
+      .cost_weight = 0.8,
   };
 }
 

@@ -386,9 +386,9 @@ TEST(Cli, ProgressOfAMultiMillionPointJobReachesEveryStageInOrder) {
     if (order.empty() || order.back() != m[5]) order.push_back(m[5]);
     if (stage_pct > 0 && stage_pct < 100) ++inside[m[5]];
   }
-  const std::vector<std::string> plan = {"neighbourhoods", "normals",       "outliers",
-                                         "measures",       "correction",    "health",
-                                         "smoothing",      "simplification"};
+  const std::vector<std::string> plan = {"neighbourhoods", "normals",      "outliers",
+                                         "measures",       "registration", "correction",
+                                         "health",         "smoothing",    "simplification"};
   EXPECT_EQ(order, plan) << r.output;
   EXPECT_EQ(count, static_cast<int>(plan.size()));
   for (const std::string& stage : plan) EXPECT_GT(inside[stage], 0) << stage << "\n" << r.output;

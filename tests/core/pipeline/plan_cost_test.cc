@@ -61,6 +61,7 @@ const std::vector<Measured>& MeasuredRuns() {
       {{{"correction.radius_scale", "100"}, {"correction.rounds", "1000"}}, 1.09},
       {{{"smoothing.iterations", "7"}}, 2.42},
       {{{"smoothing.iterations", "3"}}, 1.33},
+      {{{"registration.max_iterations", "100"}}, 1.02},
       {{{"correction.radius_scale", "100"}, {"neighbourhoods.min_radius_mm", "10000"}}, 2.04},
       {{{"correction.radius_scale", "100"}, {"neighbourhoods.k", "64"}}, 1.98},
       {{{"neighbourhoods.k", "64"}, {"neighbourhoods.min_radius_mm", "10000"}}, 4.42},

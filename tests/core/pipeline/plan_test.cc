@@ -80,11 +80,11 @@ TEST(Plan, AnExpansionStepIsNotAStageAJobCanList) {
 TEST(Plan, TheReportListsThePlansStepsInItsOrder) {
   const std::vector<std::pair<ParamOverrides, std::vector<std::string>>> cases = {
       {{},
-       {"neighbourhoods", "normals", "outliers", "measures", "correction", "health", "smoothing",
-        "simplification"}},
+       {"neighbourhoods", "normals", "outliers", "measures", "registration", "correction", "health",
+        "smoothing", "simplification"}},
       {{{"outliers.method", "loop"}},
-       {"neighbourhoods", "outliers", "normals", "surface_spikes", "measures", "correction",
-        "health", "smoothing", "simplification"}},
+       {"neighbourhoods", "outliers", "normals", "surface_spikes", "measures", "registration",
+        "correction", "health", "smoothing", "simplification"}},
   };
   for (const auto& [params, expected] : cases) {
     const absl::StatusOr<Plan> plan = Plan::Resolve(DefaultStages(), params);

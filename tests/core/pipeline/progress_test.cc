@@ -44,9 +44,9 @@ TEST(Progress, DefaultPipelineReportsEveryStageInPlanOrderWithProgressInside) {
                                          sim::TwoOverlappingSensors(sim::Part::kBoxWithBore),
                                          300'000, 0.01, 7);
   const std::vector<Seen> seen = RunAndWatch(sim.cloud, {});
-  const std::vector<std::string> plan = {"neighbourhoods", "normals",       "outliers",
-                                         "measures",       "correction",    "health",
-                                         "smoothing",      "simplification"};
+  const std::vector<std::string> plan = {"neighbourhoods", "normals",      "outliers",
+                                         "measures",       "registration", "correction",
+                                         "health",         "smoothing",    "simplification"};
   ASSERT_FALSE(seen.empty());
   std::vector<int> inside(plan.size(), 0);
   double job = 0;
@@ -78,9 +78,9 @@ TEST(Progress, ThePlanFollowsTheParameters) {
   for (const Seen& s : seen) {
     if (order.empty() || order.back() != s.stage) order.push_back(s.stage);
   }
-  EXPECT_EQ(order,
-            (std::vector<std::string>{"neighbourhoods", "outliers", "normals", "measures",
-                                      "correction", "health", "smoothing", "simplification"}));
+  EXPECT_EQ(order, (std::vector<std::string>{"neighbourhoods", "outliers", "normals", "measures",
+                                             "registration", "correction", "health", "smoothing",
+                                             "simplification"}));
 }
 
 // Every stage's plan: it comes last, each prerequisite before the stage that needs it, every stage
