@@ -9,7 +9,8 @@ overlay inside its base), when an object it renders lacks the recommended labels
 (gateway_tls_findings), or when it lacks what its purpose needs (EXPECTED:
 the base's HPA on CPU only and gRPC admitted only from selected peers, the monitoring overlay's
 queue metric with the adapter config serving it, --trusted_proxies behind the Gateway, the TLS
-and mTLS overlays' cert-manager Certificate, mounted Secret and TLS flags, and for external-tls
+and mTLS overlays' cert-manager Certificate, mounted Secret and TLS flags, the large-jobs overlay's
+16 M-point job limit on as many threads as CPUs, and for external-tls
 all of these on both of the Gateway's legs: a listener with a cert-manager certificate, and a
 BackendTLSPolicy on the routed Service with the CA and a hostname of the pods' Certificate); an
 EXPECTED target that is missing fails too. Exit 0 all built, 1 with one line per failure, 77 (ctest
@@ -112,6 +113,17 @@ def tls_findings(objects, client_ca):
     return found
 
 
+def large_job_findings(objects):
+    """One job of 16 M points, on as many worker threads as the pod has CPUs."""
+    values = dict(a[2:].split("=", 1) for a in args(objects) if a.startswith("--") and "=" in a)
+    found = [] if int(values.get("max_points_per_job", 0)) >= 16_000_000 else [
+        "takes no job of 16 M points (--max_points_per_job)"]
+    cpus = {c["resources"]["limits"]["cpu"] for c in pod_spec(objects).get("containers", [])}
+    if cpus != {values.get("threads")}:
+        found.append(f"--threads={values.get('threads')} is not the CPU limit {sorted(cpus)}")
+    return found
+
+
 # What each target must render beyond building: {directory: check(objects) -> [failures]}.
 EXPECTED = {
     "deploy/kubernetes/base": lambda o: (
@@ -128,6 +140,7 @@ EXPECTED = {
     "deploy/kubernetes/overlays/external-tls": lambda o: (
         tls_findings(o, client_ca=False) + trusted_proxies(o) + external_tls_purpose(o)),
     "deploy/kubernetes/overlays/mtls": lambda o: tls_findings(o, client_ca=True),
+    "deploy/kubernetes/overlays/large-jobs": large_job_findings,
 }
 
 
