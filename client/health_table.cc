@@ -98,6 +98,39 @@ void PrintPairs(std::ostream& out, const v1::HealthReport& health) {
   }
 }
 
+// What registration did to the scan: held as its group's reference, put back (its correction
+// exceeded the bound), moved, or left (no step kept).
+std::string Role(const v1::ScanRegistration& scan) {
+  if (scan.reference()) return "reference";
+  if (scan.bound_exceeded()) return "put-back";
+  return scan.iterations() > 0 ? "moved" : "left";
+}
+
+std::string Micrometres(bool has, double mm) {
+  return has ? absl::StrFormat("%.2f", 1000 * mm) : kUnset;
+}
+
+void PrintRegistration(std::ostream& out, const v1::Report& report) {
+  size_t width = 16;
+  for (const v1::ScanRegistration& s : report.registration()) {
+    width = std::max(width, s.scan_id().size());
+  }
+  const int w = static_cast<int>(width);
+  out << absl::StrFormat("%-*s %-9s %-26s %-26s %10s %10s %9s %5s\n", w, "scan", "role",
+                         "translation_um x/y/z", "rotation_deg x/y/z", "directions", "before_um",
+                         "after_um", "steps");
+  const auto fixed = [](int decimals, double scale) {
+    return [=](char, double value) { return absl::StrFormat("%.*f", decimals, scale * value); };
+  };
+  for (const v1::ScanRegistration& s : report.registration()) {
+    out << absl::StrFormat(
+        "%-*s %-9s %-26s %-26s %10d %10s %9s %5d\n", w, s.scan_id(), Role(s),
+        Xyz(s.translation_mm(), fixed(2, 1000)), Xyz(s.rotation_deg(), fixed(4, 1)),
+        s.constrained_directions(), Micrometres(s.has_residual_before_mm(), s.residual_before_mm()),
+        Micrometres(s.has_residual_after_mm(), s.residual_after_mm()), s.iterations());
+  }
+}
+
 }  // namespace
 
 void PrintHealth(std::ostream& out, const v1::Report& report) {
@@ -111,8 +144,13 @@ void PrintHealth(std::ostream& out, const v1::Report& report) {
     out << "health of overlapping pairs: none (no two scans overlap)\n";
     return;
   }
-  out << "health of overlapping pairs (moving relative to fixed's surface):\n";
+  const bool registered = !report.registration().empty();
+  out << "health of overlapping pairs (moving relative to fixed's surface"
+      << (registered ? ", measured before registration" : "") << "):\n";
   PrintPairs(out, report.health());
+  if (!registered) return;
+  out << "registration (the motion applied to each scan; residual against the others):\n";
+  PrintRegistration(out, report);
 }
 
 }  // namespace scanprep::client

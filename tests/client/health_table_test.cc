@@ -127,5 +127,38 @@ TEST(HealthTable, NoPairsAndNoHealthAreSaid) {
   EXPECT_THAT(Printed(v1::Report()), Not(HasSubstr("noise_mm")));
 }
 
+// The motion registration applied, after the pairs (measured before it): µm and degrees as the
+// headers say, each scan's role, a residual the report leaves unset as "-".
+TEST(HealthTable, RegistrationRowsInMicrometresAndDegreesWithTheirRole) {
+  v1::Report report = TwoScansOnePair();
+  EXPECT_THAT(Printed(report), Not(HasSubstr("registration")));  // the stage did not run
+  v1::ScanRegistration& left = *report.add_registration();
+  left.set_scan_id("left");
+  left.set_reference(true);
+  left.set_constrained_directions(0);
+  left.set_residual_before_mm(0.0121);
+  left.set_residual_after_mm(0.0102);
+  v1::ScanRegistration& right = *report.add_registration();
+  right.set_scan_id("right");
+  right.mutable_translation_mm()->set_x(-0.0021);
+  right.mutable_translation_mm()->set_z(0.01234);
+  right.mutable_rotation_deg()->set_y(0.0125);
+  right.set_constrained_directions(4);
+  right.set_residual_before_mm(0.0205);
+  right.set_iterations(2);
+  const std::string text = Printed(report);
+  EXPECT_THAT(text, HasSubstr("measured before registration"));
+  const std::string table = text.substr(text.find("registration (the motion"));
+  EXPECT_THAT(Row(table, "left"),
+              ::testing::ElementsAre("left", "reference", "0.00/0.00/0.00", "0.0000/0.0000/0.0000",
+                                     "0", "12.10", "10.20", "0"));
+  EXPECT_THAT(Row(table, "right"),
+              ::testing::ElementsAre("right", "moved", "-2.10/0.00/12.34", "0.0000/0.0125/0.0000",
+                                     "4", "20.50", "-", "2"));
+  report.mutable_registration(1)->set_bound_exceeded(true);
+  EXPECT_EQ(Row(Printed(report).substr(text.find("registration (the motion")), "right")[1],
+            "put-back");
+}
+
 }  // namespace
 }  // namespace scanprep::client
