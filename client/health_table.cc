@@ -47,9 +47,10 @@ std::string Components(const v1::PairHealth& pair, char prefix, const v1::Vec3& 
   });
 }
 
-// The standard errors of a misalignment vector, unconstrained components included (they say
-// why); "inf" where the overlap holds nothing along one.
-std::string StandardErrors(const v1::Vec3& v, double scale, int decimals) {
+// Every component of `v` scaled by `scale` to `decimals`: a registration's motion, and the
+// standard errors of a misalignment, unconstrained components included (they say why); "inf"
+// where the overlap holds nothing along one.
+std::string Scaled(const v1::Vec3& v, double scale, int decimals) {
   return Xyz(v, [&](char, double value) -> std::string {
     return std::isinf(value) ? "inf" : absl::StrFormat("%.*f", decimals, scale * value);
   });
@@ -93,8 +94,8 @@ void PrintPairs(std::ostream& out, const v1::HealthReport& health) {
         "%-*s %-*s %9d %10.2f %10.2f  %-26s %-22s %-26s %-22s %s\n", w, p.fixed_scan_id(), w,
         p.moving_scan_id(), p.overlap_points(), 1000 * p.residual_median_mm(),
         1000 * p.residual_spread_mm(), Components(p, 't', p.translation_mm(), 1000, 2),
-        StandardErrors(p.translation_se_mm(), 1000, 2), Components(p, 'r', p.rotation_deg(), 1, 4),
-        StandardErrors(p.rotation_se_deg(), 1, 4), free.empty() ? kUnset : free);
+        Scaled(p.translation_se_mm(), 1000, 2), Components(p, 'r', p.rotation_deg(), 1, 4),
+        Scaled(p.rotation_se_deg(), 1, 4), free.empty() ? kUnset : free);
   }
 }
 
@@ -110,22 +111,16 @@ std::string Micrometres(bool has, double mm) {
   return has ? absl::StrFormat("%.2f", 1000 * mm) : kUnset;
 }
 
+// Its scans are the health report's, so the columns line up with its tables.
 void PrintRegistration(std::ostream& out, const v1::Report& report) {
-  size_t width = 16;
-  for (const v1::ScanRegistration& s : report.registration()) {
-    width = std::max(width, s.scan_id().size());
-  }
-  const int w = static_cast<int>(width);
+  const int w = IdWidth(report.health());
   out << absl::StrFormat("%-*s %-9s %-26s %-26s %10s %10s %9s %5s\n", w, "scan", "role",
                          "translation_um x/y/z", "rotation_deg x/y/z", "directions", "before_um",
                          "after_um", "steps");
-  const auto fixed = [](int decimals, double scale) {
-    return [=](char, double value) { return absl::StrFormat("%.*f", decimals, scale * value); };
-  };
   for (const v1::ScanRegistration& s : report.registration()) {
     out << absl::StrFormat(
         "%-*s %-9s %-26s %-26s %10d %10s %9s %5d\n", w, s.scan_id(), Role(s),
-        Xyz(s.translation_mm(), fixed(2, 1000)), Xyz(s.rotation_deg(), fixed(4, 1)),
+        Scaled(s.translation_mm(), 1000, 2), Scaled(s.rotation_deg(), 1, 4),
         s.constrained_directions(), Micrometres(s.has_residual_before_mm(), s.residual_before_mm()),
         Micrometres(s.has_residual_after_mm(), s.residual_after_mm()), s.iterations());
   }

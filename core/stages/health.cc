@@ -96,35 +96,6 @@ absl::StatusOr<std::vector<ScanHealth>> ScanHealths(const PointCloud& cloud,
   return out;
 }
 
-absl::StatusOr<std::vector<PairHealth>> PairHealths(const PointCloud& cloud, const PointMeasures& m,
-                                                    const Neighbourhoods& nb,
-                                                    const HealthSettings& params,
-                                                    const CancelToken& cancel) {
-  const MisalignmentSettings settings{.min_points = params.min_overlap_points,
-                                      .max_standard_error = params.max_standard_error};
-  std::vector<PairHealth> out;
-  if (cloud.scans.size() < 2) return out;
-  SCANPREP_ASSIGN_OR_RETURN(const PairSearch search,
-                            MakePairSearch(cloud, nb, params.max_pair_distance, cancel));
-  // One moving scan at a time: the correspondences held at once are one scan's (up to k a point
-  // where k scans overlap), not the job's.
-  const std::vector<std::vector<uint32_t>> points = PointsPerScan(cloud);
-  for (uint32_t moving = 1; moving < points.size(); ++moving) {
-    SCANPREP_ASSIGN_OR_RETURN(auto by_fixed,
-                              FindCorrespondences(cloud, m, nb, search, points[moving], cancel));
-    for (const auto& [fixed, matches] : by_fixed) {
-      SCANPREP_RETURN_IF_ERROR(cancel.Check());
-      SCANPREP_ASSIGN_OR_RETURN(
-          PairHealth pair, EstimatePairHealth(cloud, fixed, moving, matches, settings, cancel));
-      out.push_back(std::move(pair));
-    }
-  }
-  std::sort(out.begin(), out.end(), [](const PairHealth& a, const PairHealth& b) {
-    return std::pair(a.fixed, a.moving) < std::pair(b.fixed, b.moving);
-  });
-  return out;
-}
-
 class HealthStage : public Stage {
  public:
   absl::Status Run(StageContext& ctx) override {
@@ -174,9 +145,31 @@ absl::StatusOr<std::vector<std::optional<double>>> SensorNoise(const PointCloud&
 absl::StatusOr<std::vector<PairHealth>> MeasurePairs(const PointCloud& cloud,
                                                      const PointMeasures& m,
                                                      const Neighbourhoods& nb,
-                                                     const HealthSettings& settings,
+                                                     const HealthSettings& params,
                                                      const CancelToken& cancel) {
-  return PairHealths(cloud, m, nb, settings, cancel);
+  const MisalignmentSettings settings{.min_points = params.min_overlap_points,
+                                      .max_standard_error = params.max_standard_error};
+  std::vector<PairHealth> out;
+  if (cloud.scans.size() < 2) return out;
+  SCANPREP_ASSIGN_OR_RETURN(const PairSearch search,
+                            MakePairSearch(cloud, nb, params.max_pair_distance, cancel));
+  // One moving scan at a time: the correspondences held at once are one scan's (up to k a point
+  // where k scans overlap), not the job's.
+  const std::vector<std::vector<uint32_t>> points = PointsPerScan(cloud);
+  for (uint32_t moving = 1; moving < points.size(); ++moving) {
+    SCANPREP_ASSIGN_OR_RETURN(auto by_fixed,
+                              FindCorrespondences(cloud, m, nb, search, points[moving], cancel));
+    for (const auto& [fixed, matches] : by_fixed) {
+      SCANPREP_RETURN_IF_ERROR(cancel.Check());
+      SCANPREP_ASSIGN_OR_RETURN(
+          PairHealth pair, EstimatePairHealth(cloud, fixed, moving, matches, settings, cancel));
+      out.push_back(std::move(pair));
+    }
+  }
+  std::sort(out.begin(), out.end(), [](const PairHealth& a, const PairHealth& b) {
+    return std::pair(a.fixed, a.moving) < std::pair(b.fixed, b.moving);
+  });
+  return out;
 }
 
 absl::StatusOr<HealthReport> MeasureHealth(const PointCloud& cloud, const PointMeasures& m,
@@ -189,7 +182,7 @@ absl::StatusOr<HealthReport> MeasureHealth(const PointCloud& cloud, const PointM
   if (measured_pairs) {
     health.pairs = *std::move(measured_pairs);
   } else {
-    SCANPREP_ASSIGN_OR_RETURN(health.pairs, PairHealths(cloud, m, nb, settings, out.cancel()));
+    SCANPREP_ASSIGN_OR_RETURN(health.pairs, MeasurePairs(cloud, m, nb, settings, out.cancel()));
   }
   SCANPREP_ASSIGN_OR_RETURN(health.scans, ScanHealths(cloud, noise, ran, out.cancel()));
   out.Record("health.pairs", static_cast<double>(health.pairs.size()));
